@@ -1,0 +1,40 @@
+# vln_add_module(<name> [TORCH]) creates library vln_<name> (alias vln::<name>)
+# from every .cpp in the current folder. Sources are globbed so that adding a
+# file to a module never needs a CMake edit; files ending in Main.cpp are
+# excluded (binaries live in apps/).
+function(vln_add_module name)
+  cmake_parse_arguments(ARG "TORCH" "" "" ${ARGN})
+  file(GLOB sources CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*.cpp)
+  if(NOT sources)
+    # a module whose first source has not landed yet links as headers only
+    add_library(vln_${name} INTERFACE)
+    add_library(vln::${name} ALIAS vln_${name})
+    target_include_directories(vln_${name} INTERFACE ${PROJECT_SOURCE_DIR}/src)
+    if(ARG_TORCH)
+      target_link_libraries(vln_${name} INTERFACE vln_torch)
+    endif()
+    return()
+  endif()
+  add_library(vln_${name} STATIC ${sources})
+  add_library(vln::${name} ALIAS vln_${name})
+  target_include_directories(vln_${name} PUBLIC ${PROJECT_SOURCE_DIR}/src)
+  target_link_libraries(vln_${name} PRIVATE vln_warnings)
+  if(ARG_TORCH)
+    target_link_libraries(vln_${name} PUBLIC vln_torch)
+    vln_use_torch_pch(vln_${name})
+  endif()
+endfunction()
+
+# target_link_libraries() that also works while a module is still INTERFACE
+# (PRIVATE dependencies are dropped then; PUBLIC ones become INTERFACE).
+function(vln_module_link target)
+  get_target_property(type ${target} TYPE)
+  if(type STREQUAL "INTERFACE_LIBRARY")
+    cmake_parse_arguments(ARG "" "" "PUBLIC;PRIVATE" ${ARGN})
+    if(ARG_PUBLIC)
+      target_link_libraries(${target} INTERFACE ${ARG_PUBLIC})
+    endif()
+  else()
+    target_link_libraries(${target} ${ARGN})
+  endif()
+endfunction()

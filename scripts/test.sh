@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Sets up (if needed), builds, and runs the whole test suite.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+build_dir=${VLN_BUILD_DIR:-build}
+cd "$build_dir"
+ctest --output-on-failure -j "${VLN_JOBS:-$(nproc)}" "$@"

@@ -1,0 +1,39 @@
+#pragma once
+// Whole-file I/O with the project's durability rules: every write goes to a
+// temporary file in the same directory, is fsync'ed, then renamed over the
+// target, so a crash or a full disk never leaves a half-written file behind
+// and never destroys the previous version.
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+
+namespace vln::common {
+
+/// Contents of `file`; transparently gunzips when the file starts with the
+/// gzip magic bytes. Throws std::runtime_error naming the file when it is
+/// missing, unreadable, or a truncated/corrupt gzip stream.
+std::string readFile(const std::filesystem::path& file);
+
+/// True when `path` ends in ".gz".
+bool isGzipPath(const std::filesystem::path& path);
+
+/// Atomically replaces `file` with `contents` (gzip-compressed when the name
+/// ends in .gz). Creates missing parent directories. Throws
+/// std::runtime_error naming the file on any failure (ENOSPC, EFBIG, ...),
+/// leaving the previous file untouched.
+void writeFileAtomic(const std::filesystem::path& file,
+                     std::string_view contents);
+
+/// gzip-compresses `data` (RFC 1952 container, zlib level `level`).
+std::string gzipCompress(std::string_view data, int level = 6);
+
+/// Inflates a gzip stream; `name` is used in errors. Throws on corruption or
+/// truncation.
+std::string gzipDecompress(std::string_view data, std::string_view name);
+
+/// fsyncs a directory so that a rename inside it is durable.
+void syncDirectory(const std::filesystem::path& dir);
+
+}  // namespace vln::common

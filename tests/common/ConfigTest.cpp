@@ -1,0 +1,131 @@
+#include "common/Config.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "support/TestPaths.h"
+
+namespace vln::common {
+namespace {
+
+using ::testing::HasSubstr;
+
+enum class Mode { kFast, kSlow };
+
+struct InnerConfig {
+  double lr = 2.5e-4;
+  std::vector<int> sizes = {1, 2};
+  Mode mode = Mode::kFast;
+  void visit(ConfigVisitor& v) {
+    v.field("lr", lr, "Learning rate", inRange(0.0, 1.0));
+    v.field("sizes", sizes, "Layer sizes", atLeast(1));
+    v.enumeration("mode", mode, {{"fast", Mode::kFast}, {"slow", Mode::kSlow}},
+                  "Speed mode");
+  }
+  bool operator==(const InnerConfig&) const = default;
+};
+
+struct RootConfig {
+  int batch = 5;
+  bool flag = false;
+  std::string name = "default";
+  InnerConfig trainer;
+  void visit(ConfigVisitor& v) {
+    v.field("batch", batch, "Episodes per batch", atLeast(1));
+    v.field("flag", flag, "A flag");
+    v.field("name", name, "A name");
+    v.section("trainer", trainer, "Trainer settings");
+  }
+  bool operator==(const RootConfig&) const = default;
+};
+
+TEST(ConfigTest, ReadsValuesAndKeepsDefaults) {
+  auto c = loadConfigText<RootConfig>("batch: 7\ntrainer:\n  mode: slow\n");
+  EXPECT_EQ(c.batch, 7);
+  EXPECT_EQ(c.trainer.mode, Mode::kSlow);
+  EXPECT_DOUBLE_EQ(c.trainer.lr, 2.5e-4);
+  EXPECT_EQ(c.name, "default");
+}
+
+TEST(ConfigTest, UnknownKeyIsAnErrorWithPathAndHint) {
+  try {
+    loadConfigText<RootConfig>("trainer:\n  lrr: 0.1\n", "cfg.yaml");
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cfg.yaml:2"));
+    EXPECT_THAT(e.what(), HasSubstr("unknown key 'trainer.lrr'"));
+    EXPECT_THAT(e.what(), HasSubstr("did you mean 'trainer.lr'"));
+  }
+}
+
+TEST(ConfigTest, WrongTypesAndRangesNameTheKey) {
+  EXPECT_THAT(
+      [] { loadConfigText<RootConfig>("batch: many\n", "x.yaml"); },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("key 'batch': expected an integer, got 'many'")));
+  EXPECT_THAT([] { loadConfigText<RootConfig>("batch: 1.5\n"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("expected an integer")));
+  EXPECT_THAT([] { loadConfigText<RootConfig>("trainer: {lr: 3}\n"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("key 'trainer.lr': value 3 is outside [0, 1]")));
+  EXPECT_THAT([] { loadConfigText<RootConfig>("trainer: {mode: turbo}\n"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("expected one of {fast, slow}, got 'turbo'")));
+  EXPECT_THAT([] { loadConfigText<RootConfig>("trainer: 3\n"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("expected a mapping")));
+  EXPECT_THAT([] { loadConfigText<RootConfig>("batch: [1\n", "bad.yaml"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("bad.yaml:")));
+  EXPECT_THAT([] { loadConfigText<RootConfig>("flag:\n"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("key 'flag': value is empty")));
+}
+
+TEST(ConfigTest, OverridesApplyAfterTheFile) {
+  auto c = loadConfigText<RootConfig>(
+      "batch: 7\n", "<s>", {"trainer.lr=0.5", "batch=9", "trainer.sizes=[3,4]"});
+  EXPECT_EQ(c.batch, 9);
+  EXPECT_DOUBLE_EQ(c.trainer.lr, 0.5);
+  EXPECT_EQ(c.trainer.sizes, (std::vector<int>{3, 4}));
+  EXPECT_THROW(loadConfigText<RootConfig>("", "<s>", {"trainer.nope=1"}),
+               std::invalid_argument);
+  EXPECT_THROW(loadConfigText<RootConfig>("", "<s>", {"novalue"}),
+               std::invalid_argument);
+}
+
+TEST(ConfigTest, WrittenYamlRoundTrips) {
+  RootConfig original;
+  original.batch = 11;
+  original.name = "with: colon";
+  original.trainer.lr = 0.125;
+  original.trainer.mode = Mode::kSlow;
+  std::string yaml = configToYaml(original);
+  EXPECT_THAT(yaml, HasSubstr("# Episodes per batch"));
+  auto reread = loadConfigText<RootConfig>(yaml);
+  EXPECT_EQ(reread, original);
+}
+
+TEST(ConfigTest, BaseFilesMergeUnderneath) {
+  test::TempDir dir;
+  test::writeText(dir / "base.yaml", "batch: 3\ntrainer:\n  lr: 0.25\n  mode: slow\n");
+  test::writeText(dir / "child.yaml", "_base_: base.yaml\ntrainer:\n  lr: 0.5\n");
+  auto c = loadConfigFile<RootConfig>(dir / "child.yaml");
+  EXPECT_EQ(c.batch, 3);
+  EXPECT_DOUBLE_EQ(c.trainer.lr, 0.5);
+  EXPECT_EQ(c.trainer.mode, Mode::kSlow);
+  EXPECT_THROW(loadConfigFile<RootConfig>(dir / "missing.yaml"), std::runtime_error);
+}
+
+TEST(ConfigTest, CheckConfigCatchesValuesSetInCode) {
+  RootConfig c;
+  c.batch = 0;
+  EXPECT_THAT([&] { checkConfig([&](ConfigVisitor& v) { c.visit(v); }, "code"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("key 'batch'")));
+  auto keys = configKeys([&](ConfigVisitor& v) { c.visit(v); });
+  EXPECT_EQ(keys.back(), "trainer.mode");
+}
+
+}  // namespace
+}  // namespace vln::common

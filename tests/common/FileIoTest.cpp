@@ -1,0 +1,65 @@
+#include "common/FileIo.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "common/Json.h"
+#include "support/TestPaths.h"
+
+namespace vln::common {
+namespace {
+
+using ::testing::HasSubstr;
+
+TEST(FileIoTest, GzipRoundTripAndDetection) {
+  test::TempDir dir;
+  std::string text(100000, 'a');
+  for (size_t i = 0; i < text.size(); i += 7) text[i] = static_cast<char>('a' + i % 26);
+  writeFileAtomic(dir / "x.txt.gz", text);
+  writeFileAtomic(dir / "x.txt", text);
+  EXPECT_EQ(readFile(dir / "x.txt.gz"), text);
+  EXPECT_EQ(readFile(dir / "x.txt"), text);
+  EXPECT_LT(std::filesystem::file_size(dir / "x.txt.gz"), text.size());
+}
+
+TEST(FileIoTest, TruncatedGzipIsAnErrorNamingTheFile) {
+  test::TempDir dir;
+  std::string packed = gzipCompress(std::string(5000, 'z') + "tail");
+  test::writeText(dir / "t.json.gz", packed.substr(0, packed.size() / 2));
+  EXPECT_THAT([&] { readFile(dir / "t.json.gz"); },
+              ::testing::ThrowsMessage<std::runtime_error>(
+                  HasSubstr("t.json.gz' is a truncated gzip stream")));
+  EXPECT_THAT([&] { readFile(dir / "missing.json"); },
+              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("missing.json")));
+}
+
+TEST(FileIoTest, AtomicWriteKeepsNoTemporaries) {
+  test::TempDir dir;
+  writeFileAtomic(dir / "sub" / "a.json", "{}");
+  writeFileAtomic(dir / "sub" / "a.json", "{\"k\": 1}");
+  int files = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(dir / "sub")) {
+    (void)entry;
+    ++files;
+  }
+  EXPECT_EQ(files, 1);
+  EXPECT_EQ(readJsonFile(dir / "sub" / "a.json")["k"], 1);
+}
+
+TEST(FileIoTest, JsonErrorsNameFileAndField) {
+  test::TempDir dir;
+  test::writeText(dir / "bad.json", "{\"a\": [1, 2");
+  EXPECT_THAT([&] { readJsonFile(dir / "bad.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("bad.json: malformed JSON")));
+  nlohmann::json obj = {{"x", "str"}};
+  EXPECT_THAT([&] { requireField<int>(obj, "x", "ep 3"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("ep 3: field 'x' has the wrong type")));
+  EXPECT_THAT([&] { requireField<int>(obj, "y", "ep 3"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("ep 3: field 'y' is missing")));
+}
+
+}  // namespace
+}  // namespace vln::common
