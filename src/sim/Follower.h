@@ -1,0 +1,30 @@
+#pragma once
+// The oracle: VLN-CE's shortest-path follower, used for ground-truth action
+// sequences, teacher forcing and DAgger.
+
+#include "sim/Agent.h"
+#include "sim/NavMesh.h"
+
+namespace vln::sim {
+
+/// Greedy follower of the navmesh shortest path (Habitat's
+/// ShortestPathFollower, "geodesic_path" mode).
+class ShortestPathFollower {
+ public:
+  ShortestPathFollower(const NavMesh& navmesh, const AgentConfig& agent,
+                       float goalRadius = 0.5f);
+
+  /// STOP when the geodesic distance to `goal` is within the goal radius;
+  /// otherwise MOVE_FORWARD when the direction to the next corner of the
+  /// shortest path is within turn_angle of the heading, else the turn that
+  /// brings the heading closer to it. Returns STOP when the goal is
+  /// unreachable.
+  Action nextAction(const AgentState& state, const Vec3f& goal) const;
+
+ private:
+  const NavMesh& navmesh_;
+  AgentConfig agent_;
+  float goalRadius_;
+};
+
+}  // namespace vln::sim

@@ -1,0 +1,72 @@
+#pragma once
+// Egocentric RGB-D rendering into caller-owned buffers. Two backends share
+// this interface and produce matching images: an Embree ray caster
+// (coherent packets) and an OSMesa rasteriser. Materials are unlit: colour =
+// base colour x vertex colour x texture, so both agree exactly on shading.
+
+#include <cstdint>
+#include <memory>
+#include <span>
+
+#include "common/Math.h"
+#include "sim/SimConfig.h"
+
+namespace vln::sim {
+
+class RayTracer;
+struct TriangleMesh;
+
+/// A pinhole camera pose: eye position (world) and heading (radians, as
+/// AgentState) plus pitch (radians, positive looks up).
+struct CameraPose {
+  Vec3f eye = Vec3f::Zero();
+  float heading = 0.0f;
+  float pitch = 0.0f;
+};
+
+/// Image size and field of view of one render.
+struct CameraIntrinsics {
+  int width = 256;
+  int height = 256;
+  float hfov_deg = 90.0f;
+};
+
+/// Renders one scene. Not thread-safe: create one per thread (creation is
+/// cheap for Embree; OSMesa uploads the mesh once per renderer).
+class Renderer {
+ public:
+  virtual ~Renderer() = default;
+
+  /// Colour image [height, width, 3] uint8, row-major, top row first.
+  /// `rgb.size()` must be width*height*3.
+  virtual void renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
+                         std::span<uint8_t> rgb) = 0;
+  /// Depth image [height, width] float32: distance along the optical axis
+  /// (z-depth, as Habitat), metres; 0 where no surface is hit.
+  virtual void renderDepth(const CameraPose& pose,
+                           const CameraIntrinsics& camera,
+                           std::span<float> depth) = 0;
+  /// Colour and depth of the same camera in one pass.
+  virtual void renderRgbDepth(const CameraPose& pose,
+                              const CameraIntrinsics& camera,
+                              std::span<uint8_t> rgb,
+                              std::span<float> depth) = 0;
+  /// Semantic object id per pixel [height, width] int32, -1 where the
+  /// surface has none or nothing is hit.
+  virtual void renderSemantic(const CameraPose& pose,
+                              const CameraIntrinsics& camera,
+                              std::span<int32_t> objectIds) = 0;
+};
+
+/// A renderer of `mesh` using `backend`; the Embree backend traces against
+/// `rayTracer` (built from the same mesh). Both must outlive the renderer.
+/// Throws std::runtime_error when the backend cannot start (e.g. no OSMesa).
+std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
+                                         const RayTracer& rayTracer,
+                                         RendererBackend backend);
+
+/// Clips raw depth (metres, 0 = miss) to [min_depth, max_depth] (misses
+/// become max_depth) and, if normalize_depth, maps it to [0, 1], in place.
+void postprocessDepth(const DepthCameraConfig& config, std::span<float> depth);
+
+}  // namespace vln::sim

@@ -1,0 +1,50 @@
+#pragma once
+// The immutable part of a simulation: triangles, semantics, navmesh and ray
+// tracing structure. Loaded once and shared (read-only) by every
+// environment thread; per-episode state lives in EpisodeState.
+
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "sim/Mesh.h"
+#include "sim/NavMesh.h"
+#include "sim/RayTracer.h"
+#include "sim/SimConfig.h"
+
+namespace vln::sim {
+
+class Scene {
+ public:
+  /// Loads a scene file (.glb/.gltf/.obj/.ply through assimp, see
+  /// MeshIo.h) with its semantics sidecar if present, and its navmesh from
+  /// "<file>.navmesh" when cache_navmesh and the file exists (building and
+  /// saving it otherwise). Throws naming the file on any failure.
+  static std::shared_ptr<const Scene> load(const std::filesystem::path& file,
+                                           const SimConfig& config);
+  /// Wraps an in-memory mesh (e.g. a generated house); builds its navmesh.
+  static std::shared_ptr<const Scene> fromMesh(std::string name,
+                                               TriangleMesh mesh,
+                                               SceneSemantics semantics,
+                                               const NavMeshConfig& navmesh);
+
+  /// Scene name (file stem or the given name).
+  const std::string& name() const { return name_; }
+  const TriangleMesh& mesh() const { return mesh_; }
+  const SceneSemantics& semantics() const { return semantics_; }
+  const NavMesh& navmesh() const { return *navmesh_; }
+  /// Embree BVH of mesh(), built on first use (thread-safe).
+  const RayTracer& rayTracer() const;
+
+ private:
+  Scene() = default;
+  std::string name_;
+  TriangleMesh mesh_;
+  SceneSemantics semantics_;
+  std::unique_ptr<NavMesh> navmesh_;
+  mutable std::once_flag rayTracerOnce_;
+  mutable std::unique_ptr<RayTracer> rayTracer_;
+};
+
+}  // namespace vln::sim

@@ -1,0 +1,59 @@
+#pragma once
+// One environment: a shared Scene, a per-thread renderer and one episode's
+// state. Create one Simulator per thread.
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "sim/Agent.h"
+#include "sim/Renderer.h"
+#include "sim/Scene.h"
+#include "sim/SimConfig.h"
+
+namespace vln::sim {
+
+/// Egocentric observation buffers.
+struct Observation {
+  int rgb_width = 0;
+  int rgb_height = 0;
+  std::vector<uint8_t> rgb;   ///< [rgb_height, rgb_width, 3]
+  int depth_width = 0;
+  int depth_height = 0;
+  std::vector<float> depth;   ///< [depth_height, depth_width], post-processed per DepthCameraConfig
+};
+
+class Simulator {
+ public:
+  Simulator(std::shared_ptr<const Scene> scene, const SimConfig& sim,
+            const TaskConfig& task);
+  ~Simulator();
+
+  /// Starts an episode at `start`; the position is snapped to the navmesh.
+  /// Throws std::invalid_argument when `start` is not near navigable space.
+  void reset(const AgentState& start);
+  /// Takes one action (see stepEpisode()).
+  StepResult step(Action action);
+  /// Renders RGB and depth at the current pose into `out` (resized as
+  /// needed). RGB and depth share one pass when their cameras are equal.
+  void observe(Observation& out);
+  /// Renders the semantic object ids seen by the RGB camera.
+  void observeSemantic(std::vector<int32_t>& objectIds);
+
+  const EpisodeState& episode() const { return episode_; }
+  const Scene& scene() const { return *scene_; }
+  const std::shared_ptr<const Scene>& scenePtr() const { return scene_; }
+  /// Replaces the scene (e.g. the next episode is in another house).
+  void setScene(std::shared_ptr<const Scene> scene);
+  const SimConfig& config() const { return sim_; }
+  const TaskConfig& task() const { return task_; }
+
+ private:
+  std::shared_ptr<const Scene> scene_;
+  SimConfig sim_;
+  TaskConfig task_;
+  std::unique_ptr<Renderer> renderer_;
+  EpisodeState episode_;
+};
+
+}  // namespace vln::sim

@@ -1,0 +1,56 @@
+#pragma once
+// Top-down maps of a scene (navmesh, walls, objects) with paths and markers
+// drawn on top, written as PNG with OpenCV.
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <vector>
+
+#include "common/Math.h"
+#include "sim/Mesh.h"
+
+namespace vln::sim {
+
+class Scene;
+
+/// An RGB canvas covering the scene's navmesh bounds in the x-z plane.
+class TopDownMap {
+ public:
+  /// Rasterises navigable area (light), obstacles/walls (dark) and semantic
+  /// objects (their colour, labelled) at `metersPerPixel`, for the floor
+  /// nearest to height `floorY`.
+  TopDownMap(const Scene& scene, float metersPerPixel = 0.05f,
+             float floorY = 0.0f);
+  ~TopDownMap();
+  TopDownMap(TopDownMap&&) noexcept;
+  TopDownMap& operator=(TopDownMap&&) noexcept;
+
+  /// Draws a polyline through world points.
+  void drawPath(const std::vector<Vec3f>& points, Rgb8 color, int thickness = 2);
+  /// Draws a filled disc of `radiusPixels` at a world point.
+  void drawPoint(const Vec3f& p, Rgb8 color, int radiusPixels = 4);
+  /// Draws a circle of `radiusMeters` around a world point (e.g. the 3 m
+  /// success radius).
+  void drawCircle(const Vec3f& center, float radiusMeters, Rgb8 color,
+                  int thickness = 1);
+  /// Draws an arrow for an agent at `p` facing `heading`.
+  void drawAgent(const Vec3f& p, float heading, Rgb8 color);
+  /// Writes text at a world point.
+  void drawText(const Vec3f& p, const std::string& text, Rgb8 color);
+
+  /// Pixel (column, row) of a world point.
+  Eigen::Vector2i toPixel(const Vec3f& p) const;
+  int width() const;
+  int height() const;
+  /// The image, [height, width, 3] RGB uint8, row-major.
+  const std::vector<uint8_t>& rgb() const;
+  /// Saves as PNG (atomically). Throws std::runtime_error naming the file.
+  void save(const std::filesystem::path& file) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vln::sim
