@@ -1,0 +1,346 @@
+#include "data/Episode.h"
+
+#include <cmath>
+#include <limits>
+#include <unordered_set>
+
+#include "common/Check.h"
+#include "common/FileIo.h"
+#include "common/Json.h"
+
+namespace vln::data {
+namespace {
+
+// =========================================================================
+// strict field readers: nlohmann's get<int>() silently truncates floats, so
+// every type is checked explicitly
+// =========================================================================
+
+const nlohmann::json& member(const nlohmann::json& object, const char* key,
+                             std::string_view context) {
+  VLN_CHECK_ARG(object.is_object(), context, ": expected a JSON object, got ",
+                object.type_name());
+  auto it = object.find(key);
+  VLN_CHECK_ARG(it != object.end(), context, ": field '", key,
+                "' is missing");
+  return *it;
+}
+
+int intValue(const nlohmann::json& value, std::string_view context) {
+  VLN_CHECK_ARG(value.is_number_integer(), context,
+                " must be an integer, got ", value.type_name(), " ",
+                value.dump());
+  auto v = value.get<int64_t>();
+  VLN_CHECK_ARG(v >= std::numeric_limits<int>::min() &&
+                    v <= std::numeric_limits<int>::max(),
+                context, " is out of the int range, got ", v);
+  return static_cast<int>(v);
+}
+
+float floatValue(const nlohmann::json& value, std::string_view context) {
+  VLN_CHECK_ARG(value.is_number(), context, " must be a number, got ",
+                value.type_name(), " ", value.dump());
+  auto v = value.get<double>();
+  VLN_CHECK_ARG(std::isfinite(v) &&
+                    std::abs(v) <= std::numeric_limits<float>::max(),
+                context, " must be a finite float, got ", v);
+  return static_cast<float>(v);
+}
+
+std::string stringValue(const nlohmann::json& value,
+                        std::string_view context) {
+  VLN_CHECK_ARG(value.is_string(), context, " must be a string, got ",
+                value.type_name(), " ", value.dump());
+  return value.get<std::string>();
+}
+
+const nlohmann::json& arrayValue(const nlohmann::json& value,
+                                 std::string_view context) {
+  VLN_CHECK_ARG(value.is_array(), context, " must be an array, got ",
+                value.type_name(), " ", value.dump().substr(0, 80));
+  return value;
+}
+
+std::string fieldName(std::string_view context, std::string_view key) {
+  return strCat(context, ": field '", key, "'");
+}
+
+std::vector<Vec3f> vec3List(const nlohmann::json& value,
+                            std::string_view context) {
+  const auto& list = arrayValue(value, context);
+  std::vector<Vec3f> points;
+  points.reserve(list.size());
+  for (size_t i = 0; i < list.size(); ++i)
+    points.push_back(vec3FromJson(list[i], strCat(context, " entry ", i)));
+  return points;
+}
+
+bool isFinite(const Vec3f& v) { return v.allFinite(); }
+
+nlohmann::json floatArray(const float* values, size_t count) {
+  nlohmann::json array = nlohmann::json::array();
+  for (size_t i = 0; i < count; ++i)
+    array.push_back(static_cast<double>(values[i]));
+  return array;
+}
+
+// the parser shared by readEpisodes() and parseEpisodes(); `where` names
+// the function and the source in every message
+EpisodeDataset parseRoot(const nlohmann::json& root, const std::string& where) {
+  VLN_CHECK_ARG(root.is_object(), where,
+                ": expected a JSON object with 'episodes', got ",
+                root.type_name());
+  EpisodeDataset dataset;
+  if (auto vocab = root.find("instruction_vocab"); vocab != root.end())
+    dataset.instruction_vocab =
+        Vocabulary::fromJson(*vocab, strCat(where, ": instruction_vocab"));
+  const auto& episodes =
+      arrayValue(member(root, "episodes", where), fieldName(where, "episodes"));
+
+  const Vocabulary* vocab =
+      dataset.instruction_vocab ? &*dataset.instruction_vocab : nullptr;
+  std::unordered_set<int> seen;
+  dataset.episodes.reserve(episodes.size());
+  for (size_t i = 0; i < episodes.size(); ++i) {
+    Episode episode = episodeFromJson(episodes[i], where, i);
+    std::string context = strCat(where, ": episode ", episode.episode_id);
+    validateEpisode(episode, vocab, context);
+    VLN_CHECK_ARG(seen.insert(episode.episode_id).second, context,
+                  ": field 'episode_id' is duplicated (episode index ", i,
+                  ")");
+    dataset.episodes.push_back(std::move(episode));
+  }
+  return dataset;
+}
+
+}  // namespace
+
+// =========================================================================
+// reading
+// =========================================================================
+
+Vec3f vec3FromJson(const nlohmann::json& value, std::string_view context) {
+  VLN_CHECK_ARG(value.is_array() && value.size() == 3, context,
+                " must be an [x, y, z] array, got ",
+                value.dump().substr(0, 80));
+  return {floatValue(value[0], context), floatValue(value[1], context),
+          floatValue(value[2], context)};
+}
+
+nlohmann::json vec3ToJson(const Vec3f& v) { return floatArray(v.data(), 3); }
+
+Episode episodeFromJson(const nlohmann::json& value, std::string_view source,
+                        size_t index) {
+  Episode episode;
+  std::string indexed = strCat(source, ": episode index ", index);
+  episode.episode_id = intValue(member(value, "episode_id", indexed),
+                                fieldName(indexed, "episode_id"));
+  // from here on the episode is named by its id, which users can grep for
+  std::string where = strCat(source, ": episode ", episode.episode_id);
+
+  episode.trajectory_id = intValue(member(value, "trajectory_id", where),
+                                   fieldName(where, "trajectory_id"));
+  episode.scene_id = stringValue(member(value, "scene_id", where),
+                                 fieldName(where, "scene_id"));
+  episode.start_position = vec3FromJson(member(value, "start_position", where),
+                                        fieldName(where, "start_position"));
+  const auto& rotation = member(value, "start_rotation", where);
+  VLN_CHECK_ARG(rotation.is_array() && rotation.size() == 4, where,
+                ": field 'start_rotation' must be an [x, y, z, w] array, got ",
+                rotation.dump().substr(0, 80));
+  for (size_t k = 0; k < 4; ++k)
+    episode.start_rotation[k] =
+        floatValue(rotation[k], fieldName(where, "start_rotation"));
+
+  // optional in the test split
+  if (auto info = value.find("info"); info != value.end() && !info->is_null())
+    episode.geodesic_distance =
+        floatValue(member(*info, "geodesic_distance", strCat(where, ": info")),
+                   fieldName(where, "info.geodesic_distance"));
+  if (auto goals = value.find("goals"); goals != value.end()) {
+    const auto& list = arrayValue(*goals, fieldName(where, "goals"));
+    for (size_t g = 0; g < list.size(); ++g) {
+      std::string goalContext = strCat(where, ": goals[", g, "]");
+      Goal goal;
+      goal.position = vec3FromJson(member(list[g], "position", goalContext),
+                                   fieldName(goalContext, "position"));
+      if (auto radius = list[g].find("radius");
+          radius != list[g].end() && !radius->is_null())
+        goal.radius = floatValue(*radius, fieldName(goalContext, "radius"));
+      episode.goals.push_back(goal);
+    }
+  }
+  if (auto path = value.find("reference_path"); path != value.end())
+    episode.reference_path =
+        vec3List(*path, fieldName(where, "reference_path"));
+
+  const auto& instruction = member(value, "instruction", where);
+  std::string instructionContext = strCat(where, ": instruction");
+  episode.instruction.instruction_text =
+      stringValue(member(instruction, "instruction_text", instructionContext),
+                  fieldName(where, "instruction.instruction_text"));
+  if (auto tokens = instruction.find("instruction_tokens");
+      tokens != instruction.end()) {
+    std::string tokenContext = fieldName(where, "instruction.instruction_tokens");
+    const auto& list = arrayValue(*tokens, tokenContext);
+    episode.instruction.instruction_tokens.reserve(list.size());
+    for (size_t t = 0; t < list.size(); ++t)
+      episode.instruction.instruction_tokens.push_back(
+          intValue(list[t], strCat(tokenContext, " entry ", t)));
+  }
+  return episode;
+}
+
+void validateEpisode(const Episode& episode, const Vocabulary* vocabulary,
+                     std::string_view context) {
+  VLN_CHECK_ARG(!episode.scene_id.empty(), context,
+                ": field 'scene_id' is empty");
+  VLN_CHECK_ARG(isFinite(episode.start_position), context,
+                ": field 'start_position' is not finite");
+
+  // Habitat agents only rotate about +Y, so any tilt means a corrupt file
+  const auto& q = episode.start_rotation;
+  float norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  VLN_CHECK_ARG(std::isfinite(norm) &&
+                    std::abs(norm - 1.0f) <= kQuaternionTolerance &&
+                    std::abs(q[0]) <= kQuaternionTolerance &&
+                    std::abs(q[2]) <= kQuaternionTolerance,
+                context,
+                ": field 'start_rotation' is not a unit yaw-only quaternion "
+                "[x, y, z, w] (x = z = 0, |q| = 1), got [",
+                q[0], ", ", q[1], ", ", q[2], ", ", q[3], "]");
+
+  if (episode.geodesic_distance)
+    VLN_CHECK_ARG(std::isfinite(*episode.geodesic_distance) &&
+                      *episode.geodesic_distance >= 0.0f,
+                  context, ": field 'info.geodesic_distance' must be a "
+                  "finite distance >= 0, got ", *episode.geodesic_distance);
+  for (size_t g = 0; g < episode.goals.size(); ++g) {
+    const Goal& goal = episode.goals[g];
+    VLN_CHECK_ARG(isFinite(goal.position), context, ": field 'goals[", g,
+                  "].position' is not finite");
+    VLN_CHECK_ARG(std::isfinite(goal.radius) && goal.radius > 0.0f, context,
+                  ": field 'goals[", g, "].radius' must be > 0, got ",
+                  goal.radius);
+  }
+  for (size_t p = 0; p < episode.reference_path.size(); ++p)
+    VLN_CHECK_ARG(isFinite(episode.reference_path[p]), context,
+                  ": field 'reference_path' entry ", p, " is not finite");
+
+  const auto& tokens = episode.instruction.instruction_tokens;
+  int limit = vocabulary ? vocabulary->size()
+                         : std::numeric_limits<int>::max();
+  for (size_t t = 0; t < tokens.size(); ++t)
+    VLN_CHECK_ARG(tokens[t] >= 0 && tokens[t] < limit, context,
+                  ": field 'instruction.instruction_tokens' entry ", t, " is ",
+                  tokens[t], ", outside the vocabulary [0, ",
+                  vocabulary ? std::to_string(limit) : std::string("inf"),
+                  ")");
+}
+
+EpisodeDataset parseEpisodes(const nlohmann::json& root,
+                             std::string_view source) {
+  return parseRoot(root, strCat("parseEpisodes(): '", source, "'"));
+}
+
+EpisodeDataset readEpisodes(const std::filesystem::path& file) {
+  return parseRoot(common::readJsonFile(file),
+                   strCat("readEpisodes(): '", file.string(), "'"));
+}
+
+// =========================================================================
+// writing
+// =========================================================================
+
+nlohmann::json episodeToJson(const Episode& episode) {
+  nlohmann::json value = {
+      {"episode_id", episode.episode_id},
+      {"trajectory_id", episode.trajectory_id},
+      {"scene_id", episode.scene_id},
+      {"start_position", vec3ToJson(episode.start_position)},
+      {"start_rotation", floatArray(episode.start_rotation.data(), 4)},
+  };
+  if (episode.geodesic_distance)
+    value["info"] = {
+        {"geodesic_distance", static_cast<double>(*episode.geodesic_distance)}};
+  if (!episode.goals.empty()) {
+    nlohmann::json goals = nlohmann::json::array();
+    for (const Goal& goal : episode.goals)
+      goals.push_back({{"position", vec3ToJson(goal.position)},
+                       {"radius", static_cast<double>(goal.radius)}});
+    value["goals"] = std::move(goals);
+  }
+  nlohmann::json instruction = {
+      {"instruction_text", episode.instruction.instruction_text}};
+  if (!episode.instruction.instruction_tokens.empty())
+    instruction["instruction_tokens"] = episode.instruction.instruction_tokens;
+  value["instruction"] = std::move(instruction);
+  if (!episode.reference_path.empty()) {
+    nlohmann::json path = nlohmann::json::array();
+    for (const Vec3f& point : episode.reference_path)
+      path.push_back(vec3ToJson(point));
+    value["reference_path"] = std::move(path);
+  }
+  return value;
+}
+
+nlohmann::json episodesToJson(const EpisodeDataset& dataset) {
+  nlohmann::json episodes = nlohmann::json::array();
+  for (const Episode& episode : dataset.episodes)
+    episodes.push_back(episodeToJson(episode));
+  nlohmann::json root = {{"episodes", std::move(episodes)}};
+  if (dataset.instruction_vocab)
+    root["instruction_vocab"] = dataset.instruction_vocab->toJson();
+  return root;
+}
+
+void writeEpisodes(const std::filesystem::path& file,
+                   const EpisodeDataset& dataset) {
+  // validate before touching the disk so a bad dataset leaves no file
+  std::string where = strCat("writeEpisodes(): '", file.string(), "'");
+  const Vocabulary* vocab =
+      dataset.instruction_vocab ? &*dataset.instruction_vocab : nullptr;
+  std::unordered_set<int> seen;
+  for (size_t i = 0; i < dataset.episodes.size(); ++i) {
+    const Episode& episode = dataset.episodes[i];
+    std::string context = strCat(where, ": episode ", episode.episode_id);
+    validateEpisode(episode, vocab, context);
+    VLN_CHECK_ARG(seen.insert(episode.episode_id).second, context,
+                  ": field 'episode_id' is duplicated (episode index ", i,
+                  ")");
+  }
+  common::writeJsonFile(file, episodesToJson(dataset));
+}
+
+// =========================================================================
+// paths
+// =========================================================================
+
+std::string sceneScanId(std::string_view sceneId) {
+  return std::filesystem::path(sceneId).stem().string();
+}
+
+std::filesystem::path resolveScenePath(const std::filesystem::path& scenesDir,
+                                       std::string_view sceneId) {
+  VLN_CHECK_ARG(!sceneId.empty(), "resolveScenePath(): empty scene id");
+  std::filesystem::path id(sceneId);
+  std::filesystem::path resolved = id.is_absolute() ? id : scenesDir / id;
+  std::error_code ec;
+  VLN_CHECK_IO(std::filesystem::is_regular_file(resolved, ec),
+               "resolveScenePath(): scene '", sceneId, "' not found: '",
+               resolved.string(), "' does not exist (scenes directory '",
+               scenesDir.string(), "')");
+  return resolved;
+}
+
+std::filesystem::path splitEpisodesPath(const std::filesystem::path& root,
+                                        std::string_view split) {
+  return root / split / (std::string(split) + ".json.gz");
+}
+
+std::filesystem::path splitGroundTruthPath(const std::filesystem::path& root,
+                                           std::string_view split) {
+  return root / split / (std::string(split) + "_gt.json.gz");
+}
+
+}  // namespace vln::data
