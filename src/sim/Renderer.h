@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <string_view>
 
 #include "common/Math.h"
 #include "sim/SimConfig.h"
@@ -64,6 +65,29 @@ class Renderer {
 std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
                                          const RayTracer& rayTracer,
                                          RendererBackend backend);
+
+/// Rotation from the camera frame to the world frame for `pose`. The camera
+/// frame is OpenGL's: +X right, +Y up, looking along -Z; pitch is applied
+/// before heading, R = Ry(heading) * Rx(pitch), so heading 0 and pitch 0 look
+/// along world -Z as an agent does (common/Math.h).
+Eigen::Matrix3f cameraToWorld(const CameraPose& pose);
+
+/// Tangent of half the vertical field of view. Pixels are square, as in
+/// Habitat: tan(vfov/2) = tan(hfov/2) * height / width.
+float tanHalfVerticalFov(const CameraIntrinsics& camera);
+
+/// Camera-frame direction (z = -1, unnormalised) through the centre of pixel
+/// (column, row), row 0 at the top: pixel centres sit at (i + 0.5), so both
+/// backends sample the same points. Its distance along the optical axis is 1,
+/// hence a hit at ray parameter t has z-depth t.
+Vec3f pixelDirection(const CameraIntrinsics& camera, float column, float row);
+
+/// Throws std::invalid_argument naming `method` when the intrinsics are out
+/// of range (size < 1, hfov outside (0, 180) degrees), the pose is not
+/// finite, or `bufferSize` differs from width * height * `channels`.
+void checkRenderArgs(std::string_view method, const CameraPose& pose,
+                     const CameraIntrinsics& camera, size_t bufferSize,
+                     int channels);
 
 /// Clips raw depth (metres, 0 = miss) to [min_depth, max_depth] (misses
 /// become max_depth) and, if normalize_depth, maps it to [0, 1], in place.

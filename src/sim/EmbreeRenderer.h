@@ -1,0 +1,18 @@
+#pragma once
+// Private to the sim module: the Embree ray-casting backend of Renderer.
+// Use createRenderer() (Renderer.h) instead of including this.
+
+#include <memory>
+
+#include "sim/Renderer.h"
+
+namespace vln::sim {
+
+/// A renderer that traces one primary ray per pixel through `rayTracer`'s
+/// BVH in coherent 4x4 packets (rtcIntersect16) and shades the hit with the
+/// unlit material rule of Renderer.h. `mesh` and `rayTracer` must outlive it.
+/// Creation is cheap (no copy of the scene).
+std::unique_ptr<Renderer> createEmbreeRenderer(const TriangleMesh& mesh,
+                                               const RayTracer& rayTracer);
+
+}  // namespace vln::sim
