@@ -1,0 +1,90 @@
+#include "sim/Agent.h"
+
+#include <cmath>
+
+#include "common/Check.h"
+#include "sim/NavMesh.h"
+
+namespace vln::sim {
+
+namespace {
+
+// Habitat-Sim's collision test (agent/controls/object_controls.py): it
+// compares *squared* lengths of the intended and the filtered move with this
+// margin, and only a shorter move counts, because climbing a step or a slope
+// legitimately moves the agent farther than intended.
+constexpr float kCollisionEpsilon = 1e-5f;
+
+}  // namespace
+
+std::string_view actionName(Action action) {
+  switch (action) {
+    case Action::kStop:
+      return "STOP";
+    case Action::kMoveForward:
+      return "MOVE_FORWARD";
+    case Action::kTurnLeft:
+      return "TURN_LEFT";
+    case Action::kTurnRight:
+      return "TURN_RIGHT";
+  }
+  // only a cast from an unchecked integer gets here
+  VLN_ASSERT(false);
+  return {};
+}
+
+Action actionFromInt(int code) {
+  VLN_CHECK_ARG(code >= 0 && code < kNumActions,
+                "actionFromInt(): action code must be in 0..",
+                kNumActions - 1, ", got ", code);
+  return static_cast<Action>(code);
+}
+
+StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
+                       AgentState& state, Action action) {
+  StepResult result;
+  switch (action) {
+    case Action::kStop:
+      return result;
+    case Action::kTurnLeft:
+      state.heading = wrapAngle(state.heading + degToRad(config.turn_angle));
+      return result;
+    case Action::kTurnRight:
+      state.heading = wrapAngle(state.heading - degToRad(config.turn_angle));
+      return result;
+    case Action::kMoveForward:
+      break;
+  }
+  VLN_ASSERT(action == Action::kMoveForward);
+
+  // the body only yaws, so the intended move is horizontal; the navmesh
+  // filter puts the end point back on the surface
+  const Vec3f start = state.position;
+  const Vec3f target =
+      start + config.forward_step_size * headingToForward(state.heading);
+  const Vec3f end = config.allow_sliding ? navmesh.moveAlongSurface(start, target)
+                                         : navmesh.moveNoSliding(start, target);
+  const float intended = (target - start).squaredNorm();
+  const float moved = (end - start).squaredNorm();
+  result.collided = moved + kCollisionEpsilon < intended;
+  result.distance = std::sqrt(moved);
+  state.position = end;
+  return result;
+}
+
+StepResult stepEpisode(const NavMesh& navmesh, const AgentConfig& agent,
+                       const TaskConfig& task, EpisodeState& episode,
+                       Action action) {
+  VLN_ASSERT(!episode.done);
+  const StepResult result = applyAction(navmesh, agent, episode.agent, action);
+  ++episode.steps;
+  episode.last_collided = result.collided;
+  if (action == Action::kStop) {
+    episode.called_stop = true;
+    episode.done = true;
+  }
+  if (episode.steps >= task.max_episode_steps) episode.done = true;
+  return result;
+}
+
+}  // namespace vln::sim

@@ -1,0 +1,131 @@
+#include "sim/Scene.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <system_error>
+#include <utility>
+
+#include "common/Check.h"
+#include "sim/MeshIo.h"
+
+namespace vln::sim {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// A cached navmesh records the agent it was built for (Detour tile header);
+// one built for another agent is stale even if it is newer than the scene.
+// Values round-trip through float exactly, the margin only absorbs files
+// written by other tools.
+constexpr float kAgentMatchTolerance = 1e-4f;
+
+bool sameAgent(const NavMeshConfig& a, const NavMeshConfig& b) {
+  return std::abs(a.agent_height - b.agent_height) <= kAgentMatchTolerance &&
+         std::abs(a.agent_radius - b.agent_radius) <= kAgentMatchTolerance &&
+         std::abs(a.agent_max_climb - b.agent_max_climb) <=
+             kAgentMatchTolerance;
+}
+
+// The cached navmesh beside `sceneFile` when it is present, at least as new
+// as the scene, readable and built for this agent; nullptr otherwise (with a
+// warning when a present file is unusable, since it will be overwritten).
+std::unique_ptr<NavMesh> loadCachedNavMesh(const fs::path& sceneFile,
+                                           const fs::path& cacheFile,
+                                           const NavMeshConfig& config) {
+  std::error_code ec;
+  if (!fs::exists(cacheFile, ec)) return nullptr;
+  const auto cacheTime = fs::last_write_time(cacheFile, ec);
+  if (ec) return nullptr;
+  const auto sceneTime = fs::last_write_time(sceneFile, ec);
+  if (ec || cacheTime < sceneTime) {
+    spdlog::info("Scene: {} is older than the scene, rebuilding it",
+                 cacheFile.string());
+    return nullptr;
+  }
+  try {
+    auto navmesh = NavMesh::load(cacheFile);
+    if (!sameAgent(navmesh->config(), config)) {
+      spdlog::warn(
+          "Scene: {} was built for agent height {} radius {} climb {}, the "
+          "config asks for {} {} {}; rebuilding it",
+          cacheFile.string(), navmesh->config().agent_height,
+          navmesh->config().agent_radius, navmesh->config().agent_max_climb,
+          config.agent_height, config.agent_radius, config.agent_max_climb);
+      return nullptr;
+    }
+    return navmesh;
+  } catch (const std::exception& e) {
+    spdlog::warn("Scene: ignoring unusable navmesh cache: {}", e.what());
+    return nullptr;
+  }
+}
+
+}  // namespace
+
+std::shared_ptr<const Scene> Scene::load(const std::filesystem::path& file,
+                                         const SimConfig& config) {
+  // mesh and semantics (loadScene names the file in its errors)
+  LoadedScene loaded = loadScene(file, config.mesh);
+  std::shared_ptr<Scene> scene(new Scene());
+  scene->name_ = file.stem().string();
+  scene->mesh_ = std::move(loaded.mesh);
+  scene->semantics_ = std::move(loaded.semantics);
+
+  // navmesh: the cache when it is valid, else a fresh build (saved when
+  // caching; a read-only dataset directory only costs a rebuild next time)
+  fs::path cacheFile = file;
+  cacheFile += ".navmesh";
+  if (config.cache_navmesh)
+    scene->navmesh_ = loadCachedNavMesh(file, cacheFile, config.navmesh);
+  if (scene->navmesh_ == nullptr) {
+    try {
+      scene->navmesh_ = NavMesh::build(scene->mesh_, config.navmesh);
+    } catch (const std::invalid_argument& e) {
+      throw std::invalid_argument(
+          strCat("Scene::load(): ", file.string(), ": ", e.what()));
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(
+          strCat("Scene::load(): ", file.string(), ": ", e.what()));
+    }
+    if (config.cache_navmesh) {
+      try {
+        scene->navmesh_->save(cacheFile);
+      } catch (const std::exception& e) {
+        spdlog::warn("Scene: cannot cache the navmesh: {}", e.what());
+      }
+    }
+  }
+  return scene;
+}
+
+std::shared_ptr<const Scene> Scene::fromMesh(std::string name,
+                                             TriangleMesh mesh,
+                                             SceneSemantics semantics,
+                                             const NavMeshConfig& navmesh) {
+  std::shared_ptr<Scene> scene(new Scene());
+  scene->name_ = std::move(name);
+  scene->mesh_ = std::move(mesh);
+  scene->semantics_ = std::move(semantics);
+  try {
+    scene->navmesh_ = NavMesh::build(scene->mesh_, navmesh);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(
+        strCat("Scene::fromMesh(): scene '", scene->name_, "': ", e.what()));
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(
+        strCat("Scene::fromMesh(): scene '", scene->name_, "': ", e.what()));
+  }
+  return scene;
+}
+
+const RayTracer& Scene::rayTracer() const {
+  // built on first use: many consumers (navmesh-only training) never cast
+  std::call_once(rayTracerOnce_,
+                 [this] { rayTracer_ = std::make_unique<RayTracer>(mesh_); });
+  return *rayTracer_;
+}
+
+}  // namespace vln::sim
