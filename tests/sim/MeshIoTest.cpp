@@ -1,0 +1,616 @@
+#include "sim/MeshIo.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <tuple>
+
+#include "common/FileIo.h"
+#include "common/Json.h"
+#include "support/TestPaths.h"
+
+namespace vln::sim {
+namespace {
+
+using ::testing::HasSubstr;
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------------------
+// helpers
+// ---------------------------------------------------------------------------
+
+// A triangle with everything attached to its corners, in a form that can be
+// sorted: exporters may reorder and duplicate vertices, so round trips are
+// compared as sorted triangle sets.
+struct Corner {
+  std::array<float, 3> position{};
+  Rgb8 color{255, 255, 255};
+  std::array<float, 2> uv{};
+};
+struct FlatTriangle {
+  std::array<Corner, 3> corners;
+  int object = -1;
+  // the material itself, not its index (indices may be renumbered)
+  std::string material;
+  bool operator<(const FlatTriangle& o) const {
+    return std::tie(object, material, corners[0].position, corners[1].position,
+                    corners[2].position) <
+           std::tie(o.object, o.material, o.corners[0].position,
+                    o.corners[1].position, o.corners[2].position);
+  }
+};
+
+std::vector<FlatTriangle> flatten(const TriangleMesh& mesh) {
+  std::vector<FlatTriangle> out;
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    FlatTriangle tri;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = mesh.indices[3 * t + k];
+      Corner& c = tri.corners[k];
+      c.position = {mesh.positions[v].x(), mesh.positions[v].y(),
+                    mesh.positions[v].z()};
+      if (!mesh.colors.empty()) c.color = mesh.colors[v];
+      if (!mesh.uvs.empty()) c.uv = {mesh.uvs[v].x(), mesh.uvs[v].y()};
+    }
+    // start each triangle at its smallest corner, keeping the winding
+    const auto first = std::min_element(
+        tri.corners.begin(), tri.corners.end(),
+        [](const Corner& a, const Corner& b) { return a.position < b.position; });
+    std::rotate(tri.corners.begin(), first, tri.corners.end());
+    if (!mesh.triangle_object.empty()) tri.object = mesh.triangle_object[t];
+    const int m = mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
+    if (m >= 0) {
+      const Material& material = mesh.materials[m];
+      tri.material = strCat(material.name, "|", material.base_color[0], ",",
+                            material.base_color[1], ",", material.base_color[2],
+                            "|", material.texture < 0
+                                     ? std::string("-")
+                                     : mesh.textures[material.texture].name);
+    }
+    out.push_back(tri);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+void expectSameTriangles(const TriangleMesh& expected, const TriangleMesh& actual) {
+  const auto a = flatten(expected);
+  const auto b = flatten(actual);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].object, b[i].object) << "triangle " << i;
+    EXPECT_EQ(a[i].material, b[i].material) << "triangle " << i;
+    for (int k = 0; k < 3; ++k) {
+      for (int d = 0; d < 3; ++d)
+        EXPECT_NEAR(a[i].corners[k].position[d], b[i].corners[k].position[d], 1e-5)
+            << "triangle " << i << " corner " << k;
+      EXPECT_EQ(a[i].corners[k].color, b[i].corners[k].color)
+          << "triangle " << i << " corner " << k;
+      for (int d = 0; d < 2; ++d)
+        EXPECT_NEAR(a[i].corners[k].uv[d], b[i].corners[k].uv[d], 1e-5)
+            << "triangle " << i << " corner " << k;
+    }
+  }
+}
+
+// A 4x2 texture whose every texel differs, so flips and transposes show.
+Texture checkerTexture(const std::string& name) {
+  Texture t;
+  t.name = name;
+  t.width = 4;
+  t.height = 2;
+  for (int y = 0; y < t.height; ++y)
+    for (int x = 0; x < t.width; ++x)
+      for (int c = 0; c < 3; ++c)
+        t.rgb.push_back(static_cast<uint8_t>(30 * x + 100 * y + 7 * c));
+  return t;
+}
+
+// Two objects (a coloured box face pair, a textured quad) plus untagged,
+// material-less structure: every feature the exporters must carry.
+TriangleMesh featureMesh() {
+  TriangleMesh mesh;
+  mesh.materials = {{"painted", {0.25f, 0.5f, 1.0f}, -1},
+                    {"wood", {1.0f, 1.0f, 1.0f}, 0}};
+  mesh.textures = {checkerTexture("planks")};
+  auto quad = [&](Vec3f a, Vec3f b, Vec3f c, Vec3f d, Rgb8 color, int material,
+                  int object) {
+    const auto base = static_cast<uint32_t>(mesh.positions.size());
+    const Vec3f corners[4] = {a, b, c, d};
+    const Vec2f uvs[4] = {{0.0f, 0.0f}, {1.5f, 0.0f}, {1.5f, 0.75f}, {0.0f, 0.75f}};
+    for (int i = 0; i < 4; ++i) {
+      mesh.positions.push_back(corners[i]);
+      mesh.colors.push_back({color[0], static_cast<uint8_t>(color[1] + 10 * i),
+                             color[2]});
+      mesh.uvs.push_back(uvs[i]);
+    }
+    for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(base + i);
+    for (int i = 0; i < 2; ++i) {
+      mesh.triangle_material.push_back(material);
+      mesh.triangle_object.push_back(object);
+    }
+  };
+  quad({0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}, {200, 10, 30}, 0, 3);
+  quad({0, 0, 0}, {0, 1, 0}, {0, 1, 1}, {0, 0, 1}, {10, 200, 30}, 0, 3);
+  quad({2, 0, 2}, {3.25f, 0, 2}, {3.25f, 0.125f, 3.5f}, {2, 0.125f, 3.5f},
+       {255, 128, 0}, 1, 12);
+  quad({-1, 0, -1}, {4, 0, -1}, {4, 0, 4}, {-1, 0, 4}, {90, 90, 90}, -1, -1);
+  return mesh;
+}
+
+SceneSemantics featureSemantics() {
+  SceneSemantics s;
+  Room room;
+  room.id = 0;
+  room.type = "living room";
+  room.footprint = Eigen::AlignedBox2f(Vec2f(-1, -1), Vec2f(4, 4));
+  s.rooms.push_back(room);
+  room.id = 1;
+  room.type = "kitchen";
+  room.footprint = Eigen::AlignedBox2f(Vec2f(4, -1), Vec2f(7, 4));
+  s.rooms.push_back(room);
+  Doorway door;
+  door.room_a = 0;
+  door.room_b = 1;
+  door.center = Vec3f(4, 0, 1.5f);
+  door.width = 0.9f;
+  door.normal = Vec3f(1, 0, 0);
+  s.doors.push_back(door);
+  SemanticObject object;
+  object.id = 3;
+  object.category = "cabinet";
+  object.color = "blue";
+  object.room = 0;
+  object.bounds = Eigen::AlignedBox3f(Vec3f(0, 0, 0), Vec3f(1, 1, 1));
+  s.objects.push_back(object);
+  object.id = 12;
+  object.category = "rug";
+  object.color = "orange";
+  object.bounds = Eigen::AlignedBox3f(Vec3f(2, 0, 2), Vec3f(3.25f, 0.125f, 3.5f));
+  s.objects.push_back(object);
+  return s;
+}
+
+// Expects `body` to throw exception type E whose message contains every
+// string in `parts`.
+template <class E, class F>
+void expectThrowWith(F body, std::initializer_list<std::string> parts) {
+  try {
+    body();
+    ADD_FAILURE() << "expected an exception";
+  } catch (const E& e) {
+    for (const std::string& part : parts) EXPECT_THAT(e.what(), HasSubstr(part));
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "wrong exception type: " << e.what();
+  }
+}
+
+constexpr const char* kUnitCubeObj = R"(# unit cube, 8 vertices, 6 quads
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+v 0 0 1
+v 1 0 1
+v 1 1 1
+v 0 1 1
+f 1 4 3 2
+f 5 6 7 8
+f 1 2 6 5
+f 4 8 7 3
+f 1 5 8 4
+f 2 3 7 6
+)";
+
+// ---------------------------------------------------------------------------
+// import
+// ---------------------------------------------------------------------------
+
+TEST(MeshIoTest, LoadsObjUnitCube) {
+  test::TempDir dir;
+  const auto file = test::writeText(dir / "cube.obj", kUnitCubeObj);
+  const LoadedScene scene = loadScene(file, MeshLoadConfig{});
+  EXPECT_EQ(scene.mesh.triangleCount(), 12u);
+  EXPECT_EQ(scene.mesh.positions.size(), 8u);  // identical vertices joined
+  const auto box = scene.mesh.bounds();
+  EXPECT_TRUE(box.min().isApprox(Vec3f(0, 0, 0)));
+  EXPECT_TRUE(box.max().isApprox(Vec3f(1, 1, 1)));
+  EXPECT_TRUE(scene.semantics.empty());
+  EXPECT_TRUE(scene.mesh.triangle_object.empty());
+  // total area of a unit cube is 6
+  double area = 0.0;
+  for (size_t t = 0; t < scene.mesh.triangleCount(); ++t) {
+    const Vec3f& a = scene.mesh.positions[scene.mesh.indices[3 * t]];
+    const Vec3f& b = scene.mesh.positions[scene.mesh.indices[3 * t + 1]];
+    const Vec3f& c = scene.mesh.positions[scene.mesh.indices[3 * t + 2]];
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  EXPECT_NEAR(area, 6.0, 1e-5);
+}
+
+TEST(MeshIoTest, ZUpFilesAreRotatedAndScaled) {
+  test::TempDir dir;
+  const auto file = test::writeText(dir / "tri.obj",
+                                    "v 1 2 3\nv 4 5 6\nv 7 8 10\nf 1 2 3\n");
+  MeshLoadConfig config;
+  config.up_axis = UpAxis::kZ;
+  config.scale = 0.5f;
+  const LoadedScene scene = loadScene(file, config);
+  ASSERT_EQ(scene.mesh.triangleCount(), 1u);
+  // file (x, y, z) -> world (x, z, -y) * scale
+  const std::vector<Vec3f> expected = {
+      {0.5f, 1.5f, -1.0f}, {2.0f, 3.0f, -2.5f}, {3.5f, 5.0f, -4.0f}};
+  for (int k = 0; k < 3; ++k)
+    EXPECT_TRUE(scene.mesh.positions[scene.mesh.indices[k]].isApprox(expected[k]))
+        << "corner " << k;
+
+  config.up_axis = UpAxis::kY;
+  config.scale = 2.0f;
+  const LoadedScene yUp = loadScene(file, config);
+  EXPECT_TRUE(yUp.mesh.positions[yUp.mesh.indices[2]].isApprox(Vec3f(14, 16, 20)));
+}
+
+TEST(MeshIoTest, LoadsPlyLShapedFloorWithVertexColours) {
+  // an L-shaped floor in the z = 0 plane of a Z-up scan: three unit squares
+  constexpr const char* kPly = R"(ply
+format ascii 1.0
+element vertex 8
+property float x
+property float y
+property float z
+property uchar red
+property uchar green
+property uchar blue
+element face 3
+property list uchar int vertex_indices
+end_header
+0 0 0 255 0 0
+1 0 0 0 255 0
+2 0 0 0 0 255
+0 1 0 10 20 30
+1 1 0 40 50 60
+2 1 0 70 80 90
+0 2 0 100 110 120
+1 2 0 130 140 150
+4 0 1 4 3
+4 1 2 5 4
+4 3 4 7 6
+)";
+  test::TempDir dir;
+  const auto file = test::writeText(dir / "floor.ply", kPly);
+  MeshLoadConfig config;
+  config.up_axis = UpAxis::kZ;
+  const LoadedScene scene = loadScene(file, config);
+  EXPECT_EQ(scene.mesh.triangleCount(), 6u);
+  ASSERT_EQ(scene.mesh.colors.size(), scene.mesh.positions.size());
+  // every vertex lies on the world floor (y = 0) and keeps its exact colour
+  std::map<std::pair<float, float>, Rgb8> colorAt;
+  for (size_t v = 0; v < scene.mesh.positions.size(); ++v) {
+    EXPECT_FLOAT_EQ(scene.mesh.positions[v].y(), 0.0f);
+    colorAt[{scene.mesh.positions[v].x(), scene.mesh.positions[v].z()}] =
+        scene.mesh.colors[v];
+  }
+  // file (1, 2, 0) -> world (1, 0, -2)
+  EXPECT_EQ((colorAt[{1.0f, -2.0f}]), (Rgb8{130, 140, 150}));
+  EXPECT_EQ((colorAt[{2.0f, 0.0f}]), (Rgb8{0, 0, 255}));
+  // every face points up in the world after the Z-up conversion
+  for (size_t t = 0; t < scene.mesh.triangleCount(); ++t) {
+    const Vec3f& a = scene.mesh.positions[scene.mesh.indices[3 * t]];
+    const Vec3f& b = scene.mesh.positions[scene.mesh.indices[3 * t + 1]];
+    const Vec3f& c = scene.mesh.positions[scene.mesh.indices[3 * t + 2]];
+    EXPECT_GT((b - a).cross(c - a).y(), 0.0f) << "triangle " << t;
+  }
+}
+
+TEST(MeshIoTest, DropsPointsLinesAndDegenerateTriangles) {
+  test::TempDir dir;
+  const auto file = test::writeText(dir / "mixed.obj",
+                                    "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 5 5 5\n"
+                                    "f 1 2 3\n"
+                                    "f 1 1 2\n"
+                                    "l 1 4\n"
+                                    "p 4\n");
+  const LoadedScene scene = loadScene(file, MeshLoadConfig{});
+  EXPECT_EQ(scene.mesh.triangleCount(), 1u);
+  scene.mesh.validate("mixed.obj");
+}
+
+// A .gltf with a node hierarchy: the parent translates, the child (named
+// object_7) scales. The buffer is an inline base64 data URI.
+std::string base64(const std::string& bytes) {
+  static const char* kAlphabet =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  size_t i = 0;
+  for (; i + 2 < bytes.size(); i += 3) {
+    const uint32_t n = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8) |
+                       uint8_t(bytes[i + 2]);
+    for (int s = 18; s >= 0; s -= 6) out.push_back(kAlphabet[(n >> s) & 63]);
+  }
+  if (i < bytes.size()) {
+    uint32_t n = uint8_t(bytes[i]) << 16;
+    if (i + 1 < bytes.size()) n |= uint8_t(bytes[i + 1]) << 8;
+    out.push_back(kAlphabet[(n >> 18) & 63]);
+    out.push_back(kAlphabet[(n >> 12) & 63]);
+    out.push_back(i + 1 < bytes.size() ? kAlphabet[(n >> 6) & 63] : '=');
+    out.push_back('=');
+  }
+  return out;
+}
+
+TEST(MeshIoTest, AppliesNodeTransformsAndObjectNames) {
+  const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  const uint32_t indices[3] = {0, 1, 2};
+  std::string buffer(reinterpret_cast<const char*>(positions), sizeof(positions));
+  buffer.append(reinterpret_cast<const char*>(indices), sizeof(indices));
+  const std::string gltf = R"({
+  "asset": {"version": "2.0"},
+  "scene": 0,
+  "scenes": [{"nodes": [0, 2]}],
+  "nodes": [
+    {"name": "furniture", "translation": [10, 0, 0], "children": [1]},
+    {"name": "object_7", "scale": [2, 2, 2], "mesh": 0},
+    {"name": "floor", "mesh": 0}
+  ],
+  "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+  "buffers": [{"byteLength": 48, "uri": "data:application/octet-stream;base64,)" +
+                           base64(buffer) + R"("}],
+  "bufferViews": [
+    {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+    {"buffer": 0, "byteOffset": 36, "byteLength": 12}
+  ],
+  "accessors": [
+    {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+     "min": [0, 0, 0], "max": [1, 1, 0]},
+    {"bufferView": 1, "componentType": 5125, "count": 3, "type": "SCALAR"}
+  ]
+})";
+  test::TempDir dir;
+  const auto file = test::writeText(dir / "nodes.gltf", gltf);
+  const LoadedScene scene = loadScene(file, MeshLoadConfig{});
+  ASSERT_EQ(scene.mesh.triangleCount(), 2u);
+  ASSERT_EQ(scene.mesh.triangle_object.size(), 2u);
+  int tagged = 0;
+  for (size_t t = 0; t < 2; ++t) {
+    Eigen::AlignedBox3f box;
+    for (int k = 0; k < 3; ++k)
+      box.extend(scene.mesh.positions[scene.mesh.indices[3 * t + k]]);
+    if (scene.mesh.triangle_object[t] == 7) {
+      ++tagged;
+      // scaled by 2, then translated by 10 along x
+      EXPECT_TRUE(box.min().isApprox(Vec3f(10, 0, 0)));
+      EXPECT_TRUE(box.max().isApprox(Vec3f(12, 2, 0)));
+    } else {
+      EXPECT_EQ(scene.mesh.triangle_object[t], -1);
+      EXPECT_TRUE(box.max().isApprox(Vec3f(1, 1, 0)));
+    }
+  }
+  EXPECT_EQ(tagged, 1);
+}
+
+// ---------------------------------------------------------------------------
+// round trips
+// ---------------------------------------------------------------------------
+
+class RoundTripTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(RoundTripTest, KeepsTrianglesColoursUvsMaterialsTexturesAndObjects) {
+  test::TempDir dir;
+  const fs::path file = dir / ("scene" + GetParam());
+  const TriangleMesh mesh = featureMesh();
+  const SceneSemantics semantics = featureSemantics();
+  saveScene(file, mesh, semantics);
+  ASSERT_TRUE(fs::exists(semanticsPath(file)));
+
+  const LoadedScene loaded = loadScene(file, MeshLoadConfig{});
+  expectSameTriangles(mesh, loaded.mesh);
+  EXPECT_EQ(loaded.mesh.materials, mesh.materials);
+  EXPECT_EQ(loaded.mesh.textures, mesh.textures);
+  EXPECT_EQ(loaded.semantics, semantics);
+}
+
+TEST_P(RoundTripTest, MeshWithoutOptionalArraysStaysWithout) {
+  test::TempDir dir;
+  const fs::path file = dir / ("bare" + GetParam());
+  TriangleMesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 0, -1}};
+  mesh.indices = {0, 1, 2};
+  saveScene(file, mesh);
+  EXPECT_FALSE(fs::exists(semanticsPath(file)));
+  const LoadedScene loaded = loadScene(file, MeshLoadConfig{});
+  expectSameTriangles(mesh, loaded.mesh);
+  EXPECT_TRUE(loaded.mesh.colors.empty());
+  EXPECT_TRUE(loaded.mesh.uvs.empty());
+  EXPECT_TRUE(loaded.mesh.triangle_material.empty());
+  EXPECT_TRUE(loaded.mesh.triangle_object.empty());
+  EXPECT_TRUE(loaded.mesh.materials.empty());
+}
+
+INSTANTIATE_TEST_SUITE_P(Formats, RoundTripTest,
+                         ::testing::Values(".glb", ".obj"),
+                         [](const auto& info) { return info.param.substr(1); });
+
+TEST(MeshIoTest, TexturedQuadKeepsTexelsAndOrientation) {
+  // a quad whose uv (0, 0) corner must show the texture's first row
+  TriangleMesh quad;
+  quad.positions = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  quad.uvs = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+  quad.indices = {0, 1, 2, 0, 2, 3};
+  quad.materials = {{"picture", {1, 1, 1}, 0}};
+  quad.triangle_material = {0, 0};
+  quad.textures = {checkerTexture("photo")};
+  test::TempDir dir;
+  for (const char* ext : {".glb", ".obj"}) {
+    const fs::path file = dir / (std::string("quad") + ext);
+    saveScene(file, quad);
+    const LoadedScene loaded = loadScene(file, MeshLoadConfig{});
+    ASSERT_EQ(loaded.mesh.textures.size(), 1u) << ext;
+    EXPECT_EQ(loaded.mesh.textures[0], quad.textures[0]) << ext;
+    ASSERT_EQ(loaded.mesh.materials.size(), 1u) << ext;
+    EXPECT_EQ(loaded.mesh.materials[0].texture, 0) << ext;
+    // the vertex at the world origin keeps uv (0, 0)
+    for (size_t v = 0; v < loaded.mesh.positions.size(); ++v) {
+      if (loaded.mesh.positions[v].isZero()) {
+        EXPECT_TRUE(loaded.mesh.uvs[v].isZero(1e-6f)) << ext;
+      }
+    }
+  }
+  // the .obj wrote its texture beside it, named after the scene
+  EXPECT_TRUE(fs::exists(dir / "quad_photo.png"));
+  EXPECT_TRUE(fs::exists(dir / "quad.mtl"));
+}
+
+TEST(MeshIoTest, GlbIsAValidContainer) {
+  test::TempDir dir;
+  const fs::path file = dir / "scene.glb";
+  saveScene(file, featureMesh());
+  const std::string bytes = common::readFile(file);
+  ASSERT_GE(bytes.size(), 28u);
+  auto u32 = [&](size_t offset) {
+    uint32_t v = 0;
+    for (int i = 3; i >= 0; --i) v = (v << 8) | uint8_t(bytes[offset + i]);
+    return v;
+  };
+  EXPECT_EQ(bytes.substr(0, 4), "glTF");
+  EXPECT_EQ(u32(4), 2u);
+  EXPECT_EQ(u32(8), bytes.size());
+  const uint32_t jsonLength = u32(12);
+  EXPECT_EQ(jsonLength % 4, 0u);
+  EXPECT_EQ(bytes.substr(16, 4), "JSON");
+  const auto root = nlohmann::json::parse(bytes.substr(20, jsonLength));
+  const size_t binHeader = 20 + jsonLength;
+  EXPECT_EQ(u32(binHeader) % 4, 0u);
+  EXPECT_EQ(bytes.substr(binHeader + 4, 4), std::string("BIN\0", 4));
+  EXPECT_EQ(binHeader + 8 + u32(binHeader), bytes.size());
+  // node names carry the semantic ids; materials are unlit
+  std::vector<std::string> names;
+  for (const auto& node : root["nodes"]) names.push_back(node["name"]);
+  EXPECT_THAT(names, ::testing::UnorderedElementsAre("structure", "object_3",
+                                                     "object_12"));
+  for (const auto& material : root["materials"])
+    EXPECT_TRUE(material["extensions"].contains("KHR_materials_unlit"));
+  EXPECT_EQ(root["images"][0]["mimeType"], "image/png");
+  for (const auto& accessor : root["accessors"]) {
+    if (accessor["type"] == "VEC3") {
+      EXPECT_EQ(accessor["min"].size(), 3u);
+    }
+  }
+}
+
+TEST(MeshIoTest, SavingWithoutSemanticsRemovesAStaleSidecar) {
+  test::TempDir dir;
+  const fs::path file = dir / "scene.glb";
+  saveScene(file, featureMesh(), featureSemantics());
+  ASSERT_TRUE(fs::exists(semanticsPath(file)));
+  saveScene(file, featureMesh());
+  EXPECT_FALSE(fs::exists(semanticsPath(file)));
+}
+
+// ---------------------------------------------------------------------------
+// errors
+// ---------------------------------------------------------------------------
+
+TEST(MeshIoTest, MissingFileNamesIt) {
+  expectThrowWith<std::runtime_error>(
+      [] { loadScene("/nonexistent/dir/house.glb", MeshLoadConfig{}); },
+      {"/nonexistent/dir/house.glb", "does not exist"});
+}
+
+TEST(MeshIoTest, EmptyFileIsAnAssimpError) {
+  test::TempDir dir;
+  const auto file = test::writeText(dir / "empty.obj", "");
+  expectThrowWith<std::runtime_error>(
+      [&] { loadScene(file, MeshLoadConfig{}); },
+      {"empty.obj", "assimp cannot read"});
+}
+
+TEST(MeshIoTest, GarbageBytesAreAnAssimpError) {
+  test::TempDir dir;
+  std::string garbage = "glTF";
+  for (int i = 0; i < 200; ++i) garbage.push_back(static_cast<char>(i * 37));
+  const auto file = test::writeText(dir / "garbage.glb", garbage);
+  expectThrowWith<std::runtime_error>(
+      [&] { loadScene(file, MeshLoadConfig{}); },
+      {"garbage.glb", "assimp cannot read"});
+}
+
+TEST(MeshIoTest, ObjWithOnlyVerticesHasNoTriangles) {
+  test::TempDir dir;
+  const auto file =
+      test::writeText(dir / "points.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n");
+  expectThrowWith<std::invalid_argument>(
+      [&] { loadScene(file, MeshLoadConfig{}); },
+      {"points.obj", "no triangles"});
+}
+
+TEST(MeshIoTest, NanCoordinatesAreRejected) {
+  test::TempDir dir;
+  const auto file = test::writeText(
+      dir / "nan.ply",
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n");
+  expectThrowWith<std::invalid_argument>(
+      [&] { loadScene(file, MeshLoadConfig{}); },
+      {"nan.ply", "non-finite"});
+}
+
+TEST(MeshIoTest, SidecarWithAMissingFieldNamesFileAndField) {
+  test::TempDir dir;
+  const fs::path file = dir / "scene.glb";
+  saveScene(file, featureMesh(), featureSemantics());
+  auto root = nlohmann::json::parse(common::readFile(semanticsPath(file)));
+  root["objects"][1].erase("category");
+  test::writeText(semanticsPath(file), root.dump());
+  expectThrowWith<std::invalid_argument>(
+      [&] { loadScene(file, MeshLoadConfig{}); },
+      {"scene.glb.semantics.json", "objects[1]", "field 'category' is missing"});
+}
+
+TEST(MeshIoTest, SidecarWithAnUnknownRoomIsRejected) {
+  test::TempDir dir;
+  const fs::path sidecar = dir / "x.semantics.json";
+  SceneSemantics semantics = featureSemantics();
+  semantics.objects[0].room = 9;
+  saveSemantics(sidecar, semantics);
+  expectThrowWith<std::invalid_argument>([&] { loadSemantics(sidecar); },
+                                         {"objects[0]", "room 9"});
+}
+
+TEST(MeshIoTest, SidecarWithABadBoxIsRejected) {
+  test::TempDir dir;
+  const fs::path sidecar = dir / "x.semantics.json";
+  saveSemantics(sidecar, featureSemantics());
+  auto root = nlohmann::json::parse(common::readFile(sidecar));
+  root["rooms"][0]["footprint"]["min"] = {1, 2, 3};
+  test::writeText(sidecar, root.dump());
+  expectThrowWith<std::invalid_argument>(
+      [&] { loadSemantics(sidecar); },
+      {"x.semantics.json", "rooms[0].footprint", "'min' needs 2 numbers"});
+}
+
+TEST(MeshIoTest, UnsupportedExportExtension) {
+  test::TempDir dir;
+  expectThrowWith<std::invalid_argument>(
+      [&] { saveScene(dir / "scene.fbx", featureMesh()); },
+      {"scene.fbx", "unsupported extension"});
+}
+
+TEST(MeshIoTest, InvalidMeshIsNotWritten) {
+  test::TempDir dir;
+  TriangleMesh mesh = featureMesh();
+  mesh.indices.push_back(999);
+  mesh.indices.push_back(0);
+  mesh.indices.push_back(1);
+  expectThrowWith<std::invalid_argument>(
+      [&] { saveScene(dir / "bad.glb", mesh); }, {"bad.glb"});
+  EXPECT_FALSE(fs::exists(dir / "bad.glb"));
+}
+
+}  // namespace
+}  // namespace vln::sim
