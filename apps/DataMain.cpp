@@ -1,0 +1,141 @@
+// vlnce-data: tools for R2R_VLNCE-format datasets. Each subcommand is one
+// add*() function that declares its options on a CLI11 subcommand and
+// returns the runner (a call into data/DataCommands.h); adding a subcommand
+// is one such function plus one line in main().
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/App.h"
+#include "data/DataCommands.h"
+
+namespace {
+
+using namespace vln;
+
+// a registered subcommand: its CLI11 node and what to run once parsed
+struct Subcommand {
+  CLI::App* command = nullptr;
+  std::function<int()> run;
+};
+
+Subcommand addStats(CLI::App& app) {
+  auto options = std::make_shared<data::StatsCommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "stats", "Summary statistics of an episode file (real or generated)");
+  command->add_option("--episodes", options->episodes,
+                      "Episode file {split}.json(.gz)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--gt", options->ground_truth,
+                      "Ground truth {split}_gt.json(.gz) for action stats")
+      ->check(CLI::ExistingFile);
+  command->add_flag("--json", options->json, "Print JSON instead of text");
+  return {command, [options] {
+            return data::runStatsCommand(*options, std::cout);
+          }};
+}
+
+Subcommand addGlove(CLI::App& app) {
+  auto options = std::make_shared<data::GloveCommandOptions>();
+  data::GloveFitConfig& fit = options->fit;
+  CLI::App* command = app.add_subcommand(
+      "glove", "Fit GloVe vectors on a corpus and write the text format");
+  command->add_option("--corpus", options->corpus,
+                      "Episode file (.json/.json.gz) or text file, one "
+                      "sentence per line")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", options->out, "GloVe text file to write")
+      ->required();
+  command->add_option("--embeddings-out", options->embeddings_out,
+                      "Also write embeddings.json(.gz) for a vocabulary");
+  command->add_option("--vocab-from", options->vocab_from,
+                      "Episode file whose instruction_vocab gives the rows "
+                      "of --embeddings-out")
+      ->check(CLI::ExistingFile);
+  command->add_option("--dim", fit.dim, "Vector size")->capture_default_str();
+  command->add_option("--epochs", fit.epochs, "Training epochs")
+      ->capture_default_str();
+  command->add_option("--window", fit.window, "Symmetric context window")
+      ->capture_default_str();
+  command->add_option("--min-count", fit.min_count, "Minimum word count")
+      ->capture_default_str();
+  command->add_option("--x-max", fit.x_max, "Weighting cutoff x_max")
+      ->capture_default_str();
+  command->add_option("--alpha", fit.alpha, "Weighting exponent")
+      ->capture_default_str();
+  command->add_option("--lr", fit.learning_rate, "AdaGrad learning rate")
+      ->capture_default_str();
+  command->add_option("--grad-clip", fit.grad_clip, "Gradient clip")
+      ->capture_default_str();
+  command->add_option("--seed", fit.seed, "Random seed")->capture_default_str();
+  command->add_option("--threads", fit.threads,
+                      "Threads (> 1 is Hogwild, not deterministic)")
+      ->capture_default_str();
+  return {command, [options] {
+            return data::runGloveCommand(*options, std::cout);
+          }};
+}
+
+Subcommand addEmbeddings(CLI::App& app) {
+  auto options = std::make_shared<data::EmbeddingsCommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "embeddings",
+      "Build embeddings.json(.gz) for an episode file's vocabulary from "
+      "GloVe vectors");
+  command->add_option("--glove", options->glove,
+                      "GloVe text file (plain or .gz)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--episodes", options->episodes,
+                      "Episode file with instruction_vocab")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", options->out, "embeddings.json(.gz) to write")
+      ->required();
+  const std::map<std::string, data::MissingWordPolicy> policies = {
+      {"unk", data::MissingWordPolicy::kUnkRow},
+      {"zero", data::MissingWordPolicy::kZero}};
+  command
+      ->add_option("--missing", options->missing,
+                   "Row of words without a GloVe vector: unk or zero")
+      ->transform(CLI::CheckedTransformer(policies, CLI::ignore_case));
+  return {command, [options] {
+            return data::runEmbeddingsCommand(*options, std::cout);
+          }};
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return common::runMain("vlnce-data", [&]() -> int {
+    CLI::App app{"vlnce-data: tools for R2R_VLNCE-format datasets"};
+    app.require_subcommand(1);
+    std::string logLevel = "info";
+    app.add_option("--log-level", logLevel,
+                   "trace, debug, info, warn, error or off")
+        ->capture_default_str();
+
+    const std::vector<Subcommand> subcommands = {
+        addStats(app),
+        addGlove(app),
+        addEmbeddings(app),
+    };
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      return app.exit(e);
+    }
+    common::initLogging({}, logLevel);
+    for (const Subcommand& subcommand : subcommands)
+      if (subcommand.command->parsed()) return subcommand.run();
+    return 1;
+  });
+}

@@ -1,0 +1,622 @@
+#include "data/Glove.h"
+
+#include <spdlog/spdlog.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <atomic>
+#include <charconv>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <thread>
+
+#include "common/Check.h"
+#include "common/FileIo.h"
+#include "common/Json.h"
+
+namespace vln::data {
+namespace {
+
+// =========================================================================
+// streaming line reader (plain or gzip; zlib reads both transparently)
+// =========================================================================
+
+struct GzCloser {
+  void operator()(gzFile file) const { gzclose(file); }
+};
+using GzFilePtr = std::unique_ptr<gzFile_s, GzCloser>;
+
+class LineReader {
+ public:
+  explicit LineReader(const std::filesystem::path& file) : name_(file.string()) {
+    handle_.reset(gzopen(name_.c_str(), "rb"));
+    VLN_CHECK_IO(handle_ != nullptr, "readGloveText(): cannot open '", name_,
+                 "'");
+    gzbuffer(handle_.get(), 1 << 20);
+  }
+
+  // next line without its '\n'; false at the end of the file
+  bool next(std::string& line) {
+    line.clear();
+    while (true) {
+      size_t newline = buffer_.find('\n', position_);
+      if (newline != std::string::npos) {
+        line.append(buffer_, position_, newline - position_);
+        position_ = newline + 1;
+        return true;
+      }
+      line.append(buffer_, position_);
+      buffer_.clear();
+      position_ = 0;
+      if (!fill()) return !line.empty();
+    }
+  }
+
+ private:
+  bool fill() {
+    buffer_.resize(1 << 20);
+    int n = gzread(handle_.get(), buffer_.data(),
+                   static_cast<unsigned>(buffer_.size()));
+    if (n < 0) {
+      int code = 0;
+      const char* message = gzerror(handle_.get(), &code);
+      VLN_CHECK_IO(false, "readGloveText(): cannot read '", name_, "': ",
+                   message);
+    }
+    buffer_.resize(static_cast<size_t>(n));
+    if (n == 0) {
+      // gzread reports a truncated stream only through gzerror
+      int code = 0;
+      const char* message = gzerror(handle_.get(), &code);
+      VLN_CHECK_IO(code != Z_BUF_ERROR, "readGloveText(): '", name_,
+                   "' is a truncated gzip stream");
+      VLN_CHECK_IO(code == Z_OK, "readGloveText(): '", name_,
+                   "' is corrupt: ", message);
+    }
+    return n > 0;
+  }
+
+  std::string name_;
+  GzFilePtr handle_;
+  std::string buffer_;
+  size_t position_ = 0;
+};
+
+// whole-field float parse; false unless the field is a finite number
+bool parseFloat(std::string_view field, float& value) {
+  if (field.empty()) return false;
+  const char* begin = field.data();
+  if (*begin == '+') ++begin;
+  auto [end, error] = std::from_chars(begin, field.data() + field.size(), value);
+  return error == std::errc() && end == field.data() + field.size() &&
+         std::isfinite(value);
+}
+
+bool parseInt(std::string_view field, int64_t& value) {
+  auto [end, error] =
+      std::from_chars(field.data(), field.data() + field.size(), value);
+  return !field.empty() && error == std::errc() &&
+         end == field.data() + field.size();
+}
+
+std::vector<std::string_view> splitSpaces(std::string_view line) {
+  std::vector<std::string_view> fields;
+  size_t begin = 0;
+  while (true) {
+    size_t space = line.find(' ', begin);
+    fields.push_back(line.substr(begin, space - begin));
+    if (space == std::string_view::npos) break;
+    begin = space + 1;
+  }
+  return fields;
+}
+
+void appendFloat(std::string& out, float value) {
+  char buffer[32];
+  auto [end, error] = std::to_chars(buffer, buffer + sizeof(buffer), value);
+  VLN_ASSERT(error == std::errc());
+  out.append(buffer, end);
+}
+
+}  // namespace
+
+// =========================================================================
+// WordVectors
+// =========================================================================
+
+WordVectors::WordVectors(int dim) : dim_(dim) {
+  VLN_CHECK_ARG(dim >= 1, "WordVectors::WordVectors(): dim must be >= 1, got ",
+                dim);
+}
+
+bool WordVectors::add(std::string word, std::span<const float> vector) {
+  VLN_CHECK_ARG(static_cast<int>(vector.size()) == dim_,
+                "WordVectors::add(): word '", word, "' has ", vector.size(),
+                " values, expected ", dim_);
+  auto [it, inserted] = index_.emplace(word, size());
+  if (!inserted) return false;
+  words_.push_back(std::move(word));
+  values_.insert(values_.end(), vector.begin(), vector.end());
+  return true;
+}
+
+std::optional<int> WordVectors::find(std::string_view word) const {
+  auto it = index_.find(std::string(word));
+  if (it == index_.end()) return std::nullopt;
+  return it->second;
+}
+
+const std::string& WordVectors::word(int index) const {
+  VLN_ASSERT(index >= 0 && index < size());
+  return words_[static_cast<size_t>(index)];
+}
+
+std::span<const float> WordVectors::vector(int index) const {
+  VLN_ASSERT(index >= 0 && index < size());
+  return {values_.data() + static_cast<size_t>(index) * dim_,
+          static_cast<size_t>(dim_)};
+}
+
+// =========================================================================
+// GloVe text files
+// =========================================================================
+
+WordVectors readGloveText(const std::filesystem::path& file,
+                          const GloveReadOptions& options) {
+  VLN_CHECK_ARG(options.dim >= 0, "readGloveText(): dim must be >= 0, got ",
+                options.dim);
+  VLN_CHECK_IO(std::filesystem::is_regular_file(file),
+               "readGloveText(): '", file.string(), "' does not exist");
+  LineReader reader(file);
+  WordVectors vectors;
+  int dim = options.dim;
+  std::vector<float> row;
+  std::string line;
+  int64_t lineNumber = 0;
+  while (reader.next(line)) {
+    ++lineNumber;
+    std::string_view text(line);
+    while (!text.empty() && (text.back() == '\r' || text.back() == ' ' ||
+                             text.back() == '\t'))
+      text.remove_suffix(1);
+    if (text.empty()) continue;
+    auto where = [&] {
+      return strCat("readGloveText(): '", file.string(), "' line ",
+                    lineNumber);
+    };
+
+    // the first row fixes the dimension unless it was given; a word2vec
+    // "<count> <dim>" header gives it too and is not a row
+    if (dim == 0) {
+      auto fields = splitSpaces(text);
+      int64_t count = 0;
+      int64_t headerDim = 0;
+      if (fields.size() == 2 && parseInt(fields[0], count) &&
+          parseInt(fields[1], headerDim) && headerDim >= 1) {
+        dim = static_cast<int>(headerDim);
+        vectors = WordVectors(dim);
+        continue;
+      }
+      VLN_CHECK_ARG(fields.size() >= 2, where(),
+                    ": expected 'word v1 ... vN', got '",
+                    text.substr(0, 80), "'");
+      dim = static_cast<int>(fields.size()) - 1;
+    }
+    if (vectors.dim() == 0) vectors = WordVectors(dim);
+
+    // peel the last `dim` fields off the end; the rest is the word
+    row.resize(static_cast<size_t>(dim));
+    size_t end = text.size();
+    for (int k = dim - 1; k >= 0; --k) {
+      size_t space = end == 0 ? std::string_view::npos : text.rfind(' ', end - 1);
+      VLN_CHECK_ARG(space != std::string_view::npos, where(),
+                    ": ragged row, expected a word and ", dim,
+                    " values, got ", std::count(text.begin(), text.end(), ' '),
+                    " values after '", text.substr(0, text.find(' ')), "'");
+      std::string_view field = text.substr(space + 1, end - space - 1);
+      VLN_CHECK_ARG(parseFloat(field, row[static_cast<size_t>(k)]), where(),
+                    ": value ", k + 1, " is not a finite number, got '",
+                    field.substr(0, 40), "'");
+      end = space;
+    }
+    std::string_view word = text.substr(0, end);
+    // a spaced word whose last piece is a number is a row with extra values
+    if (size_t space = word.rfind(' '); space != std::string_view::npos) {
+      float extra = 0.0f;
+      VLN_CHECK_ARG(!parseFloat(word.substr(space + 1), extra), where(),
+                    ": ragged row, more than ", dim, " values for word '",
+                    word.substr(0, word.find(' ')), "'");
+    }
+    // glove.840B has a few rows whose word is empty; nothing can look them up
+    if (word.empty()) continue;
+    if (options.only_words && !options.only_words->contains(std::string(word)))
+      continue;
+    vectors.add(std::string(word), row);
+  }
+  VLN_CHECK_ARG(dim > 0, "readGloveText(): '", file.string(),
+                "' has no vectors");
+  if (vectors.dim() == 0) vectors = WordVectors(dim);
+  return vectors;
+}
+
+void writeGloveText(const std::filesystem::path& file,
+                    const WordVectors& vectors) {
+  std::string text;
+  text.reserve(static_cast<size_t>(vectors.size()) *
+               (static_cast<size_t>(vectors.dim()) * 11 + 16));
+  for (int i = 0; i < vectors.size(); ++i) {
+    const std::string& word = vectors.word(i);
+    VLN_CHECK_ARG(!word.empty() && word.find('\n') == std::string::npos,
+                  "writeGloveText(): '", file.string(), "': word ", i,
+                  " is empty or contains a newline");
+    text += word;
+    for (float value : vectors.vector(i)) {
+      text += ' ';
+      appendFloat(text, value);
+    }
+    text += '\n';
+  }
+  common::writeFileAtomic(file, text);
+}
+
+// =========================================================================
+// embedding matrices
+// =========================================================================
+
+std::span<const float> EmbeddingMatrix::row(int index) const {
+  VLN_ASSERT(index >= 0 && index < rows);
+  return {values.data() + static_cast<size_t>(index) * dim,
+          static_cast<size_t>(dim)};
+}
+
+EmbeddingMatrix readEmbeddingsJson(const std::filesystem::path& file) {
+  nlohmann::json root = common::readJsonFile(file);
+  std::string where = strCat("readEmbeddingsJson(): '", file.string(), "'");
+  VLN_CHECK_ARG(root.is_array() && !root.empty(), where,
+                ": expected a non-empty list of rows, got ", root.type_name());
+  EmbeddingMatrix matrix;
+  matrix.rows = static_cast<int>(root.size());
+  for (size_t r = 0; r < root.size(); ++r) {
+    const auto& row = root[r];
+    VLN_CHECK_ARG(row.is_array() && !row.empty(), where, ": row ", r,
+                  " must be a non-empty list of numbers, got ",
+                  row.dump().substr(0, 80));
+    if (r == 0) {
+      matrix.dim = static_cast<int>(row.size());
+      matrix.values.reserve(root.size() * row.size());
+    }
+    VLN_CHECK_ARG(static_cast<int>(row.size()) == matrix.dim, where, ": row ",
+                  r, " has ", row.size(), " values, expected ", matrix.dim);
+    for (size_t c = 0; c < row.size(); ++c) {
+      VLN_CHECK_ARG(row[c].is_number(), where, ": row ", r, " value ", c,
+                    " is not a number, got ", row[c].dump());
+      matrix.values.push_back(row[c].get<float>());
+    }
+  }
+  return matrix;
+}
+
+void writeEmbeddingsJson(const std::filesystem::path& file,
+                         const EmbeddingMatrix& matrix) {
+  VLN_CHECK_ARG(matrix.values.size() ==
+                    static_cast<size_t>(matrix.rows) * matrix.dim,
+                "writeEmbeddingsJson(): '", file.string(), "': ",
+                matrix.values.size(), " values for a ", matrix.rows, " x ",
+                matrix.dim, " matrix");
+  nlohmann::json root = nlohmann::json::array();
+  for (int r = 0; r < matrix.rows; ++r) {
+    nlohmann::json row = nlohmann::json::array();
+    for (float value : matrix.row(r)) row.push_back(static_cast<double>(value));
+    root.push_back(std::move(row));
+  }
+  common::writeJsonFile(file, root);
+}
+
+EmbeddingMatrix buildEmbeddingMatrix(const Vocabulary& vocabulary,
+                                     const WordVectors& vectors,
+                                     const EmbeddingBuildOptions& options,
+                                     EmbeddingBuildReport* report) {
+  VLN_CHECK_ARG(vocabulary.size() > 0 && vectors.dim() > 0,
+                "buildEmbeddingMatrix(): empty vocabulary (",
+                vocabulary.size(), " words) or vectors (dim ", vectors.dim(),
+                ")");
+  const int dim = vectors.dim();
+  EmbeddingMatrix matrix;
+  matrix.rows = vocabulary.size();
+  matrix.dim = dim;
+  matrix.values.assign(static_cast<size_t>(matrix.rows) * dim, 0.0f);
+  auto rowOf = [&](int index) {
+    return matrix.values.begin() + static_cast<ptrdiff_t>(index) * dim;
+  };
+
+  // copy the known rows and accumulate their mean in double
+  EmbeddingBuildReport found;
+  std::vector<double> sum(static_cast<size_t>(dim), 0.0);
+  std::vector<int> missing;
+  for (int i = 0; i < vocabulary.size(); ++i) {
+    if (i == vocabulary.padIndex() || i == vocabulary.unkIndex()) continue;
+    auto row = vectors.find(vocabulary.word(i));
+    if (!row) {
+      missing.push_back(i);
+      found.missing.push_back(vocabulary.word(i));
+      continue;
+    }
+    auto source = vectors.vector(*row);
+    std::copy(source.begin(), source.end(), rowOf(i));
+    for (int k = 0; k < dim; ++k) sum[static_cast<size_t>(k)] += source[k];
+    ++found.found;
+  }
+  VLN_CHECK_ARG(found.found > 0, "buildEmbeddingMatrix(): none of the ",
+                vocabulary.size() - 2,
+                " vocabulary words has a GloVe vector (wrong file?)");
+
+  // <unk> is the mean of the found rows; missing words copy it if asked
+  auto unk = rowOf(vocabulary.unkIndex());
+  for (int k = 0; k < dim; ++k)
+    unk[k] = static_cast<float>(sum[static_cast<size_t>(k)] / found.found);
+  if (options.missing == MissingWordPolicy::kUnkRow)
+    for (int i : missing) std::copy(unk, unk + dim, rowOf(i));
+  if (report) *report = std::move(found);
+  return matrix;
+}
+
+// =========================================================================
+// co-occurrence counting
+// =========================================================================
+
+std::vector<CooccurrenceEntry> countCooccurrences(
+    const std::vector<std::vector<int>>& sentences, int vocabSize,
+    int window) {
+  VLN_CHECK_ARG(vocabSize >= 1 && window >= 1,
+                "countCooccurrences(): vocabSize and window must be >= 1, "
+                "got ", vocabSize, " and ", window);
+  // a sparse map keyed by word * vocabSize + context keeps memory
+  // proportional to the distinct pairs; std::map gives the sorted order
+  std::map<int64_t, double> counts;
+  for (size_t s = 0; s < sentences.size(); ++s) {
+    const auto& sentence = sentences[s];
+    for (size_t j = 0; j < sentence.size(); ++j) {
+      int right = sentence[j];
+      VLN_CHECK_ARG(right >= 0 && right < vocabSize,
+                    "countCooccurrences(): sentence ", s, " word ", j,
+                    " has id ", right, ", outside [0, ", vocabSize, ")");
+      size_t reach = std::min(j, static_cast<size_t>(window));
+      for (size_t d = 1; d <= reach; ++d) {
+        int left = sentence[j - d];
+        double weight = 1.0 / static_cast<double>(d);
+        counts[static_cast<int64_t>(left) * vocabSize + right] += weight;
+        counts[static_cast<int64_t>(right) * vocabSize + left] += weight;
+      }
+    }
+  }
+  std::vector<CooccurrenceEntry> entries;
+  entries.reserve(counts.size());
+  for (const auto& [key, count] : counts)
+    entries.push_back({static_cast<int32_t>(key / vocabSize),
+                       static_cast<int32_t>(key % vocabSize), count});
+  return entries;
+}
+
+// =========================================================================
+// GloVe training
+// =========================================================================
+
+namespace {
+
+// splitmix64: a portable, seedable generator (std distributions are not
+// specified bit-exactly across standard libraries)
+struct SplitMix64 {
+  uint64_t state;
+  uint64_t next() {
+    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+  }
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+};
+
+// parameters of 2V rows (words, then contexts), each dim weights + a bias
+struct GloveParameters {
+  int vocab = 0;
+  int dim = 0;
+  std::vector<double> weights;  // [2V, dim + 1]
+  std::vector<double> gradsq;   // AdaGrad accumulators, same layout
+  size_t offset(int row) const {
+    return static_cast<size_t>(row) * static_cast<size_t>(dim + 1);
+  }
+};
+
+// relaxed atomics make Hogwild's racy reads and writes well-defined; with a
+// single thread they compile to plain loads and stores
+double load(double& x) {
+  return std::atomic_ref<double>(x).load(std::memory_order_relaxed);
+}
+void store(double& x, double v) {
+  std::atomic_ref<double>(x).store(v, std::memory_order_relaxed);
+}
+
+struct ChunkResult {
+  double loss = 0.0;
+  int64_t skipped = 0;
+};
+
+// one pass over entries[order[begin..end)], glove.c's update rule
+ChunkResult trainChunk(GloveParameters& params,
+                       const std::vector<CooccurrenceEntry>& entries,
+                       const std::vector<uint32_t>& order, size_t begin,
+                       size_t end, const GloveFitConfig& config) {
+  const int dim = params.dim;
+  std::vector<double> updateWord(static_cast<size_t>(dim));
+  std::vector<double> updateContext(static_cast<size_t>(dim));
+  ChunkResult result;
+  for (size_t n = begin; n < end; ++n) {
+    const CooccurrenceEntry& entry = entries[order[n]];
+    double* w = params.weights.data() + params.offset(entry.word);
+    double* c = params.weights.data() + params.offset(params.vocab +
+                                                      entry.context);
+    double* gw = params.gradsq.data() + params.offset(entry.word);
+    double* gc = params.gradsq.data() + params.offset(params.vocab +
+                                                      entry.context);
+
+    // weighted residual of w_i.c_j + b_i + b'_j = log X_ij
+    double diff = load(w[dim]) + load(c[dim]) - std::log(entry.count);
+    for (int k = 0; k < dim; ++k) diff += load(w[k]) * load(c[k]);
+    double weighted = entry.count > config.x_max
+                          ? diff
+                          : std::pow(entry.count / config.x_max,
+                                     config.alpha) * diff;
+    if (!std::isfinite(weighted)) {
+      ++result.skipped;
+      continue;
+    }
+    result.loss += 0.5 * weighted * diff;
+
+    // AdaGrad on the vectors, clipped per component; an update that turns
+    // non-finite is dropped whole
+    double step = config.learning_rate * weighted;
+    bool finite = true;
+    for (int k = 0; k < dim; ++k) {
+      double gradWord = std::clamp(step * load(c[k]), -config.grad_clip,
+                                   config.grad_clip);
+      double gradContext = std::clamp(step * load(w[k]), -config.grad_clip,
+                                      config.grad_clip);
+      updateWord[k] = gradWord / std::sqrt(load(gw[k]));
+      updateContext[k] = gradContext / std::sqrt(load(gc[k]));
+      store(gw[k], load(gw[k]) + gradWord * gradWord);
+      store(gc[k], load(gc[k]) + gradContext * gradContext);
+      finite = finite && std::isfinite(updateWord[k]) &&
+               std::isfinite(updateContext[k]);
+    }
+    if (!finite) {
+      ++result.skipped;
+      continue;
+    }
+    for (int k = 0; k < dim; ++k) {
+      store(w[k], load(w[k]) - updateWord[k]);
+      store(c[k], load(c[k]) - updateContext[k]);
+    }
+    // biases
+    double biasWord = step / std::sqrt(load(gw[dim]));
+    double biasContext = step / std::sqrt(load(gc[dim]));
+    if (std::isfinite(biasWord)) store(w[dim], load(w[dim]) - biasWord);
+    if (std::isfinite(biasContext)) store(c[dim], load(c[dim]) - biasContext);
+    store(gw[dim], load(gw[dim]) + step * step);
+    store(gc[dim], load(gc[dim]) + step * step);
+  }
+  return result;
+}
+
+}  // namespace
+
+GloveFitResult fitGlove(const std::vector<std::vector<std::string>>& sentences,
+                        const GloveFitConfig& config) {
+  GloveFitConfig checked = config;
+  common::checkConfig([&](common::ConfigVisitor& v) { checked.visit(v); },
+                      "fitGlove()");
+
+  // vocabulary by descending count, ties by code point (deterministic)
+  std::map<std::string, int64_t> counts;
+  for (const auto& sentence : sentences)
+    for (const std::string& token : sentence) ++counts[token];
+  std::vector<std::pair<std::string, int64_t>> vocab;
+  for (const auto& [word, count] : counts)
+    if (count >= config.min_count) vocab.emplace_back(word, count);
+  std::stable_sort(vocab.begin(), vocab.end(), [](const auto& a, const auto& b) {
+    return a.second > b.second;
+  });
+  VLN_CHECK_ARG(vocab.size() >= 2, "fitGlove(): the corpus has ",
+                vocab.size(), " word(s) with count >= min_count ",
+                config.min_count, " in ", sentences.size(),
+                " sentences; need at least 2");
+  std::unordered_map<std::string, int> ids;
+  for (size_t i = 0; i < vocab.size(); ++i)
+    ids.emplace(vocab[i].first, static_cast<int>(i));
+  const int vocabSize = static_cast<int>(vocab.size());
+
+  // dropped words vanish from the stream, so windows close over them
+  std::vector<std::vector<int>> idSentences;
+  idSentences.reserve(sentences.size());
+  for (const auto& sentence : sentences) {
+    std::vector<int> idSentence;
+    for (const std::string& token : sentence)
+      if (auto it = ids.find(token); it != ids.end())
+        idSentence.push_back(it->second);
+    idSentences.push_back(std::move(idSentence));
+  }
+  std::vector<CooccurrenceEntry> entries =
+      countCooccurrences(idSentences, vocabSize, config.window);
+  VLN_CHECK_ARG(!entries.empty(), "fitGlove(): no two words co-occur in the ",
+                sentences.size(), " sentences");
+  VLN_CHECK_ARG(entries.size() < (size_t{1} << 32),
+                "fitGlove(): too many co-occurrence entries (", entries.size(),
+                ")");
+
+  // glove.c's initialisation: uniform in [-0.5, 0.5] / dim, accumulators 1
+  SplitMix64 rng{static_cast<uint64_t>(config.seed)};
+  GloveParameters params;
+  params.vocab = vocabSize;
+  params.dim = config.dim;
+  params.weights.resize(params.offset(2 * vocabSize));
+  params.gradsq.assign(params.weights.size(), 1.0);
+  for (double& weight : params.weights)
+    weight = (rng.uniform() - 0.5) / config.dim;
+
+  GloveFitResult result;
+  result.cooccurrence_entries = static_cast<int64_t>(entries.size());
+  std::vector<uint32_t> order(entries.size());
+  std::iota(order.begin(), order.end(), 0u);
+  const size_t threads =
+      std::min(static_cast<size_t>(config.threads), entries.size());
+  spdlog::info("fitGlove(): {} words, {} co-occurrence entries, dim {}, {} "
+               "epochs, {} thread(s)",
+               vocabSize, entries.size(), config.dim, config.epochs, threads);
+  for (int epoch = 0; epoch < config.epochs; ++epoch) {
+    // Fisher-Yates with the seeded generator
+    for (size_t i = order.size() - 1; i > 0; --i)
+      std::swap(order[i], order[rng.next() % (i + 1)]);
+
+    ChunkResult total;
+    if (threads == 1) {
+      total = trainChunk(params, entries, order, 0, order.size(), config);
+    } else {
+      // Hogwild: contiguous slices of the shuffle, lock-free shared params
+      std::vector<ChunkResult> parts(threads);
+      std::vector<std::jthread> workers;
+      for (size_t t = 0; t < threads; ++t) {
+        size_t begin = order.size() * t / threads;
+        size_t end = order.size() * (t + 1) / threads;
+        workers.emplace_back([&, t, begin, end] {
+          parts[t] = trainChunk(params, entries, order, begin, end, config);
+        });
+      }
+      workers.clear();
+      for (const ChunkResult& part : parts) {
+        total.loss += part.loss;
+        total.skipped += part.skipped;
+      }
+    }
+    result.skipped_updates += total.skipped;
+    result.epoch_loss.push_back(total.loss /
+                                static_cast<double>(entries.size()));
+    spdlog::info("fitGlove(): epoch {}/{} loss {:.6f}", epoch + 1,
+                 config.epochs, result.epoch_loss.back());
+  }
+
+  // the saved vector is word + context (glove.c's default model 2)
+  result.vectors = WordVectors(config.dim);
+  std::vector<float> vector(static_cast<size_t>(config.dim));
+  for (int i = 0; i < vocabSize; ++i) {
+    const double* w = params.weights.data() + params.offset(i);
+    const double* c = params.weights.data() + params.offset(vocabSize + i);
+    for (int k = 0; k < config.dim; ++k)
+      vector[static_cast<size_t>(k)] = static_cast<float>(w[k] + c[k]);
+    result.vectors.add(vocab[static_cast<size_t>(i)].first, vector);
+    result.word_counts.push_back(vocab[static_cast<size_t>(i)].second);
+  }
+  return result;
+}
+
+}  // namespace vln::data
