@@ -1,0 +1,532 @@
+// Tests src/sim/Renderer.cpp, EmbreeRenderer.cpp and OsMesaRenderer.cpp:
+// exact answers on simple geometry for both backends, agreement of the two
+// backends on a small textured, vertex-coloured room, and depth
+// post-processing.
+
+#include "sim/Renderer.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <thread>
+#include <vector>
+
+#include "sim/Mesh.h"
+#include "sim/RayTracer.h"
+
+namespace vln::sim {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr RendererBackend kBackends[] = {RendererBackend::kEmbree,
+                                         RendererBackend::kOsMesa};
+
+const char* backendName(RendererBackend backend) {
+  return backend == RendererBackend::kEmbree ? "embree" : "osmesa";
+}
+
+// Appends quad a-b-c-d with per-corner uv and colour, one material and
+// object.
+void addQuad(TriangleMesh& mesh, const std::array<Vec3f, 4>& corners,
+             const std::array<Vec2f, 4>& uvs, const std::array<Rgb8, 4>& colors,
+             int material, int object) {
+  const auto base = static_cast<uint32_t>(mesh.positions.size());
+  for (int k = 0; k < 4; ++k) {
+    mesh.positions.push_back(corners[k]);
+    mesh.uvs.push_back(uvs[k]);
+    mesh.colors.push_back(colors[k]);
+  }
+  for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(base + i);
+  for (int t = 0; t < 2; ++t) {
+    mesh.triangle_material.push_back(material);
+    mesh.triangle_object.push_back(object);
+  }
+}
+
+constexpr Rgb8 kWhite{255, 255, 255};
+const std::array<Rgb8, 4> kAllWhite{kWhite, kWhite, kWhite, kWhite};
+const std::array<Vec2f, 4> kNoUv{Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero(),
+                                 Vec2f::Zero()};
+
+// An axis-aligned box as six quads (object `object`, material `material`).
+void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi,
+            const std::array<Rgb8, 4>& colors, int material, int object) {
+  const std::array<Vec2f, 4> uv{Vec2f(0, 1), Vec2f(1, 1), Vec2f(1, 0),
+                                Vec2f(0, 0)};
+  const float x0 = lo.x(), y0 = lo.y(), z0 = lo.z();
+  const float x1 = hi.x(), y1 = hi.y(), z1 = hi.z();
+  addQuad(mesh, {Vec3f(x0, y0, z1), {x1, y0, z1}, {x1, y1, z1}, {x0, y1, z1}}, uv, colors, material, object);
+  addQuad(mesh, {Vec3f(x1, y0, z0), {x0, y0, z0}, {x0, y1, z0}, {x1, y1, z0}}, uv, colors, material, object);
+  addQuad(mesh, {Vec3f(x0, y0, z0), {x0, y0, z1}, {x0, y1, z1}, {x0, y1, z0}}, uv, colors, material, object);
+  addQuad(mesh, {Vec3f(x1, y0, z1), {x1, y0, z0}, {x1, y1, z0}, {x1, y1, z1}}, uv, colors, material, object);
+  addQuad(mesh, {Vec3f(x0, y1, z1), {x1, y1, z1}, {x1, y1, z0}, {x0, y1, z0}}, uv, colors, material, object);
+  addQuad(mesh, {Vec3f(x0, y0, z0), {x1, y0, z0}, {x1, y0, z1}, {x0, y0, z1}}, uv, colors, material, object);
+}
+
+// A texture of size x size texels with a smooth pattern plus a checker, so
+// bilinear filtering and wrapping both matter.
+Texture patternTexture(int size) {
+  Texture t;
+  t.name = "pattern";
+  t.width = size;
+  t.height = size;
+  for (int y = 0; y < size; ++y) {
+    for (int x = 0; x < size; ++x) {
+      const bool checker = ((x / 4) + (y / 4)) % 2 == 0;
+      t.rgb.push_back(static_cast<uint8_t>(checker ? 230 : 60 + 4 * x));
+      t.rgb.push_back(static_cast<uint8_t>(40 + 6 * y));
+      t.rgb.push_back(static_cast<uint8_t>(checker ? 90 : 200));
+    }
+  }
+  return t;
+}
+
+// A 6 m x 6 m room (floor y = 0, ceiling y = 3) with a textured floor and
+// box, vertex-colour gradients on the walls and two semantic boxes.
+TriangleMesh testRoom() {
+  TriangleMesh mesh;
+  mesh.textures.push_back(patternTexture(32));
+  mesh.materials.push_back({"floor", {1.0f, 0.9f, 0.8f}, 0});
+  mesh.materials.push_back({"wall", {1.0f, 1.0f, 1.0f}, -1});
+  mesh.materials.push_back({"box", {0.8f, 0.7f, 0.9f}, -1});
+  mesh.materials.push_back({"textured box", {1.0f, 1.0f, 1.0f}, 0});
+
+  // floor tiles with repeating uv (wrap) and a gentle vertex tint
+  for (int i = -3; i < 3; ++i) {
+    for (int j = -3; j < 3; ++j) {
+      const float x = static_cast<float>(i);
+      const float z = static_cast<float>(j);
+      addQuad(mesh, {Vec3f(x, 0, z + 1), {x + 1, 0, z + 1}, {x + 1, 0, z}, {x, 0, z}},
+              {Vec2f(0.7f * x, 0.7f * (z + 1)), Vec2f(0.7f * (x + 1), 0.7f * (z + 1)),
+               Vec2f(0.7f * (x + 1), 0.7f * z), Vec2f(0.7f * x, 0.7f * z)},
+              {Rgb8{255, 255, 255}, Rgb8{200, 255, 230}, Rgb8{255, 210, 255},
+               Rgb8{230, 230, 180}},
+              /*material=*/0, /*object=*/-1);
+    }
+  }
+  // walls with colour gradients from floor to ceiling
+  const std::array<Rgb8, 4> wallColors{Rgb8{250, 40, 40}, Rgb8{40, 250, 40},
+                                       Rgb8{40, 40, 250}, Rgb8{250, 250, 40}};
+  addQuad(mesh, {Vec3f(-3, 0, -3), {3, 0, -3}, {3, 3, -3}, {-3, 3, -3}}, kNoUv, wallColors, 1, -1);
+  addQuad(mesh, {Vec3f(3, 0, 3), {-3, 0, 3}, {-3, 3, 3}, {3, 3, 3}}, kNoUv, wallColors, 1, -1);
+  addQuad(mesh, {Vec3f(-3, 0, 3), {-3, 0, -3}, {-3, 3, -3}, {-3, 3, 3}}, kNoUv, wallColors, 1, -1);
+  addQuad(mesh, {Vec3f(3, 0, -3), {3, 0, 3}, {3, 3, 3}, {3, 3, -3}}, kNoUv, wallColors, 1, -1);
+  addQuad(mesh, {Vec3f(-3, 3, -3), {3, 3, -3}, {3, 3, 3}, {-3, 3, 3}}, kNoUv,
+          {Rgb8{180, 180, 180}, Rgb8{160, 160, 160}, Rgb8{200, 200, 200}, Rgb8{170, 170, 170}},
+          1, -1);
+  // furniture
+  addBox(mesh, {0.5f, 0.0f, -2.0f}, {1.5f, 0.8f, -1.2f},
+         {Rgb8{220, 60, 60}, Rgb8{200, 80, 60}, Rgb8{240, 90, 90}, Rgb8{210, 70, 50}}, 2, 3);
+  addBox(mesh, {-2.0f, 0.0f, -1.0f}, {-1.2f, 1.6f, 0.2f}, kAllWhite, 3, 5);
+  return mesh;
+}
+
+struct Images {
+  std::vector<uint8_t> rgb;
+  std::vector<float> depth;
+  std::vector<int32_t> ids;
+};
+
+Images renderAll(Renderer& renderer, const CameraPose& pose,
+                 const CameraIntrinsics& camera) {
+  const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
+  Images images{std::vector<uint8_t>(pixels * 3), std::vector<float>(pixels),
+                 std::vector<int32_t>(pixels)};
+  renderer.renderRgbDepth(pose, camera, images.rgb, images.depth);
+  renderer.renderSemantic(pose, camera, images.ids);
+  return images;
+}
+
+// Pixels at or next to a depth discontinuity in either image, where the two
+// rasterisation rules may legitimately pick different surfaces. Inverse
+// depth is linear in screen space on a plane, so its second difference is
+// ~0 inside any flat surface and large across a silhouette; a hit next to a
+// miss counts as well. The edge is widened by one pixel.
+std::vector<bool> silhouetteMask(const std::vector<float>& a,
+                                 const std::vector<float>& b, int width,
+                                 int height) {
+  std::vector<bool> edge(a.size(), false);
+  auto at = [&](const std::vector<float>& image, int x, int y) {
+    x = std::clamp(x, 0, width - 1);
+    y = std::clamp(y, 0, height - 1);
+    return image[static_cast<size_t>(y) * width + x];
+  };
+  for (const auto* image : {&a, &b}) {
+    for (int y = 0; y < height; ++y) {
+      for (int x = 0; x < width; ++x) {
+        const float d = at(*image, x, y);
+        const float nx0 = at(*image, x - 1, y), nx1 = at(*image, x + 1, y);
+        const float ny0 = at(*image, x, y - 1), ny1 = at(*image, x, y + 1);
+        bool isEdge = false;
+        for (float n : {nx0, nx1, ny0, ny1})
+          if ((n > 0.0f) != (d > 0.0f)) isEdge = true;
+        if (!isEdge && d > 0.0f) {
+          const float inv = 1.0f / d;
+          const float secondX = std::abs(1.0f / nx0 - 2.0f * inv + 1.0f / nx1);
+          const float secondY = std::abs(1.0f / ny0 - 2.0f * inv + 1.0f / ny1);
+          isEdge = std::max(secondX, secondY) > 0.02f * inv + 0.002f;
+        }
+        if (isEdge) edge[static_cast<size_t>(y) * width + x] = true;
+      }
+    }
+  }
+  std::vector<bool> mask(a.size(), false);
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int qx = std::clamp(x + dx, 0, width - 1);
+          const int qy = std::clamp(y + dy, 0, height - 1);
+          if (edge[static_cast<size_t>(qy) * width + qx])
+            mask[static_cast<size_t>(y) * width + x] = true;
+        }
+  return mask;
+}
+
+// ---------------------------------------------------------------------------
+// exact answers
+// ---------------------------------------------------------------------------
+
+class RendererBackendTest : public ::testing::TestWithParam<RendererBackend> {};
+
+INSTANTIATE_TEST_SUITE_P(Backends, RendererBackendTest,
+                         ::testing::ValuesIn(kBackends),
+                         [](const auto& info) {
+                           return std::string(backendName(info.param));
+                         });
+
+TEST_P(RendererBackendTest, WallTwoMetresAwayHasDepthTwoEverywhere) {
+  TriangleMesh mesh;
+  addQuad(mesh, {Vec3f(-50, -50, -2), {50, -50, -2}, {50, 50, -2}, {-50, 50, -2}},
+          kNoUv, kAllWhite, -1, 4);
+  mesh.triangle_material.clear();
+  RayTracer tracer(mesh);
+  auto renderer = createRenderer(mesh, tracer, GetParam());
+  // a non-square image and an eye away from the origin
+  const CameraIntrinsics camera{64, 40, 90.0f};
+  CameraPose pose;
+  pose.eye = {3.0f, 1.5f, 0.0f};
+  std::vector<float> depth(64 * 40);
+  renderer->renderDepth(pose, camera, depth);
+  for (size_t p = 0; p < depth.size(); ++p)
+    ASSERT_NEAR(depth[p], 2.0f, 1e-4f) << "pixel " << p;
+  std::vector<int32_t> ids(64 * 40);
+  renderer->renderSemantic(pose, camera, ids);
+  for (int32_t id : ids) ASSERT_EQ(id, 4);
+}
+
+TEST_P(RendererBackendTest, FloorDepthMatchesAnalyticPerPixel) {
+  TriangleMesh mesh;
+  addQuad(mesh, {Vec3f(-500, 0, 500), {500, 0, 500}, {500, 0, -500}, {-500, 0, -500}},
+          kNoUv, kAllWhite, -1, -1);
+  mesh.triangle_material.clear();
+  RayTracer tracer(mesh);
+  auto renderer = createRenderer(mesh, tracer, GetParam());
+  const CameraIntrinsics camera{48, 64, 70.0f};
+  CameraPose pose;
+  pose.eye = {0.3f, 1.25f, -0.7f};
+  pose.heading = 0.6f;
+  pose.pitch = -0.35f;
+  std::vector<float> depth(48 * 64);
+  renderer->renderDepth(pose, camera, depth);
+  const Eigen::Matrix3f rotation = cameraToWorld(pose);
+  int checked = 0;
+  for (int row = 0; row < camera.height; ++row) {
+    for (int col = 0; col < camera.width; ++col) {
+      // camera-frame direction has z = -1, so the ray parameter to the floor
+      // is the z-depth
+      const Vec3f dir = rotation * pixelDirection(camera, static_cast<float>(col),
+                                                  static_cast<float>(row));
+      const float expected = dir.y() < 0.0f ? pose.eye.y() / -dir.y() : 0.0f;
+      const float got = depth[static_cast<size_t>(row) * camera.width + col];
+      if (expected == 0.0f || expected > 100.0f) {
+        // above the horizon, or beyond the floor's edge
+        continue;
+      }
+      ASSERT_NEAR(got, expected, 1e-4f * expected) << "row " << row << " col " << col;
+      ++checked;
+    }
+  }
+  // the pitch puts most of the image on the floor
+  EXPECT_GT(checked, 48 * 64 / 2);
+  // rows looking up see nothing: depth 0
+  EXPECT_EQ(depth[0], 0.0f);
+}
+
+TEST_P(RendererBackendTest, ColourIsBaseTimesVertexColourTimesTexture) {
+  // an 8x8 texture made of four 4x4 blocks; uv (0,0) at the wall's top left,
+  // so the image's first row appears at the top, as glTF defines it
+  Texture texture;
+  texture.width = 8;
+  texture.height = 8;
+  const Rgb8 blocks[2][2] = {{Rgb8{255, 0, 0}, Rgb8{0, 255, 0}},
+                             {Rgb8{0, 0, 255}, Rgb8{255, 255, 255}}};
+  for (int y = 0; y < 8; ++y)
+    for (int x = 0; x < 8; ++x)
+      for (uint8_t c : blocks[y / 4][x / 4]) texture.rgb.push_back(c);
+  TriangleMesh mesh;
+  mesh.textures.push_back(texture);
+  mesh.materials.push_back({"tex", {1.0f, 0.5f, 1.0f}, 0});
+  mesh.materials.push_back({"plain", {0.5f, 1.0f, 1.0f}, -1});
+  // left: textured wall, vertex colour (255, 255, 128)
+  const Rgb8 tint{255, 255, 128};
+  addQuad(mesh, {Vec3f(-2, -1, -1), {0, -1, -1}, {0, 1, -1}, {-2, 1, -1}},
+          {Vec2f(0, 1), Vec2f(1, 1), Vec2f(1, 0), Vec2f(0, 0)},
+          {tint, tint, tint, tint}, 0, 1);
+  // right: plain wall, vertex colour (200, 100, 50)
+  const Rgb8 plain{200, 100, 50};
+  addQuad(mesh, {Vec3f(0, -1, -1), {2, -1, -1}, {2, 1, -1}, {0, 1, -1}}, kNoUv,
+          {plain, plain, plain, plain}, 1, 2);
+  RayTracer tracer(mesh);
+  auto renderer = createRenderer(mesh, tracer, GetParam());
+  // 90 degrees at 1 m sees exactly x, y in [-1, 1]
+  const CameraIntrinsics camera{80, 80, 90.0f};
+  std::vector<uint8_t> rgb(80 * 80 * 3);
+  renderer->renderRgb(CameraPose{}, camera, rgb);
+  auto pixel = [&](int col, int row) {
+    const uint8_t* p = &rgb[(static_cast<size_t>(row) * 80 + col) * 3];
+    return Rgb8{p[0], p[1], p[2]};
+  };
+  auto expectNear = [](Rgb8 got, Rgb8 want, const char* where) {
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(got[c], want[c], 1) << where << " channel " << c;
+  };
+  // texture blocks (x in [-1, 0] covers u in [0.5, 1]): top-right quarter of
+  // the texture is green, bottom-right white
+  // green (0,255,0) x base (1,.5,1) x tint (1,1,128/255)
+  expectNear(pixel(20, 20), Rgb8{0, 128, 0}, "textured top");
+  // white x base x tint = (255, 128, 128)
+  expectNear(pixel(20, 60), Rgb8{255, 128, 128}, "textured bottom");
+  // plain: (200,100,50) x (0.5,1,1)
+  expectNear(pixel(60, 20), Rgb8{100, 100, 50}, "plain top");
+  expectNear(pixel(60, 60), Rgb8{100, 100, 50}, "plain bottom");
+  std::vector<int32_t> ids(80 * 80);
+  renderer->renderSemantic(CameraPose{}, camera, ids);
+  EXPECT_EQ(ids[20 * 80 + 20], 1);
+  EXPECT_EQ(ids[60 * 80 + 60], 2);
+}
+
+TEST_P(RendererBackendTest, HeadingAndPitchFollowTheAgentConvention) {
+  // one marker quad on each side of the camera; heading +90 deg (a left
+  // turn) must bring the one on the left (-X) into view, pitch +90 deg the
+  // one above
+  TriangleMesh mesh;
+  auto marker = [&](const Vec3f& centre, const Vec3f& u, const Vec3f& v, int object) {
+    addQuad(mesh, {centre - u - v, centre + u - v, centre + u + v, centre - u + v},
+            kNoUv, kAllWhite, -1, object);
+  };
+  marker({-3, 0, 0}, {0, 0, 1}, {0, 1, 0}, 10);  // left
+  marker({3, 0, 0}, {0, 0, 1}, {0, 1, 0}, 11);   // right
+  marker({0, 3, 0}, {1, 0, 0}, {0, 0, 1}, 12);   // above
+  marker({0, 0, -3}, {1, 0, 0}, {0, 1, 0}, 13);  // ahead
+  mesh.triangle_material.clear();
+  RayTracer tracer(mesh);
+  auto renderer = createRenderer(mesh, tracer, GetParam());
+  const CameraIntrinsics camera{16, 16, 60.0f};
+  std::vector<int32_t> ids(16 * 16);
+  auto centreId = [&](float heading, float pitch) {
+    renderer->renderSemantic(CameraPose{Vec3f::Zero(), heading, pitch}, camera, ids);
+    return ids[8 * 16 + 8];
+  };
+  EXPECT_EQ(centreId(0.0f, 0.0f), 13);
+  EXPECT_EQ(centreId(kPi / 2, 0.0f), 10);
+  EXPECT_EQ(centreId(-kPi / 2, 0.0f), 11);
+  EXPECT_EQ(centreId(0.0f, kPi / 2 - 0.01f), 12);
+}
+
+TEST_P(RendererBackendTest, RejectsWrongBuffersAndIntrinsics) {
+  TriangleMesh mesh = testRoom();
+  RayTracer tracer(mesh);
+  auto renderer = createRenderer(mesh, tracer, GetParam());
+  std::vector<uint8_t> rgb(10);
+  try {
+    renderer->renderRgb(CameraPose{}, CameraIntrinsics{4, 4, 90.0f}, rgb);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("renderRgb()"));
+    EXPECT_THAT(e.what(), HasSubstr("48"));
+  }
+  std::vector<float> depth(16);
+  EXPECT_THROW(renderer->renderDepth(CameraPose{}, CameraIntrinsics{4, 4, 180.0f}, depth),
+               std::invalid_argument);
+  EXPECT_THROW(renderer->renderDepth(CameraPose{Vec3f(NAN, 0, 0), 0, 0},
+                                     CameraIntrinsics{4, 4, 90.0f}, depth),
+               std::invalid_argument);
+  std::vector<float> none;
+  EXPECT_THROW(renderer->renderDepth(CameraPose{}, CameraIntrinsics{0, 4, 90.0f}, none),
+               std::invalid_argument);
+}
+
+TEST_P(RendererBackendTest, ImageSizeMayChangeBetweenRenders) {
+  TriangleMesh mesh = testRoom();
+  RayTracer tracer(mesh);
+  auto renderer = createRenderer(mesh, tracer, GetParam());
+  const CameraPose pose{Vec3f(0, 1.25f, 1), 0.3f, 0.0f};
+  for (CameraIntrinsics camera : {CameraIntrinsics{32, 32, 90.0f},
+                                  CameraIntrinsics{37, 23, 75.0f},
+                                  CameraIntrinsics{32, 32, 90.0f}}) {
+    std::vector<float> depth(static_cast<size_t>(camera.width) * camera.height);
+    renderer->renderDepth(pose, camera, depth);
+    // inside a closed room every pixel hits within the room's diagonal
+    for (float d : depth) {
+      ASSERT_GT(d, 0.0f);
+      ASSERT_LT(d, 9.0f);
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
+// backend agreement
+// ---------------------------------------------------------------------------
+
+TEST(RendererAgreementTest, EmbreeAndOsMesaAgreeOnTestRoom) {
+  TriangleMesh mesh = testRoom();
+  RayTracer tracer(mesh);
+  auto embree = createRenderer(mesh, tracer, RendererBackend::kEmbree);
+  auto osmesa = createRenderer(mesh, tracer, RendererBackend::kOsMesa);
+  const std::vector<std::pair<CameraPose, CameraIntrinsics>> views = {
+      {{Vec3f(0, 1.25f, 2), 0.0f, 0.0f}, {96, 96, 90.0f}},
+      {{Vec3f(0.4f, 1.25f, 1.5f), 0.5f, -0.3f}, {128, 72, 90.0f}},
+      {{Vec3f(-0.5f, 1.0f, 0.5f), 2.4f, 0.2f}, {64, 96, 70.0f}},
+      {{Vec3f(2.0f, 0.5f, 2.0f), 0.8f, -0.1f}, {96, 96, 110.0f}},
+      {{Vec3f(1.0f, 1.25f, 0.0f), -1.9f, -0.6f}, {80, 80, 90.0f}},
+  };
+  for (const auto& [pose, camera] : views) {
+    SCOPED_TRACE(::testing::Message() << "heading " << pose.heading << " pitch "
+                                      << pose.pitch << " size " << camera.width
+                                      << "x" << camera.height);
+    const Images a = renderAll(*embree, pose, camera);
+    const Images b = renderAll(*osmesa, pose, camera);
+    const auto silhouette = silhouetteMask(a.depth, b.depth, camera.width, camera.height);
+
+    // depth: median over all pixels, tail over non-silhouette pixels
+    std::vector<float> diffs;
+    size_t interior = 0;
+    size_t allWithin = 0;
+    size_t within5cm = 0;
+    size_t idMatches = 0;
+    double colorError = 0.0;
+    size_t colorWithin = 0;
+    for (size_t p = 0; p < a.depth.size(); ++p) {
+      const float diff = std::abs(a.depth[p] - b.depth[p]);
+      diffs.push_back(diff);
+      if (diff < 0.05f) ++allWithin;
+      if (silhouette[p]) continue;
+      ++interior;
+      if (diff < 0.05f) ++within5cm;
+      if (a.ids[p] == b.ids[p]) ++idMatches;
+      int worst = 0;
+      for (int c = 0; c < 3; ++c) {
+        const int d = std::abs(int(a.rgb[3 * p + c]) - int(b.rgb[3 * p + c]));
+        colorError += d;
+        worst = std::max(worst, d);
+      }
+      if (worst <= 3) ++colorWithin;
+    }
+    std::nth_element(diffs.begin(), diffs.begin() + diffs.size() / 2, diffs.end());
+    const float median = diffs[diffs.size() / 2];
+    EXPECT_LT(median, 0.01f);
+    ASSERT_GT(interior, a.depth.size() * 8 / 10);
+    EXPECT_GE(static_cast<double>(within5cm), 0.99 * interior);
+    // silhouettes themselves mostly agree too: both sample pixel centres
+    EXPECT_GE(static_cast<double>(allWithin), 0.99 * a.depth.size());
+    EXPECT_GE(static_cast<double>(idMatches), 0.995 * interior);
+    // colour: bilinear weights in llvmpipe are 8-bit fixed point, so a level
+    // or two of difference is expected; the mean stays well under one level
+    EXPECT_LT(colorError / (3.0 * interior), 0.5);
+    EXPECT_GE(static_cast<double>(colorWithin), 0.995 * interior);
+  }
+}
+
+// ---------------------------------------------------------------------------
+// OSMesa context handling
+// ---------------------------------------------------------------------------
+
+TEST(OsMesaRendererTest, RendersFromAnotherThreadAndInterleavedRenderers) {
+  TriangleMesh room = testRoom();
+  TriangleMesh wall;
+  addQuad(wall, {Vec3f(-50, -50, -2), {50, -50, -2}, {50, 50, -2}, {-50, 50, -2}},
+          kNoUv, kAllWhite, -1, -1);
+  wall.triangle_material.clear();
+  RayTracer roomTracer(room);
+  RayTracer wallTracer(wall);
+  auto first = createRenderer(room, roomTracer, RendererBackend::kOsMesa);
+  auto second = createRenderer(wall, wallTracer, RendererBackend::kOsMesa);
+  const CameraIntrinsics camera{40, 30, 90.0f};
+  const CameraPose pose{Vec3f(0, 1.25f, 1), 0.4f, -0.1f};
+  std::vector<float> reference(40 * 30);
+  first->renderDepth(pose, camera, reference);
+
+  // interleaving two contexts on one thread must switch between them
+  std::vector<float> wallDepth(40 * 30);
+  std::vector<float> again(40 * 30);
+  second->renderDepth(CameraPose{}, camera, wallDepth);
+  first->renderDepth(pose, camera, again);
+  EXPECT_EQ(again, reference);
+  for (float d : wallDepth) ASSERT_NEAR(d, 2.0f, 1e-4f);
+
+  // a renderer moves to another thread (used there, never concurrently)
+  std::vector<float> fromThread(40 * 30);
+  std::thread worker([&] { first->renderDepth(pose, camera, fromThread); });
+  worker.join();
+  EXPECT_EQ(fromThread, reference);
+  first->renderDepth(pose, camera, again);
+  EXPECT_EQ(again, reference);
+}
+
+// ---------------------------------------------------------------------------
+// postprocessDepth
+// ---------------------------------------------------------------------------
+
+TEST(PostprocessDepthTest, ClipsMissesAndNormalises) {
+  DepthCameraConfig config;  // VLN-CE: MIN_DEPTH 0, MAX_DEPTH 10, normalised
+  std::vector<float> depth = {0.0f, 2.5f, 10.0f, 12.0f, NAN};
+  postprocessDepth(config, depth);
+  EXPECT_THAT(depth, ::testing::ElementsAre(1.0f, 0.25f, 1.0f, 1.0f, 1.0f));
+
+  config.min_depth = 0.5f;
+  config.max_depth = 4.5f;
+  config.normalize_depth = false;
+  depth = {0.0f, 0.1f, 2.0f, 7.0f};
+  postprocessDepth(config, depth);
+  EXPECT_THAT(depth, ::testing::ElementsAre(4.5f, 0.5f, 2.0f, 4.5f));
+
+  config.normalize_depth = true;
+  depth = {0.0f, 0.1f, 2.5f, 7.0f};
+  postprocessDepth(config, depth);
+  EXPECT_THAT(depth, ::testing::ElementsAre(1.0f, 0.0f, 0.5f, 1.0f));
+
+  config.min_depth = 5.0f;
+  config.max_depth = 5.0f;
+  try {
+    postprocessDepth(config, depth);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("min_depth"));
+  }
+}
+
+TEST(CameraModelTest, PixelDirectionsAndRotation) {
+  const CameraIntrinsics square{4, 4, 90.0f};
+  // pixel centres at (i + 0.5): the corner pixel is 3/4 of the way out
+  EXPECT_TRUE(pixelDirection(square, 0, 0).isApprox(Vec3f(-0.75f, 0.75f, -1.0f)));
+  EXPECT_TRUE(pixelDirection(square, 3, 3).isApprox(Vec3f(0.75f, -0.75f, -1.0f)));
+  // non-square: the vertical extent follows the aspect ratio
+  const CameraIntrinsics wide{8, 4, 90.0f};
+  EXPECT_NEAR(tanHalfVerticalFov(wide), 0.5f, 1e-6f);
+  EXPECT_TRUE(pixelDirection(wide, 0, 0).isApprox(Vec3f(-0.875f, 0.375f, -1.0f)));
+  // heading rotates the view like the agent (Math.h), pitch tilts it up
+  CameraPose pose;
+  pose.heading = 0.7f;
+  EXPECT_TRUE((cameraToWorld(pose) * Vec3f(0, 0, -1)).isApprox(headingToForward(0.7f)));
+  pose.pitch = 0.3f;
+  const Vec3f forward = cameraToWorld(pose) * Vec3f(0, 0, -1);
+  EXPECT_NEAR(forward.y(), std::sin(0.3f), 1e-6f);
+  EXPECT_NEAR(forwardToHeading(forward), 0.7f, 1e-6f);
+}
+
+}  // namespace
+}  // namespace vln::sim
