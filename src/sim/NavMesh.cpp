@@ -266,6 +266,7 @@ struct NavMesh::Impl {
   std::optional<Located> locateNavigable(const dtNavMeshQuery& query,
                                          const Vec3f& p,
                                          float maxYDelta) const;
+  bool walkable(const dtPoly& poly) const;
   float findCorners(QueryContext& context, const Vec3f& from, const Vec3f& to,
                     std::vector<Vec3f>* corners) const;
 
@@ -321,6 +322,14 @@ NavMesh::Impl::Lease NavMesh::Impl::acquire() const {
 void NavMesh::Impl::release(std::unique_ptr<QueryContext> context) const {
   std::lock_guard<std::mutex> lock(poolMutex);
   pool.push_back(std::move(context));
+}
+
+// dtQueryFilter::passFilter for non-virtual filters, which Detour defines
+// inline in its own translation unit and so does not export.
+bool NavMesh::Impl::walkable(const dtPoly& poly) const {
+  return poly.getType() != DT_POLYTYPE_OFFMESH_CONNECTION &&
+         (poly.flags & filter.getIncludeFlags()) != 0 &&
+         (poly.flags & filter.getExcludeFlags()) == 0;
 }
 
 int NavMesh::Impl::globalIndex(dtPolyRef ref) const {
@@ -442,8 +451,7 @@ void NavMesh::Impl::buildIslands() {
     for (int ip = 0; ip < tile->header->polyCount; ++ip) {
       const dtPoly* poly = &tile->polys[ip];
       const dtPolyRef seed = base | static_cast<dtPolyRef>(ip);
-      if (poly->getType() == DT_POLYTYPE_OFFMESH_CONNECTION ||
-          !filter.passFilter(seed, tile, poly) ||
+      if (!walkable(*poly) ||
           polyIsland[static_cast<size_t>(globalIndex(seed))] >= 0)
         continue;
       const int island = static_cast<int>(areas.size());
@@ -467,9 +475,7 @@ void NavMesh::Impl::buildIslands() {
           const dtPoly* np = nullptr;
           nav.getTileAndPolyByRefUnsafe(next, &nt, &np);
           int& slot = polyIsland[static_cast<size_t>(globalIndex(next))];
-          if (slot >= 0 || np->getType() == DT_POLYTYPE_OFFMESH_CONNECTION ||
-              !filter.passFilter(next, nt, np))
-            continue;
+          if (slot >= 0 || !walkable(*np)) continue;
           slot = island;
           stack.push_back(next);
         }

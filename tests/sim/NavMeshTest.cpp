@@ -1,0 +1,555 @@
+#include "sim/NavMesh.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <thread>
+#include <vector>
+
+#include "common/FileIo.h"
+#include "support/TestPaths.h"
+
+namespace vln::sim {
+namespace {
+
+using ::testing::HasSubstr;
+
+// ---------------------------------------------------------------------------
+// inline geometry
+// ---------------------------------------------------------------------------
+
+// Appends an axis-aligned box with outward-facing (counter-clockwise seen
+// from outside) triangles.
+void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
+  const auto base = static_cast<uint32_t>(mesh.positions.size());
+  for (int i = 0; i < 8; ++i)
+    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(),
+                                i & 4 ? hi.z() : lo.z());
+  const Vec3f center = (lo + hi) / 2.0f;
+  const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                           {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
+  for (const auto& q : quads) {
+    const Vec3f& a = mesh.positions[base + q[0]];
+    const Vec3f& b = mesh.positions[base + q[1]];
+    const Vec3f& c = mesh.positions[base + q[2]];
+    const Vec3f& d = mesh.positions[base + q[3]];
+    const bool outward =
+        (b - a).cross(c - a).dot((a + c) / 2.0f - center) > 0.0f;
+    const uint32_t i0 = base + q[0], i1 = base + q[1], i2 = base + q[2],
+                   i3 = base + q[3];
+    if (outward)
+      mesh.indices.insert(mesh.indices.end(), {i0, i1, i2, i0, i2, i3});
+    else
+      mesh.indices.insert(mesh.indices.end(), {i0, i2, i1, i0, i3, i2});
+    static_cast<void>(d);
+  }
+}
+
+constexpr float kWall = 0.12f;       // wall thickness, m
+constexpr float kWallTop = 2.5f;     // wall height, m
+constexpr float kSlab = 0.1f;        // floor slab thickness, m
+
+// An L-shaped corridor with 1.2 m wide legs: leg 1 spans x in [0, 6],
+// z in [0, 1.2]; leg 2 spans x in [4.8, 6], z in [0, 6]. The inner (reflex)
+// corner of the free space is at (4.8, 1.2). Walls surround it.
+TriangleMesh lCorridor() {
+  TriangleMesh m;
+  addBox(m, {0, -kSlab, 0}, {6, 0, 1.2f});
+  addBox(m, {4.8f, -kSlab, 1.2f}, {6, 0, 6});
+  addBox(m, {-kWall, -kSlab, -kWall}, {6 + kWall, kWallTop, 0});        // south
+  addBox(m, {6, -kSlab, -kWall}, {6 + kWall, kWallTop, 6 + kWall});     // east
+  addBox(m, {-kWall, -kSlab, 1.2f}, {4.8f, kWallTop, 1.2f + kWall});    // leg 1 north
+  addBox(m, {4.8f - kWall, -kSlab, 1.2f}, {4.8f, kWallTop, 6 + kWall}); // leg 2 west
+  addBox(m, {-kWall, -kSlab, -kWall}, {0, kWallTop, 1.2f + kWall});     // leg 1 end
+  addBox(m, {4.8f - kWall, -kSlab, 6}, {6 + kWall, kWallTop, 6 + kWall}); // leg 2 end
+  return m;
+}
+
+// A walled 6 x 6 m room (x, z in [0, 6]) with a solid 1.5 x 1.5 m table,
+// 0.75 m high, in its middle.
+constexpr float kTableLo = 2.25f, kTableHi = 3.75f, kTableTop = 0.75f;
+TriangleMesh roomWithTable() {
+  TriangleMesh m;
+  addBox(m, {0, -kSlab, 0}, {6, 0, 6});
+  addBox(m, {-kWall, -kSlab, -kWall}, {6 + kWall, kWallTop, 0});
+  addBox(m, {-kWall, -kSlab, 6}, {6 + kWall, kWallTop, 6 + kWall});
+  addBox(m, {-kWall, -kSlab, 0}, {0, kWallTop, 6});
+  addBox(m, {6, -kSlab, 0}, {6 + kWall, kWallTop, 6});
+  addBox(m, {kTableLo, 0, kTableLo}, {kTableHi, kTableTop, kTableHi});
+  return m;
+}
+
+// Recast erodes by ceil(agent_radius / cell_size) cells measured from the
+// first blocked cell, so a wall face that falls inside a cell moves the
+// navmesh edge between agent_radius and agent_radius + cell_size away from
+// it: the middle of that range is the expected inset.
+float expectedInset(const NavMeshConfig& c) {
+  return c.agent_radius + c.cell_size / 2.0f;
+}
+
+class NavMeshTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    corridor_ = NavMesh::build(lCorridor(), NavMeshConfig{}).release();
+    room_ = NavMesh::build(roomWithTable(), NavMeshConfig{}).release();
+  }
+  static void TearDownTestSuite() {
+    delete corridor_;
+    delete room_;
+    corridor_ = room_ = nullptr;
+  }
+  static const NavMesh& corridor() { return *corridor_; }
+  static const NavMesh& room() { return *room_; }
+
+ private:
+  static NavMesh* corridor_;
+  static NavMesh* room_;
+};
+NavMesh* NavMeshTest::corridor_ = nullptr;
+NavMesh* NavMeshTest::room_ = nullptr;
+
+// ---------------------------------------------------------------------------
+// geodesic distances in the L corridor
+// ---------------------------------------------------------------------------
+
+TEST_F(NavMeshTest, StraightCorridorDistanceIsEuclidean) {
+  // both points in leg 1, on the same line: no corner in between
+  const Vec3f a(0.8f, 0.0f, 0.6f), b(4.0f, 0.0f, 0.6f);
+  EXPECT_NEAR(corridor().geodesicDistance(a, b), 3.2f, 1e-4f);
+  EXPECT_NEAR(corridor().geodesicDistance(b, a), 3.2f, 1e-4f);
+  const auto path = corridor().shortestPath(a, b);
+  ASSERT_EQ(path.size(), 2u);
+  EXPECT_NEAR(path.front().x(), a.x(), 1e-5f);
+  EXPECT_NEAR(path.back().z(), b.z(), 1e-5f);
+}
+
+TEST_F(NavMeshTest, CornerDistanceMatchesAnalyticPath) {
+  // leg 1 to leg 2: the straight line is blocked, the path bends around the
+  // reflex corner (4.8, 1.2). The agent's centre stays `inset` away from the
+  // walls, so analytically the path is A -> K -> B with K the corner of the
+  // shrunk free space.
+  const NavMeshConfig c;
+  const Vec2f a2(1.0f, 0.6f), b2(5.4f, 5.0f);
+  const float inset = expectedInset(c);
+  const Vec2f k(4.8f + inset, 1.2f - inset);
+  const float expected = (k - a2).norm() + (b2 - k).norm();
+  // Recast may move that corner by half a cell per axis (where the wall
+  // falls inside a voxel) plus edge_max_error cells (contour
+  // simplification); a corner moved by s changes the length by at most
+  // |grad_K| * s with grad_K = unit(K - A) + unit(K - B).
+  const float shift = c.cell_size * (std::sqrt(2.0f) / 2.0f + c.edge_max_error);
+  const float gradient =
+      ((k - a2).normalized() + (k - b2).normalized()).norm();
+  const float tolerance = gradient * shift;  // 0.12 m for the defaults
+
+  const Vec3f a(a2.x(), 0.0f, a2.y()), b(b2.x(), 0.0f, b2.y());
+  const float d = corridor().geodesicDistance(a, b);
+  EXPECT_NEAR(d, expected, tolerance);
+  // the tolerance still tells the agent radius apart: a point agent (corner
+  // at (4.8, 1.2)) would be further off
+  const Vec2f bare(4.8f, 1.2f);
+  EXPECT_GT(std::abs(d - ((bare - a2).norm() + (b2 - bare).norm())), tolerance);
+  EXPECT_NEAR(corridor().geodesicDistance(b, a), d, 1e-4f);
+
+  // the path turns at the corner: an interior corner near (4.8, 1.2)
+  const auto path = corridor().shortestPath(a, b);
+  ASSERT_GE(path.size(), 3u);
+  for (size_t i = 1; i + 1 < path.size(); ++i) {
+    EXPECT_NEAR(path[i].x(), 4.8f, 0.25f);
+    EXPECT_NEAR(path[i].z(), 1.2f, 0.25f);
+  }
+  float length = 0.0f;
+  for (size_t i = 1; i < path.size(); ++i)
+    length += (path[i] - path[i - 1]).norm();
+  EXPECT_NEAR(length, d, 1e-4f);
+}
+
+TEST_F(NavMeshTest, SamePointHasZeroDistance) {
+  const Vec3f a(2.0f, 0.0f, 0.6f);
+  EXPECT_EQ(corridor().geodesicDistance(a, a), 0.0f);
+}
+
+TEST_F(NavMeshTest, PointsFarFromTheNavmeshAreUnreachable) {
+  const Vec3f a(1.0f, 0.0f, 0.6f);
+  EXPECT_EQ(corridor().geodesicDistance(a, {30.0f, 0.0f, 30.0f}), kUnreachable);
+  EXPECT_EQ(corridor().geodesicDistance({30.0f, 0.0f, 30.0f}, a), kUnreachable);
+  EXPECT_TRUE(corridor().shortestPath(a, {30.0f, 0.0f, 30.0f}).empty());
+}
+
+// ---------------------------------------------------------------------------
+// islands: the table top is its own island
+// ---------------------------------------------------------------------------
+
+TEST_F(NavMeshTest, TableTopIsASeparateIsland) {
+  const Vec3f floorPoint(1.0f, 0.0f, 1.0f);
+  const Vec3f tablePoint(3.0f, kTableTop, 3.0f);
+  ASSERT_TRUE(room().isNavigable(floorPoint));
+  ASSERT_TRUE(room().isNavigable(tablePoint));
+  EXPECT_EQ(room().islandCount(), 2);
+  EXPECT_EQ(room().islandIndex(floorPoint), 0);  // largest island
+  EXPECT_EQ(room().islandIndex(tablePoint), 1);
+  EXPECT_EQ(room().geodesicDistance(floorPoint, tablePoint), kUnreachable);
+  EXPECT_TRUE(room().shortestPath(floorPoint, tablePoint).empty());
+  EXPECT_EQ(room().islandIndex({30.0f, 0.0f, 30.0f}), -1);
+}
+
+TEST_F(NavMeshTest, IslandAreasMatchTheFloorPlan) {
+  // floor: the room minus the table, both shrunk/grown by the inset (0.1 to
+  // 0.15 m); 0.1 m inset gives 5.8^2 - 1.7^2 = 30.75 m^2, 0.15 m gives
+  // 5.7^2 - 1.8^2 = 29.25 m^2
+  EXPECT_GT(room().islandArea(0), 29.0f);
+  EXPECT_LT(room().islandArea(0), 31.0f);
+  // table top: the ledge filter drops the rim cell, erosion two more, so
+  // 0.1 to 0.2 m comes off each side: 1.1^2 = 1.21 to 1.3^2 = 1.69 m^2
+  EXPECT_GT(room().islandArea(1), 1.1f);
+  EXPECT_LT(room().islandArea(1), 1.75f);
+  EXPECT_NEAR(room().navigableArea(), room().islandArea(0) + room().islandArea(1),
+              1e-3f);
+  EXPECT_GT(room().polygonCount(), 2);
+  EXPECT_THROW(room().islandArea(2), std::invalid_argument);
+
+  // triangles() covers exactly the navigable area
+  float area = 0.0f;
+  for (const auto& t : room().triangles()) {
+    const Vec3f n = (t[1] - t[0]).cross(t[2] - t[0]);
+    EXPECT_GE(n.y(), 0.0f);  // faces up
+    area += 0.5f * n.norm();
+  }
+  EXPECT_NEAR(area, room().navigableArea(), 1e-2f);
+}
+
+// ---------------------------------------------------------------------------
+// snapping and navigability
+// ---------------------------------------------------------------------------
+
+TEST_F(NavMeshTest, SnapPointProjectsOntoTheSurface) {
+  // from above: same x, z; y on the floor (quantised to cell_height)
+  const auto snapped = room().snapPoint({1.0f, 1.0f, 1.0f});
+  ASSERT_TRUE(snapped.has_value());
+  EXPECT_NEAR(snapped->x(), 1.0f, 1e-5f);
+  EXPECT_NEAR(snapped->z(), 1.0f, 1e-5f);
+  EXPECT_NEAR(snapped->y(), 0.0f, NavMeshConfig{}.cell_height);
+
+  // from inside a wall: onto the navmesh edge, one inset from the wall face
+  const auto edge = room().snapPoint({-0.06f, 0.0f, 1.0f});
+  ASSERT_TRUE(edge.has_value());
+  EXPECT_NEAR(edge->x(), expectedInset(NavMeshConfig{}), 0.03f);
+  EXPECT_NEAR(edge->z(), 1.0f, 1e-4f);
+
+  // nothing within the search box
+  EXPECT_FALSE(room().snapPoint({30.0f, 0.0f, 30.0f}).has_value());
+  EXPECT_FALSE(room().snapPoint({1.0f, 5.0f, 1.0f}, {0.5f, 1.0f, 0.5f}).has_value());
+}
+
+TEST_F(NavMeshTest, IsNavigableOnAndOffTheMesh) {
+  EXPECT_TRUE(room().isNavigable({1.0f, 0.0f, 1.0f}));
+  EXPECT_TRUE(room().isNavigable({1.0f, 0.3f, 1.0f}));   // within maxYDelta
+  EXPECT_FALSE(room().isNavigable({1.0f, 1.0f, 1.0f}));  // too high above
+  EXPECT_FALSE(room().isNavigable({1.0f, 0.3f, 1.0f}, /*maxYDelta=*/0.05f));
+  EXPECT_FALSE(room().isNavigable({0.04f, 0.0f, 1.0f}));  // inside the inset
+  EXPECT_FALSE(room().isNavigable({-0.06f, 0.0f, 1.0f}));  // inside a wall
+  EXPECT_FALSE(room().isNavigable({3.0f, 0.0f, 3.0f}));   // under the table
+  EXPECT_FALSE(room().isNavigable({30.0f, 0.0f, 30.0f}));
+}
+
+TEST_F(NavMeshTest, DistanceToObstacleIsDistanceToTheNavmeshEdge) {
+  // 1 m from the west wall and > 1.25 m from anything else
+  EXPECT_NEAR(room().distanceToObstacle({1.0f, 0.0f, 1.5f}),
+              1.0f - expectedInset(NavMeshConfig{}), 0.03f);
+  // the search radius caps the answer
+  EXPECT_NEAR(room().distanceToObstacle({1.0f, 0.0f, 1.5f}, /*maxRadius=*/0.5f),
+              0.5f, 1e-5f);
+  EXPECT_EQ(room().distanceToObstacle({30.0f, 0.0f, 30.0f}), 0.0f);
+}
+
+// ---------------------------------------------------------------------------
+// moving over the surface
+// ---------------------------------------------------------------------------
+
+TEST_F(NavMeshTest, MoveAlongSurfaceInTheOpenReachesTheTarget) {
+  const Vec3f from = *room().snapPoint({1.0f, 0.0f, 1.0f});
+  const Vec3f to = from + Vec3f(0.2f, 0.0f, 0.1f);
+  const Vec3f reached = room().moveAlongSurface(from, to);
+  EXPECT_NEAR(reached.x(), to.x(), 1e-5f);
+  EXPECT_NEAR(reached.z(), to.z(), 1e-5f);
+  EXPECT_NEAR(reached.y(), from.y(), 1e-4f);
+  EXPECT_EQ(room().moveNoSliding(from, to), reached);
+}
+
+TEST_F(NavMeshTest, MoveIntoAWallStopsAtTheEdge) {
+  const Vec3f from = *room().snapPoint({0.4f, 0.0f, 1.0f});
+  const Vec3f into = from + Vec3f(-1.0f, 0.0f, 0.0f);
+  const Vec3f reached = room().moveAlongSurface(from, into);
+  EXPECT_NEAR(reached.x(), expectedInset(NavMeshConfig{}), 0.03f);
+  EXPECT_NEAR(reached.z(), 1.0f, 1e-4f);
+  EXPECT_TRUE(room().isNavigable(reached));
+  EXPECT_EQ(room().moveNoSliding(from, into), from);
+}
+
+// ---------------------------------------------------------------------------
+// random points
+// ---------------------------------------------------------------------------
+
+TEST_F(NavMeshTest, RandomPointsAreNavigableAndReproducible) {
+  std::mt19937_64 a(7), b(7);
+  int onTable = 0;
+  constexpr int kSamples = 2000;
+  for (int i = 0; i < kSamples; ++i) {
+    const Vec3f p = room().randomPoint(a);
+    EXPECT_EQ(p, room().randomPoint(b));
+    ASSERT_TRUE(room().isNavigable(p)) << p.transpose();
+    onTable += room().islandIndex(p) == 1 ? 1 : 0;
+  }
+  // area-weighted: the table's share of samples matches its share of area
+  // within 4 binomial standard deviations
+  const double share = room().islandArea(1) / room().navigableArea();
+  const double sigma = std::sqrt(share * (1 - share) / kSamples);
+  EXPECT_NEAR(onTable / double(kSamples), share, 4 * sigma);
+}
+
+TEST_F(NavMeshTest, RandomPointsOnAnIslandStayOnIt) {
+  std::mt19937_64 rng(3);
+  for (int i = 0; i < 200; ++i) {
+    const Vec3f p = room().randomPoint(rng, /*island=*/1);
+    EXPECT_EQ(room().islandIndex(p), 1);
+    EXPECT_GT(p.x(), kTableLo);
+    EXPECT_LT(p.x(), kTableHi);
+    EXPECT_NEAR(p.y(), kTableTop, NavMeshConfig{}.cell_height);
+  }
+  EXPECT_THROW(room().randomPoint(rng, 2), std::invalid_argument);
+  EXPECT_THROW(room().randomPoint(rng, -2), std::invalid_argument);
+}
+
+TEST(NavMeshUniformity, RandomPointsCoverAnOpenFloorEvenly) {
+  // one 4 x 4 m slab: quadrant counts are uniform (chi-square, 3 dof,
+  // 99.9% quantile 16.27)
+  TriangleMesh slab;
+  addBox(slab, {0, -kSlab, 0}, {4, 0, 4});
+  const auto nav = NavMesh::build(slab, NavMeshConfig{});
+  std::mt19937_64 rng(11);
+  int counts[4] = {0, 0, 0, 0};
+  constexpr int kSamples = 4000;
+  for (int i = 0; i < kSamples; ++i) {
+    const Vec3f p = nav->randomPoint(rng);
+    ++counts[(p.x() > 2.0f ? 1 : 0) + (p.z() > 2.0f ? 2 : 0)];
+  }
+  double chi2 = 0.0;
+  for (int c : counts) chi2 += std::pow(c - kSamples / 4.0, 2) / (kSamples / 4.0);
+  EXPECT_LT(chi2, 16.27);
+}
+
+// ---------------------------------------------------------------------------
+// build failures
+// ---------------------------------------------------------------------------
+
+TEST(NavMeshBuild, NothingWalkableThrows) {
+  // a lone vertical wall: no upward-facing surface survives
+  TriangleMesh wall;
+  addBox(wall, {0, 0, 0}, {4, 2.5f, 0.1f});
+  try {
+    NavMesh::build(wall, NavMeshConfig{});
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no walkable surface"));
+  }
+}
+
+TEST(NavMeshBuild, EmptyMeshAndBadConfigThrow) {
+  EXPECT_THROW(NavMesh::build(TriangleMesh{}, NavMeshConfig{}),
+               std::invalid_argument);
+  TriangleMesh slab;
+  addBox(slab, {0, -kSlab, 0}, {4, 0, 4});
+  NavMeshConfig bad;
+  bad.cell_size = -1.0f;
+  try {
+    NavMesh::build(slab, bad);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cell_size"));
+  }
+}
+
+TEST(NavMeshBuild, SteepRampIsNotWalkableButAGentleOneIs) {
+  // a 4 m long ramp rising 1 m (14 degrees) joins two floors; at 60
+  // degrees it would exceed agent_max_slope = 45
+  TriangleMesh m;
+  addBox(m, {0, -kSlab, 0}, {3, 0, 2});
+  addBox(m, {7, 1.0f - kSlab, 0}, {10, 1.0f, 2});
+  const auto base = static_cast<uint32_t>(m.positions.size());
+  m.positions.insert(m.positions.end(),
+                     {{3, 0, 0}, {7, 1, 0}, {7, 1, 2}, {3, 0, 2}});
+  m.indices.insert(m.indices.end(),
+                   {base, base + 3, base + 2, base, base + 2, base + 1});
+  const auto nav = NavMesh::build(m, NavMeshConfig{});
+  const Vec3f low(1.5f, 0.0f, 1.0f), high(8.5f, 1.0f, 1.0f);
+  EXPECT_EQ(nav->islandIndex(low), nav->islandIndex(high));
+  // Detour string-pulls in the horizontal plane, so a path that never turns
+  // sideways keeps only its end points and its length is their 3-D distance
+  // (as in Habitat): sqrt(7^2 + 1^2); end heights are exact to within a
+  // fraction of cell_height, which changes the length by < 0.02 m
+  EXPECT_NEAR(nav->geodesicDistance(low, high), std::sqrt(50.0f), 0.02f);
+
+  NavMeshConfig flatOnly;
+  flatOnly.agent_max_slope = 10.0f;
+  const auto flat = NavMesh::build(m, flatOnly);
+  EXPECT_EQ(flat->geodesicDistance(low, high), kUnreachable);
+}
+
+// ---------------------------------------------------------------------------
+// save / load
+// ---------------------------------------------------------------------------
+
+TEST_F(NavMeshTest, SaveLoadRoundTripGivesIdenticalQueries) {
+  test::TempDir dir;
+  const auto file = dir / "room.navmesh";
+  room().save(file);
+  const auto loaded = NavMesh::load(file);
+
+  EXPECT_EQ(loaded->polygonCount(), room().polygonCount());
+  EXPECT_EQ(loaded->islandCount(), room().islandCount());
+  EXPECT_EQ(loaded->navigableArea(), room().navigableArea());
+  EXPECT_EQ(loaded->triangles(), room().triangles());
+  EXPECT_EQ(loaded->config().agent_radius, NavMeshConfig{}.agent_radius);
+  EXPECT_EQ(loaded->config().agent_height, NavMeshConfig{}.agent_height);
+
+  std::mt19937_64 a(5), b(5);
+  for (int i = 0; i < 100; ++i) {
+    const Vec3f p = room().randomPoint(a), q = room().randomPoint(a);
+    EXPECT_EQ(loaded->randomPoint(b), p);
+    EXPECT_EQ(loaded->randomPoint(b), q);
+    EXPECT_EQ(loaded->geodesicDistance(p, q), room().geodesicDistance(p, q));
+    EXPECT_EQ(loaded->islandIndex(p), room().islandIndex(p));
+    EXPECT_EQ(loaded->moveAlongSurface(p, q), room().moveAlongSurface(p, q));
+  }
+
+  // saving what was loaded reproduces the file byte for byte
+  const auto again = dir / "again.navmesh";
+  loaded->save(again);
+  EXPECT_EQ(common::readFile(file), common::readFile(again));
+}
+
+TEST_F(NavMeshTest, SavedFileHasTheMsetLayout) {
+  test::TempDir dir;
+  const auto file = dir / "room.navmesh";
+  room().save(file);
+  const std::string bytes = common::readFile(file);
+  // 'MSET' as a little-endian int, version 1, one tile
+  ASSERT_GE(bytes.size(), 48u);
+  EXPECT_EQ(bytes.substr(0, 4), "TESM");
+  EXPECT_EQ(bytes[4], 1);
+  EXPECT_EQ(bytes[8], 1);
+  // the tile data starts with Detour's 'DNAV' magic
+  EXPECT_EQ(bytes.substr(48, 4), "VAND");
+}
+
+class CorruptNavMeshTest : public NavMeshTest {
+ protected:
+  void SetUp() override {
+    room().save(good_);
+    bytes_ = common::readFile(good_);
+  }
+  // Writes `bytes` to a file and returns the message NavMesh::load throws.
+  std::string loadError(const std::string& bytes) {
+    const auto file = dir_ / "corrupt.navmesh";
+    test::writeText(file, bytes);
+    try {
+      NavMesh::load(file);
+    } catch (const std::runtime_error& e) {
+      EXPECT_THAT(e.what(), HasSubstr(file.string()));
+      return e.what();
+    }
+    ADD_FAILURE() << "no error loading a corrupt navmesh";
+    return {};
+  }
+  test::TempDir dir_;
+  std::filesystem::path good_ = dir_ / "good.navmesh";
+  std::string bytes_;
+};
+
+TEST_F(CorruptNavMeshTest, TruncatedFilesAreReported) {
+  EXPECT_THAT(loadError(bytes_.substr(0, 20)), HasSubstr("truncated"));
+  EXPECT_THAT(loadError(bytes_.substr(0, 44)), HasSubstr("truncated"));
+  EXPECT_THAT(loadError(bytes_.substr(0, bytes_.size() / 2)),
+              HasSubstr("truncated"));
+  EXPECT_THAT(loadError(bytes_.substr(0, bytes_.size() - 1)),
+              HasSubstr("truncated"));
+}
+
+TEST_F(CorruptNavMeshTest, WrongMagicAndVersionAreReported) {
+  std::string wrong = bytes_;
+  wrong[0] = 'X';
+  EXPECT_THAT(loadError(wrong), HasSubstr("not a navmesh"));
+  EXPECT_THAT(loadError(std::string(100, 'a')), HasSubstr("not a navmesh"));
+  std::string version = bytes_;
+  version[4] = 7;
+  EXPECT_THAT(loadError(version), HasSubstr("version"));
+}
+
+TEST_F(CorruptNavMeshTest, CorruptTilesAreReported) {
+  // tile magic (first bytes of the tile data)
+  std::string magic = bytes_;
+  magic[48] = 'Z';
+  EXPECT_THAT(loadError(magic), HasSubstr("corrupt tile 0"));
+  // polygon count (dtMeshHeader field 7, byte 24 of the tile) far too large
+  std::string count = bytes_;
+  const int32_t huge = 1 << 20;
+  std::memcpy(&count[48 + 24], &huge, sizeof(huge));
+  EXPECT_THAT(loadError(count), HasSubstr("corrupt tile 0"));
+  // the header's tile count disagrees with maxTiles
+  std::string tiles = bytes_;
+  tiles[8] = 9;
+  EXPECT_THAT(loadError(tiles), HasSubstr("corrupt header"));
+}
+
+TEST_F(CorruptNavMeshTest, MissingFileNamesTheFile) {
+  const auto missing = dir_ / "missing.navmesh";
+  try {
+    NavMesh::load(missing);
+    FAIL() << "expected std::runtime_error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr(missing.string()));
+  }
+}
+
+// ---------------------------------------------------------------------------
+// thread safety
+// ---------------------------------------------------------------------------
+
+TEST_F(NavMeshTest, ConcurrentQueriesMatchSerialOnes) {
+  std::mt19937_64 rng(17);
+  std::vector<std::pair<Vec3f, Vec3f>> pairs;
+  for (int i = 0; i < 300; ++i)
+    pairs.emplace_back(corridor().randomPoint(rng), corridor().randomPoint(rng));
+  std::vector<float> serial;
+  for (const auto& [p, q] : pairs)
+    serial.push_back(corridor().geodesicDistance(p, q));
+
+  constexpr int kThreads = 4;
+  std::vector<std::vector<float>> results(kThreads);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < kThreads; ++t) {
+    threads.emplace_back([&, t] {
+      // each thread walks the pairs in a different order (strides coprime
+      // to 300) so that the same queries run at different times
+      constexpr size_t kStrides[kThreads] = {1, 7, 11, 13};
+      auto& out = results[static_cast<size_t>(t)];
+      out.resize(pairs.size());
+      for (size_t k = 0; k < pairs.size(); ++k) {
+        const size_t i = (k * kStrides[t]) % pairs.size();
+        out[i] = corridor().geodesicDistance(pairs[i].first, pairs[i].second);
+        static_cast<void>(corridor().moveAlongSurface(pairs[i].first,
+                                                      pairs[i].second));
+      }
+    });
+  }
+  for (auto& thread : threads) thread.join();
+  for (const auto& out : results) EXPECT_EQ(out, serial);
+  // every pair is on the corridor's single island
+  for (float d : serial) EXPECT_TRUE(std::isfinite(d));
+}
+
+}  // namespace
+}  // namespace vln::sim
