@@ -1,0 +1,278 @@
+#include "sim/Agent.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+#include "sim/NavMesh.h"
+
+namespace vln::sim {
+namespace {
+
+using ::testing::HasSubstr;
+
+// Appends an axis-aligned box with outward-facing triangles.
+void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
+  const auto base = static_cast<uint32_t>(mesh.positions.size());
+  for (int i = 0; i < 8; ++i)
+    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(),
+                                i & 4 ? hi.z() : lo.z());
+  const Vec3f center = (lo + hi) / 2.0f;
+  const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                           {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
+  for (const auto& q : quads) {
+    const Vec3f& a = mesh.positions[base + q[0]];
+    const Vec3f& b = mesh.positions[base + q[1]];
+    const Vec3f& c = mesh.positions[base + q[2]];
+    const bool outward =
+        (b - a).cross(c - a).dot((a + c) / 2.0f - center) > 0.0f;
+    const uint32_t i0 = base + q[0], i1 = base + q[1], i2 = base + q[2],
+                   i3 = base + q[3];
+    if (outward)
+      mesh.indices.insert(mesh.indices.end(), {i0, i1, i2, i0, i2, i3});
+    else
+      mesh.indices.insert(mesh.indices.end(), {i0, i2, i1, i0, i3, i2});
+  }
+}
+
+// A walled 6 x 6 m room (x, z in [0, 6]) whose east half continues, past
+// x = 6, into a 4 m ramp rising 1 m (14 degrees) to a landing.
+TriangleMesh roomWithRamp() {
+  constexpr float kWall = 0.12f, kTop = 2.5f, kSlab = 0.1f;
+  TriangleMesh m;
+  addBox(m, {0, -kSlab, 0}, {6, 0, 6});
+  addBox(m, {-kWall, -kSlab, -kWall}, {6, kTop, 0});   // north (-z)
+  addBox(m, {-kWall, -kSlab, 6}, {6, kTop, 6 + kWall});  // south
+  addBox(m, {-kWall, -kSlab, 0}, {0, kTop, 6});        // west
+  addBox(m, {6, -kSlab, 0}, {6 + kWall, kTop, 3});     // east, north half
+  const auto base = static_cast<uint32_t>(m.positions.size());
+  m.positions.insert(m.positions.end(),
+                     {{6, 0, 3}, {10, 1, 3}, {10, 1, 6}, {6, 0, 6}});
+  m.indices.insert(m.indices.end(),
+                   {base, base + 3, base + 2, base, base + 2, base + 1});
+  addBox(m, {10, 1 - kSlab, 3}, {12, 1, 6});
+  return m;
+}
+
+class AgentTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    navmesh_ = NavMesh::build(roomWithRamp(), NavMeshConfig{}).release();
+  }
+  static void TearDownTestSuite() {
+    delete navmesh_;
+    navmesh_ = nullptr;
+  }
+  static const NavMesh& navmesh() { return *navmesh_; }
+  // An agent standing (snapped) at (x, z) with `heading` radians.
+  static AgentState standing(float x, float z, float heading) {
+    const auto p = navmesh().snapPoint({x, 0.0f, z});
+    VLN_ASSERT(p.has_value());
+    return {*p, heading};
+  }
+
+ private:
+  static NavMesh* navmesh_;
+};
+NavMesh* AgentTest::navmesh_ = nullptr;
+
+// ---------------------------------------------------------------------------
+// action names and codes
+// ---------------------------------------------------------------------------
+
+TEST(ActionTest, NamesAndCodesFollowTheDataset) {
+  EXPECT_EQ(actionName(Action::kStop), "STOP");
+  EXPECT_EQ(actionName(Action::kMoveForward), "MOVE_FORWARD");
+  EXPECT_EQ(actionName(Action::kTurnLeft), "TURN_LEFT");
+  EXPECT_EQ(actionName(Action::kTurnRight), "TURN_RIGHT");
+  for (int code = 0; code < kNumActions; ++code)
+    EXPECT_EQ(static_cast<int>(actionFromInt(code)), code);
+  try {
+    actionFromInt(4);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("got 4"));
+  }
+  EXPECT_THROW(actionFromInt(-1), std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------
+// turning and moving
+// ---------------------------------------------------------------------------
+
+TEST_F(AgentTest, TurnsChangeOnlyTheHeading) {
+  const AgentConfig config;
+  AgentState state = standing(3.0f, 3.0f, 0.0f);
+  const Vec3f start = state.position;
+
+  StepResult r = applyAction(navmesh(), config, state, Action::kTurnLeft);
+  EXPECT_NEAR(state.heading, degToRad(15.0f), 1e-6f);  // left is +
+  EXPECT_FALSE(r.collided);
+  EXPECT_EQ(r.distance, 0.0f);
+  EXPECT_EQ(state.position, start);
+
+  applyAction(navmesh(), config, state, Action::kTurnRight);
+  applyAction(navmesh(), config, state, Action::kTurnRight);
+  EXPECT_NEAR(state.heading, degToRad(-15.0f), 1e-6f);
+
+  // a full circle of left turns comes back, with the heading kept wrapped
+  for (int i = 0; i < 24; ++i) {
+    applyAction(navmesh(), config, state, Action::kTurnLeft);
+    EXPECT_GT(state.heading, -kPi);
+    EXPECT_LE(state.heading, kPi);
+  }
+  EXPECT_NEAR(state.heading, degToRad(-15.0f), 1e-5f);
+
+  AgentConfig coarse;
+  coarse.turn_angle = 30.0f;
+  applyAction(navmesh(), coarse, state, Action::kTurnLeft);
+  EXPECT_NEAR(state.heading, degToRad(15.0f), 1e-5f);
+}
+
+TEST_F(AgentTest, StopLeavesTheStateUnchanged) {
+  AgentState state = standing(3.0f, 3.0f, 0.3f);
+  const AgentState before = state;
+  const StepResult r =
+      applyAction(navmesh(), AgentConfig{}, state, Action::kStop);
+  EXPECT_EQ(state, before);
+  EXPECT_FALSE(r.collided);
+}
+
+TEST_F(AgentTest, MoveForwardFollowsTheHeading) {
+  // heading 0 looks along -Z; heading pi/2 (a quarter turn left) along -X
+  AgentState state = standing(3.0f, 3.0f, 0.0f);
+  const Vec3f start = state.position;
+  StepResult r =
+      applyAction(navmesh(), AgentConfig{}, state, Action::kMoveForward);
+  EXPECT_FALSE(r.collided);
+  EXPECT_NEAR(r.distance, 0.25f, 1e-5f);
+  EXPECT_NEAR(state.position.x(), start.x(), 1e-5f);
+  EXPECT_NEAR(state.position.z(), start.z() - 0.25f, 1e-5f);
+
+  state.heading = kPi / 2.0f;
+  const Vec3f mid = state.position;
+  AgentConfig longStep;
+  longStep.forward_step_size = 0.5f;
+  r = applyAction(navmesh(), longStep, state, Action::kMoveForward);
+  EXPECT_FALSE(r.collided);
+  EXPECT_NEAR(state.position.x(), mid.x() - 0.5f, 1e-5f);
+  EXPECT_NEAR(state.position.z(), mid.z(), 1e-5f);
+}
+
+TEST_F(AgentTest, SlidingAlongAWallAtAnAngle) {
+  // 0.2 m from the west wall's navmesh edge region, heading 45 degrees
+  // between -Z and -X: the step would cross the edge, so the agent slides
+  // north along it
+  AgentState state = standing(0.25f, 3.0f, degToRad(45.0f));
+  const Vec3f start = state.position;
+  const StepResult r =
+      applyAction(navmesh(), AgentConfig{}, state, Action::kMoveForward);
+  EXPECT_TRUE(r.collided);
+  EXPECT_LT(r.distance, 0.25f);
+  EXPECT_GT(r.distance, 0.1f);                       // it did slide
+  EXPECT_NEAR(r.distance, (state.position - start).norm(), 1e-6f);
+  EXPECT_LT(state.position.z(), start.z() - 0.1f);    // along the wall
+  EXPECT_LT(state.position.x(), start.x());
+  EXPECT_GT(state.position.x(), 0.1f);                // kept off the wall
+  EXPECT_TRUE(navmesh().isNavigable(state.position));
+}
+
+TEST_F(AgentTest, WithoutSlidingABlockedAgentStaysPut) {
+  AgentConfig noSlide;
+  noSlide.allow_sliding = false;
+  AgentState state = standing(0.25f, 3.0f, degToRad(45.0f));
+  const AgentState before = state;
+  const StepResult r =
+      applyAction(navmesh(), noSlide, state, Action::kMoveForward);
+  EXPECT_TRUE(r.collided);
+  EXPECT_EQ(r.distance, 0.0f);
+  EXPECT_EQ(state, before);
+
+  // an unobstructed step is not affected by the setting
+  AgentState open = standing(3.0f, 3.0f, degToRad(45.0f));
+  const StepResult free =
+      applyAction(navmesh(), noSlide, open, Action::kMoveForward);
+  EXPECT_FALSE(free.collided);
+  EXPECT_NEAR(free.distance, 0.25f, 1e-5f);
+}
+
+TEST_F(AgentTest, WalkingHeadOnIntoAWallCollidesWithoutMoving) {
+  // facing -X at the west edge: nowhere to slide
+  AgentState state = standing(0.0f, 3.0f, kPi / 2.0f);
+  const Vec3f start = state.position;
+  const StepResult r =
+      applyAction(navmesh(), AgentConfig{}, state, Action::kMoveForward);
+  EXPECT_TRUE(r.collided);
+  EXPECT_LT(r.distance, 1e-3f);
+  EXPECT_NEAR(state.position.x(), start.x(), 1e-3f);
+}
+
+TEST_F(AgentTest, ClimbingARampIsNotACollision) {
+  // facing +X (heading -pi/2) at the foot of the ramp: each step rises, so
+  // the 3-D move is longer than the intended horizontal one, which Habitat
+  // does not count as a collision
+  AgentState state = standing(6.5f, 4.5f, -kPi / 2.0f);
+  float previousY = state.position.y();
+  for (int i = 0; i < 8; ++i) {
+    const StepResult r =
+        applyAction(navmesh(), AgentConfig{}, state, Action::kMoveForward);
+    EXPECT_FALSE(r.collided) << "step " << i;
+    EXPECT_GE(r.distance, 0.25f - 1e-5f);
+    EXPECT_GE(state.position.y(), previousY - 1e-4f);
+    previousY = state.position.y();
+  }
+  EXPECT_NEAR(state.position.x(), 8.5f, 1e-3f);
+  // 2.5 m up a 1-in-4 ramp is 0.625 m. Recast rounds span tops up to the
+  // next cell_height and contour corners take the highest neighbouring
+  // span, so the navmesh lies up to two cell heights above the surface.
+  const float ch = NavMeshConfig{}.cell_height;
+  EXPECT_GE(state.position.y(), 0.625f - 1e-3f);
+  EXPECT_LE(state.position.y(), 0.625f + 2.0f * ch);
+}
+
+// ---------------------------------------------------------------------------
+// episodes
+// ---------------------------------------------------------------------------
+
+TEST_F(AgentTest, StopEndsTheEpisode) {
+  EpisodeState episode;
+  episode.agent = standing(3.0f, 3.0f, 0.0f);
+  const TaskConfig task;
+  stepEpisode(navmesh(), AgentConfig{}, task, episode, Action::kTurnLeft);
+  EXPECT_EQ(episode.steps, 1);
+  EXPECT_FALSE(episode.done);
+  stepEpisode(navmesh(), AgentConfig{}, task, episode, Action::kStop);
+  EXPECT_EQ(episode.steps, 2);
+  EXPECT_TRUE(episode.called_stop);
+  EXPECT_TRUE(episode.done);
+}
+
+TEST_F(AgentTest, TheStepLimitEndsTheEpisodeWithoutStop) {
+  EpisodeState episode;
+  episode.agent = standing(0.25f, 3.0f, degToRad(45.0f));
+  TaskConfig task;
+  task.max_episode_steps = 3;
+  stepEpisode(navmesh(), AgentConfig{}, task, episode, Action::kMoveForward);
+  EXPECT_TRUE(episode.last_collided);  // the first step hits the wall
+  stepEpisode(navmesh(), AgentConfig{}, task, episode, Action::kTurnRight);
+  EXPECT_FALSE(episode.last_collided);
+  EXPECT_FALSE(episode.done);
+  stepEpisode(navmesh(), AgentConfig{}, task, episode, Action::kTurnRight);
+  EXPECT_EQ(episode.steps, 3);
+  EXPECT_TRUE(episode.done);
+  EXPECT_FALSE(episode.called_stop);
+}
+
+TEST_F(AgentTest, SteppingAFinishedEpisodeIsABug) {
+  EpisodeState episode;
+  episode.agent = standing(3.0f, 3.0f, 0.0f);
+  episode.done = true;
+  EXPECT_DEATH(stepEpisode(navmesh(), AgentConfig{}, TaskConfig{}, episode,
+                           Action::kMoveForward),
+               "episode.done");
+}
+
+}  // namespace
+}  // namespace vln::sim
