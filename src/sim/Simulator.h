@@ -32,7 +32,8 @@ class Simulator {
   /// Starts an episode at `start`; the position is snapped to the navmesh.
   /// Throws std::invalid_argument when `start` is not near navigable space.
   void reset(const AgentState& start);
-  /// Takes one action (see stepEpisode()).
+  /// Takes one action (see stepEpisode()). Calling it before reset() or
+  /// after the episode is done is a bug (aborts).
   StepResult step(Action action);
   /// Renders RGB and depth at the current pose into `out` (resized as
   /// needed). RGB and depth share one pass when their cameras are equal.
@@ -43,7 +44,8 @@ class Simulator {
   const EpisodeState& episode() const { return episode_; }
   const Scene& scene() const { return *scene_; }
   const std::shared_ptr<const Scene>& scenePtr() const { return scene_; }
-  /// Replaces the scene (e.g. the next episode is in another house).
+  /// Replaces the scene (e.g. the next episode is in another house); the
+  /// next episode must start with reset().
   void setScene(std::shared_ptr<const Scene> scene);
   const SimConfig& config() const { return sim_; }
   const TaskConfig& task() const { return task_; }
@@ -54,6 +56,7 @@ class Simulator {
   TaskConfig task_;
   std::unique_ptr<Renderer> renderer_;
   EpisodeState episode_;
+  bool hasEpisode_ = false;  ///< reset() has placed the agent in scene_
 };
 
 }  // namespace vln::sim

@@ -1,0 +1,280 @@
+// Tests src/sim/Simulator.cpp: start snapping, sensor placement, observation
+// buffers and post-processing, actions and episode bookkeeping, on a room
+// built in code with a known layout.
+
+#include "sim/Simulator.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/Mesh.h"
+
+namespace vln::sim {
+namespace {
+
+using ::testing::HasSubstr;
+
+void addQuad(TriangleMesh& mesh, const std::array<Vec3f, 4>& corners,
+             Rgb8 color, int object) {
+  const auto base = static_cast<uint32_t>(mesh.positions.size());
+  for (const Vec3f& p : corners) {
+    mesh.positions.push_back(p);
+    mesh.colors.push_back(color);
+  }
+  for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(base + i);
+  mesh.triangle_object.push_back(object);
+  mesh.triangle_object.push_back(object);
+}
+
+// A closed 6 m x 6 m room, floor y = 0, ceiling y = 2.7, walls at x, z =
+// +-3, and a 1 m cube (object 4) centred at (2, 0.5, 0).
+std::shared_ptr<const Scene> testScene() {
+  TriangleMesh mesh;
+  const Rgb8 floor{180, 160, 120};
+  const Rgb8 wall{200, 200, 210};
+  addQuad(mesh, {Vec3f(-3, 0, 3), {3, 0, 3}, {3, 0, -3}, {-3, 0, -3}}, floor, -1);
+  addQuad(mesh, {Vec3f(-3, 2.7f, -3), {3, 2.7f, -3}, {3, 2.7f, 3}, {-3, 2.7f, 3}}, wall, -1);
+  addQuad(mesh, {Vec3f(-3, 0, -3), {3, 0, -3}, {3, 2.7f, -3}, {-3, 2.7f, -3}}, wall, -1);
+  addQuad(mesh, {Vec3f(3, 0, 3), {-3, 0, 3}, {-3, 2.7f, 3}, {3, 2.7f, 3}}, wall, -1);
+  addQuad(mesh, {Vec3f(-3, 0, 3), {-3, 0, -3}, {-3, 2.7f, -3}, {-3, 2.7f, 3}}, wall, -1);
+  addQuad(mesh, {Vec3f(3, 0, -3), {3, 0, 3}, {3, 2.7f, 3}, {3, 2.7f, -3}}, wall, -1);
+  // the cube, faces outward
+  const float x0 = 1.5f, x1 = 2.5f, y1 = 1.0f, z0 = -0.5f, z1 = 0.5f;
+  const Rgb8 red{220, 30, 30};
+  addQuad(mesh, {Vec3f(x0, 0, z1), {x1, 0, z1}, {x1, y1, z1}, {x0, y1, z1}}, red, 4);
+  addQuad(mesh, {Vec3f(x1, 0, z0), {x0, 0, z0}, {x0, y1, z0}, {x1, y1, z0}}, red, 4);
+  addQuad(mesh, {Vec3f(x0, 0, z0), {x0, 0, z1}, {x0, y1, z1}, {x0, y1, z0}}, red, 4);
+  addQuad(mesh, {Vec3f(x1, 0, z1), {x1, 0, z0}, {x1, y1, z0}, {x1, y1, z1}}, red, 4);
+  addQuad(mesh, {Vec3f(x0, y1, z1), {x1, y1, z1}, {x1, y1, z0}, {x0, y1, z0}}, red, 4);
+  SceneSemantics semantics;
+  SemanticObject cube;
+  cube.id = 4;
+  cube.category = "table";
+  cube.color = "red";
+  cube.bounds = Eigen::AlignedBox3f(Vec3f(x0, 0, z0), Vec3f(x1, y1, z1));
+  semantics.objects.push_back(cube);
+  return Scene::fromMesh("test-room", std::move(mesh), std::move(semantics),
+                         NavMeshConfig{});
+}
+
+SimConfig smallConfig() {
+  SimConfig config;
+  config.rgb = {32, 32, 90.0f, 1.25f};
+  config.depth.camera = {32, 32, 90.0f, 1.25f};
+  return config;
+}
+
+class SimulatorTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { scene_ = testScene(); }
+  static void TearDownTestSuite() { scene_.reset(); }
+  static std::shared_ptr<const Scene> scene_;
+};
+std::shared_ptr<const Scene> SimulatorTest::scene_;
+
+TEST_F(SimulatorTest, ResetSnapsStartToNavmesh) {
+  Simulator sim(scene_, smallConfig(), TaskConfig{});
+  sim.reset({Vec3f(-1.0f, 0.3f, 1.0f), 0.4f});
+  const AgentState& agent = sim.episode().agent;
+  EXPECT_NEAR(agent.position.x(), -1.0f, 0.01f);
+  EXPECT_NEAR(agent.position.z(), 1.0f, 0.01f);
+  // the navmesh lies within a voxel height of the floor
+  EXPECT_NEAR(agent.position.y(), 0.0f, 0.2f);
+  EXPECT_FLOAT_EQ(agent.heading, 0.4f);
+  EXPECT_EQ(sim.episode().steps, 0);
+  EXPECT_FALSE(sim.episode().done);
+}
+
+TEST_F(SimulatorTest, ResetRejectsStartsAwayFromNavigableSpace) {
+  Simulator sim(scene_, smallConfig(), TaskConfig{});
+  for (const Vec3f& bad : {Vec3f(0.0f, 1.5f, 0.0f),     // 1.5 m above the floor
+                           Vec3f(10.0f, 0.0f, 0.0f),    // outside the room
+                           Vec3f(2.0f, 0.0f, 0.0f)}) {  // inside the cube
+    try {
+      sim.reset({bad, 0.0f});
+      FAIL() << "expected std::invalid_argument for " << bad.transpose();
+    } catch (const std::invalid_argument& e) {
+      EXPECT_THAT(e.what(), HasSubstr("Simulator::reset()"));
+      EXPECT_THAT(e.what(), HasSubstr("test-room"));
+      EXPECT_THAT(e.what(), HasSubstr("navigable"));
+    }
+  }
+  EXPECT_THROW(sim.reset({Vec3f(NAN, 0, 0), 0.0f}), std::invalid_argument);
+}
+
+TEST_F(SimulatorTest, ObservationComesFromCameraAtSensorHeight) {
+  SimConfig config = smallConfig();
+  Simulator sim(scene_, config, TaskConfig{});
+  // facing -Z from z = 1: the wall at z = -3 is 4 m ahead
+  sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+  Observation obs;
+  sim.observe(obs);
+  ASSERT_EQ(obs.rgb_width, 32);
+  ASSERT_EQ(obs.rgb_height, 32);
+  ASSERT_EQ(obs.rgb.size(), 32u * 32u * 3u);
+  ASSERT_EQ(obs.depth.size(), 32u * 32u);
+  // centre rows look straight ahead (normalised by max_depth 10)
+  const float centre = obs.depth[15 * 32 + 15];
+  EXPECT_NEAR(centre, 0.4f, 0.002f);
+  for (float d : obs.depth) {
+    ASSERT_GE(d, 0.0f);
+    ASSERT_LE(d, 1.0f);
+  }
+
+  // identical to rendering the scene directly at eye = feet + position_y
+  const Vec3f feet = sim.episode().agent.position;
+  auto renderer = createRenderer(scene_->mesh(), scene_->rayTracer(),
+                                 RendererBackend::kEmbree);
+  const CameraPose pose{feet + Vec3f(0, 1.25f, 0), 0.0f, 0.0f};
+  std::vector<uint8_t> rgb(32 * 32 * 3);
+  std::vector<float> depth(32 * 32);
+  renderer->renderRgbDepth(pose, {32, 32, 90.0f}, rgb, depth);
+  postprocessDepth(config.depth, depth);
+  EXPECT_EQ(obs.rgb, rgb);
+  EXPECT_EQ(obs.depth, depth);
+
+  // the bottom row sees the floor (y = 0) from feet.y + 1.25 m (the navmesh
+  // may lie up to a voxel above the floor): z-depth = height / -dir.y for a
+  // ray whose optical-axis component is 1
+  const Vec3f bottom = pixelDirection({32, 32, 90.0f}, 15.5f, 31.0f);
+  const float expected = (feet.y() + 1.25f) / -bottom.y() / 10.0f;
+  EXPECT_NEAR(obs.depth[31 * 32 + 15], expected, 0.01f);
+}
+
+TEST_F(SimulatorTest, SeparateRgbAndDepthCameras) {
+  SimConfig config = smallConfig();
+  config.rgb = {40, 30, 90.0f, 1.0f};
+  config.depth.camera = {16, 12, 60.0f, 1.5f};
+  config.depth.normalize_depth = false;
+  config.depth.max_depth = 3.5f;
+  Simulator sim(scene_, config, TaskConfig{});
+  sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+  Observation obs;
+  sim.observe(obs);
+  EXPECT_EQ(obs.rgb_width, 40);
+  EXPECT_EQ(obs.rgb_height, 30);
+  EXPECT_EQ(obs.rgb.size(), 40u * 30u * 3u);
+  EXPECT_EQ(obs.depth_width, 16);
+  EXPECT_EQ(obs.depth_height, 12);
+  ASSERT_EQ(obs.depth.size(), 16u * 12u);
+  // the wall is 4 m away, beyond max_depth 3.5 m: clipped, not normalised
+  EXPECT_FLOAT_EQ(obs.depth[6 * 16 + 8], 3.5f);
+
+  const Vec3f feet = sim.episode().agent.position;
+  auto renderer = createRenderer(scene_->mesh(), scene_->rayTracer(),
+                                 RendererBackend::kEmbree);
+  std::vector<float> depth(16 * 12);
+  renderer->renderDepth({feet + Vec3f(0, 1.5f, 0), 0.0f, 0.0f}, {16, 12, 60.0f}, depth);
+  postprocessDepth(config.depth, depth);
+  EXPECT_EQ(obs.depth, depth);
+  std::vector<uint8_t> rgb(40 * 30 * 3);
+  renderer->renderRgb({feet + Vec3f(0, 1.0f, 0), 0.0f, 0.0f}, {40, 30, 90.0f}, rgb);
+  EXPECT_EQ(obs.rgb, rgb);
+}
+
+TEST_F(SimulatorTest, ActionsMoveAndTurnTheAgentAndEndTheEpisode) {
+  TaskConfig task;
+  task.max_episode_steps = 5;
+  Simulator sim(scene_, smallConfig(), task);
+  sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+  const Vec3f start = sim.episode().agent.position;
+  StepResult result = sim.step(Action::kMoveForward);
+  EXPECT_FALSE(result.collided);
+  EXPECT_NEAR(result.distance, 0.25f, 1e-3f);
+  EXPECT_NEAR(sim.episode().agent.position.z(), start.z() - 0.25f, 1e-3f);
+  sim.step(Action::kTurnLeft);
+  EXPECT_NEAR(sim.episode().agent.heading, degToRad(15.0f), 1e-5f);
+  sim.step(Action::kTurnRight);
+  sim.step(Action::kTurnRight);
+  EXPECT_NEAR(sim.episode().agent.heading, degToRad(-15.0f), 1e-5f);
+  EXPECT_EQ(sim.episode().steps, 4);
+  EXPECT_FALSE(sim.episode().done);
+  sim.step(Action::kMoveForward);
+  // the step limit ends the episode without STOP
+  EXPECT_TRUE(sim.episode().done);
+  EXPECT_FALSE(sim.episode().called_stop);
+
+  sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+  EXPECT_EQ(sim.episode().steps, 0);
+  sim.step(Action::kStop);
+  EXPECT_TRUE(sim.episode().done);
+  EXPECT_TRUE(sim.episode().called_stop);
+}
+
+TEST_F(SimulatorTest, WalkingIntoTheCubeCollides) {
+  Simulator sim(scene_, smallConfig(), TaskConfig{});
+  // face +X (heading -90 deg) towards the cube at x = 1.5
+  sim.reset({Vec3f(0.0f, 0.0f, 0.0f), -kPi / 2});
+  bool collided = false;
+  for (int i = 0; i < 12 && !collided; ++i)
+    collided = sim.step(Action::kMoveForward).collided;
+  EXPECT_TRUE(collided);
+  EXPECT_TRUE(sim.episode().last_collided);
+  // the agent (radius 0.1) stops at the cube's face
+  EXPECT_LT(sim.episode().agent.position.x(), 1.5f);
+  EXPECT_GT(sim.episode().agent.position.x(), 1.0f);
+}
+
+TEST_F(SimulatorTest, SemanticObservationSeesTheCube) {
+  Simulator sim(scene_, smallConfig(), TaskConfig{});
+  sim.reset({Vec3f(0.0f, 0.0f, 0.0f), -kPi / 2});
+  std::vector<int32_t> ids;
+  sim.observeSemantic(ids);
+  ASSERT_EQ(ids.size(), 32u * 32u);
+  // the cube top (1 m) is below the camera (1.25 m): it fills the lower
+  // centre of the image, walls and floor carry no object
+  EXPECT_EQ(ids[24 * 32 + 16], 4);
+  EXPECT_EQ(ids[4 * 32 + 16], -1);
+}
+
+TEST_F(SimulatorTest, BothBackendsGiveNearlyEqualObservations) {
+  SimConfig embreeConfig = smallConfig();
+  SimConfig osmesaConfig = smallConfig();
+  osmesaConfig.renderer = RendererBackend::kOsMesa;
+  Simulator a(scene_, embreeConfig, TaskConfig{});
+  Simulator b(scene_, osmesaConfig, TaskConfig{});
+  const AgentState start{Vec3f(-1.5f, 0.0f, 1.5f), 0.9f};
+  a.reset(start);
+  b.reset(start);
+  Observation oa;
+  Observation ob;
+  a.observe(oa);
+  b.observe(ob);
+  int close = 0;
+  for (size_t p = 0; p < oa.depth.size(); ++p)
+    if (std::abs(oa.depth[p] - ob.depth[p]) < 0.005f) ++close;
+  EXPECT_GE(close, static_cast<int>(oa.depth.size()) * 98 / 100);
+}
+
+TEST_F(SimulatorTest, SetSceneRequiresANewEpisode) {
+  // Embree's worker threads are running: re-execute instead of forking
+  GTEST_FLAG_SET(death_test_style, "threadsafe");
+  Simulator sim(scene_, smallConfig(), TaskConfig{});
+  sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+  sim.setScene(scene_);
+  EXPECT_EQ(sim.scenePtr(), scene_);
+  EXPECT_DEATH(sim.step(Action::kMoveForward), "hasEpisode_");
+  sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+  EXPECT_NO_THROW(sim.step(Action::kMoveForward));
+}
+
+TEST_F(SimulatorTest, RejectsBadConfig) {
+  SimConfig config = smallConfig();
+  config.rgb.width = 0;
+  try {
+    Simulator sim(scene_, config, TaskConfig{});
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("rgb.width"));
+  }
+  config = smallConfig();
+  config.depth.min_depth = 5.0f;
+  config.depth.max_depth = 2.0f;
+  EXPECT_THROW(Simulator(scene_, config, TaskConfig{}), std::invalid_argument);
+  EXPECT_THROW(Simulator(nullptr, smallConfig(), TaskConfig{}), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace vln::sim
