@@ -1,0 +1,206 @@
+#include "sim/Follower.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+
+namespace vln::sim {
+namespace {
+
+// Appends an axis-aligned box with outward-facing triangles.
+void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
+  const auto base = static_cast<uint32_t>(mesh.positions.size());
+  for (int i = 0; i < 8; ++i)
+    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(),
+                                i & 4 ? hi.z() : lo.z());
+  const Vec3f center = (lo + hi) / 2.0f;
+  const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
+                           {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
+  for (const auto& q : quads) {
+    const Vec3f& a = mesh.positions[base + q[0]];
+    const Vec3f& b = mesh.positions[base + q[1]];
+    const Vec3f& c = mesh.positions[base + q[2]];
+    const bool outward =
+        (b - a).cross(c - a).dot((a + c) / 2.0f - center) > 0.0f;
+    const uint32_t i0 = base + q[0], i1 = base + q[1], i2 = base + q[2],
+                   i3 = base + q[3];
+    if (outward)
+      mesh.indices.insert(mesh.indices.end(), {i0, i1, i2, i0, i2, i3});
+    else
+      mesh.indices.insert(mesh.indices.end(), {i0, i2, i1, i0, i3, i2});
+  }
+}
+
+constexpr float kWall = 0.12f, kTop = 2.5f, kSlab = 0.1f;
+
+// A wall along z at x (from z0 to z1) or along x at z (from x0 to x1).
+void wallAlongZ(TriangleMesh& m, float x, float z0, float z1) {
+  addBox(m, {x - kWall / 2, -kSlab, z0}, {x + kWall / 2, kTop, z1});
+}
+void wallAlongX(TriangleMesh& m, float z, float x0, float x1) {
+  addBox(m, {x0, -kSlab, z - kWall / 2}, {x1, kTop, z + kWall / 2});
+}
+
+// Three rooms in a 12 x 8 m house, joined by 1.2 m doorways at different
+// heights of the dividing walls, with a half wall in the third room, four
+// pillars and a table (a separate island) in the first room.
+TriangleMesh threeRoomHouse() {
+  TriangleMesh m;
+  addBox(m, {0, -kSlab, 0}, {12, 0, 8});
+  wallAlongX(m, 0, -kWall, 12 + kWall);
+  wallAlongX(m, 8, -kWall, 12 + kWall);
+  wallAlongZ(m, 0, 0, 8);
+  wallAlongZ(m, 12, 0, 8);
+  wallAlongZ(m, 4, 0, 3);      // doorway z in [3, 4.2]
+  wallAlongZ(m, 4, 4.2f, 8);
+  wallAlongZ(m, 8, 0, 5.5f);   // doorway z in [5.5, 6.7]
+  wallAlongZ(m, 8, 6.7f, 8);
+  wallAlongX(m, 3.5f, 8, 10.5f);  // half wall in room 3
+  for (const Vec2f& c : {Vec2f(2, 2), Vec2f(6, 5.5f), Vec2f(5.5f, 2),
+                         Vec2f(10, 6)})
+    addBox(m, {c.x() - 0.2f, 0, c.y() - 0.2f}, {c.x() + 0.2f, kTop, c.y() + 0.2f});
+  addBox(m, {1, 0, 5}, {2.6f, 0.75f, 6.6f});  // table
+  return m;
+}
+
+class FollowerTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    navmesh_ = NavMesh::build(threeRoomHouse(), NavMeshConfig{}).release();
+  }
+  static void TearDownTestSuite() {
+    delete navmesh_;
+    navmesh_ = nullptr;
+  }
+  static const NavMesh& navmesh() { return *navmesh_; }
+  static AgentState standing(float x, float z, float heading) {
+    return {*navmesh().snapPoint({x, 0.0f, z}), heading};
+  }
+
+ private:
+  static NavMesh* navmesh_;
+};
+NavMesh* FollowerTest::navmesh_ = nullptr;
+
+TEST_F(FollowerTest, SceneHasTheExpectedIslands) {
+  ASSERT_EQ(navmesh().islandCount(), 2);  // floor and table top
+  EXPECT_EQ(navmesh().islandIndex(navmesh().snapPoint({1.0f, 0, 1.0f}).value()),
+            0);
+  EXPECT_EQ(navmesh().islandIndex({1.8f, 0.75f, 5.8f}), 1);
+}
+
+TEST_F(FollowerTest, StopsWithinTheGoalRadius) {
+  const ShortestPathFollower follower(navmesh(), AgentConfig{}, 0.5f);
+  const AgentState state = standing(1.0f, 1.0f, 0.0f);
+  EXPECT_EQ(follower.nextAction(state, state.position), Action::kStop);
+  EXPECT_EQ(follower.nextAction(state, state.position + Vec3f(0.4f, 0, 0)),
+            Action::kStop);
+  EXPECT_NE(follower.nextAction(state, state.position + Vec3f(0.6f, 0, 0)),
+            Action::kStop);
+}
+
+TEST_F(FollowerTest, StopsWhenTheGoalIsUnreachable) {
+  const ShortestPathFollower follower(navmesh(), AgentConfig{}, 0.5f);
+  const AgentState state = standing(1.0f, 1.0f, 0.0f);
+  EXPECT_EQ(follower.nextAction(state, {1.8f, 0.75f, 5.8f}), Action::kStop);
+  EXPECT_EQ(follower.nextAction(state, {40.0f, 0.0f, 40.0f}), Action::kStop);
+}
+
+TEST_F(FollowerTest, TurnsTowardsTheNextCorner) {
+  // goal 2 m in open floor along -Z, the agent's heading varies
+  const ShortestPathFollower follower(navmesh(), AgentConfig{}, 0.5f);
+  const Vec3f goal = standing(1.0f, 1.0f, 0.0f).position;
+  auto actionAt = [&](float headingDegrees) {
+    return follower.nextAction(standing(1.0f, 3.0f, degToRad(headingDegrees)),
+                               goal);
+  };
+  EXPECT_EQ(actionAt(0.0f), Action::kMoveForward);
+  EXPECT_EQ(actionAt(14.9f), Action::kMoveForward);   // within turn_angle
+  EXPECT_EQ(actionAt(-14.9f), Action::kMoveForward);
+  EXPECT_EQ(actionAt(16.0f), Action::kTurnRight);     // left of the goal
+  EXPECT_EQ(actionAt(-16.0f), Action::kTurnLeft);
+  EXPECT_EQ(actionAt(90.0f), Action::kTurnRight);
+  EXPECT_EQ(actionAt(-120.0f), Action::kTurnLeft);
+
+  AgentConfig wide;
+  wide.turn_angle = 30.0f;
+  const ShortestPathFollower wideFollower(navmesh(), wide, 0.5f);
+  EXPECT_EQ(wideFollower.nextAction(standing(1.0f, 3.0f, degToRad(25.0f)), goal),
+            Action::kMoveForward);
+}
+
+TEST_F(FollowerTest, HeadsForTheDoorwayNotTheGoal) {
+  // from room 1 to room 2 the first corner is at the doorway (x = 4,
+  // z in [3, 4.2]), far to the side of the straight line to the goal
+  const ShortestPathFollower follower(navmesh(), AgentConfig{}, 0.5f);
+  const Vec3f goal = standing(6.0f, 0.8f, 0.0f).position;
+  // facing the goal (+X, heading -pi/2) the wall is in the way and the
+  // doorway (towards +Z) lies to the agent's right: +X x +Y = +Z
+  const AgentState facingGoal = standing(3.0f, 0.8f, -kPi / 2.0f);
+  EXPECT_EQ(follower.nextAction(facingGoal, goal), Action::kTurnRight);
+  // facing away (-X), the doorway is on the left
+  const AgentState facingAway = standing(3.0f, 0.8f, kPi / 2.0f);
+  EXPECT_EQ(follower.nextAction(facingAway, goal), Action::kTurnLeft);
+  // facing the doorway, it walks
+  const Vec3f door(4.0f, 0.0f, 3.6f);
+  const AgentState facingDoor =
+      standing(3.0f, 0.8f, forwardToHeading(door - Vec3f(3.0f, 0.0f, 0.8f)));
+  EXPECT_EQ(follower.nextAction(facingDoor, goal), Action::kMoveForward);
+}
+
+TEST_F(FollowerTest, FollowingReachesRandomGoalsOnTheSameIsland) {
+  // VLN-CE's oracle setting: 0.25 m steps, 15 degree turns, sliding
+  const AgentConfig agent;
+  TaskConfig task;
+  task.max_episode_steps = 500;
+  const float goalRadius = task.follower_goal_radius;
+  const ShortestPathFollower follower(navmesh(), agent, goalRadius);
+  std::mt19937_64 rng(2024);
+
+  int reachedCount = 0;
+  constexpr int kEpisodes = 100;
+  for (int e = 0; e < kEpisodes; ++e) {
+    const Vec3f start = navmesh().randomPoint(rng, /*island=*/0);
+    const Vec3f goal = navmesh().randomPoint(rng, /*island=*/0);
+    const float geodesic = navmesh().geodesicDistance(start, goal);
+    ASSERT_TRUE(std::isfinite(geodesic));
+    const auto path = navmesh().shortestPath(start, goal);
+    EpisodeState episode;
+    episode.agent.position = start;
+    episode.agent.heading =
+        static_cast<float>(rng() % 360) * kPi / 180.0f - kPi;
+    while (!episode.done) {
+      const Action action = follower.nextAction(episode.agent, goal);
+      stepEpisode(navmesh(), agent, task, episode, action);
+    }
+    // it stops of its own accord, within the radius
+    ASSERT_TRUE(episode.called_stop)
+        << "episode " << e << " from " << start.transpose() << " to "
+        << goal.transpose() << " (geodesic " << geodesic << ") ran out of steps";
+    const float left = navmesh().geodesicDistance(episode.agent.position, goal);
+    EXPECT_LE(left, goalRadius) << "episode " << e;
+    // and in few steps: a forward step per 0.25 m of path (15% slack for
+    // sliding around corners), a half circle of turns at the start and one
+    // more at every corner of the path, and the STOP
+    const int corners = static_cast<int>(path.size());
+    const int bound = static_cast<int>(std::ceil(1.15f * geodesic / 0.25f)) +
+                      12 * corners + 1;
+    EXPECT_LE(episode.steps, bound)
+        << "episode " << e << ", geodesic " << geodesic;
+    reachedCount += left <= goalRadius ? 1 : 0;
+  }
+  EXPECT_EQ(reachedCount, kEpisodes);
+}
+
+TEST(FollowerConfig, RejectsANonPositiveGoalRadius) {
+  TriangleMesh slab;
+  addBox(slab, {0, -kSlab, 0}, {3, 0, 3});
+  const auto nav = NavMesh::build(slab, NavMeshConfig{});
+  EXPECT_THROW(ShortestPathFollower(*nav, AgentConfig{}, 0.0f),
+               std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace vln::sim
