@@ -1,0 +1,679 @@
+#include "eval/Metrics.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "common/Check.h"
+#include "common/Json.h"
+
+namespace vln::eval {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// ---------------------------------------------------------------------------
+// DTW cores, generic over the point type
+// ---------------------------------------------------------------------------
+
+double pointDistance(const Vec3d& a, const Vec3d& b) { return (b - a).norm(); }
+double pointDistance(double a, double b) { return std::fabs(a - b); }
+
+// Exact DTW as the dtw 1.4.0 package computes it. Without `wantPath` only two
+// rows are kept; with it the full accumulated matrix is traced back, diagonal
+// first on ties (the package's _traceback argmin order).
+template <class P>
+DtwResult exactDtw(std::span<const P> a, std::span<const P> b, bool wantPath,
+                   const char* caller) {
+  VLN_CHECK_ARG(!a.empty() && !b.empty(), caller,
+                ": DTW needs two non-empty sequences, got lengths ", a.size(),
+                " and ", b.size());
+  const size_t n = a.size(), m = b.size();
+  DtwResult result;
+  if (!wantPath) {
+    std::vector<double> prev(m + 1, kInf), curr(m + 1, kInf);
+    prev[0] = 0.0;
+    for (size_t i = 1; i <= n; ++i) {
+      curr[0] = kInf;
+      for (size_t j = 1; j <= m; ++j)
+        curr[j] = pointDistance(a[i - 1], b[j - 1]) +
+                  std::min({prev[j - 1], prev[j], curr[j - 1]});
+      std::swap(prev, curr);
+    }
+    result.distance = prev[m];
+    return result;
+  }
+  // D is (n+1) x (m+1) with an infinite border and D[0][0] = 0
+  std::vector<double> d((n + 1) * (m + 1), kInf);
+  auto at = [&](size_t i, size_t j) -> double& { return d[i * (m + 1) + j]; };
+  at(0, 0) = 0.0;
+  for (size_t i = 1; i <= n; ++i)
+    for (size_t j = 1; j <= m; ++j)
+      at(i, j) = pointDistance(a[i - 1], b[j - 1]) +
+                 std::min({at(i - 1, j - 1), at(i - 1, j), at(i, j - 1)});
+  result.distance = at(n, m);
+  size_t i = n, j = m;
+  result.path.emplace_back(static_cast<int>(i - 1), static_cast<int>(j - 1));
+  while (i > 1 || j > 1) {
+    const double diag = at(i - 1, j - 1), up = at(i - 1, j), left = at(i, j - 1);
+    if (diag <= up && diag <= left) {
+      --i;
+      --j;
+    } else if (up <= left) {
+      --i;
+    } else {
+      --j;
+    }
+    result.path.emplace_back(static_cast<int>(i - 1), static_cast<int>(j - 1));
+  }
+  std::reverse(result.path.begin(), result.path.end());
+  return result;
+}
+
+// One cell of a FastDTW search window. The cost indices point into the cost
+// vector, which has the window's indices shifted by one (cost[0] is the
+// origin), and are -1 when the neighbour is outside the window; this is the
+// fastdtw Cython module's WindowElement.
+struct WindowCell {
+  int x = 0, y = 0;
+  int left = -1;    // (x, y - 1)
+  int up = -1;      // (x - 1, y)
+  int corner = -1;  // (x - 1, y - 1)
+};
+
+// The full window of the Cython dtw(): every cell, row by row.
+std::vector<WindowCell> fullWindow(int lenX, int lenY) {
+  std::vector<WindowCell> window;
+  window.reserve(static_cast<size_t>(lenX) * lenY);
+  int idx = 0;
+  for (int x = 0; x < lenX; ++x) {
+    for (int y = 0; y < lenY; ++y, ++idx) {
+      WindowCell cell{x, y};
+      if (x == 0 && y == 0) {
+        cell.corner = 0;
+      } else {
+        cell.left = (y == 0 && x > 0) ? -1 : idx;
+        cell.up = (x == 0 && y > 0) ? -1 : idx - lenY + 1;
+        cell.corner = (cell.left == -1 || cell.up == -1) ? -1 : cell.up - 1;
+      }
+      window.push_back(cell);
+    }
+  }
+  return window;
+}
+
+// DTW restricted to `window` (the Cython __dtw). The comparison order decides
+// ties exactly as the package does: "up" only when strictly smallest, then
+// "left" when strictly below the corner, otherwise the corner.
+template <class P>
+DtwResult windowedDtw(std::span<const P> x, std::span<const P> y,
+                      const std::vector<WindowCell>& window) {
+  const size_t costLen = window.size() + 1;
+  std::vector<double> cost(costLen, 0.0);
+  std::vector<int> previous(costLen, -1);
+  for (size_t idx = 0; idx < window.size(); ++idx) {
+    const WindowCell& cell = window[idx];
+    const double dt = pointDistance(x[cell.x], y[cell.y]);
+    const double dLeft = cell.left != -1 ? cost[cell.left] : kInf;
+    const double dUp = cell.up != -1 ? cost[cell.up] : kInf;
+    const double dCorner = cell.corner != -1 ? cost[cell.corner] : kInf;
+    if (dUp < dLeft && dUp < dCorner) {
+      cost[idx + 1] = dUp + dt;
+      previous[idx + 1] = cell.up;
+    } else if (dLeft < dCorner) {
+      cost[idx + 1] = dLeft + dt;
+      previous[idx + 1] = cell.left;
+    } else {
+      cost[idx + 1] = dCorner + dt;
+      previous[idx + 1] = cell.corner;
+    }
+  }
+  DtwResult result;
+  result.distance = cost[costLen - 1];
+  // walk back from the last cell to the origin sentinel
+  for (int idx = static_cast<int>(costLen) - 1; idx != 0; idx = previous[idx]) {
+    VLN_ASSERT(idx > 0);  // every window cell is reachable from the origin
+    const WindowCell& cell = window[idx - 1];
+    result.path.emplace_back(cell.x, cell.y);
+  }
+  std::reverse(result.path.begin(), result.path.end());
+  return result;
+}
+
+// The Cython __expand_window: the projected low-resolution path widened by
+// `radius` cells (per-row y bounds), then doubled to full resolution.
+std::vector<WindowCell> expandWindow(
+    const std::vector<std::pair<int, int>>& path, int lenX, int lenY,
+    int radius) {
+  struct LowHigh {
+    int low = 0, high = 0;
+  };
+  // step 1: y range of the path in every low-resolution row
+  const int maxX = path.back().first;
+  const int maxY = path.back().second;
+  std::vector<LowHigh> bounds1(maxX + 1);
+  int previousY = 0;
+  int currentX = -1;
+  for (auto [px, py] : path) {
+    if (px != currentX) {
+      currentX = px;
+      bounds1[px].low = py;
+      if (currentX > 0) bounds1[px - 1].high = previousY;
+    }
+    previousY = py;
+  }
+  bounds1[maxX].high = previousY;
+
+  // step 2: widen by radius along both axes
+  std::vector<LowHigh> bounds2(maxX + radius + 1);
+  for (int x = 0; x <= maxX; ++x) {
+    bounds2[x].low = std::max(0, bounds1[std::max(0, x - radius)].low - radius);
+    bounds2[x].high = std::min(maxY + radius,
+                               bounds1[std::min(maxX, x + radius)].high + radius);
+  }
+  for (int x = maxX + 1; x < maxX + radius + 1; ++x) bounds2[x] = bounds2[x - 1];
+
+  // step 3: double the resolution (rows 2x and 2x+1 share a row's bounds)
+  const int len3 = std::min(lenX, 2 * (maxX + radius + 1));
+  std::vector<LowHigh> bounds3(len3);
+  for (int x = 0; x < maxX + radius + 1; ++x) {
+    for (int row : {2 * x, 2 * x + 1}) {
+      if (row < lenX) {
+        bounds3[row].low = 2 * bounds2[x].low;
+        bounds3[row].high = std::min(lenY - 1, 2 * bounds2[x].high + 1);
+      }
+    }
+  }
+
+  // step 4: cells with neighbour cost indices. Like the package, a cell whose
+  // column lies beyond the previous row's high bound gets no up and no
+  // corner link, even where the corner cell exists.
+  std::vector<WindowCell> window;
+  int idx = 0;
+  for (int x = 0; x < len3; ++x) {
+    const int low = bounds3[x].low;
+    const int high = bounds3[x].high;
+    for (int y = low; y <= high; ++y, ++idx) {
+      WindowCell cell{x, y};
+      if (x == 0 && y == 0) {
+        cell.corner = 0;
+        window.push_back(cell);
+        continue;
+      }
+      cell.left = (y == low) ? -1 : idx;
+      if (x == 0 || y > bounds3[x - 1].high) {
+        cell.up = -1;
+      } else {
+        cell.up = idx - (std::min(lenY - 1, bounds3[x - 1].high) - low + 1) + 1;
+        if (cell.up == 0) cell.up = -1;
+      }
+      if (x == 0 || y < bounds3[x - 1].low + 1 || y > bounds3[x - 1].high)
+        cell.corner = -1;
+      else
+        cell.corner = cell.up - 1;
+      window.push_back(cell);
+    }
+  }
+  return window;
+}
+
+// Pairwise means; an odd trailing element is dropped (fastdtw's
+// __reduce_by_half).
+template <class P>
+std::vector<P> reduceByHalf(std::span<const P> x) {
+  std::vector<P> out;
+  out.reserve(x.size() / 2);
+  for (size_t i = 0; i + 1 < x.size(); i += 2) out.push_back((x[i] + x[i + 1]) / 2.0);
+  return out;
+}
+
+template <class P>
+DtwResult fastDtwImpl(std::span<const P> x, std::span<const P> y, int radius) {
+  const size_t minTimeSize = static_cast<size_t>(radius) + 2;
+  if (x.size() < minTimeSize || y.size() < minTimeSize)
+    return windowedDtw(x, y,
+                       fullWindow(static_cast<int>(x.size()),
+                                  static_cast<int>(y.size())));
+  const std::vector<P> xs = reduceByHalf(x);
+  const std::vector<P> ys = reduceByHalf(y);
+  const DtwResult coarse =
+      fastDtwImpl(std::span<const P>(xs), std::span<const P>(ys), radius);
+  return windowedDtw(x, y,
+                     expandWindow(coarse.path, static_cast<int>(x.size()),
+                                  static_cast<int>(y.size()), radius));
+}
+
+template <class P>
+DtwResult fastDtwChecked(std::span<const P> x, std::span<const P> y,
+                         int radius) {
+  VLN_CHECK_ARG(!x.empty() && !y.empty(),
+                "fastDtw(): DTW needs two non-empty sequences, got lengths ",
+                x.size(), " and ", y.size());
+  VLN_CHECK_ARG(radius >= 1, "fastDtw(): radius must be >= 1, got ", radius);
+  return fastDtwImpl(x, y, radius);
+}
+
+std::vector<Vec3d> toDouble(std::span<const Vec3f> points) {
+  std::vector<Vec3d> out;
+  out.reserve(points.size());
+  for (const auto& p : points) out.push_back(p.cast<double>());
+  return out;
+}
+
+// ---------------------------------------------------------------------------
+// JSON helpers
+// ---------------------------------------------------------------------------
+
+nlohmann::json vecToJson(const Vec3f& v) { return {v.x(), v.y(), v.z()}; }
+
+Vec3f vecFromJson(const nlohmann::json& j, const std::string& where) {
+  VLN_CHECK_ARG(j.is_array() && j.size() == 3 && j[0].is_number() &&
+                    j[1].is_number() && j[2].is_number(),
+                where, " must be [x, y, z], got ", j.dump());
+  return {j[0].get<float>(), j[1].get<float>(), j[2].get<float>()};
+}
+
+nlohmann::json pointsToJson(std::span<const Vec3f> points) {
+  nlohmann::json out = nlohmann::json::array();
+  for (const auto& p : points) out.push_back(vecToJson(p));
+  return out;
+}
+
+std::vector<Vec3f> pointsFromJson(const nlohmann::json& j,
+                                  const std::string& where) {
+  VLN_CHECK_ARG(j.is_array(), where, " must be an array of [x, y, z], got ",
+                j.type_name());
+  std::vector<Vec3f> out;
+  out.reserve(j.size());
+  for (size_t i = 0; i < j.size(); ++i)
+    out.push_back(vecFromJson(j[i], strCat(where, "[", i, "]")));
+  return out;
+}
+
+// A number field; JSON null (how nlohmann writes inf/NaN) reads as +inf.
+double numberField(const nlohmann::json& object, const char* key,
+                   const std::string& where) {
+  auto it = object.find(key);
+  VLN_CHECK_ARG(it != object.end(), where, ": field '", key, "' is missing");
+  if (it->is_null()) return kInf;
+  VLN_CHECK_ARG(it->is_number(), where, ": field '", key,
+                "' must be a number, got ", it->dump());
+  return it->get<double>();
+}
+
+// The metric keys of EpisodeMetrics with VLN-CE's names.
+constexpr std::array<std::pair<const char*, double EpisodeMetrics::*>, 8>
+    kMetricKeys{{{"distance_to_goal", &EpisodeMetrics::distance_to_goal},
+                 {"success", &EpisodeMetrics::success},
+                 {"spl", &EpisodeMetrics::spl},
+                 {"ndtw", &EpisodeMetrics::ndtw},
+                 {"sdtw", &EpisodeMetrics::sdtw},
+                 {"path_length", &EpisodeMetrics::path_length},
+                 {"oracle_success", &EpisodeMetrics::oracle_success},
+                 {"steps_taken", &EpisodeMetrics::steps_taken}}};
+
+nlohmann::json metricsToJson(const EpisodeMetrics& m) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& [key, member] : kMetricKeys) out[key] = m.*member;
+  return out;
+}
+
+EpisodeMetrics metricsFromJson(const nlohmann::json& j,
+                               const std::string& where) {
+  VLN_CHECK_ARG(j.is_object(), where, ": expected a JSON object, got ",
+                j.type_name());
+  EpisodeMetrics m;
+  for (const auto& [key, member] : kMetricKeys)
+    m.*member = numberField(j, key, where);
+  return m;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// single metrics
+// ---------------------------------------------------------------------------
+
+double pathLength(std::span<const Vec3f> positions) {
+  double total = 0.0;
+  for (size_t i = 1; i < positions.size(); ++i)
+    total += (positions[i].cast<double>() - positions[i - 1].cast<double>()).norm();
+  return total;
+}
+
+bool oracleSuccess(std::span<const Vec3f> positions, const Vec3f& goal,
+                   const GeodesicFn& geodesic, double successDistance) {
+  // a repeated position has the same distance; skip the geodesic query
+  for (size_t i = 0; i < positions.size(); ++i) {
+    if (i > 0 && positions[i] == positions[i - 1]) continue;
+    if (static_cast<double>(geodesic(positions[i], goal)) < successDistance)
+      return true;
+  }
+  return false;
+}
+
+bool isSuccess(bool calledStop, double finalDistance, double successDistance) {
+  return calledStop && finalDistance < successDistance;
+}
+
+double splScore(bool success, double startDistance, double pathLength) {
+  if (!success) return 0.0;
+  const double denominator = std::max(startDistance, pathLength);
+  return denominator > 0.0 ? startDistance / denominator : 1.0;
+}
+
+std::vector<Vec3f> dedupConsecutive(std::span<const Vec3f> positions) {
+  std::vector<Vec3f> out;
+  out.reserve(positions.size());
+  for (const auto& p : positions)
+    if (out.empty() || !(p == out.back())) out.push_back(p);
+  return out;
+}
+
+DtwResult dtw(std::span<const Vec3d> a, std::span<const Vec3d> b) {
+  return exactDtw(a, b, /*wantPath=*/true, "dtw()");
+}
+
+DtwResult fastDtw(std::span<const Vec3d> a, std::span<const Vec3d> b,
+                  int radius) {
+  return fastDtwChecked(a, b, radius);
+}
+
+DtwResult dtw1d(std::span<const double> a, std::span<const double> b) {
+  return exactDtw(a, b, /*wantPath=*/true, "dtw1d()");
+}
+
+DtwResult fastDtw1d(std::span<const double> a, std::span<const double> b,
+                    int radius) {
+  return fastDtwChecked(a, b, radius);
+}
+
+double ndtwScore(std::span<const Vec3f> positions,
+                 std::span<const Vec3f> reference, double successDistance,
+                 DtwMethod method, int fastdtwRadius) {
+  VLN_CHECK_ARG(!positions.empty() && !reference.empty(),
+                "ndtwScore(): needs agent positions and a reference path, got ",
+                positions.size(), " positions and ", reference.size(),
+                " reference points");
+  VLN_CHECK_ARG(successDistance > 0.0,
+                "ndtwScore(): success distance must be positive, got ",
+                successDistance);
+  const std::vector<Vec3d> agent = toDouble(dedupConsecutive(positions));
+  const std::vector<Vec3d> gt = toDouble(reference);
+  const double distance =
+      method == DtwMethod::kExact
+          ? exactDtw(std::span<const Vec3d>(agent), std::span<const Vec3d>(gt),
+                     /*wantPath=*/false, "ndtwScore()")
+                .distance
+          : fastDtwChecked(std::span<const Vec3d>(agent),
+                           std::span<const Vec3d>(gt), fastdtwRadius)
+                .distance;
+  return std::exp(-distance /
+                  (static_cast<double>(reference.size()) * successDistance));
+}
+
+EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
+                                     const GeodesicFn& geodesic,
+                                     const MetricsOptions& options) {
+  const std::string where =
+      strCat("computeEpisodeMetrics(): episode '", record.episode_id, "'");
+
+  // consistency of the record
+  VLN_CHECK_ARG(!record.positions.empty(), where, ": field 'positions' is empty");
+  VLN_CHECK_ARG(record.steps_taken >= 0 &&
+                    record.positions.size() ==
+                        static_cast<size_t>(record.steps_taken) + 1,
+                where, ": field 'positions' must hold steps_taken + 1 = ",
+                record.steps_taken + 1, " entries, got ", record.positions.size());
+  VLN_CHECK_ARG(record.headings.empty() ||
+                    record.headings.size() == record.positions.size(),
+                where, ": field 'headings' must be empty or match positions (",
+                record.positions.size(), "), got ", record.headings.size());
+  VLN_CHECK_ARG(record.actions.empty() ||
+                    record.actions.size() ==
+                        static_cast<size_t>(record.steps_taken),
+                where, ": field 'actions' must be empty or hold steps_taken = ",
+                record.steps_taken, " entries, got ", record.actions.size());
+  VLN_CHECK_ARG(!record.reference_path.empty(), where,
+                ": field 'reference_path' is empty");
+  VLN_CHECK_ARG(std::isfinite(record.start_distance) && record.start_distance >= 0,
+                where, ": field 'start_distance' must be finite and >= 0, got ",
+                record.start_distance);
+  VLN_CHECK_ARG(options.success_distance > 0.0, where,
+                ": success_distance must be positive, got ",
+                options.success_distance);
+
+  EpisodeMetrics m;
+  m.distance_to_goal = geodesic(record.positions.back(), record.goal);
+  VLN_CHECK_ARG(std::isfinite(m.distance_to_goal), where,
+                ": geodesic distance from the final position to the goal is "
+                "not finite, got ",
+                m.distance_to_goal);
+  m.path_length = pathLength(record.positions);
+  const bool success =
+      isSuccess(record.called_stop, m.distance_to_goal, options.success_distance);
+  m.success = success ? 1.0 : 0.0;
+  m.spl = splScore(success, record.start_distance, m.path_length);
+  m.oracle_success = oracleSuccess(record.positions, record.goal, geodesic,
+                                   options.success_distance)
+                         ? 1.0
+                         : 0.0;
+  m.ndtw = ndtwScore(record.positions, record.reference_path,
+                     options.success_distance, options.dtw,
+                     options.fastdtw_radius);
+  m.sdtw = m.success * m.ndtw;
+  m.steps_taken = record.steps_taken;
+  return m;
+}
+
+// ---------------------------------------------------------------------------
+// aggregation
+// ---------------------------------------------------------------------------
+
+SplitStats aggregate(std::span<const EpisodeMetrics> episodes) {
+  VLN_CHECK_ARG(!episodes.empty(), "aggregate(): no episodes to average");
+  SplitStats stats;
+  stats.num_episodes = static_cast<int>(episodes.size());
+  for (const auto& [key, member] : kMetricKeys) {
+    double sum = 0.0;
+    for (const auto& e : episodes) sum += e.*member;
+    stats.mean.*member = sum / static_cast<double>(episodes.size());
+  }
+  return stats;
+}
+
+// ---------------------------------------------------------------------------
+// stats files
+// ---------------------------------------------------------------------------
+
+std::string statsFileName(int checkpoint, std::string_view split) {
+  return strCat("stats_ckpt_", checkpoint, "_", split, ".json");
+}
+
+std::string episodesFileName(int checkpoint, std::string_view split) {
+  return strCat("episodes_ckpt_", checkpoint, "_", split, ".json.gz");
+}
+
+nlohmann::json statsToJson(const SplitStats& stats) {
+  nlohmann::json out = metricsToJson(stats.mean);
+  out["num_episodes"] = stats.num_episodes;
+  return out;
+}
+
+SplitStats statsFromJson(const nlohmann::json& json, std::string_view source) {
+  const std::string where(source);
+  SplitStats stats;
+  stats.mean = metricsFromJson(json, where);
+  auto it = json.find("num_episodes");
+  VLN_CHECK_ARG(it != json.end(), where, ": field 'num_episodes' is missing");
+  VLN_CHECK_ARG(it->is_number_integer() && it->get<int64_t>() > 0, where,
+                ": field 'num_episodes' must be a positive integer, got ",
+                it->dump());
+  stats.num_episodes = it->get<int>();
+  return stats;
+}
+
+std::filesystem::path writeStatsFile(const std::filesystem::path& dir,
+                                     int checkpoint, std::string_view split,
+                                     const SplitStats& stats) {
+  const auto file = dir / statsFileName(checkpoint, split);
+  common::writeJsonFile(file, statsToJson(stats), /*indent=*/4);
+  return file;
+}
+
+SplitStats readStatsFile(const std::filesystem::path& file) {
+  return statsFromJson(common::readJsonFile(file), file.string());
+}
+
+// ---------------------------------------------------------------------------
+// per-episode files
+// ---------------------------------------------------------------------------
+
+nlohmann::json episodesToJson(std::span<const EpisodeResult> episodes) {
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& [r, m] : episodes) {
+    list.push_back({{"episode_id", r.episode_id},
+                    {"metrics", metricsToJson(m)},
+                    {"called_stop", r.called_stop},
+                    {"steps_taken", r.steps_taken},
+                    {"goal", vecToJson(r.goal)},
+                    {"start_distance", r.start_distance},
+                    {"path",
+                     {{"positions", pointsToJson(r.positions)},
+                      {"headings", r.headings}}},
+                    {"actions", r.actions},
+                    {"reference_path", pointsToJson(r.reference_path)}});
+  }
+  return {{"episodes", std::move(list)}};
+}
+
+std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
+                                            std::string_view source) {
+  const std::string file(source);
+  const auto list = common::requireField<nlohmann::json>(json, "episodes", file);
+  VLN_CHECK_ARG(list.is_array(), file, ": field 'episodes' must be an array, got ",
+                list.type_name());
+  std::vector<EpisodeResult> out;
+  out.reserve(list.size());
+  for (size_t i = 0; i < list.size(); ++i) {
+    const auto& e = list[i];
+    const std::string where = strCat(file, ": episodes[", i, "]");
+    EpisodeResult result;
+    EpisodeRecord& r = result.record;
+    r.episode_id = common::requireField<std::string>(e, "episode_id", where);
+    const std::string ctx = strCat(file, ": episode '", r.episode_id, "'");
+    result.metrics = metricsFromJson(
+        common::requireField<nlohmann::json>(e, "metrics", ctx), ctx + " metrics");
+    r.called_stop = common::requireField<bool>(e, "called_stop", ctx);
+    r.steps_taken = common::requireField<int>(e, "steps_taken", ctx);
+    r.goal = vecFromJson(common::requireField<nlohmann::json>(e, "goal", ctx),
+                         ctx + ": field 'goal'");
+    r.start_distance = numberField(e, "start_distance", ctx);
+    const auto path = common::requireField<nlohmann::json>(e, "path", ctx);
+    r.positions =
+        pointsFromJson(common::requireField<nlohmann::json>(path, "positions", ctx),
+                       ctx + ": field 'path.positions'");
+    r.headings = common::requireField<std::vector<float>>(path, "headings", ctx);
+    r.actions = common::requireField<std::vector<int>>(e, "actions", ctx);
+    r.reference_path = pointsFromJson(
+        common::requireField<nlohmann::json>(e, "reference_path", ctx),
+        ctx + ": field 'reference_path'");
+    VLN_CHECK_ARG(r.positions.size() == static_cast<size_t>(r.steps_taken) + 1,
+                  ctx, ": field 'path.positions' must hold steps_taken + 1 = ",
+                  r.steps_taken + 1, " entries, got ", r.positions.size());
+    for (size_t k = 0; k < r.actions.size(); ++k)
+      VLN_CHECK_ARG(r.actions[k] >= 0 && r.actions[k] <= 3, ctx,
+                    ": field 'actions[", k, "]' must be an action code 0..3, got ",
+                    r.actions[k]);
+    out.push_back(std::move(result));
+  }
+  return out;
+}
+
+void writeEpisodesFile(const std::filesystem::path& file,
+                       std::span<const EpisodeResult> episodes) {
+  common::writeJsonFile(file, episodesToJson(episodes));
+}
+
+std::vector<EpisodeResult> readEpisodesFile(const std::filesystem::path& file) {
+  return episodesFromJson(common::readJsonFile(file), file.string());
+}
+
+// ---------------------------------------------------------------------------
+// leaderboard predictions
+// ---------------------------------------------------------------------------
+
+std::vector<LeaderboardStep> leaderboardSteps(const EpisodeRecord& record) {
+  VLN_CHECK_ARG(!record.positions.empty() &&
+                    record.headings.size() == record.positions.size(),
+                "leaderboardSteps(): episode '", record.episode_id,
+                "' needs one heading per position (", record.positions.size(),
+                "), got ", record.headings.size());
+  std::vector<LeaderboardStep> steps;
+  steps.reserve(record.positions.size());
+  for (size_t i = 0; i < record.positions.size(); ++i) {
+    // VLN-CE reports task.is_stop_called after each step: only the state
+    // after the STOP action carries stop = true
+    const bool last = i + 1 == record.positions.size();
+    steps.push_back({record.positions[i], wrapAngle(record.headings[i]),
+                     record.called_stop && last && i > 0});
+  }
+  return steps;
+}
+
+nlohmann::json leaderboardToJson(const LeaderboardPredictions& predictions) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& [id, steps] : predictions) {
+    VLN_CHECK_ARG(!out.contains(id), "leaderboardToJson(): duplicate episode id '",
+                  id, "'");
+    nlohmann::json list = nlohmann::json::array();
+    for (const auto& s : steps)
+      list.push_back({{"position", vecToJson(s.position)},
+                      {"heading", s.heading},
+                      {"stop", s.stop}});
+    out[id] = std::move(list);
+  }
+  return out;
+}
+
+LeaderboardPredictions leaderboardFromJson(const nlohmann::json& json,
+                                           std::string_view source) {
+  const std::string file(source);
+  VLN_CHECK_ARG(json.is_object(), file,
+                ": expected an object of episode id -> steps, got ",
+                json.type_name());
+  LeaderboardPredictions out;
+  for (const auto& [id, list] : json.items()) {
+    const std::string ctx = strCat(file, ": episode '", id, "'");
+    VLN_CHECK_ARG(list.is_array() && !list.empty(), ctx,
+                  " must be a non-empty array of steps, got ", list.dump());
+    std::vector<LeaderboardStep> steps;
+    for (size_t i = 0; i < list.size(); ++i) {
+      const std::string where = strCat(ctx, " step ", i);
+      LeaderboardStep s;
+      s.position = vecFromJson(
+          common::requireField<nlohmann::json>(list[i], "position", where),
+          where + ": field 'position'");
+      s.heading = common::requireField<float>(list[i], "heading", where);
+      s.stop = common::requireField<bool>(list[i], "stop", where);
+      steps.push_back(s);
+    }
+    out.emplace_back(id, std::move(steps));
+  }
+  return out;
+}
+
+void writeLeaderboardFile(const std::filesystem::path& file,
+                          std::span<const EpisodeRecord> records) {
+  LeaderboardPredictions predictions;
+  predictions.reserve(records.size());
+  for (const auto& r : records)
+    predictions.emplace_back(r.episode_id, leaderboardSteps(r));
+  common::writeJsonFile(file, leaderboardToJson(predictions));
+}
+
+LeaderboardPredictions readLeaderboardFile(const std::filesystem::path& file) {
+  return leaderboardFromJson(common::readJsonFile(file), file.string());
+}
+
+}  // namespace vln::eval
