@@ -1,0 +1,202 @@
+// Tests src/sim/TopDownMap.cpp: canvas extent, the colours of navigable
+// space, obstacles and objects, the markers drawn on top, floor selection
+// and the PNG file.
+
+#include "sim/TopDownMap.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "common/FileIo.h"
+#include "sim/Scene.h"
+#include "support/TestPaths.h"
+
+namespace vln::sim {
+namespace {
+
+using ::testing::HasSubstr;
+
+void addQuad(TriangleMesh& mesh, const std::array<Vec3f, 4>& corners,
+             Rgb8 color, int object) {
+  const auto base = static_cast<uint32_t>(mesh.positions.size());
+  for (const Vec3f& p : corners) {
+    mesh.positions.push_back(p);
+    mesh.colors.push_back(color);
+  }
+  for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(base + i);
+  mesh.triangle_object.push_back(object);
+  mesh.triangle_object.push_back(object);
+}
+
+void addWalls(TriangleMesh& mesh, float x0, float x1, float z0, float z1,
+              float y0, float y1) {
+  const Rgb8 wall{200, 200, 210};
+  addQuad(mesh, {Vec3f(x0, y0, z0), {x1, y0, z0}, {x1, y1, z0}, {x0, y1, z0}}, wall, -1);
+  addQuad(mesh, {Vec3f(x1, y0, z1), {x0, y0, z1}, {x0, y1, z1}, {x1, y1, z1}}, wall, -1);
+  addQuad(mesh, {Vec3f(x0, y0, z1), {x0, y0, z0}, {x0, y1, z0}, {x0, y1, z1}}, wall, -1);
+  addQuad(mesh, {Vec3f(x1, y0, z0), {x1, y0, z1}, {x1, y1, z1}, {x1, y1, z0}}, wall, -1);
+}
+
+// A 6 m x 6 m walled room at y = 0 with a red 1 m cube (object 4, "table")
+// centred at (2, 0.5, 0).
+std::shared_ptr<const Scene> roomScene() {
+  TriangleMesh mesh;
+  addQuad(mesh, {Vec3f(-3, 0, 3), {3, 0, 3}, {3, 0, -3}, {-3, 0, -3}}, Rgb8{180, 160, 120}, -1);
+  addWalls(mesh, -3, 3, -3, 3, 0, 2.7f);
+  const float x0 = 1.5f, x1 = 2.5f, y1 = 1.0f, z0 = -0.5f, z1 = 0.5f;
+  const Rgb8 red{220, 30, 30};
+  addQuad(mesh, {Vec3f(x0, 0, z1), {x1, 0, z1}, {x1, y1, z1}, {x0, y1, z1}}, red, 4);
+  addQuad(mesh, {Vec3f(x1, 0, z0), {x0, 0, z0}, {x0, y1, z0}, {x1, y1, z0}}, red, 4);
+  addQuad(mesh, {Vec3f(x0, 0, z0), {x0, 0, z1}, {x0, y1, z1}, {x0, y1, z0}}, red, 4);
+  addQuad(mesh, {Vec3f(x1, 0, z1), {x1, 0, z0}, {x1, y1, z0}, {x1, y1, z1}}, red, 4);
+  addQuad(mesh, {Vec3f(x0, y1, z1), {x1, y1, z1}, {x1, y1, z0}, {x0, y1, z0}}, red, 4);
+  SceneSemantics semantics;
+  SemanticObject cube;
+  cube.id = 4;
+  cube.category = "table";
+  cube.color = "red";
+  cube.bounds = Eigen::AlignedBox3f(Vec3f(x0, 0, z0), Vec3f(x1, y1, z1));
+  semantics.objects.push_back(cube);
+  return Scene::fromMesh("map-room", std::move(mesh), std::move(semantics),
+                         NavMeshConfig{});
+}
+
+Rgb8 pixelAt(const TopDownMap& map, const Vec3f& p) {
+  const Eigen::Vector2i px = map.toPixel(p);
+  EXPECT_GE(px.x(), 0);
+  EXPECT_GE(px.y(), 0);
+  EXPECT_LT(px.x(), map.width());
+  EXPECT_LT(px.y(), map.height());
+  const size_t i = (static_cast<size_t>(px.y()) * map.width() + px.x()) * 3;
+  return {map.rgb()[i], map.rgb()[i + 1], map.rgb()[i + 2]};
+}
+
+class TopDownMapTest : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() { scene_ = roomScene(); }
+  static void TearDownTestSuite() { scene_.reset(); }
+  static std::shared_ptr<const Scene> scene_;
+};
+std::shared_ptr<const Scene> TopDownMapTest::scene_;
+
+TEST_F(TopDownMapTest, CanvasCoversNavigableAreaWithMargin) {
+  TopDownMap map(*scene_, 0.05f);
+  // navigable x, z in about [-2.9, 2.9] plus 0.5 m margins at 0.05 m/pixel
+  EXPECT_NEAR(map.width(), 136, 6);
+  EXPECT_NEAR(map.height(), 136, 6);
+  EXPECT_EQ(map.rgb().size(), static_cast<size_t>(map.width()) * map.height() * 3);
+  // one metre is twenty pixels, x to columns and z to rows
+  const Eigen::Vector2i a = map.toPixel({0, 0, 0});
+  EXPECT_EQ(map.toPixel({1, 0, 0}) - a, Eigen::Vector2i(20, 0));
+  EXPECT_EQ(map.toPixel({0, 0, 1}) - a, Eigen::Vector2i(0, 20));
+}
+
+TEST_F(TopDownMapTest, ColoursNavigableObstaclesAndObjects) {
+  TopDownMap map(*scene_, 0.05f);
+  EXPECT_EQ(pixelAt(map, {-1, 0, 1}), (Rgb8{232, 232, 232}));
+  // the cube is drawn in its own (mean vertex) colour
+  EXPECT_EQ(pixelAt(map, {2.25f, 0, -0.25f}), (Rgb8{220, 30, 30}));
+  // just inside the walls, where the agent's radius keeps it away: obstacle
+  // or wall, darker than navigable
+  const Rgb8 edge = pixelAt(map, {-2.98f, 0, 0});
+  EXPECT_LT(edge[0], 150);
+  // beyond the scene's footprint (in the margin): blank
+  EXPECT_EQ(pixelAt(map, {-3.2f, 0, -3.2f}), (Rgb8{255, 255, 255}));
+}
+
+TEST_F(TopDownMapTest, MarkersDrawnOnTop) {
+  TopDownMap map(*scene_, 0.05f);
+  const Rgb8 blue{0, 0, 255};
+  map.drawPath({Vec3f(-2, 0, 2), Vec3f(-2, 0, -2), Vec3f(0, 0, -2)}, blue, 3);
+  EXPECT_EQ(pixelAt(map, {-2, 0, 0}), blue);
+  EXPECT_EQ(pixelAt(map, {-1, 0, -2}), blue);
+  EXPECT_EQ(pixelAt(map, {-1, 0, 0}), (Rgb8{232, 232, 232}));
+
+  const Rgb8 green{0, 200, 0};
+  map.drawPoint({1, 0, 2}, green, 4);
+  EXPECT_EQ(pixelAt(map, {1, 0, 2}), green);
+
+  const Rgb8 magenta{255, 0, 255};
+  map.drawCircle({0, 0, 1}, 1.0f, magenta, 2);
+  EXPECT_EQ(pixelAt(map, {1, 0, 1}), magenta);
+  EXPECT_EQ(pixelAt(map, {0, 0, 1}), (Rgb8{232, 232, 232}));
+  EXPECT_THROW(map.drawCircle({0, 0, 0}, -1.0f, magenta), std::invalid_argument);
+
+  // heading 0 looks along -Z: the arrow points towards smaller rows
+  const Rgb8 orange{255, 128, 0};
+  map.drawAgent({-1, 0, 1.5f}, 0.0f, orange);
+  EXPECT_EQ(pixelAt(map, {-1, 0, 1.5f}), orange);
+  EXPECT_EQ(pixelAt(map, {-1, 0, 1.2f}), orange);
+  EXPECT_NE(pixelAt(map, {-1, 0, 1.8f}), orange);
+  // a left turn of 90 degrees points it along -X
+  map.drawAgent({1, 0, -1.5f}, kPi / 2, orange);
+  EXPECT_EQ(pixelAt(map, {0.7f, 0, -1.5f}), orange);
+  EXPECT_NE(pixelAt(map, {1.3f, 0, -1.5f}), orange);
+
+  map.drawText({-1, 0, -1}, "goal", Rgb8{0, 0, 0});
+  int dark = 0;
+  for (float dx = -0.3f; dx <= 0.3f; dx += 0.05f)
+    for (float dz = -0.1f; dz <= 0.1f; dz += 0.05f)
+      if (pixelAt(map, {-1 + dx, 0, -1 + dz})[0] < 100) ++dark;
+  EXPECT_GT(dark, 2);
+}
+
+TEST(TopDownMapFloorTest, DrawsTheFloorNearestToFloorY) {
+  // a 4 m x 4 m room at y = 0 and a 2 m x 3 m platform at y = 3 beside it
+  TriangleMesh mesh;
+  addQuad(mesh, {Vec3f(0, 0, 4), {4, 0, 4}, {4, 0, 0}, {0, 0, 0}}, Rgb8{200, 200, 200}, -1);
+  addWalls(mesh, 0, 4, 0, 4, 0, 2.5f);
+  addQuad(mesh, {Vec3f(10, 3, 3), {12, 3, 3}, {12, 3, 0}, {10, 3, 0}}, Rgb8{200, 200, 200}, -1);
+  auto scene = Scene::fromMesh("two-floors", std::move(mesh), {}, NavMeshConfig{});
+  TopDownMap ground(*scene, 0.05f, 0.0f);
+  TopDownMap upper(*scene, 0.05f, 3.2f);
+  // widths: navigable extent (minus the agent radius at walls) + 1 m margin
+  EXPECT_NEAR(ground.width(), (4.0f - 0.2f + 1.0f) / 0.05f, 6);
+  EXPECT_NEAR(upper.width(), (2.0f + 1.0f) / 0.05f, 6);
+  EXPECT_NEAR(upper.height(), (3.0f + 1.0f) / 0.05f, 6);
+  EXPECT_EQ(pixelAt(upper, {11, 3, 1.5f}), (Rgb8{232, 232, 232}));
+}
+
+TEST_F(TopDownMapTest, SavesAPngAtomically) {
+  TopDownMap map(*scene_, 0.1f);
+  test::TempDir dir;
+  const auto file = dir / "maps" / "room.png";
+  map.save(file);
+  const std::string png = common::readFile(file);
+  ASSERT_GT(png.size(), 33u);
+  EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  // IHDR: big-endian width and height at bytes 16 and 20
+  auto be32 = [&](size_t at) {
+    return (static_cast<uint32_t>(static_cast<uint8_t>(png[at])) << 24) |
+           (static_cast<uint32_t>(static_cast<uint8_t>(png[at + 1])) << 16) |
+           (static_cast<uint32_t>(static_cast<uint8_t>(png[at + 2])) << 8) |
+           static_cast<uint32_t>(static_cast<uint8_t>(png[at + 3]));
+  };
+  EXPECT_EQ(be32(16), static_cast<uint32_t>(map.width()));
+  EXPECT_EQ(be32(20), static_cast<uint32_t>(map.height()));
+  // no temporary file left beside it
+  int entries = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(file.parent_path())) {
+    (void)entry;
+    ++entries;
+  }
+  EXPECT_EQ(entries, 1);
+}
+
+TEST_F(TopDownMapTest, RejectsBadScale) {
+  try {
+    TopDownMap map(*scene_, 0.0f);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("metersPerPixel"));
+  }
+  try {
+    TopDownMap map(*scene_, 1e-5f);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("map-room"));
+  }
+}
+
+}  // namespace
+}  // namespace vln::sim
