@@ -1,0 +1,111 @@
+#include "models/ModelConfig.h"
+
+#include <cmath>
+
+#include "common/Check.h"
+
+namespace vln::models {
+namespace {
+
+// output size of a convolution or pooling window along one axis
+int64_t convOut(int64_t in, int64_t kernel, int64_t stride, int64_t padding) {
+  return (in + 2 * padding - kernel) / stride + 1;
+}
+
+// DD-PPO's ResNet (habitat_baselines resnet.py): 7x7/2 stem, 3x3/2 max pool,
+// then three stride-2 stages; returns the backbone's output size along an
+// axis of `in` pixels after ResNetEncoder's 2x average pool
+int64_t ddppoSpatial(int64_t in) {
+  int64_t x = in / 2;
+  x = convOut(x, 7, 2, 3);
+  x = convOut(x, 3, 2, 1);
+  for (int stage = 0; stage < 3; ++stage) x = convOut(x, 3, 2, 1);
+  return x;
+}
+
+// ResNetEncoder sizes its compression conv from the image height alone:
+// final_spatial = int((height // 2) / 32), channels = round(2048 / s^2)
+int64_t ddppoCompressionChannels(int64_t height) {
+  const int64_t finalSpatial = (height / 2) / 32;
+  VLN_ASSERT(finalSpatial >= 1);
+  return std::llround(2048.0 /
+                      static_cast<double>(finalSpatial * finalSpatial));
+}
+
+}  // namespace
+
+void ModelConfig::validate() const {
+  VLN_CHECK_ARG(!(no_rgb && no_depth && no_instruction),
+                "ModelConfig::validate(): model.no_rgb, model.no_depth and "
+                "model.no_instruction are all true, the policy has no input");
+  if (usesDepth() && depth_encoder != EncoderType::kSmallCnn) {
+    VLN_CHECK_ARG(depth_height >= 64 && depth_width >= 64,
+                  "ModelConfig::validate(): model.depth_encoder '",
+                  encoderName(depth_encoder),
+                  "' (DD-PPO ResNet, stride 64 with its input pooling) needs "
+                  "depth images of at least 64x64, got model.depth_height=",
+                  depth_height, " model.depth_width=", depth_width);
+    VLN_CHECK_ARG(depth_resnet_base_planes % 2 == 0,
+                  "ModelConfig::validate(): model.depth_resnet_base_planes "
+                  "must be even (GroupNorm groups = base / 2), got ",
+                  depth_resnet_base_planes);
+  }
+  VLN_CHECK_ARG(hidden_size % 2 == 0,
+                "ModelConfig::validate(): model.hidden_size must be even (CMA "
+                "attention keys are hidden_size / 2 wide), got ",
+                hidden_size);
+  VLN_CHECK_ARG(
+      device == "cpu" || device == "cuda" || device.rfind("cuda:", 0) == 0,
+      "ModelConfig::validate(): model.device must be cpu, cuda or cuda:N, "
+      "got '",
+      device, "'");
+  if (device.rfind("cuda:", 0) == 0) {
+    const std::string index = device.substr(5);
+    VLN_CHECK_ARG(!index.empty() && index.find_first_not_of("0123456789") ==
+                                        std::string::npos,
+                  "ModelConfig::validate(): model.device has a bad CUDA "
+                  "index, got '",
+                  device, "'");
+  }
+}
+
+FeatureShape rgbFeatureShape(const ModelConfig& config) {
+  switch (config.rgb_encoder) {
+    case EncoderType::kResNet50:
+      return {2048, 4, 4};
+    case EncoderType::kResNet18:
+      return {512, 4, 4};
+    case EncoderType::kSmallCnn:
+      return {64, 4, 4};
+  }
+  VLN_ASSERT(false);
+  return {};
+}
+
+FeatureShape depthFeatureShape(const ModelConfig& config) {
+  if (config.depth_encoder == EncoderType::kSmallCnn) return {32, 4, 4};
+  VLN_CHECK_ARG(config.depth_height >= 64 && config.depth_width >= 64,
+                "depthFeatureShape(): DD-PPO ResNet needs depth images of at "
+                "least 64x64, got ",
+                config.depth_height, "x", config.depth_width);
+  return {ddppoCompressionChannels(config.depth_height),
+          ddppoSpatial(config.depth_height), ddppoSpatial(config.depth_width)};
+}
+
+const char* policyName(PolicyType type) {
+  return type == PolicyType::kCma ? "cma" : "seq2seq";
+}
+
+const char* encoderName(EncoderType type) {
+  switch (type) {
+    case EncoderType::kResNet50:
+      return "resnet50";
+    case EncoderType::kResNet18:
+      return "resnet18";
+    case EncoderType::kSmallCnn:
+      return "small_cnn";
+  }
+  return "?";
+}
+
+}  // namespace vln::models

@@ -1,0 +1,157 @@
+#include "models/ObservationEncoder.h"
+
+#include "common/Check.h"
+#include "models/StateDict.h"
+
+namespace vln::models {
+namespace {
+
+int resnetLayers(EncoderType type) {
+  return type == EncoderType::kResNet50 ? 50 : 18;
+}
+
+// flattens leading dims of a channels-last image batch [..., H, W, C] into N
+torch::Tensor flattenImages(const torch::Tensor& images, int64_t channels,
+                            const char* who) {
+  TORCH_CHECK(images.dim() >= 4 && images.size(-1) == channels, who,
+              ": expected [..., H, W, ", channels, "], got ", images.sizes());
+  return images.reshape({-1, images.size(-3), images.size(-2), channels});
+}
+
+// restores the leading dims of `images` on a [N, C, h, w] feature batch
+torch::Tensor unflattenFeatures(const torch::Tensor& features,
+                                const torch::Tensor& images) {
+  std::vector<int64_t> shape(images.sizes().begin(), images.sizes().end() - 3);
+  shape.insert(shape.end(), features.sizes().begin() + 1,
+               features.sizes().end());
+  return features.reshape(shape);
+}
+
+void freeze(torch::nn::Module& module) {
+  for (auto& p : module.parameters()) p.set_requires_grad(false);
+}
+
+}  // namespace
+
+// ===========================================================================
+// RGB
+// ===========================================================================
+
+RgbEncoderImpl::RgbEncoderImpl(const ModelConfig& config) {
+  if (config.rgb_encoder == EncoderType::kSmallCnn) {
+    small = register_module("cnn", SmallCnn(3, rgbFeatureShape(config)[0]));
+  } else {
+    resnet = register_module(
+        "cnn", TorchVisionResNet(resnetLayers(config.rgb_encoder)));
+  }
+}
+
+torch::Tensor RgbEncoderImpl::forward(const torch::Tensor& rgb) {
+  TORCH_CHECK(rgb.scalar_type() == torch::kUInt8,
+              "RgbEncoder::forward(): expected uint8 pixels, got ",
+              rgb.scalar_type());
+  const torch::Tensor images = flattenImages(rgb, 3, "RgbEncoder::forward()");
+  // ImageNet statistics (torchvision's documented normalisation), folded
+  // into one multiply-add per pixel
+  const auto opts = torch::TensorOptions().device(rgb.device());
+  const torch::Tensor mean =
+      torch::tensor({0.485f, 0.456f, 0.406f}, opts).view({1, 3, 1, 1});
+  const torch::Tensor stdev =
+      torch::tensor({0.229f, 0.224f, 0.225f}, opts).view({1, 3, 1, 1});
+  const torch::Tensor x = images.permute({0, 3, 1, 2}).to(torch::kFloat32);
+  const torch::Tensor normalised = x * (1.0f / 255.0f / stdev) - mean / stdev;
+  torch::Tensor features;
+  if (resnet) {
+    features = torch::adaptive_avg_pool2d(resnet->forward(normalised), {4, 4});
+  } else {
+    features = small->forward(normalised);
+  }
+  return unflattenFeatures(features, rgb);
+}
+
+torch::nn::Module& RgbEncoderImpl::cnnModule() {
+  if (resnet) return *resnet;
+  return *small;
+}
+
+// ===========================================================================
+// depth
+// ===========================================================================
+
+DepthEncoderImpl::DepthEncoderImpl(const ModelConfig& config) {
+  if (config.depth_encoder == EncoderType::kSmallCnn) {
+    small = register_module("cnn", SmallCnn(1, depthFeatureShape(config)[0]));
+  } else {
+    resnet = register_module(
+        "cnn", DdppoResNetEncoder(resnetLayers(config.depth_encoder),
+                                  config.depth_resnet_base_planes,
+                                  config.depth_height));
+  }
+}
+
+torch::Tensor DepthEncoderImpl::forward(const torch::Tensor& depth) {
+  TORCH_CHECK(depth.is_floating_point(),
+              "DepthEncoder::forward(): expected float depth, got ",
+              depth.scalar_type());
+  const torch::Tensor images =
+      flattenImages(depth, 1, "DepthEncoder::forward()");
+  const torch::Tensor x = images.permute({0, 3, 1, 2});
+  const torch::Tensor features = resnet ? resnet->forward(x) : small->forward(x);
+  return unflattenFeatures(features, depth);
+}
+
+torch::nn::Module& DepthEncoderImpl::cnnModule() {
+  if (resnet) return *resnet;
+  return *small;
+}
+
+// ===========================================================================
+// both
+// ===========================================================================
+
+ObservationEncoderImpl::ObservationEncoderImpl(const ModelConfig& config)
+    : config_(config) {
+  config_.validate();
+  if (config_.usesRgb()) {
+    rgb = register_module("rgb", RgbEncoder(config_));
+    if (!config_.rgb_trainable) freeze(*rgb);
+  }
+  if (config_.usesDepth()) {
+    depth = register_module("depth", DepthEncoder(config_));
+    if (!config_.depth_trainable) freeze(*depth);
+  }
+  train(true);
+}
+
+VisualFeatures ObservationEncoderImpl::forward(const torch::Tensor& rgbImages,
+                                               const torch::Tensor& depthImages) {
+  VisualFeatures out;
+  if (rgb) {
+    TORCH_CHECK(rgbImages.defined(),
+                "ObservationEncoder::forward(): the model uses RGB but no RGB "
+                "images were given");
+    out.rgb = rgb->forward(rgbImages);
+  }
+  if (depth) {
+    TORCH_CHECK(depthImages.defined(),
+                "ObservationEncoder::forward(): the model uses depth but no "
+                "depth images were given");
+    out.depth = depth->forward(depthImages);
+  }
+  return out;
+}
+
+void ObservationEncoderImpl::loadPretrained() {
+  if (rgb && !config_.rgb_weights.empty())
+    loadModule(rgb->cnnModule(), config_.rgb_weights);
+  if (depth && !config_.depth_weights.empty())
+    loadModule(depth->cnnModule(), config_.depth_weights);
+}
+
+void ObservationEncoderImpl::train(bool on) {
+  torch::nn::Module::train(on);
+  if (rgb && !config_.rgb_trainable) rgb->train(false);
+  if (depth && !config_.depth_trainable) depth->train(false);
+}
+
+}  // namespace vln::models

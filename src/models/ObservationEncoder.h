@@ -1,0 +1,84 @@
+#pragma once
+// The frozen (by default) visual encoders, separate from the policies: they
+// run once per observation and their outputs ("features") can be cached on
+// disk; policies consume feature maps. Images are Habitat's sensor layout
+// (channels last); features are channels first.
+
+#include <torch/torch.h>
+
+#include "models/ModelConfig.h"
+#include "models/ResNet.h"
+
+namespace vln::models {
+
+/// RGB CNN: uint8 images [..., H, W, 3] -> float features [..., C, 4, 4]
+/// (rgbFeatureShape()). Pixels are scaled to [0, 1] and normalised with the
+/// ImageNet mean/std inside (VLN-CE only divides by 255; torchvision's
+/// weights expect the normalisation). ResNet outputs are adaptive-average-
+/// pooled to 4x4 as in VLN-CE.
+class RgbEncoderImpl : public torch::nn::Module {
+ public:
+  explicit RgbEncoderImpl(const ModelConfig& config);
+  torch::Tensor forward(const torch::Tensor& rgb);
+  /// The module whose tensors a weight file holds (torchvision names for
+  /// the ResNets).
+  torch::nn::Module& cnnModule();
+
+  TorchVisionResNet resnet{nullptr};  ///< set for resnet18/resnet50
+  SmallCnn small{nullptr};            ///< set for small_cnn
+};
+TORCH_MODULE(RgbEncoder);
+
+/// Depth CNN: float depth [..., H, W, 1] in [0, 1] -> features [..., C, h, w]
+/// (depthFeatureShape()).
+class DepthEncoderImpl : public torch::nn::Module {
+ public:
+  explicit DepthEncoderImpl(const ModelConfig& config);
+  torch::Tensor forward(const torch::Tensor& depth);
+  /// The module whose tensors a weight file holds (DD-PPO visual_encoder
+  /// names for the ResNets).
+  torch::nn::Module& cnnModule();
+
+  DdppoResNetEncoder resnet{nullptr};  ///< set for resnet18/resnet50
+  SmallCnn small{nullptr};             ///< set for small_cnn
+};
+TORCH_MODULE(DepthEncoder);
+
+/// Feature maps of a batch of observations, channels first. A tensor is
+/// undefined when the model does not use that modality.
+struct VisualFeatures {
+  torch::Tensor rgb;    ///< [..., C_rgb, h, w] float32
+  torch::Tensor depth;  ///< [..., C_depth, h', w'] float32
+};
+
+/// Both visual encoders of a model. Ablated modalities (model.no_rgb,
+/// model.no_depth) have no encoder. Frozen encoders (the default) have
+/// requires_grad off and stay in eval mode even when train() is called, so
+/// BatchNorm keeps its ImageNet statistics.
+class ObservationEncoderImpl : public torch::nn::Module {
+ public:
+  explicit ObservationEncoderImpl(const ModelConfig& config);
+
+  /// rgb uint8 [..., H, W, 3], depth float [..., H, W, 1] (same leading
+  /// dims; either may be undefined when that modality is unused) -> feature
+  /// maps with the same leading dims.
+  VisualFeatures forward(const torch::Tensor& rgb, const torch::Tensor& depth);
+
+  /// Loads model.rgb_weights / model.depth_weights (when set) strictly into
+  /// the CNNs. Throws naming the file and every mismatched tensor.
+  void loadPretrained();
+
+  /// Keeps frozen encoders in eval mode.
+  void train(bool on = true) override;
+
+  const ModelConfig& config() const { return config_; }
+
+  RgbEncoder rgb{nullptr};      ///< undefined when model.no_rgb
+  DepthEncoder depth{nullptr};  ///< undefined when model.no_depth
+
+ private:
+  ModelConfig config_;
+};
+TORCH_MODULE(ObservationEncoder);
+
+}  // namespace vln::models
