@@ -1,9 +1,16 @@
 #include "sim/Renderer.h"
 
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <cmath>
+#include <string_view>
+#include <vector>
 
 #include "common/Check.h"
+#include "common/FileIo.h"
 #include "sim/EmbreeRenderer.h"
 #include "sim/OsMesaRenderer.h"
 #include "sim/RayTracer.h"
@@ -66,6 +73,47 @@ void checkRenderArgs(std::string_view method, const CameraPose& pose,
   VLN_CHECK_ARG(bufferSize == expected, method, ": buffer holds ", bufferSize,
                 " elements, expected ", expected, " for ", camera.width, "x",
                 camera.height, "x", channels);
+}
+
+namespace {
+
+void writePng(const std::filesystem::path& file, const cv::Mat& image,
+              const char* method) {
+  std::vector<uint8_t> png;
+  VLN_CHECK_IO(cv::imencode(".png", image, png), method, ": ", file.string(),
+               ": PNG encoding failed");
+  common::writeFileAtomic(
+      file, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+}
+
+}  // namespace
+
+void saveRgbPng(const std::filesystem::path& file, int width, int height,
+                std::span<const uint8_t> rgb) {
+  checkRenderArgs("saveRgbPng()", CameraPose{}, CameraIntrinsics{width, height, 90.0f},
+                  rgb.size(), 3);
+  // OpenCV encodes BGR
+  const cv::Mat view(height, width, CV_8UC3, const_cast<uint8_t*>(rgb.data()));
+  cv::Mat bgr;
+  cv::cvtColor(view, bgr, cv::COLOR_RGB2BGR);
+  writePng(file, bgr, "saveRgbPng()");
+}
+
+void saveDepthPng(const std::filesystem::path& file, int width, int height,
+                  std::span<const float> depth) {
+  checkRenderArgs("saveDepthPng()", CameraPose{},
+                  CameraIntrinsics{width, height, 90.0f}, depth.size(), 1);
+  cv::Mat millimetres(height, width, CV_16UC1);
+  for (int row = 0; row < height; ++row) {
+    auto* out = millimetres.ptr<uint16_t>(row);
+    for (int col = 0; col < width; ++col) {
+      const float d = depth[static_cast<size_t>(row) * width + col];
+      // NaN and negative values are not depths: written as "no hit"
+      const float mm = (d > 0.0f) ? std::min(d * 1000.0f, 65535.0f) : 0.0f;
+      out[col] = static_cast<uint16_t>(std::lround(mm));
+    }
+  }
+  writePng(file, millimetres, "saveDepthPng()");
 }
 
 void postprocessDepth(const DepthCameraConfig& config, std::span<float> depth) {

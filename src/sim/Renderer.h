@@ -5,6 +5,7 @@
 // base colour x vertex colour x texture, so both agree exactly on shading.
 
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <span>
 #include <string_view>
@@ -88,6 +89,19 @@ Vec3f pixelDirection(const CameraIntrinsics& camera, float column, float row);
 void checkRenderArgs(std::string_view method, const CameraPose& pose,
                      const CameraIntrinsics& camera, size_t bufferSize,
                      int channels);
+
+/// Writes an RGB image [height, width, 3] uint8 as an 8-bit PNG, atomically.
+/// Throws std::invalid_argument when the size does not match and
+/// std::runtime_error naming the file when it cannot be written.
+void saveRgbPng(const std::filesystem::path& file, int width, int height,
+                std::span<const uint8_t> rgb);
+
+/// Writes a raw depth image [height, width] float32 (metres, 0 = no hit) as
+/// a 16-bit greyscale PNG in millimetres: round(depth * 1000), so 0 stays
+/// "no hit" and depths beyond 65.535 m saturate at 65535. Atomic; throws as
+/// saveRgbPng().
+void saveDepthPng(const std::filesystem::path& file, int width, int height,
+                  std::span<const float> depth);
 
 /// Clips raw depth (metres, 0 = miss) to [min_depth, max_depth] (misses
 /// become max_depth) and, if normalize_depth, maps it to [0, 1], in place.

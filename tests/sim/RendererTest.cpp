@@ -13,8 +13,10 @@
 #include <thread>
 #include <vector>
 
+#include "common/FileIo.h"
 #include "sim/Mesh.h"
 #include "sim/RayTracer.h"
+#include "support/TestPaths.h"
 
 namespace vln::sim {
 namespace {
@@ -507,6 +509,57 @@ TEST(PostprocessDepthTest, ClipsMissesAndNormalises) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("min_depth"));
   }
+}
+
+// ---------------------------------------------------------------------------
+// PNG output
+// ---------------------------------------------------------------------------
+
+// PNG IHDR fields: width, height, bit depth and colour type.
+struct PngHeader {
+  uint32_t width = 0;
+  uint32_t height = 0;
+  int bitDepth = 0;
+  int colorType = 0;
+};
+
+PngHeader readPngHeader(const std::filesystem::path& file) {
+  const std::string png = common::readFile(file);
+  EXPECT_GT(png.size(), 33u);
+  EXPECT_EQ(png.substr(0, 8), std::string("\x89PNG\r\n\x1a\n", 8));
+  auto byte = [&](size_t at) { return static_cast<uint32_t>(static_cast<uint8_t>(png[at])); };
+  auto be32 = [&](size_t at) {
+    return byte(at) << 24 | byte(at + 1) << 16 | byte(at + 2) << 8 | byte(at + 3);
+  };
+  return {be32(16), be32(20), static_cast<int>(byte(24)), static_cast<int>(byte(25))};
+}
+
+TEST(ImagePngTest, WritesRgbAndSixteenBitDepth) {
+  test::TempDir dir;
+  std::vector<uint8_t> rgb(5 * 3 * 3, 128);
+  saveRgbPng(dir / "rgb.png", 5, 3, rgb);
+  const PngHeader color = readPngHeader(dir / "rgb.png");
+  EXPECT_EQ(color.width, 5u);
+  EXPECT_EQ(color.height, 3u);
+  EXPECT_EQ(color.bitDepth, 8);
+  EXPECT_EQ(color.colorType, 2);  // truecolour
+
+  std::vector<float> depth(5 * 3, 1.25f);
+  depth[0] = 0.0f;
+  depth[1] = 100.0f;
+  saveDepthPng(dir / "out" / "depth.png", 5, 3, depth);
+  const PngHeader grey = readPngHeader(dir / "out" / "depth.png");
+  EXPECT_EQ(grey.width, 5u);
+  EXPECT_EQ(grey.bitDepth, 16);
+  EXPECT_EQ(grey.colorType, 0);  // greyscale
+
+  try {
+    saveRgbPng(dir / "bad.png", 4, 3, rgb);
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("saveRgbPng()"));
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "bad.png"));
 }
 
 TEST(CameraModelTest, PixelDirectionsAndRotation) {
