@@ -35,7 +35,9 @@ struct AgentState {
 
 /// Outcome of one action.
 struct StepResult {
-  /// True when the agent moved less than intended (blocked by an obstacle).
+  /// True when the agent moved less than intended (blocked by an obstacle):
+  /// Habitat's test, squared moved distance + 1e-5 < squared intended one,
+  /// so climbing a slope (a longer 3-D move) is not a collision.
   bool collided = false;
   /// Distance actually travelled (3-D), metres.
   float distance = 0.0f;

@@ -62,7 +62,10 @@ class NavMesh {
 
   /// Length of the shortest navigable path between the snapped `from` and
   /// `to`, metres; kUnreachable when either is off the navmesh or they are on
-  /// different islands.
+  /// different islands. Like Habitat, points are snapped to the nearest
+  /// polygon within 2 m horizontally and 4 m vertically, so "off the
+  /// navmesh" means farther than that. The length sums the 3-D segments
+  /// between the path's corners.
   float geodesicDistance(const Vec3f& from, const Vec3f& to) const;
   /// Corner points of that shortest path, starting at snapped `from` and
   /// ending at snapped `to`; empty when unreachable.
@@ -76,18 +79,24 @@ class NavMesh {
   /// if the straight move would be altered (Habitat try_step_no_sliding).
   Vec3f moveNoSliding(const Vec3f& from, const Vec3f& to) const;
 
-  /// Horizontal distance from `p` to the nearest navmesh boundary (wall),
-  /// searched up to `maxRadius` metres.
+  /// Horizontal distance from `p` (snapped as in geodesicDistance()) to the
+  /// nearest navmesh boundary (wall), searched up to `maxRadius` metres;
+  /// maxRadius when no boundary is that close, 0 when there is no navmesh
+  /// near `p`.
   float distanceToObstacle(const Vec3f& p, float maxRadius = 2.0f) const;
 
   /// A uniformly random navigable point (area-weighted), on `island` when
-  /// it is >= 0.
+  /// it is >= 0. Uses only raw `rng` output, so a seed gives the same points
+  /// with any standard library. Throws std::invalid_argument for an island
+  /// outside [-1, islandCount()).
   Vec3f randomPoint(std::mt19937_64& rng, int island = -1) const;
 
   /// The navmesh polygons as triangles (for maps and debugging).
   std::vector<std::array<Vec3f, 3>> triangles() const;
 
-  /// The parameters it was built with (defaults for loaded files).
+  /// The parameters it was built with. For loaded files: defaults, except
+  /// agent_height, agent_radius and agent_max_climb, which the file
+  /// records.
   const NavMeshConfig& config() const;
 
  private:

@@ -20,7 +20,10 @@ class Scene {
   /// Loads a scene file (.glb/.gltf/.obj/.ply through assimp, see
   /// MeshIo.h) with its semantics sidecar if present, and its navmesh from
   /// "<file>.navmesh" when cache_navmesh and the file exists (building and
-  /// saving it otherwise). Throws naming the file on any failure.
+  /// saving it otherwise). A cache older than the scene file, unreadable, or
+  /// built for other agent dimensions is rebuilt and overwritten; failing to
+  /// write the cache (read-only dataset) only logs a warning. Throws naming
+  /// the file on any other failure.
   static std::shared_ptr<const Scene> load(const std::filesystem::path& file,
                                            const SimConfig& config);
   /// Wraps an in-memory mesh (e.g. a generated house); builds its navmesh.
