@@ -20,7 +20,8 @@ namespace {
 void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
   const auto base = static_cast<uint32_t>(mesh.positions.size());
   for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(),
+    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
+                                i & 2 ? hi.y() : lo.y(),
                                 i & 4 ? hi.z() : lo.z());
   const Vec3f center = (lo + hi) / 2.0f;
   const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
@@ -68,7 +69,7 @@ TriangleMesh fewRoomHouse() {
     wallX(m, 7, x0, x0 + 1.2f);  // doorway to the hall in [x0+1.2, x0+2.4]
     wallX(m, 7, x0 + 2.4f, x0 + 4.0f);
     addBox(m, {x0 + 2.5f, 0, 1.0f}, {x0 + 3.3f, 0.75f, 2.2f});  // table
-    addBox(m, {x0 + 1.0f, 0, 4.5f}, {x0 + 1.4f, kTop, 4.9f});    // pillar
+    addBox(m, {x0 + 1.0f, 0, 4.5f}, {x0 + 1.4f, kTop, 4.9f});   // pillar
   }
   return m;
 }
@@ -82,7 +83,8 @@ std::vector<std::pair<Vec3f, Vec3f>> randomPairs(int count) {
   std::mt19937_64 rng(1);
   std::vector<std::pair<Vec3f, Vec3f>> pairs;
   for (int i = 0; i < count; ++i)
-    pairs.emplace_back(house().randomPoint(rng, 0), house().randomPoint(rng, 0));
+    pairs.emplace_back(house().randomPoint(rng, 0),
+                       house().randomPoint(rng, 0));
   return pairs;
 }
 
@@ -111,8 +113,8 @@ void BM_GeodesicDistance(benchmark::State& state) {
 BENCHMARK(BM_GeodesicDistance)->Threads(1)->Threads(2)->UseRealTime();
 
 void BM_SaveLoadRoundTrip(benchmark::State& state) {
-  const auto file = std::filesystem::temp_directory_path() /
-                    "vln_navmesh_bench.navmesh";
+  const auto file =
+      std::filesystem::temp_directory_path() / "vln_navmesh_bench.navmesh";
   for (auto _ : state) {
     house().save(file);
     benchmark::DoNotOptimize(NavMesh::load(file).get());
@@ -138,7 +140,8 @@ void BM_AgentSteps(benchmark::State& state) {
     const Action action = r < 6   ? Action::kMoveForward
                           : r < 8 ? Action::kTurnLeft
                                   : Action::kTurnRight;
-    benchmark::DoNotOptimize(stepEpisode(house(), agent, task, episode, action));
+    benchmark::DoNotOptimize(
+        stepEpisode(house(), agent, task, episode, action));
   }
   state.SetItemsProcessed(state.iterations());
 }

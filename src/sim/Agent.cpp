@@ -35,8 +35,8 @@ std::string_view actionName(Action action) {
 
 Action actionFromInt(int code) {
   VLN_CHECK_ARG(code >= 0 && code < kNumActions,
-                "actionFromInt(): action code must be in 0..",
-                kNumActions - 1, ", got ", code);
+                "actionFromInt(): action code must be in 0..", kNumActions - 1,
+                ", got ", code);
   return static_cast<Action>(code);
 }
 
@@ -62,8 +62,9 @@ StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
   const Vec3f start = state.position;
   const Vec3f target =
       start + config.forward_step_size * headingToForward(state.heading);
-  const Vec3f end = config.allow_sliding ? navmesh.moveAlongSurface(start, target)
-                                         : navmesh.moveNoSliding(start, target);
+  const Vec3f end = config.allow_sliding
+                        ? navmesh.moveAlongSurface(start, target)
+                        : navmesh.moveNoSliding(start, target);
   const float intended = (target - start).squaredNorm();
   const float moved = (end - start).squaredNorm();
   result.collided = moved + kCollisionEpsilon < intended;

@@ -53,7 +53,8 @@ static_assert(sizeof(dtTileRef) == 4,
               "Habitat's .navmesh layout assumes 32-bit Detour tile refs");
 static_assert(sizeof(dtNavMeshParams) == 28,
               "dtNavMeshParams layout differs from Habitat's .navmesh files");
-constexpr size_t kSetHeaderBytes = 3 * sizeof(int32_t) + sizeof(dtNavMeshParams);
+constexpr size_t kSetHeaderBytes =
+    3 * sizeof(int32_t) + sizeof(dtNavMeshParams);
 constexpr size_t kTileHeaderBytes = sizeof(dtTileRef) + sizeof(int32_t);
 
 struct DtNavMeshDeleter {
@@ -94,10 +95,11 @@ void forEachDetailTriangle(const dtMeshTile& tile, int ip, F&& f) {
     const unsigned char* t = &tile.detailTris[(pd.triBase + j) * 4];
     Triangle tri;
     for (int k = 0; k < 3; ++k) {
-      tri[k] = t[k] < poly.vertCount
-                   ? vec(&tile.verts[poly.verts[t[k]] * 3])
-                   : vec(&tile.detailVerts[(pd.vertBase + t[k] -
-                                            poly.vertCount) * 3]);
+      tri[k] =
+          t[k] < poly.vertCount
+              ? vec(&tile.verts[poly.verts[t[k]] * 3])
+              : vec(&tile.detailVerts[(pd.vertBase + t[k] - poly.vertCount) *
+                                      3]);
     }
     f(tri);
   }
@@ -127,7 +129,7 @@ std::string tileDataProblem(const unsigned char* data, int size) {
   if (h.version != DT_NAVMESH_VERSION)
     return strCat("tile has Detour data version ", h.version, ", expected ",
                   DT_NAVMESH_VERSION);
-  const int counts[] = {h.polyCount,       h.vertCount,      h.maxLinkCount,
+  const int counts[] = {h.polyCount,       h.vertCount,       h.maxLinkCount,
                         h.detailMeshCount, h.detailVertCount, h.detailTriCount,
                         h.bvNodeCount,     h.offMeshConCount, h.offMeshBase};
   for (int c : counts)
@@ -146,14 +148,14 @@ std::string tileDataProblem(const unsigned char* data, int size) {
       dtAlign4(static_cast<int>(sizeof(dtBVNode)) * h.bvNodeCount),
       dtAlign4(static_cast<int>(sizeof(dtOffMeshConnection)) *
                h.offMeshConCount)};
-  const int64_t needed = std::accumulate(std::begin(layout), std::end(layout),
-                                         int64_t{0});
+  const int64_t needed =
+      std::accumulate(std::begin(layout), std::end(layout), int64_t{0});
   if (needed > size)
     return strCat("tile header describes ", needed, " bytes but the tile has ",
                   size);
   // polygon vertices and internal neighbours
-  const auto* polys = reinterpret_cast<const dtPoly*>(data + layout[0] +
-                                                      layout[1]);
+  const auto* polys =
+      reinterpret_cast<const dtPoly*>(data + layout[0] + layout[1]);
   for (int i = 0; i < h.polyCount; ++i) {
     const dtPoly& p = polys[i];
     if (p.vertCount > DT_VERTS_PER_POLYGON)
@@ -188,8 +190,7 @@ std::string tileDataProblem(const unsigned char* data, int size) {
     if (polys[i].getType() != DT_POLYTYPE_OFFMESH_CONNECTION)
       return strCat("ground polygon ", i, " has no detail mesh");
   // bounding-volume leaves name polygons
-  const auto* nodes = reinterpret_cast<const dtBVNode*>(
-      detailTris + layout[6]);
+  const auto* nodes = reinterpret_cast<const dtBVNode*>(detailTris + layout[6]);
   for (int i = 0; i < h.bvNodeCount; ++i)
     if (nodes[i].i >= h.polyCount || nodes[i].i < -h.bvNodeCount)
       return strCat("bounding-volume node ", i, " names polygon ", nodes[i].i);
@@ -264,8 +265,7 @@ struct NavMesh::Impl {
   std::optional<Located> locate(const dtNavMeshQuery& query, const Vec3f& p,
                                 const float* halfExtents) const;
   std::optional<Located> locateNavigable(const dtNavMeshQuery& query,
-                                         const Vec3f& p,
-                                         float maxYDelta) const;
+                                         const Vec3f& p, float maxYDelta) const;
   bool walkable(const dtPoly& poly) const;
   float findCorners(QueryContext& context, const Vec3f& from, const Vec3f& to,
                     std::vector<Vec3f>* corners) const;
@@ -395,19 +395,18 @@ float NavMesh::Impl::findCorners(QueryContext& context, const Vec3f& from,
   // string-pulled corners through the corridor
   int numCorners = 0;
   const int maxCorners = static_cast<int>(context.straight.size() / 3);
-  status = query.findStraightPath(start->point.data(), end->point.data(),
-                                  context.path.data(), numPath,
-                                  context.straight.data(), nullptr, nullptr,
-                                  &numCorners, maxCorners);
+  status = query.findStraightPath(
+      start->point.data(), end->point.data(), context.path.data(), numPath,
+      context.straight.data(), nullptr, nullptr, &numCorners, maxCorners);
   if (status != DT_SUCCESS || numCorners == 0) return kUnreachable;
   const Vec3f last = vec(&context.straight[3 * (numCorners - 1)]);
   if ((last - end->point).norm() > kPathEndTolerance) return kUnreachable;
 
   float length = 0.0f;
   for (int i = 1; i < numCorners; ++i)
-    length += (vec(&context.straight[3 * i]) -
-               vec(&context.straight[3 * (i - 1)]))
-                  .norm();
+    length +=
+        (vec(&context.straight[3 * i]) - vec(&context.straight[3 * (i - 1)]))
+            .norm();
   if (corners != nullptr) {
     corners->clear();
     for (int i = 0; i < numCorners; ++i)
@@ -424,11 +423,10 @@ void NavMesh::Impl::disableZeroAreaPolygons() {
     if (tile == nullptr || tile->header == nullptr) continue;
     const dtPolyRef base = mesh->getPolyRefBase(tile);
     for (int ip = 0; ip < tile->header->polyCount; ++ip) {
-      if (tile->polys[ip].getType() == DT_POLYTYPE_OFFMESH_CONNECTION)
-        continue;
+      if (tile->polys[ip].getType() == DT_POLYTYPE_OFFMESH_CONNECTION) continue;
       float area = 0.0f;
-      forEachDetailTriangle(*tile, ip,
-                            [&](const Triangle& t) { area += triangleArea(t); });
+      forEachDetailTriangle(
+          *tile, ip, [&](const Triangle& t) { area += triangleArea(t); });
       if (area < kMinPolygonArea)
         mesh->setPolyFlags(base | static_cast<dtPolyRef>(ip),
                            detail::kPolyFlagDisabled);
@@ -505,8 +503,8 @@ void NavMesh::Impl::buildIslands() {
     const dtMeshTile* tile = nav.getTile(i);
     if (tile == nullptr || tile->header == nullptr) continue;
     for (int ip = 0; ip < tile->header->polyCount; ++ip) {
-      const int island =
-          polyIsland[static_cast<size_t>(tileBase[static_cast<size_t>(i)] + ip)];
+      const int island = polyIsland[static_cast<size_t>(
+          tileBase[static_cast<size_t>(i)] + ip)];
       if (island < 0) continue;
       forEachDetailTriangle(*tile, ip, [&](Triangle tri) {
         // face up (+Y) so that consumers can rely on the winding
@@ -582,13 +580,12 @@ std::unique_ptr<NavMesh> NavMesh::load(const std::filesystem::path& file) {
   const std::string where = strCat("NavMesh::load(): ", file.string(), ": ");
 
   // set header
-  VLN_CHECK_IO(bytes.size() >= kSetHeaderBytes, where, "truncated: ",
-               bytes.size(), " bytes, a navmesh header needs ",
+  VLN_CHECK_IO(bytes.size() >= kSetHeaderBytes, where,
+               "truncated: ", bytes.size(), " bytes, a navmesh header needs ",
                kSetHeaderBytes);
   const auto magic = readRaw<int32_t>(bytes, 0);
-  VLN_CHECK_IO(magic == kNavMeshSetMagic, where,
-               "not a navmesh (magic 0x", std::hex, magic,
-               ", expected 0x", kNavMeshSetMagic, " 'MSET')");
+  VLN_CHECK_IO(magic == kNavMeshSetMagic, where, "not a navmesh (magic 0x",
+               std::hex, magic, ", expected 0x", kNavMeshSetMagic, " 'MSET')");
   const auto version = readRaw<int32_t>(bytes, 4);
   VLN_CHECK_IO(version == kNavMeshSetVersion, where, "unsupported version ",
                version, ", expected ", kNavMeshSetVersion);
@@ -623,11 +620,10 @@ std::unique_ptr<NavMesh> NavMesh::load(const std::filesystem::path& file) {
     const auto dataSize = readRaw<int32_t>(bytes, offset + sizeof(dtTileRef));
     offset += kTileHeaderBytes;
     if (tileRef == 0 || dataSize == 0) break;
-    VLN_CHECK_IO(dataSize > 0, where, "corrupt tile ", i, ": size ",
-                 dataSize);
-    VLN_CHECK_IO(bytes.size() - offset >= static_cast<size_t>(dataSize),
-                 where, "truncated: tile ", i, " needs ", dataSize,
-                 " bytes, ", bytes.size() - offset, " left");
+    VLN_CHECK_IO(dataSize > 0, where, "corrupt tile ", i, ": size ", dataSize);
+    VLN_CHECK_IO(bytes.size() - offset >= static_cast<size_t>(dataSize), where,
+                 "truncated: tile ", i, " needs ", dataSize, " bytes, ",
+                 bytes.size() - offset, " left");
     detail::DetourData data(static_cast<unsigned char*>(
         dtAlloc(static_cast<size_t>(dataSize), DT_ALLOC_PERM)));
     VLN_CHECK_IO(data != nullptr, where, "out of memory");
@@ -636,8 +632,8 @@ std::unique_ptr<NavMesh> NavMesh::load(const std::filesystem::path& file) {
     offset += static_cast<size_t>(dataSize);
     const std::string problem = tileDataProblem(data.get(), dataSize);
     VLN_CHECK_IO(problem.empty(), where, "corrupt tile ", i, ": ", problem);
-    const dtStatus status = nav->addTile(data.get(), dataSize,
-                                         DT_TILE_FREE_DATA, tileRef, nullptr);
+    const dtStatus status =
+        nav->addTile(data.get(), dataSize, DT_TILE_FREE_DATA, tileRef, nullptr);
     VLN_CHECK_IO(dtStatusSucceed(status), where, "corrupt tile ", i,
                  ": Detour rejects it (status 0x", std::hex, status, ")");
     // the file records the agent it was built for; the rest stay defaults
@@ -686,8 +682,8 @@ int NavMesh::islandCount() const {
 
 float NavMesh::islandArea(int island) const {
   VLN_CHECK_ARG(island >= 0 && island < islandCount(),
-                "NavMesh::islandArea(): island must be in [0, ",
-                islandCount(), "), got ", island);
+                "NavMesh::islandArea(): island must be in [0, ", islandCount(),
+                "), got ", island);
   return impl_->islandAreas[static_cast<size_t>(island)];
 }
 
@@ -704,8 +700,7 @@ std::vector<Vec3f> NavMesh::shortestPath(const Vec3f& from,
                                          const Vec3f& to) const {
   auto lease = impl_->acquire();
   std::vector<Vec3f> corners;
-  if (impl_->findCorners(*lease, from, to, &corners) == kUnreachable)
-    return {};
+  if (impl_->findCorners(*lease, from, to, &corners) == kUnreachable) return {};
   return corners;
 }
 
@@ -761,8 +756,8 @@ float NavMesh::distanceToObstacle(const Vec3f& p, float maxRadius) const {
   Vec3f hitPoint;
   Vec3f hitNormal;
   const dtStatus status = query.findDistanceToWall(
-      located->ref, located->point.data(), maxRadius, &impl_->filter,
-      &distance, hitPoint.data(), hitNormal.data());
+      located->ref, located->point.data(), maxRadius, &impl_->filter, &distance,
+      hitPoint.data(), hitNormal.data());
   return dtStatusSucceed(status) ? distance : 0.0f;
 }
 
@@ -784,11 +779,11 @@ Vec3f NavMesh::randomPoint(std::mt19937_64& rng, int island) const {
 
   // triangle by area, then a uniform point in it
   const double target = low + uniform01(rng) * (high - low);
-  const auto it = std::upper_bound(cumulative.begin() + static_cast<long>(first),
-                                   cumulative.begin() + static_cast<long>(last),
-                                   target);
-  const size_t index = std::min(
-      static_cast<size_t>(it - cumulative.begin()), last - 1);
+  const auto it =
+      std::upper_bound(cumulative.begin() + static_cast<long>(first),
+                       cumulative.begin() + static_cast<long>(last), target);
+  const size_t index =
+      std::min(static_cast<size_t>(it - cumulative.begin()), last - 1);
   const Triangle& t = impl_->triangles[index];
   const float s = static_cast<float>(std::sqrt(uniform01(rng)));
   const float r = static_cast<float>(uniform01(rng));

@@ -49,7 +49,9 @@ struct HeightfieldDeleter {
   void operator()(rcHeightfield* p) const { rcFreeHeightField(p); }
 };
 struct CompactHeightfieldDeleter {
-  void operator()(rcCompactHeightfield* p) const { rcFreeCompactHeightfield(p); }
+  void operator()(rcCompactHeightfield* p) const {
+    rcFreeCompactHeightfield(p);
+  }
 };
 struct ContourSetDeleter {
   void operator()(rcContourSet* p) const { rcFreeContourSet(p); }
@@ -82,10 +84,9 @@ void checkStage(bool ok, const char* stage, const RecastLog& log) {
   throw std::invalid_argument(strCat(
       "NavMesh::build(): the mesh has no walkable surface (", where, "; ",
       mesh.triangleCount(), " triangles, bounds [", box.min().transpose(),
-      "] to [", box.max().transpose(), "], agent_height ",
-      config.agent_height, " m, agent_radius ", config.agent_radius,
-      " m, agent_max_slope ", config.agent_max_slope,
-      " deg); is the mesh Y-up and in metres?"));
+      "] to [", box.max().transpose(), "], agent_height ", config.agent_height,
+      " m, agent_radius ", config.agent_radius, " m, agent_max_slope ",
+      config.agent_max_slope, " deg); is the mesh Y-up and in metres?"));
 }
 
 // Habitat-Sim's NavMeshSettings -> rcConfig conversion (PathFinder::build),
@@ -148,16 +149,16 @@ DetourTile buildDetourTile(const TriangleMesh& mesh,
   // rasterise the walkable-marked triangles into a voxel heightfield
   auto solid = allocated<rcHeightfield, HeightfieldDeleter>(
       rcAllocHeightfield(), "heightfield");
-  checkStage(rcCreateHeightfield(&log, *solid, cfg.width, cfg.height,
-                                 cfg.bmin, cfg.bmax, cfg.cs, cfg.ch),
+  checkStage(rcCreateHeightfield(&log, *solid, cfg.width, cfg.height, cfg.bmin,
+                                 cfg.bmax, cfg.cs, cfg.ch),
              "rcCreateHeightfield", log);
   std::vector<unsigned char> areas(static_cast<size_t>(numTris), 0);
   rcMarkWalkableTriangles(&log, cfg.walkableSlopeAngle, verts, numVerts,
                           tris.data(), numTris, areas.data());
-  checkStage(rcRasterizeTriangles(&log, verts, numVerts, tris.data(),
-                                  areas.data(), numTris, *solid,
-                                  cfg.walkableClimb),
-             "rcRasterizeTriangles", log);
+  checkStage(
+      rcRasterizeTriangles(&log, verts, numVerts, tris.data(), areas.data(),
+                           numTris, *solid, cfg.walkableClimb),
+      "rcRasterizeTriangles", log);
 
   // Habitat's optional filters remove overhang artefacts of conservative
   // rasterisation, ledges and spans without head room
@@ -196,8 +197,8 @@ DetourTile buildDetourTile(const TriangleMesh& mesh,
   checkStage(rcBuildContours(&log, *chf, cfg.maxSimplificationError,
                              cfg.maxEdgeLen, *cset),
              "rcBuildContours", log);
-  auto pmesh = allocated<rcPolyMesh, PolyMeshDeleter>(rcAllocPolyMesh(),
-                                                      "polygon mesh");
+  auto pmesh =
+      allocated<rcPolyMesh, PolyMeshDeleter>(rcAllocPolyMesh(), "polygon mesh");
   checkStage(rcBuildPolyMesh(&log, *cset, cfg.maxVertsPerPoly, *pmesh),
              "rcBuildPolyMesh", log);
   if (pmesh->npolys == 0)

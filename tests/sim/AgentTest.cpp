@@ -17,7 +17,8 @@ using ::testing::HasSubstr;
 void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
   const auto base = static_cast<uint32_t>(mesh.positions.size());
   for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(),
+    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
+                                i & 2 ? hi.y() : lo.y(),
                                 i & 4 ? hi.z() : lo.z());
   const Vec3f center = (lo + hi) / 2.0f;
   const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
@@ -43,10 +44,10 @@ TriangleMesh roomWithRamp() {
   constexpr float kWall = 0.12f, kTop = 2.5f, kSlab = 0.1f;
   TriangleMesh m;
   addBox(m, {0, -kSlab, 0}, {6, 0, 6});
-  addBox(m, {-kWall, -kSlab, -kWall}, {6, kTop, 0});   // north (-z)
+  addBox(m, {-kWall, -kSlab, -kWall}, {6, kTop, 0});     // north (-z)
   addBox(m, {-kWall, -kSlab, 6}, {6, kTop, 6 + kWall});  // south
-  addBox(m, {-kWall, -kSlab, 0}, {0, kTop, 6});        // west
-  addBox(m, {6, -kSlab, 0}, {6 + kWall, kTop, 3});     // east, north half
+  addBox(m, {-kWall, -kSlab, 0}, {0, kTop, 6});          // west
+  addBox(m, {6, -kSlab, 0}, {6 + kWall, kTop, 3});       // east, north half
   const auto base = static_cast<uint32_t>(m.positions.size());
   m.positions.insert(m.positions.end(),
                      {{6, 0, 3}, {10, 1, 3}, {10, 1, 6}, {6, 0, 6}});
@@ -171,11 +172,11 @@ TEST_F(AgentTest, SlidingAlongAWallAtAnAngle) {
       applyAction(navmesh(), AgentConfig{}, state, Action::kMoveForward);
   EXPECT_TRUE(r.collided);
   EXPECT_LT(r.distance, 0.25f);
-  EXPECT_GT(r.distance, 0.1f);                       // it did slide
+  EXPECT_GT(r.distance, 0.1f);  // it did slide
   EXPECT_NEAR(r.distance, (state.position - start).norm(), 1e-6f);
-  EXPECT_LT(state.position.z(), start.z() - 0.1f);    // along the wall
+  EXPECT_LT(state.position.z(), start.z() - 0.1f);  // along the wall
   EXPECT_LT(state.position.x(), start.x());
-  EXPECT_GT(state.position.x(), 0.1f);                // kept off the wall
+  EXPECT_GT(state.position.x(), 0.1f);  // kept off the wall
   EXPECT_TRUE(navmesh().isNavigable(state.position));
 }
 

@@ -13,7 +13,8 @@ namespace {
 void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
   const auto base = static_cast<uint32_t>(mesh.positions.size());
   for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(),
+    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
+                                i & 2 ? hi.y() : lo.y(),
                                 i & 4 ? hi.z() : lo.z());
   const Vec3f center = (lo + hi) / 2.0f;
   const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
@@ -53,14 +54,15 @@ TriangleMesh threeRoomHouse() {
   wallAlongX(m, 8, -kWall, 12 + kWall);
   wallAlongZ(m, 0, 0, 8);
   wallAlongZ(m, 12, 0, 8);
-  wallAlongZ(m, 4, 0, 3);      // doorway z in [3, 4.2]
+  wallAlongZ(m, 4, 0, 3);  // doorway z in [3, 4.2]
   wallAlongZ(m, 4, 4.2f, 8);
-  wallAlongZ(m, 8, 0, 5.5f);   // doorway z in [5.5, 6.7]
+  wallAlongZ(m, 8, 0, 5.5f);  // doorway z in [5.5, 6.7]
   wallAlongZ(m, 8, 6.7f, 8);
   wallAlongX(m, 3.5f, 8, 10.5f);  // half wall in room 3
-  for (const Vec2f& c : {Vec2f(2, 2), Vec2f(6, 5.5f), Vec2f(5.5f, 2),
-                         Vec2f(10, 6)})
-    addBox(m, {c.x() - 0.2f, 0, c.y() - 0.2f}, {c.x() + 0.2f, kTop, c.y() + 0.2f});
+  for (const Vec2f& c :
+       {Vec2f(2, 2), Vec2f(6, 5.5f), Vec2f(5.5f, 2), Vec2f(10, 6)})
+    addBox(m, {c.x() - 0.2f, 0, c.y() - 0.2f},
+           {c.x() + 0.2f, kTop, c.y() + 0.2f});
   addBox(m, {1, 0, 5}, {2.6f, 0.75f, 6.6f});  // table
   return m;
 }
@@ -117,9 +119,9 @@ TEST_F(FollowerTest, TurnsTowardsTheNextCorner) {
                                goal);
   };
   EXPECT_EQ(actionAt(0.0f), Action::kMoveForward);
-  EXPECT_EQ(actionAt(14.9f), Action::kMoveForward);   // within turn_angle
+  EXPECT_EQ(actionAt(14.9f), Action::kMoveForward);  // within turn_angle
   EXPECT_EQ(actionAt(-14.9f), Action::kMoveForward);
-  EXPECT_EQ(actionAt(16.0f), Action::kTurnRight);     // left of the goal
+  EXPECT_EQ(actionAt(16.0f), Action::kTurnRight);  // left of the goal
   EXPECT_EQ(actionAt(-16.0f), Action::kTurnLeft);
   EXPECT_EQ(actionAt(90.0f), Action::kTurnRight);
   EXPECT_EQ(actionAt(-120.0f), Action::kTurnLeft);
@@ -127,8 +129,9 @@ TEST_F(FollowerTest, TurnsTowardsTheNextCorner) {
   AgentConfig wide;
   wide.turn_angle = 30.0f;
   const ShortestPathFollower wideFollower(navmesh(), wide, 0.5f);
-  EXPECT_EQ(wideFollower.nextAction(standing(1.0f, 3.0f, degToRad(25.0f)), goal),
-            Action::kMoveForward);
+  EXPECT_EQ(
+      wideFollower.nextAction(standing(1.0f, 3.0f, degToRad(25.0f)), goal),
+      Action::kMoveForward);
 }
 
 TEST_F(FollowerTest, HeadsForTheDoorwayNotTheGoal) {
@@ -178,7 +181,8 @@ TEST_F(FollowerTest, FollowingReachesRandomGoalsOnTheSameIsland) {
     // it stops of its own accord, within the radius
     ASSERT_TRUE(episode.called_stop)
         << "episode " << e << " from " << start.transpose() << " to "
-        << goal.transpose() << " (geodesic " << geodesic << ") ran out of steps";
+        << goal.transpose() << " (geodesic " << geodesic
+        << ") ran out of steps";
     const float left = navmesh().geodesicDistance(episode.agent.position, goal);
     EXPECT_LE(left, goalRadius) << "episode " << e;
     // and in few steps: a forward step per 0.25 m of path (15% slack for

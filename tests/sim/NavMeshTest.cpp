@@ -26,7 +26,8 @@ using ::testing::HasSubstr;
 void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
   const auto base = static_cast<uint32_t>(mesh.positions.size());
   for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(),
+    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
+                                i & 2 ? hi.y() : lo.y(),
                                 i & 4 ? hi.z() : lo.z());
   const Vec3f center = (lo + hi) / 2.0f;
   const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
@@ -48,9 +49,9 @@ void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
   }
 }
 
-constexpr float kWall = 0.12f;       // wall thickness, m
-constexpr float kWallTop = 2.5f;     // wall height, m
-constexpr float kSlab = 0.1f;        // floor slab thickness, m
+constexpr float kWall = 0.12f;    // wall thickness, m
+constexpr float kWallTop = 2.5f;  // wall height, m
+constexpr float kSlab = 0.1f;     // floor slab thickness, m
 
 // An L-shaped corridor with 1.2 m wide legs: leg 1 spans x in [0, 6],
 // z in [0, 1.2]; leg 2 spans x in [4.8, 6], z in [0, 6]. The inner (reflex)
@@ -59,12 +60,16 @@ TriangleMesh lCorridor() {
   TriangleMesh m;
   addBox(m, {0, -kSlab, 0}, {6, 0, 1.2f});
   addBox(m, {4.8f, -kSlab, 1.2f}, {6, 0, 6});
-  addBox(m, {-kWall, -kSlab, -kWall}, {6 + kWall, kWallTop, 0});        // south
-  addBox(m, {6, -kSlab, -kWall}, {6 + kWall, kWallTop, 6 + kWall});     // east
-  addBox(m, {-kWall, -kSlab, 1.2f}, {4.8f, kWallTop, 1.2f + kWall});    // leg 1 north
-  addBox(m, {4.8f - kWall, -kSlab, 1.2f}, {4.8f, kWallTop, 6 + kWall}); // leg 2 west
-  addBox(m, {-kWall, -kSlab, -kWall}, {0, kWallTop, 1.2f + kWall});     // leg 1 end
-  addBox(m, {4.8f - kWall, -kSlab, 6}, {6 + kWall, kWallTop, 6 + kWall}); // leg 2 end
+  addBox(m, {-kWall, -kSlab, -kWall}, {6 + kWall, kWallTop, 0});     // south
+  addBox(m, {6, -kSlab, -kWall}, {6 + kWall, kWallTop, 6 + kWall});  // east
+  addBox(m, {-kWall, -kSlab, 1.2f},
+         {4.8f, kWallTop, 1.2f + kWall});  // leg 1 north
+  addBox(m, {4.8f - kWall, -kSlab, 1.2f},
+         {4.8f, kWallTop, 6 + kWall});  // leg 2 west
+  addBox(m, {-kWall, -kSlab, -kWall},
+         {0, kWallTop, 1.2f + kWall});  // leg 1 end
+  addBox(m, {4.8f - kWall, -kSlab, 6},
+         {6 + kWall, kWallTop, 6 + kWall});  // leg 2 end
   return m;
 }
 
@@ -149,8 +154,7 @@ TEST_F(NavMeshTest, CornerDistanceMatchesAnalyticPath) {
   // simplification); a corner moved by s changes the length by at most
   // |grad_K| * s with grad_K = unit(K - A) + unit(K - B).
   const float shift = c.cell_size * (std::sqrt(2.0f) / 2.0f + c.edge_max_error);
-  const float gradient =
-      ((k - a2).normalized() + (k - b2).normalized()).norm();
+  const float gradient = ((k - a2).normalized() + (k - b2).normalized()).norm();
   const float tolerance = gradient * shift;  // 0.12 m for the defaults
 
   const Vec3f a(a2.x(), 0.0f, a2.y()), b(b2.x(), 0.0f, b2.y());
@@ -214,8 +218,8 @@ TEST_F(NavMeshTest, IslandAreasMatchTheFloorPlan) {
   // 0.1 to 0.2 m comes off each side: 1.1^2 = 1.21 to 1.3^2 = 1.69 m^2
   EXPECT_GT(room().islandArea(1), 1.1f);
   EXPECT_LT(room().islandArea(1), 1.75f);
-  EXPECT_NEAR(room().navigableArea(), room().islandArea(0) + room().islandArea(1),
-              1e-3f);
+  EXPECT_NEAR(room().navigableArea(),
+              room().islandArea(0) + room().islandArea(1), 1e-3f);
   EXPECT_GT(room().polygonCount(), 2);
   EXPECT_THROW(room().islandArea(2), std::invalid_argument);
 
@@ -249,7 +253,8 @@ TEST_F(NavMeshTest, SnapPointProjectsOntoTheSurface) {
 
   // nothing within the search box
   EXPECT_FALSE(room().snapPoint({30.0f, 0.0f, 30.0f}).has_value());
-  EXPECT_FALSE(room().snapPoint({1.0f, 5.0f, 1.0f}, {0.5f, 1.0f, 0.5f}).has_value());
+  EXPECT_FALSE(
+      room().snapPoint({1.0f, 5.0f, 1.0f}, {0.5f, 1.0f, 0.5f}).has_value());
 }
 
 TEST_F(NavMeshTest, IsNavigableOnAndOffTheMesh) {
@@ -257,9 +262,9 @@ TEST_F(NavMeshTest, IsNavigableOnAndOffTheMesh) {
   EXPECT_TRUE(room().isNavigable({1.0f, 0.3f, 1.0f}));   // within maxYDelta
   EXPECT_FALSE(room().isNavigable({1.0f, 1.0f, 1.0f}));  // too high above
   EXPECT_FALSE(room().isNavigable({1.0f, 0.3f, 1.0f}, /*maxYDelta=*/0.05f));
-  EXPECT_FALSE(room().isNavigable({0.04f, 0.0f, 1.0f}));  // inside the inset
+  EXPECT_FALSE(room().isNavigable({0.04f, 0.0f, 1.0f}));   // inside the inset
   EXPECT_FALSE(room().isNavigable({-0.06f, 0.0f, 1.0f}));  // inside a wall
-  EXPECT_FALSE(room().isNavigable({3.0f, 0.0f, 3.0f}));   // under the table
+  EXPECT_FALSE(room().isNavigable({3.0f, 0.0f, 3.0f}));    // under the table
   EXPECT_FALSE(room().isNavigable({30.0f, 0.0f, 30.0f}));
 }
 
@@ -345,7 +350,8 @@ TEST(NavMeshUniformity, RandomPointsCoverAnOpenFloorEvenly) {
     ++counts[(p.x() > 2.0f ? 1 : 0) + (p.z() > 2.0f ? 2 : 0)];
   }
   double chi2 = 0.0;
-  for (int c : counts) chi2 += std::pow(c - kSamples / 4.0, 2) / (kSamples / 4.0);
+  for (int c : counts)
+    chi2 += std::pow(c - kSamples / 4.0, 2) / (kSamples / 4.0);
   EXPECT_LT(chi2, 16.27);
 }
 
@@ -530,7 +536,8 @@ TEST_F(NavMeshTest, ConcurrentQueriesMatchSerialOnes) {
   std::mt19937_64 rng(17);
   std::vector<std::pair<Vec3f, Vec3f>> pairs;
   for (int i = 0; i < 300; ++i)
-    pairs.emplace_back(corridor().randomPoint(rng), corridor().randomPoint(rng));
+    pairs.emplace_back(corridor().randomPoint(rng),
+                       corridor().randomPoint(rng));
   std::vector<float> serial;
   for (const auto& [p, q] : pairs)
     serial.push_back(corridor().geodesicDistance(p, q));
@@ -548,8 +555,8 @@ TEST_F(NavMeshTest, ConcurrentQueriesMatchSerialOnes) {
       for (size_t k = 0; k < pairs.size(); ++k) {
         const size_t i = (k * kStrides[t]) % pairs.size();
         out[i] = corridor().geodesicDistance(pairs[i].first, pairs[i].second);
-        static_cast<void>(corridor().moveAlongSurface(pairs[i].first,
-                                                      pairs[i].second));
+        static_cast<void>(
+            corridor().moveAlongSurface(pairs[i].first, pairs[i].second));
       }
     });
   }

@@ -22,7 +22,8 @@ using ::testing::HasSubstr;
 void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
   const auto base = static_cast<uint32_t>(mesh.positions.size());
   for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(),
+    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
+                                i & 2 ? hi.y() : lo.y(),
                                 i & 4 ? hi.z() : lo.z());
   const Vec3f center = (lo + hi) / 2.0f;
   const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
@@ -131,7 +132,8 @@ TEST(SceneFromMesh, RayTracerIsBuiltOnceForAllThreads) {
   std::vector<const RayTracer*> seen(kThreads, nullptr);
   std::vector<std::thread> threads;
   for (int t = 0; t < kThreads; ++t)
-    threads.emplace_back([&, t] { seen[static_cast<size_t>(t)] = &scene->rayTracer(); });
+    threads.emplace_back(
+        [&, t] { seen[static_cast<size_t>(t)] = &scene->rayTracer(); });
   for (auto& thread : threads) thread.join();
   EXPECT_EQ(std::set<const RayTracer*>(seen.begin(), seen.end()).size(), 1u);
   EXPECT_EQ(&scene->rayTracer(), seen[0]);
@@ -182,7 +184,8 @@ TEST_F(SceneLoadTest, RebuildsACacheBuiltForAnotherAgent) {
   NavMesh::build(roomWithTable(), wide)->save(cacheFile_);
   setMtimeRelativeTo(cacheFile_, sceneFile_, std::chrono::seconds(10));
   const auto scene = Scene::load(sceneFile_, SimConfig{});
-  EXPECT_EQ(scene->navmesh().config().agent_radius, NavMeshConfig{}.agent_radius);
+  EXPECT_EQ(scene->navmesh().config().agent_radius,
+            NavMeshConfig{}.agent_radius);
   EXPECT_TRUE(isRoomNavmesh(scene->navmesh()));
 }
 
@@ -212,7 +215,8 @@ TEST_F(SceneLoadTest, UsesTheNavmeshConfig) {
   const auto scene = Scene::load(sceneFile_, config);
   EXPECT_EQ(scene->navmesh().config().agent_radius, 0.3f);
   // a fatter agent has less room
-  EXPECT_LT(scene->navmesh().navigableArea(), reference_->navigableArea() - 1.0f);
+  EXPECT_LT(scene->navmesh().navigableArea(),
+            reference_->navigableArea() - 1.0f);
 }
 
 TEST(SceneLoad, MissingFileIsNamed) {
