@@ -1,0 +1,28 @@
+#pragma once
+// Anything that chooses actions for a batch of environments: a trained
+// policy, an exported TorchScript policy, or a no-learning baseline.
+
+#include <span>
+#include <vector>
+
+#include "data/Episode.h"
+#include "eval/VectorEnv.h"
+#include "sim/Agent.h"
+
+namespace vln::eval {
+
+class Agent {
+ public:
+  virtual ~Agent() = default;
+  /// Environment `env` starts `episode` (its first observation is in envs).
+  virtual void reset(int env, const data::Episode& episode) = 0;
+  /// One action per environment in `active` (in that order), from their
+  /// current observations and states in `envs`.
+  virtual std::vector<sim::Action> act(VectorEnv& envs,
+                                       std::span<const int> active) = 0;
+  /// Whether act() reads observations; baselines do not, so rendering can
+  /// be skipped for them.
+  virtual bool needsObservations() const { return true; }
+};
+
+}  // namespace vln::eval

@@ -1,0 +1,181 @@
+#include "eval/VectorEnv.h"
+
+#include "common/Check.h"
+
+namespace vln::eval {
+
+// ---------------------------------------------------------------------------
+// SceneCache
+
+struct SceneCache::Entry {
+  std::mutex mutex;
+  std::shared_ptr<const sim::Scene> scene;
+  std::weak_ptr<const sim::Scene> evicted;  ///< revived while still in use
+};
+
+SceneCache::SceneCache(sim::SimConfig config, size_t capacity)
+    : config_(std::move(config)), capacity_(std::max<size_t>(capacity, 1)) {}
+
+std::shared_ptr<const sim::Scene> SceneCache::get(const std::string& sceneId) {
+  std::shared_ptr<Entry> entry;
+  {
+    std::lock_guard lock(mutex_);
+    auto& slot = entries_[sceneId];
+    if (!slot) slot = std::make_shared<Entry>();
+    entry = slot;
+    recent_.remove(sceneId);
+    recent_.push_front(sceneId);
+  }
+  std::shared_ptr<const sim::Scene> scene;
+  {
+    // one loader per scene; others wait on the entry's mutex
+    std::lock_guard entryLock(entry->mutex);
+    if (!entry->scene) entry->scene = entry->evicted.lock();
+    if (!entry->scene) {
+      auto file = data::resolveScenePath(config_.scenes_dir, sceneId);
+      entry->scene = sim::Scene::load(file, config_);
+      std::lock_guard lock(mutex_);
+      ++loads_;
+    }
+    scene = entry->scene;
+  }
+  // drop strong references to the least recently used scenes; environments
+  // still holding one keep it alive and it is revived from the weak pointer
+  std::lock_guard lock(mutex_);
+  while (recent_.size() > capacity_) {
+    auto victim = entries_.find(recent_.back());
+    recent_.pop_back();
+    if (victim != entries_.end() && victim->second != entry) {
+      std::unique_lock victimLock(victim->second->mutex, std::try_to_lock);
+      if (victimLock.owns_lock()) {
+        victim->second->evicted = victim->second->scene;
+        victim->second->scene.reset();
+      }
+    }
+  }
+  return scene;
+}
+
+int SceneCache::loads() const {
+  std::lock_guard lock(mutex_);
+  return loads_;
+}
+
+// ---------------------------------------------------------------------------
+// VectorEnv
+
+struct VectorEnv::Env {
+  std::unique_ptr<sim::Simulator> simulator;
+  const data::Episode* episode = nullptr;
+  sim::Observation observation;
+};
+
+VectorEnv::VectorEnv(int numEnvs, const sim::SimConfig& sim,
+                     const sim::TaskConfig& task,
+                     std::shared_ptr<SceneCache> scenes, int threads)
+    : sim_(sim),
+      task_(task),
+      scenes_(std::move(scenes)),
+      pool_(std::max(1, std::min(threads, numEnvs))) {
+  VLN_CHECK_ARG(numEnvs >= 1, "VectorEnv: numEnvs must be >= 1, got ", numEnvs);
+  VLN_CHECK_ARG(scenes_ != nullptr, "VectorEnv: scene cache is null");
+  for (int i = 0; i < numEnvs; ++i) envs_.push_back(std::make_unique<Env>());
+}
+
+VectorEnv::~VectorEnv() = default;
+
+void VectorEnv::forEach(std::span<const int> envs,
+                        const std::function<void(int)>& fn) {
+  for (int env : envs)
+    VLN_CHECK_ARG(env >= 0 && env < size(), "VectorEnv: environment ", env,
+                  " out of range [0, ", size(), ")");
+  pool_.parallelFor(envs.size(),
+                    [&](size_t k) { fn(envs[k]); });
+}
+
+void VectorEnv::reset(std::span<const int> envs,
+                      std::span<const data::Episode* const> episodes,
+                      bool render) {
+  VLN_CHECK_ARG(envs.size() == episodes.size(), "VectorEnv::reset(): ",
+                envs.size(), " environments for ", episodes.size(),
+                " episodes");
+  for (int env : envs)
+    VLN_CHECK_ARG(env >= 0 && env < size(), "VectorEnv::reset(): environment ",
+                  env, " out of range [0, ", size(), ")");
+  pool_.parallelFor(envs.size(), [&](size_t k) {
+    const int env = envs[k];
+    const data::Episode& episode = *episodes[k];
+    Env& e = *envs_[static_cast<size_t>(env)];
+    auto scene = scenes_->get(episode.scene_id);
+    if (!e.simulator)
+      e.simulator = std::make_unique<sim::Simulator>(scene, sim_, task_);
+    else if (e.simulator->scenePtr() != scene)
+      e.simulator->setScene(scene);
+    sim::AgentState start{episode.start_position, episode.startHeading()};
+    try {
+      e.simulator->reset(start);
+    } catch (const std::exception& error) {
+      throw std::invalid_argument("episode " +
+                                  std::to_string(episode.episode_id) +
+                                  " (scene " + episode.scene_id +
+                                  "): start_position: " + error.what());
+    }
+    e.episode = &episode;
+    if (render) e.simulator->observe(e.observation);
+  });
+}
+
+std::vector<sim::StepResult> VectorEnv::step(
+    std::span<const int> envs, std::span<const sim::Action> actions,
+    bool render) {
+  VLN_CHECK_ARG(envs.size() == actions.size(), "VectorEnv::step(): ",
+                envs.size(), " environments for ", actions.size(), " actions");
+  std::vector<sim::StepResult> results(envs.size());
+  pool_.parallelFor(envs.size(), [&](size_t k) {
+    int env = envs[k];
+    VLN_CHECK_ARG(env >= 0 && env < size(), "VectorEnv::step(): environment ",
+                  env, " out of range");
+    Env& e = *envs_[static_cast<size_t>(env)];
+    VLN_CHECK_ARG(e.simulator && e.episode, "VectorEnv::step(): environment ",
+                  env, " was never reset");
+    results[k] = e.simulator->step(actions[k]);
+    if (render) e.simulator->observe(e.observation);
+  });
+  return results;
+}
+
+void VectorEnv::render(std::span<const int> envs) {
+  forEach(envs, [&](int env) {
+    Env& e = *envs_[static_cast<size_t>(env)];
+    VLN_CHECK_ARG(e.simulator, "VectorEnv::render(): environment ", env,
+                  " was never reset");
+    e.simulator->observe(e.observation);
+  });
+}
+
+const sim::Observation& VectorEnv::observation(int env) const {
+  return envs_.at(static_cast<size_t>(env))->observation;
+}
+
+const sim::EpisodeState& VectorEnv::state(int env) const {
+  const Env& e = *envs_.at(static_cast<size_t>(env));
+  VLN_CHECK_ARG(e.simulator, "VectorEnv::state(): environment ", env,
+                " was never reset");
+  return e.simulator->episode();
+}
+
+const data::Episode& VectorEnv::episode(int env) const {
+  const Env& e = *envs_.at(static_cast<size_t>(env));
+  VLN_CHECK_ARG(e.episode, "VectorEnv::episode(): environment ", env,
+                " was never reset");
+  return *e.episode;
+}
+
+sim::Simulator& VectorEnv::simulator(int env) {
+  Env& e = *envs_.at(static_cast<size_t>(env));
+  VLN_CHECK_ARG(e.simulator, "VectorEnv::simulator(): environment ", env,
+                " was never reset");
+  return *e.simulator;
+}
+
+}  // namespace vln::eval

@@ -1,0 +1,62 @@
+#pragma once
+// Training checkpoints: everything needed to resume a run after a kill -9
+// (policy weights, optimizer state, the resolved config, where training was,
+// RNG states) in one file, written atomically (temporary file, fsync,
+// rename), so a crash leaves either the old or the new checkpoint, never a
+// torn one. Policy tensors are strictly loaded (models/StateDict.h).
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "models/Policy.h"
+#include "models/StateDict.h"
+
+namespace vln::train {
+
+/// Where training stood when the checkpoint was written.
+struct TrainingProgress {
+  int checkpoint_index = 0;   ///< ckpt.<index>.pth, increasing
+  int dagger_iteration = 0;   ///< completed DAgger iterations
+  int epoch = 0;              ///< completed epochs in the current stage
+  int64_t updates = 0;        ///< optimizer steps so far
+  int64_t episodes_collected = 0;  ///< episodes in the store when written
+  std::string stage;          ///< "teacher_forcing", "dagger", ...
+  double best_spl = -1.0;     ///< best selection-split SPL so far (-1: none)
+  int best_checkpoint = -1;
+  nlohmann::json extra = nlohmann::json::object();  ///< stage-specific state
+};
+
+/// A checkpoint's contents.
+struct Checkpoint {
+  std::string config_yaml;            ///< the resolved ExperimentConfig
+  models::NamedTensors policy;        ///< policy parameters and buffers
+  std::string optimizer_state;        ///< serialised torch::optim::Adam (may be empty)
+  TrainingProgress progress;
+  std::string rng_state;              ///< serialised RNG states (opaque)
+};
+
+/// "ckpt.<index>.pth".
+std::string checkpointFileName(int index);
+
+/// Writes `checkpoint` to `file` atomically. Throws std::runtime_error naming
+/// the file on any I/O failure (disk full, file size limit), leaving a
+/// previous file of that name intact.
+void saveCheckpoint(const std::filesystem::path& file, const Checkpoint& checkpoint);
+
+/// Reads a checkpoint. Throws std::runtime_error naming the file when it is
+/// missing, truncated or not a checkpoint of this project.
+Checkpoint loadCheckpoint(const std::filesystem::path& file);
+
+/// The checkpoint files of a directory (ckpt.<index>.pth), by increasing
+/// index; empty when there are none.
+std::vector<std::filesystem::path> listCheckpoints(const std::filesystem::path& dir);
+
+/// Index parsed from a checkpoint file name, or nullopt.
+std::optional<int> checkpointIndex(const std::filesystem::path& file);
+
+}  // namespace vln::train

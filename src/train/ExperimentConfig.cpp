@@ -1,0 +1,50 @@
+#include "train/ExperimentConfig.h"
+
+namespace vln::train {
+
+void ExperimentConfig::validate() const {
+  model.validate();
+  // the policy's image sizes are the cameras' sizes: one source of truth
+  // would hide mistakes in configs that set only one of them
+  VLN_CHECK_ARG(model.rgb_width == sim.rgb.width && model.rgb_height == sim.rgb.height,
+                "config: model.rgb_width x model.rgb_height (", model.rgb_width, "x",
+                model.rgb_height, ") must equal sim.rgb.width x sim.rgb.height (",
+                sim.rgb.width, "x", sim.rgb.height, ")");
+  VLN_CHECK_ARG(model.depth_width == sim.depth.camera.width &&
+                    model.depth_height == sim.depth.camera.height,
+                "config: model.depth_width x model.depth_height (", model.depth_width,
+                "x", model.depth_height, ") must equal sim.depth.width x sim.depth.height (",
+                sim.depth.camera.width, "x", sim.depth.camera.height, ")");
+  VLN_CHECK_ARG(sim.depth.min_depth < sim.depth.max_depth,
+                "config: sim.depth.min_depth (", sim.depth.min_depth,
+                ") must be below sim.depth.max_depth (", sim.depth.max_depth, ")");
+  VLN_CHECK_ARG(pretrain.min_goal_distance < pretrain.max_goal_distance,
+                "config: pretrain.min_goal_distance must be below pretrain.max_goal_distance");
+  VLN_CHECK_ARG(!(trainer.fine_tune_dagger && trainer.init_checkpoint.empty()),
+                "config: trainer.fine_tune_dagger (DA*) needs trainer.init_checkpoint");
+  VLN_CHECK_ARG(!(trainer.fine_tune_dagger && trainer.dagger_iterations == 0),
+                "config: trainer.fine_tune_dagger needs trainer.dagger_iterations > 0");
+  bool selectionEvaluated = false;
+  for (const auto& split : eval.splits) selectionEvaluated |= split == eval.selection_split;
+  VLN_CHECK_ARG(selectionEvaluated, "config: eval.selection_split '", eval.selection_split,
+                "' is not among eval.splits");
+}
+
+ExperimentConfig loadExperimentConfig(const std::filesystem::path& file,
+                                      const std::vector<std::string>& overrides) {
+  ExperimentConfig config;
+  common::readConfigFile(file, overrides,
+                         [&](common::ConfigVisitor& v) { config.visit(v); });
+  try {
+    config.validate();
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument(file.string() + ": " + error.what());
+  }
+  return config;
+}
+
+std::string experimentConfigYaml(const ExperimentConfig& config) {
+  return common::configToYaml(config);
+}
+
+}  // namespace vln::train
