@@ -1,0 +1,301 @@
+// vlnce-bench: wall-clock timings of the model code on this machine.
+//
+//   vlnce-bench update --model cma --batch 5 --steps 60 --instr-len 30 \
+//       --threads 2
+//     one teacher-forcing update on cached features (RGB [2048,4,4], depth
+//     [128,4,4]): forward in sequence mode, inflection-weighted
+//     cross-entropy plus progress MSE over the real steps, backward, Adam.
+//     Prints the median ms/update after warm-up. The Python/PyTorch peer is
+//     scripts/bench_pytorch_update.py with the same flags.
+//   vlnce-bench act --model cma --batch 8 --threads 2
+//     one acting step (step mode, instruction cached) without gradients.
+//   vlnce-bench encode --encoder resnet50 --modality rgb --size 224 \
+//       --batch 8 --threads 2
+//     one forward of a frozen visual encoder (feature extraction).
+#include <CLI/CLI.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include "common/App.h"
+#include "common/Check.h"
+#include "models/Loss.h"
+#include "models/ObservationEncoder.h"
+#include "models/Policy.h"
+
+namespace {
+
+using namespace vln;
+using namespace vln::models;
+
+struct Timing {
+  double median = 0, min = 0, mean = 0;
+};
+
+// runs `body` warmup + iters times and summarises the timed iterations (ms)
+Timing timeIt(int warmup, int iters, const std::function<void()>& body) {
+  for (int i = 0; i < warmup; ++i) body();
+  std::vector<double> ms;
+  for (int i = 0; i < iters; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    body();
+    ms.push_back(std::chrono::duration<double, std::milli>(
+                     std::chrono::steady_clock::now() - start)
+                     .count());
+  }
+  std::vector<double> sorted = ms;
+  std::sort(sorted.begin(), sorted.end());
+  Timing t;
+  const size_t n = sorted.size();
+  t.median = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+  t.min = sorted.front();
+  t.mean = std::accumulate(ms.begin(), ms.end(), 0.0) / static_cast<double>(n);
+  return t;
+}
+
+PolicyType parsePolicy(const std::string& name) {
+  if (name == "cma") return PolicyType::kCma;
+  if (name == "seq2seq") return PolicyType::kSeq2Seq;
+  throw std::invalid_argument("vlnce-bench: --model must be cma or seq2seq, "
+                              "got '" + name + "'");
+}
+
+EncoderType parseEncoder(const std::string& name) {
+  if (name == "resnet50") return EncoderType::kResNet50;
+  if (name == "resnet18") return EncoderType::kResNet18;
+  if (name == "small_cnn") return EncoderType::kSmallCnn;
+  throw std::invalid_argument(
+      "vlnce-bench: --encoder must be resnet50, resnet18 or small_cnn, got '" +
+      name + "'");
+}
+
+// ===========================================================================
+// update
+// ===========================================================================
+
+struct UpdateArgs {
+  std::string model = "cma";
+  int batch = 5;
+  int steps = 60;
+  int instrLen = 30;
+};
+
+// A teacher-forcing batch shaped like VLN-CE's DAgger batches: episodes of
+// random length (the longest = steps), padded; non-negative features like
+// pooled post-ReLU CNN outputs; mostly-forward expert actions.
+struct UpdateBatch {
+  torch::Tensor tokens;  // [B, L]
+  PolicyInputs inputs;   // [T, B, ...]
+  torch::Tensor actions, weights, valid, progress;  // [T, B]
+};
+
+UpdateBatch makeBatch(const ModelConfig& config, const UpdateArgs& a) {
+  const int64_t T = a.steps, B = a.batch;
+  UpdateBatch u;
+  u.tokens = torch::zeros({B, a.instrLen}, torch::kInt64);
+  torch::Tensor lengths = torch::randint(T / 2, T + 1, {B}, torch::kInt64);
+  lengths[0] = T;
+  for (int64_t b = 0; b < B; ++b) {
+    const int64_t words =
+        b == 0 ? a.instrLen : torch::randint(a.instrLen / 2, a.instrLen + 1, {1})
+                                  .item<int64_t>();
+    u.tokens[b].slice(0, 0, words).random_(1, config.vocab_size);
+  }
+  const FeatureShape r = rgbFeatureShape(config);
+  const FeatureShape d = depthFeatureShape(config);
+  u.inputs.rgb = torch::relu(torch::randn({T, B, r[0], r[1], r[2]}));
+  u.inputs.depth = torch::relu(torch::randn({T, B, d[0], d[1], d[2]}));
+  // forward 70%, turns 25%, STOP at the end
+  const torch::Tensor draw = torch::rand({T, B});
+  u.actions = torch::where(draw < 0.7, torch::ones({T, B}, torch::kInt64),
+                           torch::where(draw < 0.85,
+                                        torch::full({T, B}, 2, torch::kInt64),
+                                        torch::full({T, B}, 3, torch::kInt64)));
+  const torch::Tensor t = torch::arange(T).unsqueeze(1).expand({T, B});
+  u.valid = t < lengths.unsqueeze(0);
+  u.actions = torch::where(t == lengths.unsqueeze(0) - 1,
+                           torch::zeros_like(u.actions), u.actions);
+  u.inputs.prev_actions = torch::cat(
+      {torch::zeros({1, B}, torch::kInt64), u.actions.slice(0, 0, T - 1)});
+  u.inputs.not_done = torch::ones({T, B});
+  u.inputs.not_done[0].zero_();
+  u.weights = inflectionWeights(u.actions, u.valid, /*coef=*/3.2);
+  u.progress = (t.to(torch::kFloat32) + 1) / lengths.unsqueeze(0);
+  return u;
+}
+
+int runUpdate(const UpdateArgs& a, int threads, int warmup, int iters) {
+  ModelConfig config;
+  config.policy = parsePolicy(a.model);
+  config.progress_monitor = true;
+  config.validate();
+  torch::manual_seed(0);
+  auto policy = makePolicy(config);
+  policy->train();
+  std::vector<torch::Tensor> trainable;
+  for (const auto& p : policy->parameters())
+    if (p.requires_grad()) trainable.push_back(p);
+  torch::optim::Adam adam(trainable, torch::optim::AdamOptions(2.5e-4));
+  const UpdateBatch u = makeBatch(config, a);
+
+  double lastLoss = 0;
+  auto update = [&] {
+    adam.zero_grad();
+    const EncodedInstruction instr = policy->encodeInstruction(u.tokens);
+    const PolicyOutputs out = policy->forwardSequence(
+        instr, u.inputs, policy->initialHidden(a.batch));
+    const torch::Tensor loss =
+        weightedActionLoss(out.logits, u.actions, u.weights) +
+        progressLoss(out.progress, u.progress, u.valid);
+    loss.backward();
+    adam.step();
+    lastLoss = loss.item<double>();
+  };
+  const Timing t = timeIt(warmup, iters, update);
+  std::printf(
+      "update %s batch=%d steps=%d instr_len=%d threads=%d: median %.1f "
+      "ms/update (min %.1f, mean %.1f, %d runs after %d warm-up; last loss "
+      "%.4f)\n",
+      a.model.c_str(), a.batch, a.steps, a.instrLen, threads, t.median, t.min,
+      t.mean, iters, warmup, lastLoss);
+  return 0;
+}
+
+// ===========================================================================
+// act
+// ===========================================================================
+
+int runAct(const std::string& model, int batch, int instrLen, int threads,
+           int warmup, int iters) {
+  ModelConfig config;
+  config.policy = parsePolicy(model);
+  config.progress_monitor = true;
+  torch::manual_seed(0);
+  auto policy = makePolicy(config);
+  policy->eval();
+  torch::InferenceMode inference;
+  const torch::Tensor tokens =
+      torch::randint(1, config.vocab_size, {batch, instrLen}, torch::kInt64);
+  const EncodedInstruction instr = policy->encodeInstruction(tokens);
+  const FeatureShape r = rgbFeatureShape(config);
+  const FeatureShape d = depthFeatureShape(config);
+  PolicyInputs in{torch::relu(torch::randn({batch, r[0], r[1], r[2]})),
+                  torch::relu(torch::randn({batch, d[0], d[1], d[2]})),
+                  torch::ones({batch}, torch::kInt64), torch::ones({batch})};
+  torch::Tensor h = policy->initialHidden(batch);
+  const Timing t =
+      timeIt(warmup, iters, [&] { h = policy->step(instr, in, h).hidden; });
+  std::printf(
+      "act %s batch=%d threads=%d: median %.2f ms/step (min %.2f, mean "
+      "%.2f)\n",
+      model.c_str(), batch, threads, t.median, t.min, t.mean);
+  return 0;
+}
+
+// ===========================================================================
+// encode
+// ===========================================================================
+
+int runEncode(const std::string& encoder, const std::string& modality,
+              int size, int batch, int threads, int warmup, int iters) {
+  VLN_CHECK_ARG(modality == "rgb" || modality == "depth",
+                "vlnce-bench: --modality must be rgb or depth, got '",
+                modality, "'");
+  ModelConfig config;
+  config.rgb_encoder = config.depth_encoder = parseEncoder(encoder);
+  config.rgb_height = config.rgb_width = size;
+  config.depth_height = config.depth_width = size;
+  config.no_rgb = modality != "rgb";
+  config.no_depth = modality != "depth";
+  torch::manual_seed(0);
+  ObservationEncoder enc(config);
+  enc->eval();
+  torch::InferenceMode inference;
+  const torch::Tensor rgb =
+      torch::randint(0, 256, {batch, size, size, 3}, torch::kUInt8);
+  const torch::Tensor depth = torch::rand({batch, size, size, 1});
+  torch::Tensor out;
+  const Timing t = timeIt(warmup, iters, [&] {
+    const VisualFeatures f = enc->forward(rgb, depth);
+    out = modality == "rgb" ? f.rgb : f.depth;
+  });
+  std::printf(
+      "encode %s %s %dx%d batch=%d threads=%d -> [%s]: median %.1f ms/batch "
+      "(%.1f images/s)\n",
+      encoder.c_str(), modality.c_str(), size, size, batch, threads,
+      [&] {
+        std::string s;
+        for (int64_t i = 1; i < out.dim(); ++i)
+          s += (i > 1 ? "," : "") + std::to_string(out.size(i));
+        return s;
+      }()
+          .c_str(),
+      t.median, 1000.0 * batch / t.median);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return vln::common::runMain("vlnce-bench", [&]() -> int {
+    CLI::App app{"vlnce-bench: timings of the VLN-CE models"};
+    app.require_subcommand(1);
+    int threads = 1, warmup = 3, iters = 10;
+    auto common = [&](CLI::App* sub) {
+      sub->add_option("--threads", threads, "LibTorch intra-op threads")
+          ->check(CLI::Range(1, 256));
+      sub->add_option("--warmup", warmup, "Untimed iterations first")
+          ->check(CLI::Range(0, 1000));
+      sub->add_option("--iters", iters, "Timed iterations")
+          ->check(CLI::Range(1, 100000));
+    };
+
+    UpdateArgs update;
+    CLI::App* up = app.add_subcommand("update", "One teacher-forcing update");
+    up->add_option("--model", update.model, "cma or seq2seq");
+    up->add_option("--batch", update.batch, "Episodes per batch")
+        ->check(CLI::Range(1, 4096));
+    up->add_option("--steps", update.steps, "Steps of the longest episode")
+        ->check(CLI::Range(2, 100000));
+    up->add_option("--instr-len", update.instrLen, "Instruction tokens")
+        ->check(CLI::Range(2, 10000));
+    common(up);
+
+    std::string actModel = "cma";
+    int actBatch = 8, actInstr = 30;
+    CLI::App* act = app.add_subcommand("act", "One acting step");
+    act->add_option("--model", actModel, "cma or seq2seq");
+    act->add_option("--batch", actBatch, "Environments")
+        ->check(CLI::Range(1, 4096));
+    act->add_option("--instr-len", actInstr, "Instruction tokens")
+        ->check(CLI::Range(1, 10000));
+    common(act);
+
+    std::string encoder = "resnet50", modality = "rgb";
+    int size = 224, encBatch = 8;
+    CLI::App* enc = app.add_subcommand("encode", "One visual-encoder forward");
+    enc->add_option("--encoder", encoder, "resnet50, resnet18 or small_cnn");
+    enc->add_option("--modality", modality, "rgb or depth");
+    enc->add_option("--size", size, "Square image size (px)")
+        ->check(CLI::Range(8, 4096));
+    enc->add_option("--batch", encBatch, "Images per batch")
+        ->check(CLI::Range(1, 4096));
+    common(enc);
+
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      return app.exit(e);
+    }
+    vln::common::setBlasThreadsEnv(threads);
+    torch::set_num_threads(threads);
+    if (*up) return runUpdate(update, threads, warmup, iters);
+    if (*act) return runAct(actModel, actBatch, actInstr, threads, warmup, iters);
+    return runEncode(encoder, modality, size, encBatch, threads, warmup, iters);
+  });
+}

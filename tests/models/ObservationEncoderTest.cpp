@@ -1,0 +1,142 @@
+#include "models/ObservationEncoder.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "ModelTestUtil.h"
+#include "models/StateDict.h"
+#include "support/TestPaths.h"
+
+namespace vln::models {
+namespace {
+
+using test::tinyConfig;
+using ::testing::HasSubstr;
+using Shape = std::vector<int64_t>;
+
+Shape sizesOf(const torch::Tensor& t) {
+  return Shape(t.sizes().begin(), t.sizes().end());
+}
+
+torch::Tensor randomRgb(Shape leading, int64_t h, int64_t w) {
+  leading.insert(leading.end(), {h, w, 3});
+  return torch::randint(0, 256, leading, torch::kUInt8);
+}
+
+torch::Tensor randomDepth(Shape leading, int64_t h, int64_t w) {
+  leading.insert(leading.end(), {h, w, 1});
+  return torch::rand(leading);
+}
+
+TEST(ObservationEncoderTest, FeatureShapesMatchTheReportedShapes) {
+  torch::NoGradGuard g;
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  ObservationEncoder small(c);
+  const auto f = small->forward(randomRgb({3, 2}, 32, 32),
+                                randomDepth({3, 2}, 32, 32));
+  const FeatureShape r = rgbFeatureShape(c), d = depthFeatureShape(c);
+  EXPECT_EQ(sizesOf(f.rgb), (Shape{3, 2, r[0], r[1], r[2]}));
+  EXPECT_EQ(sizesOf(f.depth), (Shape{3, 2, d[0], d[1], d[2]}));
+
+  // paper-scale encoders on reduced images (64 px keeps the test fast)
+  c.rgb_encoder = EncoderType::kResNet50;
+  c.depth_encoder = EncoderType::kResNet50;
+  c.rgb_height = c.rgb_width = 64;
+  c.depth_height = c.depth_width = 128;
+  ObservationEncoder big(c);
+  const auto fb =
+      big->forward(randomRgb({1}, 64, 64), randomDepth({1}, 128, 128));
+  EXPECT_EQ(sizesOf(fb.rgb), (Shape{1, 2048, 4, 4}));
+  EXPECT_EQ(sizesOf(fb.depth), (Shape{1, 512, 2, 2}));
+  const FeatureShape db = depthFeatureShape(c);
+  EXPECT_EQ(sizesOf(fb.depth), (Shape{1, db[0], db[1], db[2]}));
+}
+
+TEST(ObservationEncoderTest, FrozenEncodersStayInEvalModeWithoutGradients) {
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  c.rgb_encoder = EncoderType::kResNet18;
+  c.depth_trainable = true;
+  ObservationEncoder enc(c);
+  enc->train(true);
+  EXPECT_FALSE(enc->rgb->is_training());
+  EXPECT_TRUE(enc->depth->is_training());
+  for (const auto& p : enc->rgb->parameters()) EXPECT_FALSE(p.requires_grad());
+  for (const auto& p : enc->depth->parameters()) EXPECT_TRUE(p.requires_grad());
+  // eval mode means BatchNorm uses (and keeps) its running statistics
+  const NamedTensors before = namedState(*enc->rgb);
+  std::vector<torch::Tensor> copies;
+  for (const auto& [n, t] : before) copies.push_back(t.clone());
+  enc->forward(randomRgb({2}, 32, 32), randomDepth({2}, 32, 32));
+  for (size_t i = 0; i < before.size(); ++i)
+    EXPECT_TRUE(torch::equal(before[i].second, copies[i])) << before[i].first;
+}
+
+TEST(ObservationEncoderTest, RgbNormalisationUsesImageNetStatistics) {
+  // a uniform image equal to the ImageNet mean is all zeros after
+  // normalisation, so a bias-free first conv layer sees nothing
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  c.rgb_encoder = EncoderType::kResNet18;
+  RgbEncoder enc(c);
+  enc->eval();
+  torch::NoGradGuard g;
+  torch::Tensor img = torch::empty({1, 32, 32, 3}, torch::kUInt8);
+  // 0.485*255 = 123.7, 0.456*255 = 116.3, 0.406*255 = 103.5: nearest bytes
+  img.select(3, 0).fill_(124);
+  img.select(3, 1).fill_(116);
+  img.select(3, 2).fill_(104);
+  const torch::Tensor x = img.permute({0, 3, 1, 2}).to(torch::kFloat32) / 255;
+  const torch::Tensor mean = torch::tensor({0.485f, 0.456f, 0.406f});
+  const torch::Tensor stdev = torch::tensor({0.229f, 0.224f, 0.225f});
+  const torch::Tensor expectedInput =
+      (x - mean.view({1, 3, 1, 1})) / stdev.view({1, 3, 1, 1});
+  const torch::Tensor expected = torch::adaptive_avg_pool2d(
+      enc->resnet->forward(expectedInput), {4, 4});
+  EXPECT_TRUE(torch::allclose(enc->forward(img), expected, 1e-4, 1e-5));
+  EXPECT_LT(expectedInput.abs().max().item<float>(), 0.01f);
+}
+
+TEST(ObservationEncoderTest, AblatedModalitiesHaveNoEncoder) {
+  ModelConfig c = tinyConfig(PolicyType::kSeq2Seq);
+  c.no_rgb = true;
+  ObservationEncoder enc(c);
+  EXPECT_FALSE(enc->rgb);
+  const auto f = enc->forward({}, randomDepth({2}, 32, 32));
+  EXPECT_FALSE(f.rgb.defined());
+  EXPECT_TRUE(f.depth.defined());
+  EXPECT_THROW(enc->forward({}, {}), c10::Error);
+}
+
+TEST(ObservationEncoderTest, PretrainedWeightsLoadStrictly) {
+  torch::manual_seed(5);
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  ObservationEncoder source(c);
+  vln::test::TempDir dir;
+  saveModule(source->rgb->cnnModule(), dir / "rgb.pt");
+  saveModule(source->depth->cnnModule(), dir / "depth.pt");
+  c.rgb_weights = (dir / "rgb.pt").string();
+  c.depth_weights = (dir / "depth.pt").string();
+  ObservationEncoder loaded(c);
+  loaded->loadPretrained();
+  const torch::Tensor rgb = randomRgb({2}, 32, 32);
+  const torch::Tensor depth = randomDepth({2}, 32, 32);
+  torch::NoGradGuard g;
+  const auto a = source->forward(rgb, depth);
+  const auto b = loaded->forward(rgb, depth);
+  EXPECT_TRUE(torch::equal(a.rgb, b.rgb));
+  EXPECT_TRUE(torch::equal(a.depth, b.depth));
+
+  // an RGB file given for the depth CNN fails and names the file
+  c.depth_weights = c.rgb_weights;
+  ObservationEncoder wrong(c);
+  try {
+    wrong->loadPretrained();
+    FAIL() << "expected a strict-loading error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("rgb.pt"));
+    EXPECT_THAT(e.what(), HasSubstr("cnn.0.weight expected [32, 1, 3, 3], "
+                                    "got [32, 3, 3, 3]"));
+  }
+}
+
+}  // namespace
+}  // namespace vln::models
