@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -51,6 +52,24 @@ void saveCheckpoint(const std::filesystem::path& file, const Checkpoint& checkpo
 /// Reads a checkpoint. Throws std::runtime_error naming the file when it is
 /// missing, truncated or not a checkpoint of this project.
 Checkpoint loadCheckpoint(const std::filesystem::path& file);
+
+/// The bytes saveCheckpoint() writes (a torch::serialize archive: format,
+/// version, config_yaml, progress JSON, optimizer_state and rng_state as
+/// uint8 tensors, policy tensors by position with their names as JSON).
+std::string serializeCheckpoint(const Checkpoint& checkpoint);
+
+/// The state of `optimizer` (Adam's step counts and moments per parameter)
+/// as bytes for Checkpoint::optimizer_state.
+std::string serializeOptimizer(const torch::optim::Optimizer& optimizer);
+
+/// Restores serializeOptimizer() bytes into an optimizer over the same
+/// parameters. Throws std::runtime_error naming `source` when they do not
+/// fit (other parameters, corrupt bytes).
+void loadOptimizerState(torch::optim::Optimizer& optimizer, std::string_view bytes,
+                        const std::string& source);
+
+/// Parses serializeCheckpoint() bytes; `source` names them in errors.
+Checkpoint deserializeCheckpoint(std::string_view bytes, const std::string& source);
 
 /// The checkpoint files of a directory (ckpt.<index>.pth), by increasing
 /// index; empty when there are none.

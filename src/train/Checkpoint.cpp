@@ -1,0 +1,206 @@
+#include "train/Checkpoint.h"
+
+#include <algorithm>
+#include <charconv>
+#include <cstring>
+
+#include "common/Check.h"
+#include "common/FileIo.h"
+
+namespace vln::train {
+namespace {
+
+constexpr const char* kFormat = "vlnce-cpp checkpoint";
+constexpr int64_t kVersion = 1;
+
+// opaque bytes travel as uint8 tensors: archive strings are pickled text
+torch::Tensor bytesTensor(const std::string& bytes) {
+  torch::Tensor t = torch::empty({static_cast<int64_t>(bytes.size())}, torch::kUInt8);
+  if (!bytes.empty()) std::memcpy(t.data_ptr(), bytes.data(), bytes.size());
+  return t;
+}
+
+std::string tensorBytes(const torch::Tensor& t) {
+  const torch::Tensor c = t.to(torch::kUInt8).contiguous();
+  return std::string(static_cast<const char*>(c.data_ptr()), static_cast<size_t>(c.numel()));
+}
+
+nlohmann::json progressToJson(const TrainingProgress& p) {
+  return {{"checkpoint_index", p.checkpoint_index},
+          {"dagger_iteration", p.dagger_iteration},
+          {"epoch", p.epoch},
+          {"updates", p.updates},
+          {"episodes_collected", p.episodes_collected},
+          {"stage", p.stage},
+          {"best_spl", p.best_spl},
+          {"best_checkpoint", p.best_checkpoint},
+          {"extra", p.extra}};
+}
+
+TrainingProgress progressFromJson(const nlohmann::json& j, const std::string& source) {
+  TrainingProgress p;
+  p.checkpoint_index = common::requireField<int>(j, "checkpoint_index", source);
+  p.dagger_iteration = common::requireField<int>(j, "dagger_iteration", source);
+  p.epoch = common::requireField<int>(j, "epoch", source);
+  p.updates = common::requireField<int64_t>(j, "updates", source);
+  p.episodes_collected = common::requireField<int64_t>(j, "episodes_collected", source);
+  p.stage = common::requireField<std::string>(j, "stage", source);
+  p.best_spl = common::requireField<double>(j, "best_spl", source);
+  p.best_checkpoint = common::requireField<int>(j, "best_checkpoint", source);
+  p.extra = common::requireField<nlohmann::json>(j, "extra", source);
+  return p;
+}
+
+}  // namespace
+
+std::string checkpointFileName(int index) {
+  VLN_ASSERT(index >= 0);
+  return "ckpt." + std::to_string(index) + ".pth";
+}
+
+std::string serializeCheckpoint(const Checkpoint& checkpoint) {
+  torch::serialize::OutputArchive archive;
+  archive.write("format", c10::IValue(std::string(kFormat)));
+  archive.write("version", c10::IValue(kVersion));
+  archive.write("config_yaml", c10::IValue(checkpoint.config_yaml));
+  archive.write("progress", c10::IValue(progressToJson(checkpoint.progress).dump()));
+  archive.write("optimizer_state", bytesTensor(checkpoint.optimizer_state), true);
+  archive.write("rng_state", bytesTensor(checkpoint.rng_state), true);
+  // tensor names may contain dots, which archive keys may not: names go in
+  // a list and tensors under their position
+  nlohmann::json names = nlohmann::json::array();
+  torch::serialize::OutputArchive policy;
+  for (size_t i = 0; i < checkpoint.policy.size(); ++i) {
+    names.push_back(checkpoint.policy[i].first);
+    policy.write("t" + std::to_string(i),
+                 checkpoint.policy[i].second.detach().to(torch::kCPU).contiguous(), true);
+  }
+  archive.write("policy_names", c10::IValue(names.dump()));
+  archive.write("policy", policy);
+  std::string bytes;
+  archive.save_to([&](const void* data, size_t size) {
+    bytes.append(static_cast<const char*>(data), size);
+    return size;
+  });
+  return bytes;
+}
+
+Checkpoint deserializeCheckpoint(std::string_view bytes, const std::string& source) {
+  Checkpoint checkpoint;
+  try {
+    torch::serialize::InputArchive archive;
+    archive.load_from(bytes.data(), bytes.size());
+    c10::IValue value;
+    VLN_CHECK_IO(archive.try_read("format", value) && value.isString() &&
+                     value.toStringRef() == kFormat,
+                 "loadCheckpoint(): '", source, "' is not a vlnce-cpp checkpoint");
+    archive.read("version", value);
+    VLN_CHECK_IO(value.isInt() && value.toInt() == kVersion, "loadCheckpoint(): '", source,
+                 "' has checkpoint version ", value.isInt() ? value.toInt() : -1,
+                 ", expected ", kVersion);
+    archive.read("config_yaml", value);
+    checkpoint.config_yaml = value.toStringRef();
+    archive.read("progress", value);
+    checkpoint.progress =
+        progressFromJson(nlohmann::json::parse(value.toStringRef()), source + " progress");
+    torch::Tensor t;
+    archive.read("optimizer_state", t, true);
+    checkpoint.optimizer_state = tensorBytes(t);
+    archive.read("rng_state", t, true);
+    checkpoint.rng_state = tensorBytes(t);
+    archive.read("policy_names", value);
+    const auto names = nlohmann::json::parse(value.toStringRef());
+    torch::serialize::InputArchive policy;
+    archive.read("policy", policy);
+    for (size_t i = 0; i < names.size(); ++i) {
+      torch::Tensor tensor;
+      policy.read("t" + std::to_string(i), tensor, true);
+      checkpoint.policy.emplace_back(names[i].get<std::string>(), tensor);
+    }
+  } catch (const c10::Error& error) {
+    throw std::runtime_error("loadCheckpoint(): '" + source +
+                             "' is truncated or not a checkpoint: " + error.what_without_backtrace());
+  } catch (const nlohmann::json::exception& error) {
+    throw std::runtime_error("loadCheckpoint(): '" + source + "' has corrupt metadata: " +
+                             error.what());
+  } catch (const std::invalid_argument& error) {
+    throw std::runtime_error(std::string("loadCheckpoint(): ") + error.what());
+  }
+  return checkpoint;
+}
+
+void saveCheckpoint(const std::filesystem::path& file, const Checkpoint& checkpoint) {
+  const std::string bytes = serializeCheckpoint(checkpoint);
+  try {
+    common::writeFileAtomic(file, bytes);
+  } catch (const std::exception& error) {
+    throw std::runtime_error("saveCheckpoint(): cannot write checkpoint '" + file.string() +
+                             "' (" + std::to_string(bytes.size()) +
+                             " bytes; the previous file is intact): " + error.what());
+  }
+}
+
+Checkpoint loadCheckpoint(const std::filesystem::path& file) {
+  VLN_CHECK_IO(std::filesystem::is_regular_file(file), "loadCheckpoint(): '", file.string(),
+               "' does not exist");
+  const std::string bytes = common::readFile(file);
+  return deserializeCheckpoint(bytes, file.string());
+}
+
+std::optional<int> checkpointIndex(const std::filesystem::path& file) {
+  const std::string name = file.filename().string();
+  constexpr std::string_view prefix = "ckpt.";
+  constexpr std::string_view suffix = ".pth";
+  if (name.size() <= prefix.size() + suffix.size() || !name.starts_with(prefix) ||
+      !name.ends_with(suffix))
+    return std::nullopt;
+  const std::string_view digits(name.data() + prefix.size(),
+                                name.size() - prefix.size() - suffix.size());
+  int index = -1;
+  auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
+  if (ec != std::errc() || end != digits.data() + digits.size() || index < 0)
+    return std::nullopt;
+  return index;
+}
+
+std::vector<std::filesystem::path> listCheckpoints(const std::filesystem::path& dir) {
+  std::vector<std::pair<int, std::filesystem::path>> found;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return {};
+  for (const auto& entry : std::filesystem::directory_iterator(dir))
+    if (auto index = checkpointIndex(entry.path()); index && entry.is_regular_file())
+      found.emplace_back(*index, entry.path());
+  std::sort(found.begin(), found.end());
+  std::vector<std::filesystem::path> files;
+  for (auto& [index, path] : found) files.push_back(std::move(path));
+  return files;
+}
+
+}  // namespace vln::train
+
+namespace vln::train {
+
+std::string serializeOptimizer(const torch::optim::Optimizer& optimizer) {
+  torch::serialize::OutputArchive archive;
+  optimizer.save(archive);
+  std::string bytes;
+  archive.save_to([&](const void* data, size_t size) {
+    bytes.append(static_cast<const char*>(data), size);
+    return size;
+  });
+  return bytes;
+}
+
+void loadOptimizerState(torch::optim::Optimizer& optimizer, std::string_view bytes,
+                        const std::string& source) {
+  try {
+    torch::serialize::InputArchive archive;
+    archive.load_from(bytes.data(), bytes.size());
+    optimizer.load(archive);
+  } catch (const c10::Error& error) {
+    throw std::runtime_error("loadOptimizerState(): the optimizer state of '" + source +
+                             "' does not fit this policy: " + error.what_without_backtrace());
+  }
+}
+
+}  // namespace vln::train

@@ -1,0 +1,124 @@
+#pragma once
+// Collection of imitation-learning episodes into the feature store (paper
+// Section 4.3): environments of an eval::VectorEnv each run one episode at
+// a time, driven either by the oracle or by a mixture of oracle and policy,
+// and every step's encoded observation, previous action, oracle action
+// (the label, always) and progress target is recorded.
+//
+// The oracle (WaypointOracle) produces ground-truth actions the way the
+// R2R_VLNCE ground truth was produced (data/NodeTransfer.h): the
+// shortest-path follower with radius task.follower_goal_radius heads for
+// reference-path waypoint i until it would STOP there, then for waypoint
+// i + 1, and STOP at the last one. Teacher forcing is collection with
+// beta = 1, i.e. the oracle's own trajectory, which must reproduce the
+// split's _gt actions (the agreement is measured and logged).
+//
+// DAgger (beta < 1): at each step the action taken is the oracle's with
+// probability beta, else the policy's argmax (the policy runs at every step
+// so that its recurrent state follows the trajectory). The coin of slot k
+// of round n is drawn from its own generator seeded by (seed, n, k), so the
+// collected data does not depend on the number of environments or on where
+// a run was interrupted.
+//
+// A round is a fixed list of episodes ("slots"). Slots already in the store
+// (from an interrupted run) are skipped, so resuming collects exactly the
+// missing ones: nothing is lost or duplicated. Episodes end with STOP or at
+// task.max_episode_steps (cut there; the last label is the oracle's action
+// at that step).
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "data/Episode.h"
+#include "data/GroundTruth.h"
+#include "eval/VectorEnv.h"
+#include "models/ObservationEncoder.h"
+#include "models/Policy.h"
+#include "sim/Follower.h"
+#include "train/ExperimentConfig.h"
+#include "train/FeatureStore.h"
+
+namespace vln::train {
+
+/// The ground-truth follower over an episode's reference-path waypoints.
+class WaypointOracle {
+ public:
+  /// `waypoints` world frame, metres (at least one).
+  WaypointOracle(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
+                 float goalRadius, std::vector<Vec3f> waypoints);
+  /// The oracle action at `state`; advances to the next waypoint whenever
+  /// the follower would STOP at the current one (not the last).
+  sim::Action next(const sim::AgentState& state);
+  /// Index of the waypoint currently headed for.
+  int waypoint() const { return current_; }
+
+ private:
+  sim::ShortestPathFollower follower_;
+  std::vector<Vec3f> waypoints_;
+  int current_ = 1;
+};
+
+/// Progress target of VLN-CE's oracle progress sensor, (d0 - d) / d0 with d
+/// the geodesic distance to the goal and d0 the episode's
+/// info.geodesic_distance; 0 when d is not finite (VLN-CE's rule) and
+/// clipped to [-1, 1], the range of the tanh progress head (VLN-CE leaves
+/// it unclipped, so the two differ only more than 2 d0 from the goal).
+float progressTarget(float startDistance, float distance);
+
+/// The episodes of one collection round: slot k runs episodes[k].
+struct CollectionRound {
+  std::vector<const data::Episode*> episodes;
+  std::vector<uint8_t> sources;  ///< per slot: 0 train split, 1 aug split
+  int32_t iteration = 0;         ///< DAgger iteration (0: teacher forcing)
+  double beta = 1.0;             ///< probability of taking the oracle action
+  uint64_t seed = 0;             ///< seed of the run (coins derive from it)
+};
+
+/// What a round collected.
+struct CollectionStats {
+  int64_t episodes = 0;         ///< episodes appended by this call
+  int64_t skipped = 0;          ///< slots already in the store
+  int64_t steps = 0;            ///< steps appended
+  int64_t oracle_steps = 0;     ///< steps that took the oracle action
+  int64_t cut_at_limit = 0;     ///< episodes cut at task.max_episode_steps
+  double seconds = 0.0;
+  /// Teacher forcing only: episodes compared with the split's ground truth
+  /// and those whose action sequence is identical; steps compared position
+  /// by position and those equal.
+  int64_t gt_episodes = 0;
+  int64_t gt_identical = 0;
+  int64_t gt_steps = 0;
+  int64_t gt_equal_steps = 0;
+};
+
+class Collector {
+ public:
+  /// `encoder` is used frozen under NoGradGuard on model.device. The
+  /// environments are built here (trainer.num_envs, trainer.env_threads).
+  Collector(const ExperimentConfig& config, std::shared_ptr<eval::SceneCache> scenes,
+            models::ObservationEncoder encoder);
+  ~Collector();
+
+  /// Runs the missing slots of `round` and appends each finished episode
+  /// to `store` (one transaction each). `policy` is needed when
+  /// round.beta < 1 (eval mode, no grad). `groundTruth`, when given and
+  /// beta == 1, is compared with the oracle's actions. `progress` is called
+  /// after every stored episode with (stored so far in this round, slots in
+  /// the round).
+  CollectionStats collect(const CollectionRound& round, FeatureStore& store,
+                          models::PolicyImpl* policy,
+                          const data::GroundTruth* groundTruth,
+                          const std::function<void(int64_t, int64_t)>& progress = {});
+
+ private:
+  struct Slot;
+  ExperimentConfig config_;
+  std::shared_ptr<eval::SceneCache> scenes_;
+  models::ObservationEncoder encoder_;
+  std::unique_ptr<eval::VectorEnv> envs_;
+};
+
+}  // namespace vln::train

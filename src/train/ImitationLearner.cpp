@@ -1,0 +1,159 @@
+#include "train/ImitationLearner.h"
+
+#include <spdlog/spdlog.h>
+
+#include <cmath>
+
+#include "common/Check.h"
+#include "common/Progress.h"
+#include "models/Loss.h"
+
+namespace vln::train {
+
+double inverseInflectionFrequency(const std::vector<const data::GroundTruth*>& groundTruth) {
+  int64_t actions = 0;
+  int64_t inflections = 0;
+  for (const data::GroundTruth* gt : groundTruth) {
+    if (!gt) continue;
+    for (const auto& [id, path] : *gt) {
+      for (size_t t = 0; t < path.actions.size(); ++t) {
+        ++actions;
+        inflections += t == 0 || path.actions[t] != path.actions[t - 1];
+      }
+    }
+  }
+  VLN_CHECK_ARG(inflections > 0,
+                "inverseInflectionFrequency(): the ground truth holds no actions, so "
+                "trainer.inflection_weight <= 0 cannot be computed from it");
+  return static_cast<double>(actions) / static_cast<double>(inflections);
+}
+
+ImitationLearner::ImitationLearner(std::shared_ptr<models::PolicyImpl> policy,
+                                   const ExperimentConfig& config)
+    : policy_(std::move(policy)), config_(config), device_(models::modelDevice(config.model)) {
+  VLN_ASSERT(policy_ != nullptr);
+  policy_->to(device_);
+  for (const torch::Tensor& p : policy_->parameters())
+    if (p.requires_grad()) parameters_.push_back(p);
+  optimizer_ = std::make_unique<torch::optim::Adam>(
+      parameters_, torch::optim::AdamOptions(config_.trainer.lr));
+  inflectionCoef_ = config_.trainer.inflection_weight;
+}
+
+double ImitationLearner::applyGradients() {
+  // seam for multi-process training: average the gradients across
+  // processes here, before clipping and the step
+  double norm = 0.0;
+  if (config_.trainer.grad_clip > 0.0) {
+    norm = torch::nn::utils::clip_grad_norm_(parameters_, config_.trainer.grad_clip);
+  } else {
+    double squares = 0.0;
+    for (const torch::Tensor& p : parameters_)
+      if (p.grad().defined()) squares += p.grad().pow(2).sum().item<double>();
+    norm = std::sqrt(squares);
+  }
+  optimizer_->step();
+  return norm;
+}
+
+UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
+  policy_->train();
+  const models::ModelConfig& model = config_.model;
+  auto to = [&](const torch::Tensor& t) { return t.defined() ? t.to(device_) : t; };
+  const torch::Tensor actions = to(batch.oracle_actions);
+  const torch::Tensor valid = to(batch.valid);
+  models::PolicyInputs inputs;
+  inputs.rgb = to(batch.rgb);
+  inputs.depth = to(batch.depth);
+  inputs.prev_actions = to(batch.prev_actions);
+  inputs.not_done = to(batch.not_done);
+  const int64_t B = actions.size(1);
+
+  optimizer_->zero_grad();
+  const models::EncodedInstruction instruction =
+      policy_->encodeInstruction(model.usesInstruction() ? to(batch.tokens) : torch::Tensor());
+  const models::PolicyOutputs out =
+      policy_->forwardSequence(instruction, inputs, policy_->initialHidden(B));
+  const torch::Tensor weights = models::inflectionWeights(actions, valid, inflectionCoef_);
+  const torch::Tensor actionLoss = models::weightedActionLoss(out.logits, actions, weights);
+  torch::Tensor loss = actionLoss;
+  torch::Tensor progressLoss;
+  if (model.progress_monitor) {
+    progressLoss = models::progressLoss(out.progress, to(batch.progress), valid);
+    loss = loss + config_.trainer.progress_loss_weight * progressLoss;
+  }
+  if (lossHook_) loss = lossHook_(loss);
+
+  UpdateResult result;
+  result.steps = batch.steps;
+  result.episodes = B;
+  result.loss = loss.item<double>();
+  result.action_loss = actionLoss.item<double>();
+  result.progress_loss = progressLoss.defined() ? progressLoss.item<double>() : 0.0;
+  if (!std::isfinite(result.loss)) {
+    // skip: no gradient reaches the parameters or Adam's moments
+    result.skipped = true;
+    ++nonFiniteTotal_;
+    ++nonFiniteInARow_;
+    spdlog::warn("non-finite loss ({}) at update {}: skipped ({} in a row, {} in total; "
+                 "limit trainer.max_nonfinite_updates = {})",
+                 result.loss, updates_, nonFiniteInARow_, nonFiniteTotal_,
+                 config_.trainer.max_nonfinite_updates);
+    optimizer_->zero_grad();
+    return result;
+  }
+  loss.backward();
+  result.grad_norm = applyGradients();
+  nonFiniteInARow_ = 0;
+  ++updates_;
+  return result;
+}
+
+EpochResult ImitationLearner::trainEpoch(const FeatureStore& store, uint64_t seed, int epoch,
+                                         const std::function<void(const UpdateResult&)>& onUpdate) {
+  VLN_CHECK_ARG(store.size() > 0, "ImitationLearner::trainEpoch(): the store '",
+                store.dir().string(), "' holds no episodes");
+  std::vector<int32_t> lengths;
+  lengths.reserve(static_cast<size_t>(store.size()));
+  for (int64_t i = 0; i < store.size(); ++i) lengths.push_back(store.key(i).length);
+  const auto batches = epochBatches(lengths, config_.trainer.batch_size, seed, epoch);
+
+  EpochResult result;
+  common::Stopwatch clock;
+  common::ProgressLine line(strCat("epoch ", epoch), static_cast<int64_t>(batches.size()),
+                            "updates");
+  for (const auto& indices : batches) {
+    const EpisodeBatch batch = store.loadBatch(indices);
+    const UpdateResult u = update(batch);
+    if (u.skipped) {
+      ++result.skipped;
+      if (nonFiniteInARow_ >= config_.trainer.max_nonfinite_updates)
+        throw std::runtime_error(strCat(
+            "ImitationLearner: ", nonFiniteInARow_,
+            " consecutive non-finite losses (trainer.max_nonfinite_updates = ",
+            config_.trainer.max_nonfinite_updates, ") at update ", updates_, " of epoch ", epoch,
+            ": training stopped, no checkpoint was written for this epoch"));
+    } else {
+      ++result.updates;
+      result.mean.loss += u.loss;
+      result.mean.action_loss += u.action_loss;
+      result.mean.progress_loss += u.progress_loss;
+      result.mean.grad_norm += u.grad_norm;
+    }
+    result.mean.steps += u.steps;
+    result.mean.episodes += u.episodes;
+    if (onUpdate) onUpdate(u);
+    line.advance();
+  }
+  if (result.updates > 0) {
+    const auto n = static_cast<double>(result.updates);
+    result.mean.loss /= n;
+    result.mean.action_loss /= n;
+    result.mean.progress_loss /= n;
+    result.mean.grad_norm /= n;
+  }
+  result.seconds = clock.seconds();
+  return result;
+}
+
+}  // namespace vln::train

@@ -1,0 +1,103 @@
+#pragma once
+// The gradient side of imitation learning (paper Section 4.3): batches of
+// whole episodes from the feature store, the policy in sequence mode, the
+// inflection-weighted action loss plus the progress-monitor loss, Adam.
+//
+// Numeric faults follow the project's policy: a NaN or infinite loss skips
+// its update (no gradient is applied), is counted and logged; after
+// trainer.max_nonfinite_updates of them in a row, train() throws.
+//
+// Every optimizer step goes through applyGradients(): that is the one place
+// where a multi-process run inserts its gradient all-reduce.
+
+#include <torch/torch.h>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+
+#include "data/GroundTruth.h"
+#include "models/Policy.h"
+#include "train/ExperimentConfig.h"
+#include "train/FeatureStore.h"
+
+namespace vln::train {
+
+/// The losses of one update (or their means over an epoch).
+struct UpdateResult {
+  double loss = 0.0;           ///< action_loss + alpha * progress_loss
+  double action_loss = 0.0;    ///< inflection-weighted cross-entropy
+  double progress_loss = 0.0;  ///< progress MSE (0 without progress monitor)
+  double grad_norm = 0.0;      ///< total gradient norm before clipping
+  int64_t steps = 0;           ///< real steps in the batch
+  int64_t episodes = 0;        ///< episodes in the batch
+  bool skipped = false;        ///< non-finite loss: no update was applied
+};
+
+/// Sums of an epoch.
+struct EpochResult {
+  UpdateResult mean;           ///< means over the applied updates
+  int64_t updates = 0;         ///< applied updates
+  int64_t skipped = 0;         ///< updates skipped for non-finite losses
+  double seconds = 0.0;
+};
+
+/// VLN-CE's inflection coefficient: the inverse frequency of inflections
+/// (t = 0 and every action that differs from the previous one) over the
+/// ground-truth action sequences, i.e. total actions / inflections. Throws
+/// std::invalid_argument when `groundTruth` holds no actions.
+double inverseInflectionFrequency(const std::vector<const data::GroundTruth*>& groundTruth);
+
+class ImitationLearner {
+ public:
+  /// Trains `policy` (moved to model.device) with Adam(trainer.lr) over
+  /// its trainable parameters.
+  ImitationLearner(std::shared_ptr<models::PolicyImpl> policy, const ExperimentConfig& config);
+
+  /// Inflection coefficient of the action loss.
+  void setInflectionCoef(double coef) { inflectionCoef_ = coef; }
+  double inflectionCoef() const { return inflectionCoef_; }
+
+  /// One update on `batch` (CPU tensors from FeatureStore::loadBatch).
+  UpdateResult update(const EpisodeBatch& batch);
+
+  /// One epoch over `store` in epochBatches(seed, epoch) order.
+  /// `onUpdate` sees every update (applied or skipped). Throws
+  /// std::runtime_error after trainer.max_nonfinite_updates consecutive
+  /// non-finite losses.
+  EpochResult trainEpoch(const FeatureStore& store, uint64_t seed, int epoch,
+                         const std::function<void(const UpdateResult&)>& onUpdate = {});
+
+  torch::optim::Adam& optimizer() { return *optimizer_; }
+  models::PolicyImpl& policy() { return *policy_; }
+  /// Applied updates so far (restored from checkpoints with setUpdates()).
+  int64_t updates() const { return updates_; }
+  void setUpdates(int64_t updates) { updates_ = updates; }
+  /// Non-finite losses so far (total and current run of consecutive ones).
+  int64_t nonFiniteTotal() const { return nonFiniteTotal_; }
+  int64_t nonFiniteInARow() const { return nonFiniteInARow_; }
+
+  /// Test hook: transforms the loss before the finiteness check (e.g. to
+  /// inject a NaN).
+  void setLossHook(std::function<torch::Tensor(const torch::Tensor&)> hook) {
+    lossHook_ = std::move(hook);
+  }
+
+ private:
+  /// Clipping, the (future) all-reduce, and the optimizer step. Returns the
+  /// gradient norm before clipping.
+  double applyGradients();
+
+  std::shared_ptr<models::PolicyImpl> policy_;
+  ExperimentConfig config_;
+  torch::Device device_;
+  std::unique_ptr<torch::optim::Adam> optimizer_;
+  std::vector<torch::Tensor> parameters_;
+  double inflectionCoef_ = 3.2;
+  int64_t updates_ = 0;
+  int64_t nonFiniteTotal_ = 0;
+  int64_t nonFiniteInARow_ = 0;
+  std::function<torch::Tensor(const torch::Tensor&)> lossHook_;
+};
+
+}  // namespace vln::train

@@ -1,0 +1,82 @@
+#include "train/TrainCommand.h"
+
+#include <spdlog/spdlog.h>
+#include <torch/torch.h>
+
+#include <map>
+
+#include "common/App.h"
+#include "common/Check.h"
+#include "common/Config.h"
+#include "common/FileIo.h"
+#include "train/Checkpoint.h"
+#include "train/RunDirectory.h"
+#include "train/VlnTrainer.h"
+
+namespace vln::train {
+namespace fs = std::filesystem;
+
+TaskRunner taskRunner(const std::string& task) {
+  // one entry per trainer.task; the pretraining tasks add theirs here
+  static const std::map<std::string, TaskRunner> runners = {
+      {"vln", [](const ExperimentConfig& config, bool resume) {
+         VlnTrainer trainer(config, resume);
+         trainer.run();
+       }}};
+  auto it = runners.find(task);
+  VLN_CHECK_ARG(it != runners.end(), "train: trainer.task '", task,
+                "' cannot be trained by this build (available: vln)");
+  return it->second;
+}
+
+int runTrain(const TrainOptions& options, std::ostream& out) {
+  const ExperimentConfig config = loadExperimentConfig(options.config, options.overrides);
+  const std::string yaml = experimentConfigYaml(config);
+  if (options.dry_run) {
+    out << yaml;
+    return 0;
+  }
+  const fs::path runDir = config.output.dir;
+  if (options.resume) {
+    const auto changed = checkResumeConfig(runDir, config, overriddenKeys(options.overrides));
+    for (const auto& key : changed) out << "train --resume: " << key << " changed (allowed)\n";
+  } else {
+    checkFreshRunDirectory(runDir);
+  }
+  fs::create_directories(runDir);
+  common::writeFileAtomic(runDir / "config.yaml", yaml);
+  common::initLogging(runDir / "train.log", config.output.log_level);
+  spdlog::info("train {} in {}{}", config.trainer.task, runDir.string(),
+               options.resume ? " (resume)" : "");
+
+  // threads and seeds before anything builds a model
+  common::setBlasThreadsEnv(config.trainer.torch_threads);
+  torch::set_num_threads(config.trainer.torch_threads);
+  torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
+
+  taskRunner(config.trainer.task)(config, options.resume);
+
+  if (!options.export_path.empty()) {
+    const fs::path source = bestOrLatestCheckpoint(runDir);
+    exportCheckpoint(source, config, options.export_path);
+    out << "exported " << source.string() << " to " << options.export_path.string() << "\n";
+  }
+  return 0;
+}
+
+int runExport(const ExportOptions& options, std::ostream& out) {
+  ExperimentConfig config;
+  if (!options.config.empty()) {
+    config = loadExperimentConfig(options.config);
+  } else {
+    const Checkpoint ckpt = loadCheckpoint(options.checkpoint);
+    config = common::loadConfigText<ExperimentConfig>(ckpt.config_yaml,
+                                                      options.checkpoint.string() + " config");
+  }
+  torch::set_num_threads(config.trainer.torch_threads);
+  exportCheckpoint(options.checkpoint, config, options.out);
+  out << "exported " << options.checkpoint.string() << " to " << options.out.string() << "\n";
+  return 0;
+}
+
+}  // namespace vln::train

@@ -1,0 +1,619 @@
+#include "train/VlnTrainer.h"
+
+#include <ATen/CPUGeneratorImpl.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <random>
+
+#include "common/Check.h"
+#include "common/FileIo.h"
+#include "common/Json.h"
+#include "common/Progress.h"
+#include "data/Episode.h"
+#include "data/Glove.h"
+#include "data/GroundTruth.h"
+#include "data/WorldConfig.h"
+#include "eval/Evaluator.h"
+#include "eval/PolicyAgent.h"
+#include "models/Export.h"
+#include "models/ObservationEncoder.h"
+#include "models/Policy.h"
+#include "models/StateDict.h"
+#include "train/Collector.h"
+#include "train/FeatureStore.h"
+#include "train/ImitationLearner.h"
+#include "train/MetricsLog.h"
+#include "train/RunDirectory.h"
+
+namespace vln::train {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr const char* kTeacherForcing = "teacher_forcing";
+constexpr const char* kDagger = "dagger";
+
+uint64_t fnv1a(std::string_view text) {
+  uint64_t h = 1469598103934665603ull;
+  for (char c : text) {
+    h ^= static_cast<uint8_t>(c);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+// a split's episodes (capped) and its ground truth when the file exists
+struct Split {
+  std::string name;
+  data::EpisodeDataset dataset;
+  std::unique_ptr<data::GroundTruth> groundTruth;
+};
+
+Split loadSplit(const fs::path& root, const std::string& name, int cap) {
+  Split split;
+  split.name = name;
+  split.dataset = data::readEpisodes(data::splitEpisodesPath(root, name));
+  if (cap >= 0 && static_cast<int>(split.dataset.episodes.size()) > cap)
+    split.dataset.episodes.resize(static_cast<size_t>(cap));
+  const fs::path gt = data::splitGroundTruthPath(root, name);
+  if (fs::exists(gt))
+    split.groundTruth = std::make_unique<data::GroundTruth>(data::readGroundTruth(gt));
+  return split;
+}
+
+// policy tensors from one of our checkpoints or from a TorchScript tensor
+// file (models/StateDict.h)
+models::NamedTensors readPolicyWeights(const fs::path& file) {
+  try {
+    return loadCheckpoint(file).policy;
+  } catch (const std::runtime_error& checkpointError) {
+    try {
+      return models::readTensorFile(file);
+    } catch (const std::runtime_error&) {
+      throw std::runtime_error("trainer.init_checkpoint: '" + file.string() +
+                               "' is neither a checkpoint nor a tensor file: " +
+                               checkpointError.what());
+    }
+  }
+}
+
+torch::Tensor embeddingTensor(const ExperimentConfig& config) {
+  const fs::path file = config.dataset.embeddingsPath();
+  data::EmbeddingMatrix matrix = data::readEmbeddingsJson(file);
+  VLN_CHECK_ARG(matrix.rows == config.model.vocab_size && matrix.dim == config.model.embedding_dim,
+                "train: the embeddings '", file.string(), "' are ", matrix.rows, " x ",
+                matrix.dim, " but model.vocab_size x model.embedding_dim is ",
+                config.model.vocab_size, " x ", config.model.embedding_dim,
+                " (set the model to the vocabulary of dataset.data_path)");
+  return torch::from_blob(matrix.values.data(), {matrix.rows, matrix.dim}, torch::kFloat32)
+      .clone();
+}
+
+std::string rngState() {
+  auto generator = at::detail::getDefaultCPUGenerator();
+  std::lock_guard<std::mutex> lock(generator.mutex());
+  const torch::Tensor state = generator.get_state().contiguous();
+  return std::string(static_cast<const char*>(state.data_ptr()),
+                     static_cast<size_t>(state.numel()));
+}
+
+void restoreRngState(const std::string& bytes, const std::string& source) {
+  if (bytes.empty()) return;
+  auto generator = at::detail::getDefaultCPUGenerator();
+  std::lock_guard<std::mutex> lock(generator.mutex());
+  torch::Tensor state = torch::empty({static_cast<int64_t>(bytes.size())}, torch::kUInt8);
+  std::memcpy(state.data_ptr(), bytes.data(), bytes.size());
+  try {
+    generator.set_state(state);
+  } catch (const c10::Error& error) {
+    throw std::runtime_error("train --resume: '" + source + "' holds an invalid RNG state: " +
+                             error.what_without_backtrace());
+  }
+}
+
+nlohmann::json metricsJson(const eval::EpisodeMetrics& m) {
+  return {{"distance_to_goal", m.distance_to_goal}, {"success", m.success},
+          {"spl", m.spl},           {"ndtw", m.ndtw},
+          {"sdtw", m.sdtw},         {"path_length", m.path_length},
+          {"oracle_success", m.oracle_success}, {"steps_taken", m.steps_taken}};
+}
+
+}  // namespace
+
+std::string storeConfigHash(const ExperimentConfig& config) {
+  static const std::vector<std::string> prefixes = {
+      "sim.", "task.", "dataset.data_path", "dataset.train_split", "dataset.aug_split",
+      "dataset.max_train_episodes", "dataset.max_aug_episodes",
+      "dataset.max_instruction_length", "model.rgb_encoder", "model.depth_encoder",
+      "model.rgb_weights", "model.depth_weights", "model.no_rgb", "model.no_depth",
+      "model.rgb_height", "model.rgb_width", "model.depth_height", "model.depth_width",
+      "model.depth_resnet_base_planes", "trainer.seed", "trainer.use_aug",
+      "trainer.dagger_episodes", "trainer.dagger_beta", "trainer.fine_tune_dagger",
+      "trainer.store_fp16"};
+  // env_threads and num_envs are left out on purpose: collection does not
+  // depend on them (per-slot coins)
+  std::string text;
+  for (const auto& [key, value] : flattenConfig(config)) {
+    if (key == "sim.scenes_dir") continue;  // where scenes live, not what they are
+    for (const auto& prefix : prefixes)
+      if (key.rfind(prefix, 0) == 0) {
+        text += key + "=" + value + "\n";
+        break;
+      }
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(fnv1a(text)));
+  return hex;
+}
+
+fs::path bestOrLatestCheckpoint(const fs::path& runDir) {
+  const fs::path dir = runDir / "checkpoints";
+  const fs::path best = dir / "best.json";
+  if (fs::exists(best)) {
+    const auto json = common::readJsonFile(best);
+    const fs::path file = dir / common::requireField<std::string>(json, "checkpoint", best.string());
+    VLN_CHECK_IO(fs::exists(file), "train: ", best.string(), " names '", file.string(),
+                 "', which does not exist");
+    return file;
+  }
+  const auto all = listCheckpoints(dir);
+  VLN_CHECK_IO(!all.empty(), "train: '", dir.string(), "' holds no checkpoint");
+  return all.back();
+}
+
+void exportCheckpoint(const fs::path& checkpoint, const ExperimentConfig& config,
+                      const fs::path& out) {
+  const Checkpoint ckpt = loadCheckpoint(checkpoint);
+  auto policy = models::makePolicy(config.model);
+  models::loadStateStrict(*policy, ckpt.policy, checkpoint.string());
+  models::ObservationEncoder encoder(config.model);
+  encoder->loadPretrained();
+  models::exportPolicy(*policy, encoder.get(), out);
+  spdlog::info("exported {} to {}", checkpoint.string(), out.string());
+}
+
+// ---------------------------------------------------------------------------
+// the trainer
+
+struct VlnTrainer::Impl {
+  ExperimentConfig config;
+  fs::path runDir, checkpointDir, evalDir;
+  torch::Device device{torch::kCPU};
+
+  Split train;
+  std::unique_ptr<Split> aug;
+  std::vector<Split> evalSplits;
+
+  std::shared_ptr<models::PolicyImpl> policy;
+  models::ObservationEncoder encoder{nullptr};
+  std::unique_ptr<ImitationLearner> learner;
+  std::unique_ptr<FeatureStore> store;
+  std::shared_ptr<eval::SceneCache> scenes;
+  std::unique_ptr<Collector> collector;
+  std::unique_ptr<MetricsLog> metrics;
+
+  TrainingProgress progress;
+  bool haveCheckpoint = false;
+  int evalsSinceBest = 0;
+  int64_t epochsDone = 0;
+
+  bool dagger() const { return config.trainer.dagger_iterations > 0; }
+
+  // --- setup ---------------------------------------------------------------
+
+  void setup(bool resume) {
+    runDir = config.output.dir;
+    checkpointDir = runDir / "checkpoints";
+    evalDir = runDir / "eval";
+    device = models::modelDevice(config.model);
+    torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
+
+    // data
+    const fs::path root = config.dataset.data_path;
+    train = loadSplit(root, config.dataset.train_split, config.dataset.max_train_episodes);
+    VLN_CHECK_ARG(!train.dataset.episodes.empty(), "train: dataset.train_split '",
+                  config.dataset.train_split, "' under '", root.string(), "' has no episodes");
+    spdlog::info("training split '{}': {} episodes{}", train.name, train.dataset.episodes.size(),
+                 train.groundTruth ? "" : " (no ground-truth file)");
+    if (config.trainer.use_aug) {
+      aug = std::make_unique<Split>(
+          loadSplit(root, config.dataset.aug_split, config.dataset.max_aug_episodes));
+      spdlog::info("augmentation split '{}': {} episodes", aug->name,
+                   aug->dataset.episodes.size());
+    }
+    if (config.trainer.eval_during_training)
+      for (const auto& name : config.eval.splits) {
+        const int cap = config.eval.train_eval_episodes >= 0 ? config.eval.train_eval_episodes
+                                                              : config.eval.episodes;
+        evalSplits.push_back(loadSplit(root, name, cap));
+      }
+
+    // models
+    torch::Tensor embeddings;
+    if (config.model.usesInstruction()) embeddings = embeddingTensor(config);
+    policy = models::makePolicy(config.model, embeddings);
+    encoder = models::ObservationEncoder(config.model);
+    encoder->loadPretrained();
+    encoder->to(device);
+    encoder->eval();
+    int64_t parameters = 0, trainable = 0;
+    for (const auto& p : policy->parameters()) {
+      parameters += p.numel();
+      if (p.requires_grad()) trainable += p.numel();
+    }
+    spdlog::info("policy {}: {} parameters, {} trainable", models::policyName(config.model.policy),
+                 parameters, trainable);
+
+    const auto checkpoints = listCheckpoints(checkpointDir);
+    haveCheckpoint = resume && !checkpoints.empty();
+    if (!haveCheckpoint && !config.trainer.init_checkpoint.empty()) {
+      models::loadStateStrict(*policy, readPolicyWeights(config.trainer.init_checkpoint),
+                              config.trainer.init_checkpoint);
+      spdlog::info("initialised the policy from {}", config.trainer.init_checkpoint);
+    }
+    learner = std::make_unique<ImitationLearner>(policy, config);
+    if (config.trainer.inflection_weight <= 0.0) {
+      std::vector<const data::GroundTruth*> gts = {train.groundTruth.get()};
+      if (aug) gts.push_back(aug->groundTruth.get());
+      learner->setInflectionCoef(inverseInflectionFrequency(gts));
+      spdlog::info("inflection weight: {:.4f} (inverse inflection frequency of the ground truth)",
+                   learner->inflectionCoef());
+    }
+
+    if (haveCheckpoint) {
+      const fs::path last = checkpoints.back();
+      const Checkpoint ckpt = loadCheckpoint(last);
+      models::loadStateStrict(*policy, ckpt.policy, last.string());
+      loadOptimizerState(learner->optimizer(), ckpt.optimizer_state, last.string());
+      restoreRngState(ckpt.rng_state, last.string());
+      progress = ckpt.progress;
+      learner->setUpdates(progress.updates);
+      evalsSinceBest = progress.extra.value("evals_since_best", 0);
+      epochsDone = progress.extra.value("epochs_done", int64_t{0});
+      spdlog::info("resuming from {}: stage {}, {} DAgger iterations and {} epochs done, {} updates",
+                   last.string(), progress.stage, progress.dagger_iteration, progress.epoch,
+                   progress.updates);
+    } else {
+      progress = TrainingProgress{};
+      progress.checkpoint_index = -1;
+      progress.stage = dagger() ? kDagger : kTeacherForcing;
+    }
+
+    // the store
+    StoreLayout layout;
+    if (config.model.usesRgb()) layout.rgb_shape = models::rgbFeatureShape(config.model);
+    if (config.model.usesDepth()) layout.depth_shape = models::depthFeatureShape(config.model);
+    layout.fp16 = config.trainer.store_fp16;
+    layout.config_hash = storeConfigHash(config);
+    store = std::make_unique<FeatureStore>(runDir / "store", layout, config.trainer.store_max_gib);
+    spdlog::info("feature store {}: {} episodes, {} steps, {:.0f} bytes/step ({} feature bytes "
+                 "per step, {})",
+                 store->dir().string(), store->size(), store->totalSteps(), store->bytesPerStep(),
+                 layout.featureBytesPerStep(), layout.fp16 ? "float16" : "float32");
+
+    scenes = std::make_shared<eval::SceneCache>(config.sim);
+    metrics = std::make_unique<MetricsLog>(runDir / "metrics.jsonl",
+                                           config.output.tensorboard ? runDir / "tb" : fs::path());
+  }
+
+  // --- collection ------------------------------------------------------------
+
+  std::vector<const data::Episode*> pool(std::vector<uint8_t>* sources) const {
+    std::vector<const data::Episode*> episodes;
+    for (const auto& e : train.dataset.episodes) {
+      episodes.push_back(&e);
+      if (sources) sources->push_back(0);
+    }
+    if (aug)
+      for (const auto& e : aug->dataset.episodes) {
+        episodes.push_back(&e);
+        if (sources) sources->push_back(1);
+      }
+    return episodes;
+  }
+
+  double betaOf(int iteration) const {
+    if (!dagger()) return 1.0;
+    const double p = config.trainer.dagger_beta;
+    if (p == 0.0) return 0.0;  // VLN-CE: 0^0 would be 1
+    return std::pow(p, iteration + (config.trainer.fine_tune_dagger ? 1 : 0));
+  }
+
+  CollectionRound roundOf(int iteration) const {
+    CollectionRound round;
+    round.iteration = iteration;
+    round.beta = betaOf(iteration);
+    round.seed = static_cast<uint64_t>(config.trainer.seed);
+    std::vector<uint8_t> sources;
+    std::vector<const data::Episode*> episodes = pool(&sources);
+    if (!dagger()) {
+      round.episodes = std::move(episodes);
+      round.sources = std::move(sources);
+      return round;
+    }
+    std::vector<size_t> order(episodes.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::mt19937_64 rng(data::deriveSeed(round.seed, 7000u + static_cast<uint64_t>(iteration)));
+    data::deterministicShuffle(order, rng);
+    size_t count = static_cast<size_t>(config.trainer.dagger_episodes);
+    if (round.beta >= 1.0) count = std::min(count, order.size());
+    for (size_t k = 0; k < count; ++k) {
+      const size_t i = order[k % order.size()];
+      round.episodes.push_back(episodes[i]);
+      round.sources.push_back(sources[i]);
+    }
+    return round;
+  }
+
+  void collect(int iteration) {
+    const CollectionRound round = roundOf(iteration);
+    if (!collector) collector = std::make_unique<Collector>(config, scenes, encoder);
+    const CollectionStats stats = collector->collect(
+        round, *store, round.beta < 1.0 ? policy.get() : nullptr,
+        round.beta >= 1.0 ? train.groundTruth.get() : nullptr);
+    nlohmann::json record = {{"iteration", iteration},      {"beta", round.beta},
+                             {"episodes", stats.episodes},  {"skipped", stats.skipped},
+                             {"steps", stats.steps},        {"seconds", stats.seconds},
+                             {"oracle_steps", stats.oracle_steps},
+                             {"cut_at_limit", stats.cut_at_limit},
+                             {"store_episodes", store->size()},
+                             {"store_bytes_per_step", store->bytesPerStep()}};
+    std::vector<std::pair<std::string, double>> scalars = {
+        {"collect/beta", round.beta},
+        {"collect/store_episodes", static_cast<double>(store->size())},
+        {"collect/bytes_per_step", store->bytesPerStep()}};
+    if (stats.seconds > 0 && stats.episodes > 0) {
+      record["episodes_per_minute"] = 60.0 * static_cast<double>(stats.episodes) / stats.seconds;
+      record["frames_per_second"] = static_cast<double>(stats.steps) / stats.seconds;
+      scalars.emplace_back("collect/frames_per_second", static_cast<double>(stats.steps) / stats.seconds);
+    }
+    if (stats.gt_episodes > 0) {
+      const double identical =
+          static_cast<double>(stats.gt_identical) / static_cast<double>(stats.gt_episodes);
+      const double steps =
+          static_cast<double>(stats.gt_equal_steps) / static_cast<double>(std::max<int64_t>(1, stats.gt_steps));
+      record["gt_episodes"] = stats.gt_episodes;
+      record["gt_identical_rate"] = identical;
+      record["gt_step_agreement"] = steps;
+      scalars.emplace_back("collect/gt_identical_rate", identical);
+      auto level = identical < 1.0 ? spdlog::level::warn : spdlog::level::info;
+      spdlog::log(level,
+                  "oracle vs ground truth ({}): {}/{} episodes identical ({:.1f}%), {:.1f}% of "
+                  "steps agree",
+                  train.name, stats.gt_identical, stats.gt_episodes, 100.0 * identical,
+                  100.0 * steps);
+    }
+    metrics->write("collect", record, scalars, iteration);
+  }
+
+  // --- checkpoints and evaluation ---------------------------------------------
+
+  void saveCheckpointNow(bool evalDue) {
+    progress.checkpoint_index += 1;
+    progress.updates = learner->updates();
+    progress.episodes_collected = store->size();
+    progress.extra["evals_since_best"] = evalsSinceBest;
+    progress.extra["epochs_done"] = epochsDone;
+    progress.extra["eval_due"] = evalDue;
+    progress.extra["inflection_coef"] = learner->inflectionCoef();
+    Checkpoint ckpt;
+    ckpt.config_yaml = experimentConfigYaml(config);
+    ckpt.policy = models::namedState(*policy);
+    ckpt.optimizer_state = serializeOptimizer(learner->optimizer());
+    ckpt.progress = progress;
+    ckpt.rng_state = rngState();
+    const fs::path file = checkpointDir / checkpointFileName(progress.checkpoint_index);
+    saveCheckpoint(file, ckpt);
+    spdlog::info("saved {} ({} updates)", file.string(), progress.updates);
+    prune();
+  }
+
+  void prune() {
+    const int keep = config.output.keep_checkpoints;
+    if (keep < 0) return;
+    const auto all = listCheckpoints(checkpointDir);
+    const size_t kept = static_cast<size_t>(std::max(keep, 1));  // the newest is needed to resume
+    for (size_t i = 0; i + kept < all.size(); ++i) {
+      if (checkpointIndex(all[i]) == progress.best_checkpoint) continue;
+      std::error_code ec;
+      fs::remove(all[i], ec);
+      if (!ec) spdlog::info("removed {} (output.keep_checkpoints = {})", all[i].string(), keep);
+    }
+  }
+
+  bool evaluated(int index) const {
+    for (const auto& split : evalSplits)
+      if (!fs::exists(evalDir / eval::statsFileName(index, split.name))) return false;
+    return true;
+  }
+
+  // evaluates the policy in memory as checkpoint `index`; returns true when
+  // training should stop early
+  bool evaluate(int index) {
+    const eval::EvalConfig& ec = config.eval;
+    double selectionSpl = -1.0;
+    for (const Split& split : evalSplits) {
+      eval::VectorEnv envs(ec.num_envs, config.sim, config.task, scenes, ec.threads);
+      eval::PolicyAgent agent(policy, encoder, ec.num_envs, ec.sample_actions,
+                              static_cast<uint64_t>(ec.seed), config.dataset.max_instruction_length);
+      common::ProgressLine line("evaluate " + split.name,
+                                static_cast<int64_t>(split.dataset.episodes.size()), "episodes");
+      common::Stopwatch clock;
+      const eval::EvaluationResult result = eval::evaluateEpisodes(
+          agent, envs, split.dataset.episodes, split.groundTruth.get(), ec,
+          [&](int, int) { line.advance(); });
+      eval::writeStatsFile(evalDir, index, split.name, result.stats);
+      const auto& m = result.stats.mean;
+      spdlog::info("ckpt {} {} ({} episodes, {:.1f} s): TL {:.2f} NE {:.2f} nDTW {:.3f} OS {:.3f} "
+                   "SR {:.3f} SPL {:.3f}",
+                   index, split.name, result.stats.num_episodes, clock.seconds(), m.path_length,
+                   m.distance_to_goal, m.ndtw, m.oracle_success, m.success, m.spl);
+      nlohmann::json record = metricsJson(m);
+      record["checkpoint"] = index;
+      record["split"] = split.name;
+      record["num_episodes"] = result.stats.num_episodes;
+      std::vector<std::pair<std::string, double>> scalars;
+      for (auto& [key, value] : metricsJson(m).items())
+        scalars.emplace_back("eval/" + split.name + "/" + key, value.get<double>());
+      metrics->write("eval", record, scalars, index);
+      if (split.name == ec.selection_split) selectionSpl = m.spl;
+    }
+    policy->train();
+    return recordEvaluation(index, selectionSpl);
+  }
+
+  // best checkpoint and patience bookkeeping after an evaluation
+  bool recordEvaluation(int index, double spl) {
+    if (spl > progress.best_spl) {
+      progress.best_spl = spl;
+      progress.best_checkpoint = index;
+      evalsSinceBest = 0;
+      common::writeJsonFile(checkpointDir / "best.json",
+                            {{"checkpoint", checkpointFileName(index)},
+                             {"index", index},
+                             {"split", config.eval.selection_split},
+                             {"spl", spl}},
+                            2);
+      spdlog::info("new best checkpoint {}: {} SPL {:.4f}", index, config.eval.selection_split, spl);
+    } else {
+      ++evalsSinceBest;
+    }
+    const int patience = config.trainer.early_stopping_patience;
+    if (patience > 0 && evalsSinceBest >= patience) {
+      spdlog::info("early stopping: {} evaluations without a better {} SPL than {:.4f} (ckpt {})",
+                   evalsSinceBest, config.eval.selection_split, progress.best_spl,
+                   progress.best_checkpoint);
+      return true;
+    }
+    return false;
+  }
+
+  // an evaluation that was due after the last checkpoint but did not finish
+  bool catchUpEvaluation() {
+    if (!haveCheckpoint || !config.trainer.eval_during_training) return false;
+    const int index = progress.checkpoint_index;
+    if (!progress.extra.value("eval_due", false)) return false;
+    if (evaluated(index)) {
+      // finished before the kill: fold its result in from the stats file
+      double spl = -1.0;
+      for (const auto& split : evalSplits)
+        if (split.name == config.eval.selection_split)
+          spl = eval::readStatsFile(evalDir / eval::statsFileName(index, split.name)).mean.spl;
+      return recordEvaluation(index, spl);
+    }
+    spdlog::info("evaluating checkpoint {} (its evaluation did not finish before the interruption)",
+                 index);
+    return evaluate(index);
+  }
+
+  // --- training ---------------------------------------------------------------
+
+  void trainOneEpoch(int epochSeedIndex, int iteration) {
+    const EpochResult r = learner->trainEpoch(
+        *store, static_cast<uint64_t>(config.trainer.seed), epochSeedIndex,
+        [&](const UpdateResult& u) {
+          if (u.skipped) {
+            metrics->write("nonfinite", {{"update", learner->updates()}, {"loss", u.loss}}, {},
+                           learner->updates());
+            return;
+          }
+          if (learner->updates() % config.trainer.log_every_updates != 0) return;
+          spdlog::info("update {}: loss {:.4f} (action {:.4f}, progress {:.4f}), grad norm {:.3f}",
+                       learner->updates(), u.loss, u.action_loss, u.progress_loss, u.grad_norm);
+          metrics->write("update",
+                         {{"update", learner->updates()}, {"epoch", epochsDone},
+                          {"iteration", iteration}, {"loss", u.loss},
+                          {"action_loss", u.action_loss}, {"progress_loss", u.progress_loss},
+                          {"grad_norm", u.grad_norm}, {"steps", u.steps}},
+                         {{"train/loss", u.loss},
+                          {"train/action_loss", u.action_loss},
+                          {"train/progress_loss", u.progress_loss},
+                          {"train/grad_norm", u.grad_norm}},
+                         learner->updates());
+        });
+    ++epochsDone;
+    const double rate = r.seconds > 0 ? static_cast<double>(r.updates) / r.seconds : 0.0;
+    spdlog::info("epoch {} (iteration {}): {} updates ({} skipped) in {:.1f} s ({:.2f} updates/s), "
+                 "mean loss {:.4f} (action {:.4f}, progress {:.4f}), {} episodes in the store",
+                 epochsDone, iteration, r.updates, r.skipped, r.seconds, rate, r.mean.loss,
+                 r.mean.action_loss, r.mean.progress_loss, store->size());
+    metrics->write("epoch",
+                   {{"epoch", epochsDone}, {"iteration", iteration}, {"updates", r.updates},
+                    {"skipped", r.skipped}, {"seconds", r.seconds}, {"updates_per_second", rate},
+                    {"loss", r.mean.loss}, {"action_loss", r.mean.action_loss},
+                    {"progress_loss", r.mean.progress_loss}, {"store_episodes", store->size()},
+                    {"inflection_coef", learner->inflectionCoef()}},
+                   {{"epoch/loss", r.mean.loss},
+                    {"epoch/action_loss", r.mean.action_loss},
+                    {"epoch/progress_loss", r.mean.progress_loss},
+                    {"epoch/updates_per_second", rate}},
+                   epochsDone);
+  }
+
+  void finish(const std::string& reason) {
+    common::writeJsonFile(runDir / "finished.json",
+                          {{"reason", reason},
+                           {"last_checkpoint", progress.checkpoint_index},
+                           {"best_checkpoint", progress.best_checkpoint},
+                           {"best_spl", progress.best_spl},
+                           {"updates", learner->updates()},
+                           {"store_episodes", store->size()},
+                           {"store_bytes_per_step", store->bytesPerStep()}},
+                          2);
+    spdlog::info("training finished ({}): last checkpoint {}, best {}", reason,
+                 progress.checkpoint_index, progress.best_checkpoint);
+  }
+
+  void runTeacherForcing() {
+    if (progress.epoch == 0) collect(0);
+    for (int epoch = progress.epoch; epoch < config.trainer.epochs; ++epoch) {
+      trainOneEpoch(epoch, 0);
+      progress.epoch = epoch + 1;
+      const bool evalDue = config.trainer.eval_during_training;
+      saveCheckpointNow(evalDue);
+      if (evalDue && evaluate(progress.checkpoint_index)) return finish("early_stopping");
+    }
+    finish("completed");
+  }
+
+  void runDagger() {
+    const int epochsPerIteration = config.trainer.dagger_epochs;
+    for (int n = progress.dagger_iteration; n < config.trainer.dagger_iterations; ++n) {
+      if (progress.epoch == 0) collect(n);
+      for (int e = progress.epoch; e < epochsPerIteration; ++e) {
+        trainOneEpoch(n * 100000 + e, n);
+        const bool last = e + 1 == epochsPerIteration;
+        progress.dagger_iteration = last ? n + 1 : n;
+        progress.epoch = last ? 0 : e + 1;
+        const bool evalDue = last && config.trainer.eval_during_training;
+        saveCheckpointNow(evalDue);
+        if (evalDue && evaluate(progress.checkpoint_index)) return finish("early_stopping");
+      }
+    }
+    finish("completed");
+  }
+};
+
+VlnTrainer::VlnTrainer(const ExperimentConfig& config, bool resume)
+    : impl_(std::make_unique<Impl>()) {
+  impl_->config = config;
+  impl_->setup(resume);
+}
+
+VlnTrainer::~VlnTrainer() = default;
+
+void VlnTrainer::run() {
+  Impl& t = *impl_;
+  if (t.catchUpEvaluation()) return t.finish("early_stopping");
+  const int patience = t.config.trainer.early_stopping_patience;
+  if (patience > 0 && t.evalsSinceBest >= patience) return t.finish("early_stopping");
+  if (t.dagger())
+    t.runDagger();
+  else
+    t.runTeacherForcing();
+}
+
+}  // namespace vln::train

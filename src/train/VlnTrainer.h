@@ -1,0 +1,80 @@
+#pragma once
+// Imitation learning of the VLN policy (trainer.task = vln; paper
+// Sections 4.3 and 5), teacher forcing or DAgger, in a run directory (see
+// RunDirectory.h for its layout).
+//
+// Teacher forcing (trainer.dagger_iterations == 0): round 0 collects every
+// training episode once with the oracle (beta = 1), plus every episode of
+// dataset.aug_split when trainer.use_aug (both stored; batches are drawn
+// from their union), then trains trainer.epochs epochs over the store; a
+// checkpoint after every epoch, then (trainer.eval_during_training) an
+// evaluation.
+//
+// DAgger: iteration n collects trainer.dagger_episodes episodes with
+// beta = dagger_beta^n (n + 1 when fine_tune_dagger; beta = 0 when
+// dagger_beta = 0, as VLN-CE), appends them to the aggregated store and
+// trains trainer.dagger_epochs epochs over everything collected so far; a
+// checkpoint after every epoch, an evaluation after every iteration. Round
+// n's episodes are the training pool (train split, plus aug split when
+// use_aug) shuffled by (seed, n) and repeated to dagger_episodes; with
+// beta = 1 each episode once at most (VLN-CE collects unique episodes then).
+//
+// Checkpoints: checkpoints/ckpt.<i>.pth, i increasing over the whole run;
+// TrainingProgress holds the completed DAgger iterations and epochs of the
+// current stage, so --resume knows where it is:
+//  - collection of the current round resumes from the store: slots already
+//    stored are skipped (Collector.h), so an interruption during collection
+//    loses only the episodes in flight;
+//  - training resumes after the last checkpoint's epoch with its policy,
+//    Adam state and RNG states (an interrupted epoch is redone from its
+//    start, in the same batch order);
+//  - an evaluation due after the last checkpoint and missing from eval/
+//    is run first.
+// Early stopping: after trainer.early_stopping_patience evaluations without
+// a better eval.selection_split SPL, training stops. checkpoints/best.json
+// names the best checkpoint; output.keep_checkpoints newest checkpoints are
+// kept besides the best (the newest always, --resume needs it).
+
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "train/Checkpoint.h"
+#include "train/ExperimentConfig.h"
+
+namespace vln::train {
+
+class VlnTrainer {
+ public:
+  /// Loads the data, the embeddings, the policy and the encoders; with
+  /// `resume`, restores the last checkpoint of output.dir.
+  VlnTrainer(const ExperimentConfig& config, bool resume);
+  ~VlnTrainer();
+
+  /// Trains until the configured end or early stopping.
+  void run();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Hash (16 hex digits) of everything that determines what the feature
+/// store holds: sim, task, dataset (splits and caps), the encoders
+/// (architecture, weight files, image sizes, ablations), the seed and the
+/// collection settings (use_aug, dagger_episodes, dagger_beta,
+/// fine_tune_dagger, store_fp16).
+std::string storeConfigHash(const ExperimentConfig& config);
+
+/// checkpoints/best.json's checkpoint when present, else the newest
+/// checkpoint of `runDir`. Throws std::runtime_error naming the directory
+/// when there is none.
+std::filesystem::path bestOrLatestCheckpoint(const std::filesystem::path& runDir);
+
+/// Exports `checkpoint` with `config`'s model (policy strictly loaded, and
+/// the observation encoders with their pretrained weights) as TorchScript
+/// to `out` (models::exportPolicy).
+void exportCheckpoint(const std::filesystem::path& checkpoint, const ExperimentConfig& config,
+                      const std::filesystem::path& out);
+
+}  // namespace vln::train
