@@ -14,6 +14,7 @@
 
 #include "common/App.h"
 #include "data/DataCommands.h"
+#include "data/WorldCommands.h"
 
 namespace {
 
@@ -29,17 +30,18 @@ Subcommand addStats(CLI::App& app) {
   auto options = std::make_shared<data::StatsCommandOptions>();
   CLI::App* command = app.add_subcommand(
       "stats", "Summary statistics of an episode file (real or generated)");
-  command->add_option("--episodes", options->episodes,
-                      "Episode file {split}.json(.gz)")
+  command
+      ->add_option("--episodes", options->episodes,
+                   "Episode file {split}.json(.gz)")
       ->required()
       ->check(CLI::ExistingFile);
-  command->add_option("--gt", options->ground_truth,
-                      "Ground truth {split}_gt.json(.gz) for action stats")
+  command
+      ->add_option("--gt", options->ground_truth,
+                   "Ground truth {split}_gt.json(.gz) for action stats")
       ->check(CLI::ExistingFile);
   command->add_flag("--json", options->json, "Print JSON instead of text");
-  return {command, [options] {
-            return data::runStatsCommand(*options, std::cout);
-          }};
+  return {command,
+          [options] { return data::runStatsCommand(*options, std::cout); }};
 }
 
 Subcommand addGlove(CLI::App& app) {
@@ -47,18 +49,20 @@ Subcommand addGlove(CLI::App& app) {
   data::GloveFitConfig& fit = options->fit;
   CLI::App* command = app.add_subcommand(
       "glove", "Fit GloVe vectors on a corpus and write the text format");
-  command->add_option("--corpus", options->corpus,
-                      "Episode file (.json/.json.gz) or text file, one "
-                      "sentence per line")
+  command
+      ->add_option("--corpus", options->corpus,
+                   "Episode file (.json/.json.gz) or text file, one "
+                   "sentence per line")
       ->required()
       ->check(CLI::ExistingFile);
   command->add_option("--out", options->out, "GloVe text file to write")
       ->required();
   command->add_option("--embeddings-out", options->embeddings_out,
                       "Also write embeddings.json(.gz) for a vocabulary");
-  command->add_option("--vocab-from", options->vocab_from,
-                      "Episode file whose instruction_vocab gives the rows "
-                      "of --embeddings-out")
+  command
+      ->add_option("--vocab-from", options->vocab_from,
+                   "Episode file whose instruction_vocab gives the rows "
+                   "of --embeddings-out")
       ->check(CLI::ExistingFile);
   command->add_option("--dim", fit.dim, "Vector size")->capture_default_str();
   command->add_option("--epochs", fit.epochs, "Training epochs")
@@ -76,12 +80,12 @@ Subcommand addGlove(CLI::App& app) {
   command->add_option("--grad-clip", fit.grad_clip, "Gradient clip")
       ->capture_default_str();
   command->add_option("--seed", fit.seed, "Random seed")->capture_default_str();
-  command->add_option("--threads", fit.threads,
-                      "Threads (> 1 is Hogwild, not deterministic)")
+  command
+      ->add_option("--threads", fit.threads,
+                   "Threads (> 1 is Hogwild, not deterministic)")
       ->capture_default_str();
-  return {command, [options] {
-            return data::runGloveCommand(*options, std::cout);
-          }};
+  return {command,
+          [options] { return data::runGloveCommand(*options, std::cout); }};
 }
 
 Subcommand addEmbeddings(CLI::App& app) {
@@ -90,12 +94,13 @@ Subcommand addEmbeddings(CLI::App& app) {
       "embeddings",
       "Build embeddings.json(.gz) for an episode file's vocabulary from "
       "GloVe vectors");
-  command->add_option("--glove", options->glove,
-                      "GloVe text file (plain or .gz)")
+  command
+      ->add_option("--glove", options->glove, "GloVe text file (plain or .gz)")
       ->required()
       ->check(CLI::ExistingFile);
-  command->add_option("--episodes", options->episodes,
-                      "Episode file with instruction_vocab")
+  command
+      ->add_option("--episodes", options->episodes,
+                   "Episode file with instruction_vocab")
       ->required()
       ->check(CLI::ExistingFile);
   command->add_option("--out", options->out, "embeddings.json(.gz) to write")
@@ -109,6 +114,63 @@ Subcommand addEmbeddings(CLI::App& app) {
       ->transform(CLI::CheckedTransformer(policies, CLI::ignore_case));
   return {command, [options] {
             return data::runEmbeddingsCommand(*options, std::cout);
+          }};
+}
+
+Subcommand addGenerate(CLI::App& app) {
+  auto options = std::make_shared<data::GenerateCommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "generate",
+      "Generate the procedural world: houses, nav-graphs, transferred "
+      "trajectories, instructions and R2R splits");
+  command->add_option("--out", options->out, "Dataset root to write")
+      ->required();
+  command->add_option("--config", options->config, "World config YAML")
+      ->check(CLI::ExistingFile);
+  command->add_option("--scenes-dir", options->scenes_dir,
+                      "Root of the scene ids (houses go to <dir>/procedural)")
+      ->capture_default_str();
+  command->add_option("--houses", options->houses, "Number of houses");
+  command->add_option("--seed", options->seed, "Master seed");
+  command->add_option("--threads", options->threads, "Houses in parallel")
+      ->capture_default_str();
+  command->add_option("--set", options->overrides,
+                      "Config override section.key=value (repeatable)");
+  return {command, [options] {
+            return data::runGenerateCommand(*options, std::cout);
+          }};
+}
+
+Subcommand addTransfer(CLI::App& app) {
+  auto options = std::make_shared<data::TransferCommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "transfer",
+      "Transfer a nav-graph onto a scene's navmesh (paper Section 3.2) and "
+      "check the navigability of R2R-like trajectories");
+  command->add_option("--graph", options->graph, "Nav-graph JSON")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--scene", options->scene, "Scene mesh file")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", options->out,
+                      "Write the transferred graph and statistics here");
+  command->add_option("--config", options->config,
+                      "World config YAML (navmesh, agent, trajectories, "
+                      "transfer sections)")
+      ->check(CLI::ExistingFile);
+  command->add_option("--set", options->overrides,
+                      "Config override section.key=value (repeatable)");
+  command->add_option("--up-axis", options->up_axis, "Scene up axis: y or z")
+      ->capture_default_str();
+  command->add_option("--trajectories", options->trajectories,
+                      "R2R-like trajectories to check")
+      ->capture_default_str();
+  command->add_option("--seed", options->seed, "Sampling seed")
+      ->capture_default_str();
+  command->add_flag("--json", options->json, "Print JSON instead of text");
+  return {command, [options] {
+            return data::runTransferCommand(*options, std::cout);
           }};
 }
 
@@ -127,6 +189,8 @@ int main(int argc, char** argv) {
         addStats(app),
         addGlove(app),
         addEmbeddings(app),
+        addGenerate(app),
+        addTransfer(app),
     };
     try {
       app.parse(argc, argv);

@@ -16,8 +16,8 @@ bool isJsonPath(const std::filesystem::path& path) {
   std::string name = path.filename().string();
   auto endsWith = [&](std::string_view suffix) {
     return name.size() >= suffix.size() &&
-           name.compare(name.size() - suffix.size(), suffix.size(),
-                        suffix) == 0;
+           name.compare(name.size() - suffix.size(), suffix.size(), suffix) ==
+               0;
   };
   return endsWith(".json") || endsWith(".json.gz");
 }
@@ -95,10 +95,12 @@ int runGloveCommand(const GloveCommandOptions& options, std::ostream& out) {
     std::map<std::string, int64_t> counts;
     for (const auto& sentence : sentences)
       for (const std::string& token : sentence) ++counts[token];
-    vocab = Vocabulary::fromCounts(counts, {.min_count = options.fit.min_count});
+    vocab =
+        Vocabulary::fromCounts(counts, {.min_count = options.fit.min_count});
   }
   EmbeddingBuildReport report;
-  EmbeddingMatrix matrix = buildEmbeddingMatrix(*vocab, fit.vectors, {}, &report);
+  EmbeddingMatrix matrix =
+      buildEmbeddingMatrix(*vocab, fit.vectors, {}, &report);
   writeEmbeddingsJson(options.embeddings_out, matrix);
   out << "embeddings: " << matrix.rows << " x " << matrix.dim << ", "
       << report.found << " words found, " << report.missing.size()
@@ -121,8 +123,8 @@ int runEmbeddingsCommand(const EmbeddingsCommandOptions& options,
   read.only_words.emplace(vocab.words().begin(), vocab.words().end());
   WordVectors vectors = readGloveText(options.glove, read);
   EmbeddingBuildReport report;
-  EmbeddingMatrix matrix =
-      buildEmbeddingMatrix(vocab, vectors, {.missing = options.missing}, &report);
+  EmbeddingMatrix matrix = buildEmbeddingMatrix(
+      vocab, vectors, {.missing = options.missing}, &report);
   writeEmbeddingsJson(options.out, matrix);
   out << "embeddings: " << matrix.rows << " x " << matrix.dim << ", "
       << report.found << " words found, " << report.missing.size()

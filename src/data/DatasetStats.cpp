@@ -40,8 +40,8 @@ DatasetStats computeDatasetStats(const EpisodeDataset& dataset,
                   tokenize(episode.instruction.instruction_text).size())
             : unpaddedLength(tokens, pad);
     instructionSum += static_cast<double>(length);
-    stats.max_instruction_length = std::max(stats.max_instruction_length,
-                                            length);
+    stats.max_instruction_length =
+        std::max(stats.max_instruction_length, length);
 
     if (!episode.reference_path.empty()) {
       pathSum += polylineLength(episode.reference_path);
@@ -74,8 +74,7 @@ DatasetStats computeDatasetStats(const EpisodeDataset& dataset,
   stats.mean_geodesic_distance =
       mean(geodesicSum, stats.episodes_with_geodesic);
   stats.has_ground_truth = groundTruth != nullptr;
-  stats.mean_ground_truth_actions =
-      mean(actionSum, stats.ground_truth_matched);
+  stats.mean_ground_truth_actions = mean(actionSum, stats.ground_truth_matched);
   return stats;
 }
 
@@ -114,21 +113,19 @@ std::string formatDatasetStats(const DatasetStats& stats) {
            : std::string("no geodesic distances"));
   if (!stats.has_ground_truth) return out;
 
-  line("ground truth:", std::to_string(stats.ground_truth_matched) +
-                            " episodes matched, " +
-                            std::to_string(stats.ground_truth_missing) +
-                            " missing");
-  line("mean ground-truth actions:",
-       fixed(stats.mean_ground_truth_actions, 2));
+  line("ground truth:",
+       std::to_string(stats.ground_truth_matched) + " episodes matched, " +
+           std::to_string(stats.ground_truth_missing) + " missing");
+  line("mean ground-truth actions:", fixed(stats.mean_ground_truth_actions, 2));
   int64_t total = 0;
   for (int64_t count : stats.action_counts) total += count;
   for (int a = 0; a < sim::kNumActions; ++a) {
     int64_t count = stats.action_counts[static_cast<size_t>(a)];
-    std::string name = "  " + std::string(sim::actionName(
-                                  static_cast<sim::Action>(a))) + ":";
+    std::string name =
+        "  " + std::string(sim::actionName(static_cast<sim::Action>(a))) + ":";
     double fraction = total > 0 ? static_cast<double>(count) / total : 0.0;
-    line(name.c_str(), std::to_string(count) + " (" +
-                           fixed(100.0 * fraction, 1) + "%)");
+    line(name.c_str(),
+         std::to_string(count) + " (" + fixed(100.0 * fraction, 1) + "%)");
   }
   return out;
 }

@@ -18,8 +18,8 @@ namespace vln::data {
 /// contributes to them (see the matching count).
 struct DatasetStats {
   int64_t episodes = 0;
-  int64_t scenes = 0;        ///< distinct scene_id values
-  int64_t trajectories = 0;  ///< distinct trajectory_id values
+  int64_t scenes = 0;           ///< distinct scene_id values
+  int64_t trajectories = 0;     ///< distinct trajectory_id values
   int64_t vocabulary_size = 0;  ///< num_vocab; 0 without instruction_vocab
 
   /// Instruction tokens excluding padding; from instruction_tokens when the

@@ -21,15 +21,13 @@ const nlohmann::json& member(const nlohmann::json& object, const char* key,
   VLN_CHECK_ARG(object.is_object(), context, ": expected a JSON object, got ",
                 object.type_name());
   auto it = object.find(key);
-  VLN_CHECK_ARG(it != object.end(), context, ": field '", key,
-                "' is missing");
+  VLN_CHECK_ARG(it != object.end(), context, ": field '", key, "' is missing");
   return *it;
 }
 
 int intValue(const nlohmann::json& value, std::string_view context) {
-  VLN_CHECK_ARG(value.is_number_integer(), context,
-                " must be an integer, got ", value.type_name(), " ",
-                value.dump());
+  VLN_CHECK_ARG(value.is_number_integer(), context, " must be an integer, got ",
+                value.type_name(), " ", value.dump());
   auto v = value.get<int64_t>();
   VLN_CHECK_ARG(v >= std::numeric_limits<int>::min() &&
                     v <= std::numeric_limits<int>::max(),
@@ -41,14 +39,13 @@ float floatValue(const nlohmann::json& value, std::string_view context) {
   VLN_CHECK_ARG(value.is_number(), context, " must be a number, got ",
                 value.type_name(), " ", value.dump());
   auto v = value.get<double>();
-  VLN_CHECK_ARG(std::isfinite(v) &&
-                    std::abs(v) <= std::numeric_limits<float>::max(),
-                context, " must be a finite float, got ", v);
+  VLN_CHECK_ARG(
+      std::isfinite(v) && std::abs(v) <= std::numeric_limits<float>::max(),
+      context, " must be a finite float, got ", v);
   return static_cast<float>(v);
 }
 
-std::string stringValue(const nlohmann::json& value,
-                        std::string_view context) {
+std::string stringValue(const nlohmann::json& value, std::string_view context) {
   VLN_CHECK_ARG(value.is_string(), context, " must be a string, got ",
                 value.type_name(), " ", value.dump());
   return value.get<std::string>();
@@ -106,8 +103,7 @@ EpisodeDataset parseRoot(const nlohmann::json& root, const std::string& where) {
     std::string context = strCat(where, ": episode ", episode.episode_id);
     validateEpisode(episode, vocab, context);
     VLN_CHECK_ARG(seen.insert(episode.episode_id).second, context,
-                  ": field 'episode_id' is duplicated (episode index ", i,
-                  ")");
+                  ": field 'episode_id' is duplicated (episode index ", i, ")");
     dataset.episodes.push_back(std::move(episode));
   }
   return dataset;
@@ -181,7 +177,8 @@ Episode episodeFromJson(const nlohmann::json& value, std::string_view source,
                   fieldName(where, "instruction.instruction_text"));
   if (auto tokens = instruction.find("instruction_tokens");
       tokens != instruction.end()) {
-    std::string tokenContext = fieldName(where, "instruction.instruction_tokens");
+    std::string tokenContext =
+        fieldName(where, "instruction.instruction_tokens");
     const auto& list = arrayValue(*tokens, tokenContext);
     episode.instruction.instruction_tokens.reserve(list.size());
     for (size_t t = 0; t < list.size(); ++t)
@@ -213,8 +210,10 @@ void validateEpisode(const Episode& episode, const Vocabulary* vocabulary,
   if (episode.geodesic_distance)
     VLN_CHECK_ARG(std::isfinite(*episode.geodesic_distance) &&
                       *episode.geodesic_distance >= 0.0f,
-                  context, ": field 'info.geodesic_distance' must be a "
-                  "finite distance >= 0, got ", *episode.geodesic_distance);
+                  context,
+                  ": field 'info.geodesic_distance' must be a "
+                  "finite distance >= 0, got ",
+                  *episode.geodesic_distance);
   for (size_t g = 0; g < episode.goals.size(); ++g) {
     const Goal& goal = episode.goals[g];
     VLN_CHECK_ARG(isFinite(goal.position), context, ": field 'goals[", g,
@@ -228,14 +227,12 @@ void validateEpisode(const Episode& episode, const Vocabulary* vocabulary,
                   ": field 'reference_path' entry ", p, " is not finite");
 
   const auto& tokens = episode.instruction.instruction_tokens;
-  int limit = vocabulary ? vocabulary->size()
-                         : std::numeric_limits<int>::max();
+  int limit = vocabulary ? vocabulary->size() : std::numeric_limits<int>::max();
   for (size_t t = 0; t < tokens.size(); ++t)
     VLN_CHECK_ARG(tokens[t] >= 0 && tokens[t] < limit, context,
                   ": field 'instruction.instruction_tokens' entry ", t, " is ",
                   tokens[t], ", outside the vocabulary [0, ",
-                  vocabulary ? std::to_string(limit) : std::string("inf"),
-                  ")");
+                  vocabulary ? std::to_string(limit) : std::string("inf"), ")");
 }
 
 EpisodeDataset parseEpisodes(const nlohmann::json& root,
@@ -306,8 +303,7 @@ void writeEpisodes(const std::filesystem::path& file,
     std::string context = strCat(where, ": episode ", episode.episode_id);
     validateEpisode(episode, vocab, context);
     VLN_CHECK_ARG(seen.insert(episode.episode_id).second, context,
-                  ": field 'episode_id' is duplicated (episode index ", i,
-                  ")");
+                  ": field 'episode_id' is duplicated (episode index ", i, ")");
   }
   common::writeJsonFile(file, episodesToJson(dataset));
 }

@@ -48,9 +48,10 @@ struct Instruction {
 struct Episode {
   int episode_id = 0;
   int trajectory_id = 0;
-  std::string scene_id;                        ///< "mp3d/<scan>/<scan>.glb"
-  Vec3f start_position = Vec3f::Zero();        ///< world frame, metres
-  std::array<float, 4> start_rotation = {0.0f, 0.0f, 0.0f, 1.0f};  ///< [x,y,z,w]
+  std::string scene_id;                  ///< "mp3d/<scan>/<scan>.glb"
+  Vec3f start_position = Vec3f::Zero();  ///< world frame, metres
+  std::array<float, 4> start_rotation = {0.0f, 0.0f, 0.0f,
+                                         1.0f};  ///< [x,y,z,w]
   /// info.geodesic_distance (metres); absent in the test split.
   std::optional<float> geodesic_distance;
   /// Empty in the test split (and then not written).

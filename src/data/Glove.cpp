@@ -30,7 +30,8 @@ using GzFilePtr = std::unique_ptr<gzFile_s, GzCloser>;
 
 class LineReader {
  public:
-  explicit LineReader(const std::filesystem::path& file) : name_(file.string()) {
+  explicit LineReader(const std::filesystem::path& file)
+      : name_(file.string()) {
     handle_.reset(gzopen(name_.c_str(), "rb"));
     VLN_CHECK_IO(handle_ != nullptr, "readGloveText(): cannot open '", name_,
                  "'");
@@ -62,8 +63,8 @@ class LineReader {
     if (n < 0) {
       int code = 0;
       const char* message = gzerror(handle_.get(), &code);
-      VLN_CHECK_IO(false, "readGloveText(): cannot read '", name_, "': ",
-                   message);
+      throw std::runtime_error(
+          strCat("readGloveText(): cannot read '", name_, "': ", message));
     }
     buffer_.resize(static_cast<size_t>(n));
     if (n == 0) {
@@ -89,7 +90,8 @@ bool parseFloat(std::string_view field, float& value) {
   if (field.empty()) return false;
   const char* begin = field.data();
   if (*begin == '+') ++begin;
-  auto [end, error] = std::from_chars(begin, field.data() + field.size(), value);
+  auto [end, error] =
+      std::from_chars(begin, field.data() + field.size(), value);
   return error == std::errc() && end == field.data() + field.size() &&
          std::isfinite(value);
 }
@@ -167,8 +169,8 @@ WordVectors readGloveText(const std::filesystem::path& file,
                           const GloveReadOptions& options) {
   VLN_CHECK_ARG(options.dim >= 0, "readGloveText(): dim must be >= 0, got ",
                 options.dim);
-  VLN_CHECK_IO(std::filesystem::is_regular_file(file),
-               "readGloveText(): '", file.string(), "' does not exist");
+  VLN_CHECK_IO(std::filesystem::is_regular_file(file), "readGloveText(): '",
+               file.string(), "' does not exist");
   LineReader reader(file);
   WordVectors vectors;
   int dim = options.dim;
@@ -178,13 +180,12 @@ WordVectors readGloveText(const std::filesystem::path& file,
   while (reader.next(line)) {
     ++lineNumber;
     std::string_view text(line);
-    while (!text.empty() && (text.back() == '\r' || text.back() == ' ' ||
-                             text.back() == '\t'))
+    while (!text.empty() &&
+           (text.back() == '\r' || text.back() == ' ' || text.back() == '\t'))
       text.remove_suffix(1);
     if (text.empty()) continue;
     auto where = [&] {
-      return strCat("readGloveText(): '", file.string(), "' line ",
-                    lineNumber);
+      return strCat("readGloveText(): '", file.string(), "' line ", lineNumber);
     };
 
     // the first row fixes the dimension unless it was given; a word2vec
@@ -200,8 +201,8 @@ WordVectors readGloveText(const std::filesystem::path& file,
         continue;
       }
       VLN_CHECK_ARG(fields.size() >= 2, where(),
-                    ": expected 'word v1 ... vN', got '",
-                    text.substr(0, 80), "'");
+                    ": expected 'word v1 ... vN', got '", text.substr(0, 80),
+                    "'");
       dim = static_cast<int>(fields.size()) - 1;
     }
     if (vectors.dim() == 0) vectors = WordVectors(dim);
@@ -210,10 +211,11 @@ WordVectors readGloveText(const std::filesystem::path& file,
     row.resize(static_cast<size_t>(dim));
     size_t end = text.size();
     for (int k = dim - 1; k >= 0; --k) {
-      size_t space = end == 0 ? std::string_view::npos : text.rfind(' ', end - 1);
+      size_t space =
+          end == 0 ? std::string_view::npos : text.rfind(' ', end - 1);
       VLN_CHECK_ARG(space != std::string_view::npos, where(),
-                    ": ragged row, expected a word and ", dim,
-                    " values, got ", std::count(text.begin(), text.end(), ' '),
+                    ": ragged row, expected a word and ", dim, " values, got ",
+                    std::count(text.begin(), text.end(), ' '),
                     " values after '", text.substr(0, text.find(' ')), "'");
       std::string_view field = text.substr(space + 1, end - space - 1);
       VLN_CHECK_ARG(parseFloat(field, row[static_cast<size_t>(k)]), where(),
@@ -300,11 +302,10 @@ EmbeddingMatrix readEmbeddingsJson(const std::filesystem::path& file) {
 
 void writeEmbeddingsJson(const std::filesystem::path& file,
                          const EmbeddingMatrix& matrix) {
-  VLN_CHECK_ARG(matrix.values.size() ==
-                    static_cast<size_t>(matrix.rows) * matrix.dim,
-                "writeEmbeddingsJson(): '", file.string(), "': ",
-                matrix.values.size(), " values for a ", matrix.rows, " x ",
-                matrix.dim, " matrix");
+  VLN_CHECK_ARG(
+      matrix.values.size() == static_cast<size_t>(matrix.rows) * matrix.dim,
+      "writeEmbeddingsJson(): '", file.string(), "': ", matrix.values.size(),
+      " values for a ", matrix.rows, " x ", matrix.dim, " matrix");
   nlohmann::json root = nlohmann::json::array();
   for (int r = 0; r < matrix.rows; ++r) {
     nlohmann::json row = nlohmann::json::array();
@@ -319,9 +320,8 @@ EmbeddingMatrix buildEmbeddingMatrix(const Vocabulary& vocabulary,
                                      const EmbeddingBuildOptions& options,
                                      EmbeddingBuildReport* report) {
   VLN_CHECK_ARG(vocabulary.size() > 0 && vectors.dim() > 0,
-                "buildEmbeddingMatrix(): empty vocabulary (",
-                vocabulary.size(), " words) or vectors (dim ", vectors.dim(),
-                ")");
+                "buildEmbeddingMatrix(): empty vocabulary (", vocabulary.size(),
+                " words) or vectors (dim ", vectors.dim(), ")");
   const int dim = vectors.dim();
   EmbeddingMatrix matrix;
   matrix.rows = vocabulary.size();
@@ -367,14 +367,14 @@ EmbeddingMatrix buildEmbeddingMatrix(const Vocabulary& vocabulary,
 // =========================================================================
 
 std::vector<CooccurrenceEntry> countCooccurrences(
-    const std::vector<std::vector<int>>& sentences, int vocabSize,
-    int window) {
+    const std::vector<std::vector<int>>& sentences, int vocabSize, int window) {
   VLN_CHECK_ARG(vocabSize >= 1 && window >= 1,
                 "countCooccurrences(): vocabSize and window must be >= 1, "
-                "got ", vocabSize, " and ", window);
-  // a sparse map keyed by word * vocabSize + context keeps memory
-  // proportional to the distinct pairs; std::map gives the sorted order
-  std::map<int64_t, double> counts;
+                "got ",
+                vocabSize, " and ", window);
+  // a sparse hash map keyed by word * vocabSize + context keeps memory
+  // proportional to the distinct pairs; entries are sorted afterwards
+  std::unordered_map<int64_t, double> counts;
   for (size_t s = 0; s < sentences.size(); ++s) {
     const auto& sentence = sentences[s];
     for (size_t j = 0; j < sentence.size(); ++j) {
@@ -396,6 +396,10 @@ std::vector<CooccurrenceEntry> countCooccurrences(
   for (const auto& [key, count] : counts)
     entries.push_back({static_cast<int32_t>(key / vocabSize),
                        static_cast<int32_t>(key % vocabSize), count});
+  std::sort(entries.begin(), entries.end(),
+            [](const CooccurrenceEntry& a, const CooccurrenceEntry& b) {
+              return a.word != b.word ? a.word < b.word : a.context < b.context;
+            });
   return entries;
 }
 
@@ -429,13 +433,21 @@ struct GloveParameters {
   }
 };
 
-// relaxed atomics make Hogwild's racy reads and writes well-defined; with a
-// single thread they compile to plain loads and stores
+// parameter access: relaxed atomics make Hogwild's racy reads and writes
+// well-defined; the single-thread path uses plain accesses so the compiler
+// can vectorise the loops
+template <bool kShared>
 double load(double& x) {
-  return std::atomic_ref<double>(x).load(std::memory_order_relaxed);
+  if constexpr (kShared)
+    return std::atomic_ref<double>(x).load(std::memory_order_relaxed);
+  return x;
 }
+template <bool kShared>
 void store(double& x, double v) {
-  std::atomic_ref<double>(x).store(v, std::memory_order_relaxed);
+  if constexpr (kShared)
+    std::atomic_ref<double>(x).store(v, std::memory_order_relaxed);
+  else
+    x = v;
 }
 
 struct ChunkResult {
@@ -444,6 +456,7 @@ struct ChunkResult {
 };
 
 // one pass over entries[order[begin..end)], glove.c's update rule
+template <bool kShared>
 ChunkResult trainChunk(GloveParameters& params,
                        const std::vector<CooccurrenceEntry>& entries,
                        const std::vector<uint32_t>& order, size_t begin,
@@ -455,19 +468,21 @@ ChunkResult trainChunk(GloveParameters& params,
   for (size_t n = begin; n < end; ++n) {
     const CooccurrenceEntry& entry = entries[order[n]];
     double* w = params.weights.data() + params.offset(entry.word);
-    double* c = params.weights.data() + params.offset(params.vocab +
-                                                      entry.context);
+    double* c =
+        params.weights.data() + params.offset(params.vocab + entry.context);
     double* gw = params.gradsq.data() + params.offset(entry.word);
-    double* gc = params.gradsq.data() + params.offset(params.vocab +
-                                                      entry.context);
+    double* gc =
+        params.gradsq.data() + params.offset(params.vocab + entry.context);
 
     // weighted residual of w_i.c_j + b_i + b'_j = log X_ij
-    double diff = load(w[dim]) + load(c[dim]) - std::log(entry.count);
-    for (int k = 0; k < dim; ++k) diff += load(w[k]) * load(c[k]);
-    double weighted = entry.count > config.x_max
-                          ? diff
-                          : std::pow(entry.count / config.x_max,
-                                     config.alpha) * diff;
+    double diff =
+        load<kShared>(w[dim]) + load<kShared>(c[dim]) - std::log(entry.count);
+    for (int k = 0; k < dim; ++k)
+      diff += load<kShared>(w[k]) * load<kShared>(c[k]);
+    double weighted =
+        entry.count > config.x_max
+            ? diff
+            : std::pow(entry.count / config.x_max, config.alpha) * diff;
     if (!std::isfinite(weighted)) {
       ++result.skipped;
       continue;
@@ -479,14 +494,14 @@ ChunkResult trainChunk(GloveParameters& params,
     double step = config.learning_rate * weighted;
     bool finite = true;
     for (int k = 0; k < dim; ++k) {
-      double gradWord = std::clamp(step * load(c[k]), -config.grad_clip,
-                                   config.grad_clip);
-      double gradContext = std::clamp(step * load(w[k]), -config.grad_clip,
-                                      config.grad_clip);
-      updateWord[k] = gradWord / std::sqrt(load(gw[k]));
-      updateContext[k] = gradContext / std::sqrt(load(gc[k]));
-      store(gw[k], load(gw[k]) + gradWord * gradWord);
-      store(gc[k], load(gc[k]) + gradContext * gradContext);
+      double gradWord = std::clamp(step * load<kShared>(c[k]),
+                                   -config.grad_clip, config.grad_clip);
+      double gradContext = std::clamp(step * load<kShared>(w[k]),
+                                      -config.grad_clip, config.grad_clip);
+      updateWord[k] = gradWord / std::sqrt(load<kShared>(gw[k]));
+      updateContext[k] = gradContext / std::sqrt(load<kShared>(gc[k]));
+      store<kShared>(gw[k], load<kShared>(gw[k]) + gradWord * gradWord);
+      store<kShared>(gc[k], load<kShared>(gc[k]) + gradContext * gradContext);
       finite = finite && std::isfinite(updateWord[k]) &&
                std::isfinite(updateContext[k]);
     }
@@ -495,16 +510,18 @@ ChunkResult trainChunk(GloveParameters& params,
       continue;
     }
     for (int k = 0; k < dim; ++k) {
-      store(w[k], load(w[k]) - updateWord[k]);
-      store(c[k], load(c[k]) - updateContext[k]);
+      store<kShared>(w[k], load<kShared>(w[k]) - updateWord[k]);
+      store<kShared>(c[k], load<kShared>(c[k]) - updateContext[k]);
     }
     // biases
-    double biasWord = step / std::sqrt(load(gw[dim]));
-    double biasContext = step / std::sqrt(load(gc[dim]));
-    if (std::isfinite(biasWord)) store(w[dim], load(w[dim]) - biasWord);
-    if (std::isfinite(biasContext)) store(c[dim], load(c[dim]) - biasContext);
-    store(gw[dim], load(gw[dim]) + step * step);
-    store(gc[dim], load(gc[dim]) + step * step);
+    double biasWord = step / std::sqrt(load<kShared>(gw[dim]));
+    double biasContext = step / std::sqrt(load<kShared>(gc[dim]));
+    if (std::isfinite(biasWord))
+      store<kShared>(w[dim], load<kShared>(w[dim]) - biasWord);
+    if (std::isfinite(biasContext))
+      store<kShared>(c[dim], load<kShared>(c[dim]) - biasContext);
+    store<kShared>(gw[dim], load<kShared>(gw[dim]) + step * step);
+    store<kShared>(gc[dim], load<kShared>(gc[dim]) + step * step);
   }
   return result;
 }
@@ -524,13 +541,12 @@ GloveFitResult fitGlove(const std::vector<std::vector<std::string>>& sentences,
   std::vector<std::pair<std::string, int64_t>> vocab;
   for (const auto& [word, count] : counts)
     if (count >= config.min_count) vocab.emplace_back(word, count);
-  std::stable_sort(vocab.begin(), vocab.end(), [](const auto& a, const auto& b) {
-    return a.second > b.second;
-  });
-  VLN_CHECK_ARG(vocab.size() >= 2, "fitGlove(): the corpus has ",
-                vocab.size(), " word(s) with count >= min_count ",
-                config.min_count, " in ", sentences.size(),
-                " sentences; need at least 2");
+  std::stable_sort(
+      vocab.begin(), vocab.end(),
+      [](const auto& a, const auto& b) { return a.second > b.second; });
+  VLN_CHECK_ARG(vocab.size() >= 2, "fitGlove(): the corpus has ", vocab.size(),
+                " word(s) with count >= min_count ", config.min_count, " in ",
+                sentences.size(), " sentences; need at least 2");
   std::unordered_map<std::string, int> ids;
   for (size_t i = 0; i < vocab.size(); ++i)
     ids.emplace(vocab[i].first, static_cast<int>(i));
@@ -570,9 +586,10 @@ GloveFitResult fitGlove(const std::vector<std::vector<std::string>>& sentences,
   std::iota(order.begin(), order.end(), 0u);
   const size_t threads =
       std::min(static_cast<size_t>(config.threads), entries.size());
-  spdlog::info("fitGlove(): {} words, {} co-occurrence entries, dim {}, {} "
-               "epochs, {} thread(s)",
-               vocabSize, entries.size(), config.dim, config.epochs, threads);
+  spdlog::info(
+      "fitGlove(): {} words, {} co-occurrence entries, dim {}, {} "
+      "epochs, {} thread(s)",
+      vocabSize, entries.size(), config.dim, config.epochs, threads);
   for (int epoch = 0; epoch < config.epochs; ++epoch) {
     // Fisher-Yates with the seeded generator
     for (size_t i = order.size() - 1; i > 0; --i)
@@ -580,7 +597,8 @@ GloveFitResult fitGlove(const std::vector<std::vector<std::string>>& sentences,
 
     ChunkResult total;
     if (threads == 1) {
-      total = trainChunk(params, entries, order, 0, order.size(), config);
+      total =
+          trainChunk<false>(params, entries, order, 0, order.size(), config);
     } else {
       // Hogwild: contiguous slices of the shuffle, lock-free shared params
       std::vector<ChunkResult> parts(threads);
@@ -589,7 +607,8 @@ GloveFitResult fitGlove(const std::vector<std::vector<std::string>>& sentences,
         size_t begin = order.size() * t / threads;
         size_t end = order.size() * (t + 1) / threads;
         workers.emplace_back([&, t, begin, end] {
-          parts[t] = trainChunk(params, entries, order, begin, end, config);
+          parts[t] =
+              trainChunk<true>(params, entries, order, begin, end, config);
         });
       }
       workers.clear();

@@ -149,16 +149,16 @@ EmbeddingMatrix buildEmbeddingMatrix(const Vocabulary& vocabulary,
 
 /// Hyper-parameters of fitGlove(); defaults are the GloVe paper's.
 struct GloveFitConfig {
-  int dim = 50;                  ///< vector size
-  int window = 10;               ///< symmetric context window, words each side
-  int min_count = 1;             ///< rarer words are dropped from the corpus
-  double x_max = 100.0;          ///< weighting cutoff x_max of f(x)
-  double alpha = 0.75;           ///< weighting exponent of f(x)
-  double learning_rate = 0.05;   ///< AdaGrad initial learning rate
-  int epochs = 25;               ///< passes over the co-occurrence entries
-  double grad_clip = 100.0;      ///< per-component gradient clip (as glove.c)
-  int64_t seed = 1;              ///< initialisation and shuffling seed
-  int threads = 1;               ///< > 1 trains Hogwild (not deterministic)
+  int dim = 50;                 ///< vector size
+  int window = 10;              ///< symmetric context window, words each side
+  int min_count = 1;            ///< rarer words are dropped from the corpus
+  double x_max = 100.0;         ///< weighting cutoff x_max of f(x)
+  double alpha = 0.75;          ///< weighting exponent of f(x)
+  double learning_rate = 0.05;  ///< AdaGrad initial learning rate
+  int epochs = 25;              ///< passes over the co-occurrence entries
+  double grad_clip = 100.0;     ///< per-component gradient clip (as glove.c)
+  int64_t seed = 1;             ///< initialisation and shuffling seed
+  int threads = 1;              ///< > 1 trains Hogwild (not deterministic)
 
   void visit(common::ConfigVisitor& v) {
     v.field("dim", dim, "Vector size", common::inRange(1, 4096));

@@ -14,8 +14,7 @@ namespace {
 int intField(const nlohmann::json& object, const char* key,
              std::string_view context) {
   auto it = object.find(key);
-  VLN_CHECK_ARG(it != object.end(), context, ": field '", key,
-                "' is missing");
+  VLN_CHECK_ARG(it != object.end(), context, ": field '", key, "' is missing");
   VLN_CHECK_ARG(it->is_number_integer(), context, ": field '", key,
                 "' must be an integer, got ", it->type_name(), " ",
                 it->dump().substr(0, 80));
@@ -30,8 +29,7 @@ int intField(const nlohmann::json& object, const char* key,
 const nlohmann::json& arrayField(const nlohmann::json& object, const char* key,
                                  std::string_view context) {
   auto it = object.find(key);
-  VLN_CHECK_ARG(it != object.end(), context, ": field '", key,
-                "' is missing");
+  VLN_CHECK_ARG(it != object.end(), context, ": field '", key, "' is missing");
   VLN_CHECK_ARG(it->is_array(), context, ": field '", key,
                 "' must be an array, got ", it->type_name());
   return *it;
@@ -60,13 +58,14 @@ GroundTruth parseRoot(const nlohmann::json& root, const std::string& where) {
   for (const auto& [key, entry] : root.items()) {
     // keys are decimal episode ids ("12"); anything else is a corrupt file
     int id = 0;
-    auto [end, error] = std::from_chars(key.data(), key.data() + key.size(), id);
-    VLN_CHECK_ARG(error == std::errc() && end == key.data() + key.size() &&
-                      !key.empty(),
-                  where, ": key '", key, "' is not an integer episode id");
+    auto [end, error] =
+        std::from_chars(key.data(), key.data() + key.size(), id);
+    VLN_CHECK_ARG(
+        error == std::errc() && end == key.data() + key.size() && !key.empty(),
+        where, ": key '", key, "' is not an integer episode id");
     std::string context = strCat(where, ": episode ", id);
-    VLN_CHECK_ARG(entry.is_object(), context,
-                  ": expected a JSON object, got ", entry.type_name());
+    VLN_CHECK_ARG(entry.is_object(), context, ": expected a JSON object, got ",
+                  entry.type_name());
 
     GroundTruthPath path;
     const auto& locations = arrayField(entry, "locations", context);

@@ -22,7 +22,7 @@ namespace vln::data {
 
 /// The reference action sequence of one episode.
 struct GroundTruthPath {
-  std::vector<Vec3f> locations;     ///< world frame, metres
+  std::vector<Vec3f> locations;      ///< world frame, metres
   std::vector<sim::Action> actions;  ///< codes 0..3 in the file
   int forward_steps = 0;
   bool operator==(const GroundTruthPath&) const = default;

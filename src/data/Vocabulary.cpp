@@ -26,7 +26,7 @@ std::vector<Unit> decodeUtf8(std::string_view text) {
   size_t i = 0;
   while (i < text.size()) {
     auto lead = static_cast<unsigned char>(text[i]);
-    int extra = lead < 0x80            ? 0
+    int extra = lead < 0x80             ? 0
                 : (lead & 0xE0) == 0xC0 ? 1
                 : (lead & 0xF0) == 0xE0 ? 2
                 : (lead & 0xF8) == 0xF0 ? 3
@@ -179,10 +179,14 @@ Vocabulary::Vocabulary(std::vector<std::string> words)
   }
   auto pad = find(kPadToken);
   auto unk = find(kUnkToken);
-  VLN_CHECK_ARG(pad.has_value(), "Vocabulary::Vocabulary(): the word list has "
-                "no '", kPadToken, "' token (", words_.size(), " words)");
-  VLN_CHECK_ARG(unk.has_value(), "Vocabulary::Vocabulary(): the word list has "
-                "no '", kUnkToken, "' token (", words_.size(), " words)");
+  VLN_CHECK_ARG(pad.has_value(),
+                "Vocabulary::Vocabulary(): the word list has "
+                "no '",
+                kPadToken, "' token (", words_.size(), " words)");
+  VLN_CHECK_ARG(unk.has_value(),
+                "Vocabulary::Vocabulary(): the word list has "
+                "no '",
+                kUnkToken, "' token (", words_.size(), " words)");
   pad_ = *pad;
   unk_ = *unk;
 }
@@ -232,8 +236,8 @@ Vocabulary Vocabulary::fromJson(const nlohmann::json& value,
   try {
     vocab = Vocabulary(std::move(words));
   } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(strCat(context, ": field 'word_list': ",
-                                       e.what()));
+    throw std::invalid_argument(
+        strCat(context, ": field 'word_list': ", e.what()));
   }
 
   // the redundant fields VLN-CE stores must agree with word_list
@@ -258,8 +262,7 @@ Vocabulary Vocabulary::fromJson(const nlohmann::json& value,
     VLN_CHECK_ARG(*it == *wordList, context,
                   ": field 'itos' differs from word_list");
   if (auto it = value.find("num_vocab"); it != value.end())
-    VLN_CHECK_ARG(it->is_number_integer() &&
-                      it->get<int64_t>() == vocab.size(),
+    VLN_CHECK_ARG(it->is_number_integer() && it->get<int64_t>() == vocab.size(),
                   context, ": field 'num_vocab' is ", it->dump(),
                   " but word_list has ", vocab.size(), " words");
   for (auto [key, expected] : {std::pair{"UNK_INDEX", vocab.unkIndex()},
@@ -276,9 +279,8 @@ Vocabulary Vocabulary::fromJson(const nlohmann::json& value,
 nlohmann::json Vocabulary::toJson() const {
   nlohmann::json stoi = nlohmann::json::object();
   for (size_t i = 0; i < words_.size(); ++i) stoi[words_[i]] = i;
-  return {{"word_list", words_},     {"word2idx_dict", stoi},
-          {"stoi", stoi},            {"itos", words_},
-          {"num_vocab", size()},     {"UNK_INDEX", unk_},
+  return {{"word_list", words_}, {"word2idx_dict", stoi}, {"stoi", stoi},
+          {"itos", words_},      {"num_vocab", size()},   {"UNK_INDEX", unk_},
           {"PAD_INDEX", pad_}};
 }
 

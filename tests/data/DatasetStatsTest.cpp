@@ -66,7 +66,8 @@ TEST(DatasetStatsTest, MissingGroundTruthAndTestSplit) {
   EXPECT_THAT(stats.action_counts, ElementsAre(2, 3, 2, 3));
 
   // the test split has no tokens: lengths come from the tokenizer
-  DatasetStats test = computeDatasetStats(readEpisodes(fixture("test_split.json")));
+  DatasetStats test =
+      computeDatasetStats(readEpisodes(fixture("test_split.json")));
   EXPECT_EQ(test.episodes, 2);
   EXPECT_EQ(test.vocabulary_size, 0);
   EXPECT_DOUBLE_EQ(test.mean_instruction_length, 12.5);
@@ -82,7 +83,8 @@ TEST(DatasetStatsTest, MissingGroundTruthAndTestSplit) {
 TEST(DatasetStatsTest, RealSampleMatchesIndependentComputation) {
   auto episodesFile = realSample("val_seen_sample.json.gz");
   auto gtFile = realSample("val_seen_sample_gt.json.gz");
-  if (!std::filesystem::exists(episodesFile) || !std::filesystem::exists(gtFile))
+  if (!std::filesystem::exists(episodesFile) ||
+      !std::filesystem::exists(gtFile))
     GTEST_SKIP() << "no real samples";
   EpisodeDataset dataset = readEpisodes(episodesFile);
   GroundTruth groundTruth = readGroundTruth(gtFile);
@@ -152,23 +154,22 @@ TEST(DatasetStatsTest, BinaryRunsStatsAndReportsBadInput) {
   auto binary = test::binaryPath() / "bin" / "vlnce-data";
   if (!std::filesystem::exists(binary)) GTEST_SKIP() << "no " << binary;
   std::string output;
-  int status = test::runCommand(
-      binary.string() + " --log-level warn stats --episodes " +
-          fixture("tiny_split.json").string() + " --gt " +
-          fixture("tiny_split_gt.json").string(),
-      &output);
+  int status =
+      test::runCommand(binary.string() + " --log-level warn stats --episodes " +
+                           fixture("tiny_split.json").string() + " --gt " +
+                           fixture("tiny_split_gt.json").string(),
+                       &output);
   EXPECT_EQ(status, 0) << output;
   EXPECT_THAT(output, HasSubstr("mean ground-truth actions:   3.67"));
 
   test::TempDir dir;
   auto bad = test::writeText(dir / "bad.json", "{\"episodes\": [{}]}");
-  status = test::runCommand(binary.string() + " stats --episodes " +
-                                bad.string(),
-                            &output);
+  status = test::runCommand(
+      binary.string() + " stats --episodes " + bad.string(), &output);
   EXPECT_EQ(status, 1);
-  EXPECT_THAT(output, AllOf(HasSubstr("vlnce-data: error:"),
-                            HasSubstr("bad.json"),
-                            HasSubstr("field 'episode_id' is missing")));
+  EXPECT_THAT(output,
+              AllOf(HasSubstr("vlnce-data: error:"), HasSubstr("bad.json"),
+                    HasSubstr("field 'episode_id' is missing")));
 }
 
 }  // namespace

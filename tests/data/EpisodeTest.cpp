@@ -103,8 +103,8 @@ TEST(EpisodeTest, ReadsEveryFieldOfTheFixture) {
             "Walk down the stairs, turn right and stop at the "
             "T-intersection.");
   EXPECT_EQ(first.instruction.instruction_tokens,
-            (std::vector<int>{22, 7, 18, 14, 20, 11, 4, 15, 5, 18, 16, 3, 0,
-                              0, 0, 0}));
+            (std::vector<int>{22, 7, 18, 14, 20, 11, 4, 15, 5, 18, 16, 3, 0, 0,
+                              0, 0}));
 
   // episode 7 starts turned 90 degrees left (quaternion [0, sin 45, 0, cos 45])
   const Episode& third = dataset.episodes[2];
@@ -128,8 +128,8 @@ TEST(EpisodeTest, TestSplitHasNoOptionalFieldsAndWritesNone) {
   EXPECT_EQ(written, common::readJsonFile(fixture("test_split.json")));
   EXPECT_FALSE(written.contains("instruction_vocab"));
   EXPECT_FALSE(written["episodes"][0].contains("goals"));
-  EXPECT_FALSE(written["episodes"][0]["instruction"].contains(
-      "instruction_tokens"));
+  EXPECT_FALSE(
+      written["episodes"][0]["instruction"].contains("instruction_tokens"));
 }
 
 TEST(EpisodeTest, RoundTripsThroughJsonAndGzip) {
@@ -236,7 +236,9 @@ TEST(EpisodeTest, RejectsMalformedEpisodesNamingFileEpisodeAndField) {
        [](nlohmann::json& j) { j["episodes"][2]["episode_id"] = 1; },
        {"episode 1", "'episode_id' is duplicated (episode index 2)"}},
       {"episodes not a list",
-       [](nlohmann::json& j) { j["episodes"] = {{"a", 1}}; },
+       [](nlohmann::json& j) {
+         j["episodes"] = {{"a", 1}};
+       },
        {"field 'episodes' must be an array"}},
       {"no episodes",
        [](nlohmann::json& j) { j.erase("episodes"); },
@@ -293,9 +295,9 @@ TEST(EpisodeTest, WriterRejectsInvalidEpisodesWithoutTouchingTheDisk) {
   EpisodeDataset tilted = dataset;
   tilted.episodes[1].start_rotation = {0.3f, 0.0f, 0.0f, 0.954f};
   EXPECT_THAT([&] { writeEpisodes(file, tilted); },
-              ThrowsMessage<std::invalid_argument>(AllOf(
-                  HasSubstr("split.json.gz"), HasSubstr("episode 2"),
-                  HasSubstr("start_rotation"))));
+              ThrowsMessage<std::invalid_argument>(
+                  AllOf(HasSubstr("split.json.gz"), HasSubstr("episode 2"),
+                        HasSubstr("start_rotation"))));
   EpisodeDataset outOfVocab = dataset;
   outOfVocab.episodes[0].instruction.instruction_tokens[0] = 500;
   EXPECT_THAT([&] { writeEpisodes(file, outOfVocab); },
@@ -303,9 +305,10 @@ TEST(EpisodeTest, WriterRejectsInvalidEpisodesWithoutTouchingTheDisk) {
                   HasSubstr("instruction_tokens' entry 0 is 500")));
   EpisodeDataset nanPath = dataset;
   nanPath.episodes[2].reference_path[1].y() = std::nanf("");
-  EXPECT_THAT([&] { writeEpisodes(file, nanPath); },
-              ThrowsMessage<std::invalid_argument>(AllOf(
-                  HasSubstr("episode 7"), HasSubstr("'reference_path' entry 1"))));
+  EXPECT_THAT(
+      [&] { writeEpisodes(file, nanPath); },
+      ThrowsMessage<std::invalid_argument>(AllOf(
+          HasSubstr("episode 7"), HasSubstr("'reference_path' entry 1"))));
   EXPECT_THAT([&] { writeEpisodes(dir / "new.json", nanPath); },
               ThrowsMessage<std::invalid_argument>(HasSubstr("new.json")));
 
@@ -327,8 +330,8 @@ TEST(EpisodeTest, WriterRejectsInvalidEpisodesWithoutTouchingTheDisk) {
 TEST(EpisodeTest, ResolvesScenesUnderTheScenesDirectory) {
   test::TempDir dir;
   auto scenes = dir / "scene_datasets";
-  auto glb = test::writeText(scenes / "mp3d" / "tinyScanA" / "tinyScanA.glb",
-                             "glTF");
+  auto glb =
+      test::writeText(scenes / "mp3d" / "tinyScanA" / "tinyScanA.glb", "glTF");
   EXPECT_EQ(resolveScenePath(scenes, "mp3d/tinyScanA/tinyScanA.glb"), glb);
   EXPECT_EQ(resolveScenePath("/unused", glb.string()), glb);
   EXPECT_EQ(sceneScanId("mp3d/tinyScanA/tinyScanA.glb"), "tinyScanA");
@@ -362,8 +365,7 @@ TEST(EpisodeTest, RealSampleMatchesTheRawJson) {
     const nlohmann::json& expected = raw["episodes"][i];
     EXPECT_EQ(episode.episode_id, expected["episode_id"].get<int>());
     EXPECT_EQ(episode.scene_id, expected["scene_id"].get<std::string>());
-    EXPECT_EQ(episode.reference_path.size(),
-              expected["reference_path"].size());
+    EXPECT_EQ(episode.reference_path.size(), expected["reference_path"].size());
     EXPECT_FLOAT_EQ(*episode.geodesic_distance,
                     expected["info"]["geodesic_distance"].get<float>());
     EXPECT_EQ(episode.instruction.instruction_tokens.size(), 200u);
@@ -422,7 +424,8 @@ TEST(EpisodeTest, GroundTruthErrorsNameFileEpisodeAndField) {
       {"action not an integer",
        [](nlohmann::json& j) { j["2"]["actions"][0] = "LEFT"; },
        {"episode 2", "'actions' entry 0 must be an integer"}},
-      {"missing locations", [](nlohmann::json& j) { j["7"].erase("locations"); },
+      {"missing locations",
+       [](nlohmann::json& j) { j["7"].erase("locations"); },
        {"episode 7", "field 'locations' is missing"}},
       {"bad location",
        [](nlohmann::json& j) { j["1"]["locations"][0] = {1.0}; },
@@ -433,7 +436,8 @@ TEST(EpisodeTest, GroundTruthErrorsNameFileEpisodeAndField) {
       {"negative forward steps",
        [](nlohmann::json& j) { j["1"]["forward_steps"] = -2; },
        {"episode 1", "'forward_steps' must be >= 0"}},
-      {"key not an id", [](nlohmann::json& j) { j["seven"] = j["7"]; },
+      {"key not an id",
+       [](nlohmann::json& j) { j["seven"] = j["7"]; },
        {"key 'seven' is not an integer episode id"}},
   };
   test::TempDir dir;

@@ -61,9 +61,9 @@ double cosine(const WordVectors& vectors, std::string_view a,
 TEST(GloveTest, ReadsRowsIncludingSpacedTokensAndKeepsFirstDuplicate) {
   WordVectors vectors = readGloveText(fixture("tiny_glove.txt"));
   EXPECT_EQ(vectors.dim(), 3);
-  EXPECT_THAT(vectors.words(), ElementsAre("the", "walk", ". . .",
-                                           "at name@domain.com", "stairs",
-                                           "turn"));
+  EXPECT_THAT(vectors.words(),
+              ElementsAre("the", "walk", ". . .", "at name@domain.com",
+                          "stairs", "turn"));
   EXPECT_THAT(row(vectors, "the"), ElementsAre(0.1f, 0.2f, 0.3f));
   EXPECT_THAT(row(vectors, "walk"), ElementsAre(-0.5f, 0.25f, 1e-3f));
   EXPECT_THAT(row(vectors, ". . ."), ElementsAre(0.5f, 0.5f, 0.5f));
@@ -111,8 +111,8 @@ TEST(GloveTest, RaggedAndNonNumericRowsNameFileAndLine) {
     GloveReadOptions options;
     options.dim = c.dim;
     EXPECT_THAT([&] { readGloveText(dir / "bad_glove.txt", options); },
-                ThrowsMessage<std::invalid_argument>(AllOf(
-                    HasSubstr("bad_glove.txt"), HasSubstr(c.expected))));
+                ThrowsMessage<std::invalid_argument>(
+                    AllOf(HasSubstr("bad_glove.txt"), HasSubstr(c.expected))));
   }
   std::string packed = common::gzipCompress(std::string(20000, '1'));
   test::writeText(dir / "cut.txt.gz", packed.substr(0, packed.size() / 2));
@@ -135,9 +135,12 @@ TEST(GloveTest, TextRoundTripIsExact) {
   for (int i = 0; i < vectors.size(); ++i)
     EXPECT_TRUE(std::equal(back.vector(i).begin(), back.vector(i).end(),
                            vectors.vector(i).begin()));
-  EXPECT_THAT([&] { vectors.add("x", std::vector<float>{1, 2}); },
-              ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("word 'x' has 2 values, expected 3")));
+  EXPECT_THAT(
+      [&] {
+        vectors.add("x", std::vector<float>{1, 2});
+      },
+      ThrowsMessage<std::invalid_argument>(
+          HasSubstr("word 'x' has 2 values, expected 3")));
 }
 
 // =========================================================================
@@ -155,10 +158,10 @@ TEST(GloveTest, EmbeddingMatrixHasZeroPadMeanUnkAndMissingPolicy) {
   EmbeddingMatrix matrix = buildEmbeddingMatrix(vocab, vectors, {}, &report);
   EXPECT_EQ(matrix.rows, 5);
   EXPECT_EQ(matrix.dim, 2);
-  EXPECT_THAT(matrix.row(0), ElementsAre(0.0f, 0.0f));    // <pad>
-  EXPECT_THAT(matrix.row(1), ElementsAre(2.0f, -1.0f));   // mean of found
+  EXPECT_THAT(matrix.row(0), ElementsAre(0.0f, 0.0f));   // <pad>
+  EXPECT_THAT(matrix.row(1), ElementsAre(2.0f, -1.0f));  // mean of found
   EXPECT_THAT(matrix.row(2), ElementsAre(1.0f, 2.0f));
-  EXPECT_THAT(matrix.row(3), ElementsAre(2.0f, -1.0f));   // missing -> <unk>
+  EXPECT_THAT(matrix.row(3), ElementsAre(2.0f, -1.0f));  // missing -> <unk>
   EXPECT_THAT(matrix.row(4), ElementsAre(3.0f, -4.0f));
   EXPECT_EQ(report.found, 2);
   EXPECT_THAT(report.missing, ElementsAre("nowhere"));
@@ -182,9 +185,9 @@ TEST(GloveTest, EmbeddingsJsonRoundTripsAndRejectsRaggedRows) {
   EXPECT_EQ(readEmbeddingsJson(dir / "emb.json.gz"), matrix);
   test::writeText(dir / "ragged.json", "[[1, 2, 3], [1, 2]]");
   EXPECT_THAT([&] { readEmbeddingsJson(dir / "ragged.json"); },
-              ThrowsMessage<std::invalid_argument>(AllOf(
-                  HasSubstr("ragged.json"),
-                  HasSubstr("row 1 has 2 values, expected 3"))));
+              ThrowsMessage<std::invalid_argument>(
+                  AllOf(HasSubstr("ragged.json"),
+                        HasSubstr("row 1 has 2 values, expected 3"))));
   test::writeText(dir / "text.json", "[[1, \"a\"]]");
   EXPECT_THAT([&] { readEmbeddingsJson(dir / "text.json"); },
               ThrowsMessage<std::invalid_argument>(
@@ -196,7 +199,8 @@ TEST(GloveTest, EmbeddingsJsonRoundTripsAndRejectsRaggedRows) {
 TEST(GloveTest, RebuildsTheRealEmbeddingMatrix) {
   auto episodes = realSample("val_seen_sample.json.gz");
   auto embeddings = realSample("embeddings.json.gz");
-  if (!std::filesystem::exists(episodes) || !std::filesystem::exists(embeddings))
+  if (!std::filesystem::exists(episodes) ||
+      !std::filesystem::exists(embeddings))
     GTEST_SKIP() << "no real samples";
   Vocabulary vocab = *readEpisodes(episodes).instruction_vocab;
   EmbeddingMatrix real = readEmbeddingsJson(embeddings);
@@ -206,7 +210,8 @@ TEST(GloveTest, RebuildsTheRealEmbeddingMatrix) {
   // a GloVe file with the real rows of every ordinary word, shuffled order
   test::TempDir dir;
   WordVectors table(real.dim);
-  for (int i = vocab.size() - 1; i >= 2; --i) table.add(vocab.word(i), real.row(i));
+  for (int i = vocab.size() - 1; i >= 2; --i)
+    table.add(vocab.word(i), real.row(i));
   writeGloveText(dir / "glove.6B.50d.sub.txt", table);
   GloveReadOptions options;
   options.only_words.emplace(vocab.words().begin(), vocab.words().end());
@@ -236,21 +241,23 @@ TEST(GloveTest, RebuildsTheRealEmbeddingMatrix) {
 TEST(GloveTest, CooccurrencesUseHarmonicWeightsWithinSentences) {
   auto entries = countCooccurrences({{0, 1, 2}}, /*vocabSize=*/3,
                                     /*window=*/2);
-  EXPECT_THAT(entries, ElementsAre(CooccurrenceEntry{0, 1, 1.0},
-                                   CooccurrenceEntry{0, 2, 0.5},
-                                   CooccurrenceEntry{1, 0, 1.0},
-                                   CooccurrenceEntry{1, 2, 1.0},
-                                   CooccurrenceEntry{2, 0, 0.5},
-                                   CooccurrenceEntry{2, 1, 1.0}));
+  EXPECT_THAT(
+      entries,
+      ElementsAre(CooccurrenceEntry{0, 1, 1.0}, CooccurrenceEntry{0, 2, 0.5},
+                  CooccurrenceEntry{1, 0, 1.0}, CooccurrenceEntry{1, 2, 1.0},
+                  CooccurrenceEntry{2, 0, 0.5}, CooccurrenceEntry{2, 1, 1.0}));
   // a window of 1 drops the distance-2 pair; sentences never mix
   EXPECT_EQ(countCooccurrences({{0, 1, 2}}, 3, 1).size(), 4u);
   EXPECT_TRUE(countCooccurrences({{0}, {1}}, 2, 10).empty());
   // a repeated word co-occurs with itself in both directions
   EXPECT_THAT(countCooccurrences({{0, 0}}, 1, 5),
               ElementsAre(CooccurrenceEntry{0, 0, 2.0}));
-  EXPECT_THAT([] { countCooccurrences({{0, 3}}, 3, 2); },
-              ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("sentence 0 word 1 has id 3")));
+  EXPECT_THAT(
+      [] {
+        countCooccurrences({{0, 3}}, 3, 2);
+      },
+      ThrowsMessage<std::invalid_argument>(
+          HasSubstr("sentence 0 word 1 has id 3")));
 }
 
 // =========================================================================
@@ -346,10 +353,14 @@ TEST(GloveTest, FitRejectsBadConfigsAndDegenerateCorpora) {
   EXPECT_THAT([&] { fitGlove(synonymCorpus(), config); },
               ThrowsMessage<std::invalid_argument>(
                   AllOf(HasSubstr("fitGlove()"), HasSubstr("dim"))));
-  EXPECT_THAT([] { fitGlove({}, GloveFitConfig{}); },
-              ThrowsMessage<std::invalid_argument>(HasSubstr("need at least 2")));
-  EXPECT_THAT([] { fitGlove({{"a"}, {"b"}}, GloveFitConfig{}); },
-              ThrowsMessage<std::invalid_argument>(HasSubstr("no two words")));
+  EXPECT_THAT(
+      [] { fitGlove({}, GloveFitConfig{}); },
+      ThrowsMessage<std::invalid_argument>(HasSubstr("need at least 2")));
+  EXPECT_THAT(
+      [] {
+        fitGlove({{"a"}, {"b"}}, GloveFitConfig{});
+      },
+      ThrowsMessage<std::invalid_argument>(HasSubstr("no two words")));
 }
 
 // =========================================================================
@@ -396,8 +407,10 @@ TEST(GloveTest, EmbeddingsCommandBuildsTheVocabularyMatrix) {
   EXPECT_EQ(runEmbeddingsCommand(options, out), 0);
   EXPECT_THAT(out.str(), HasSubstr("23 x 3, 4 words found, 17 missing"));
   EmbeddingMatrix matrix = readEmbeddingsJson(dir / "embeddings.json");
-  Vocabulary vocab = *readEpisodes(fixture("tiny_split.json")).instruction_vocab;
-  EXPECT_THAT(matrix.row(*vocab.find("walk")), ElementsAre(-0.5f, 0.25f, 1e-3f));
+  Vocabulary vocab =
+      *readEpisodes(fixture("tiny_split.json")).instruction_vocab;
+  EXPECT_THAT(matrix.row(*vocab.find("walk")),
+              ElementsAre(-0.5f, 0.25f, 1e-3f));
   // <unk> = mean of the, walk, stairs, turn
   EXPECT_NEAR(matrix.row(vocab.unkIndex())[0], (0.1 - 0.5 + 0.0 + 0.75) / 4,
               1e-7);

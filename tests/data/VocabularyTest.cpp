@@ -50,8 +50,7 @@ TEST(VocabularyTest, TokenizeMatchesVlnceOnHandCheckedSentences) {
       {"", {}},
       {"snake_case word", {"snake_case", "word"}},
       {"Go\tleft\x1cnow\u00a0ok", {"go", "left", "now", "ok"}},
-      {"He said \"stop\" here",
-       {"he", "said", "\"", "stop", "\"", "here"}},
+      {"He said \"stop\" here", {"he", "said", "\"", "stop", "\"", "here"}},
       {"left..right", {"left", "..", "right"}},
       {"3rd floor, 90 degrees", {"3rd", "floor", "90", "degrees"}},
       {"a--b - c", {"a--b", "-", "c"}},
@@ -65,7 +64,9 @@ TEST(VocabularyTest, TokenizeLowercasesAndKeepsNonAsciiLetters) {
   EXPECT_EQ(tokenize("Café ÉCOLE naïve"), (Tokens{"café", "école", "naïve"}));
   EXPECT_EQ(tokenize("ÄÖÜ straße"), (Tokens{"äöü", "straße"}));
   // invalid UTF-8 bytes are kept verbatim as separators
-  EXPECT_EQ(tokenize("go\xff" "left"), (Tokens{"go", "\xff", "left"}));
+  EXPECT_EQ(tokenize("go\xff"
+                     "left"),
+            (Tokens{"go", "\xff", "left"}));
 }
 
 TEST(VocabularyTest, RealSampleTokensAreReproducedExactly) {
@@ -89,20 +90,20 @@ TEST(VocabularyTest, RealSampleTokensAreReproducedExactly) {
 // =========================================================================
 
 TEST(VocabularyTest, BuildPutsSpecialsFirstThenCodePointOrder) {
-  Vocabulary vocab = Vocabulary::build(
-      {"Walk to the sofa, then walk left.", "Zebra rug near the door",
-       "\"Quote\" #3 (x)"});
+  Vocabulary vocab =
+      Vocabulary::build({"Walk to the sofa, then walk left.",
+                         "Zebra rug near the door", "\"Quote\" #3 (x)"});
   // '" #' is one separator run (quote, space, hash), as in VLN-CE
   EXPECT_THAT(vocab.words(),
               ElementsAre("<pad>", "<unk>", "\"", "\" #", "(", ")", ".", "3",
-                          "door", "left", "near", "quote", "rug", "sofa",
-                          "the", "then", "to", "walk", "x", "zebra"));
+                          "door", "left", "near", "quote", "rug", "sofa", "the",
+                          "then", "to", "walk", "x", "zebra"));
   EXPECT_EQ(vocab.padIndex(), 0);
   EXPECT_EQ(vocab.unkIndex(), 1);
 
   // min_count 2 keeps only the repeated words
-  Vocabulary frequent = Vocabulary::build(
-      {"walk the walk", "the hall", "go"}, {.min_count = 2});
+  Vocabulary frequent =
+      Vocabulary::build({"walk the walk", "the hall", "go"}, {.min_count = 2});
   EXPECT_THAT(frequent.words(), ElementsAre("<pad>", "<unk>", "the", "walk"));
   EXPECT_THAT([] { Vocabulary::build({"a"}, {.min_count = 0}); },
               ThrowsMessage<std::invalid_argument>(HasSubstr("min_count")));
@@ -119,22 +120,34 @@ TEST(VocabularyTest, EncodePadsTruncatesAndMapsUnknownWords) {
             static_cast<size_t>(kDefaultInstructionLength));
   EXPECT_EQ(vocab.decode({4, 3, 1, 2, 0, 0}), "turn left <unk> .");
   EXPECT_EQ(unpaddedLength({4, 3, 1, 2, 0, 0}), 4);
-  EXPECT_THAT([&] { vocab.decode({4, 9}); },
-              ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("token 1 is 9, outside the vocabulary [0, 5)")));
+  EXPECT_THAT(
+      [&] {
+        vocab.decode({4, 9});
+      },
+      ThrowsMessage<std::invalid_argument>(
+          HasSubstr("token 1 is 9, outside the vocabulary [0, 5)")));
   EXPECT_EQ(vocab.find("left"), 3);
   EXPECT_EQ(vocab.find("right"), std::nullopt);
   EXPECT_EQ(vocab.index("right"), vocab.unkIndex());
 }
 
 TEST(VocabularyTest, ConstructorRejectsDuplicatesAndMissingSpecials) {
-  EXPECT_THAT([] { Vocabulary({"<pad>", "<unk>", "a", "a"}); },
-              ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("word 'a' appears twice (indices 2 and 3)")));
-  EXPECT_THAT([] { Vocabulary({"<pad>", "a"}); },
-              ThrowsMessage<std::invalid_argument>(HasSubstr("'<unk>'")));
-  EXPECT_THAT([] { Vocabulary({"<unk>", "a"}); },
-              ThrowsMessage<std::invalid_argument>(HasSubstr("'<pad>'")));
+  EXPECT_THAT(
+      [] {
+        Vocabulary({"<pad>", "<unk>", "a", "a"});
+      },
+      ThrowsMessage<std::invalid_argument>(
+          HasSubstr("word 'a' appears twice (indices 2 and 3)")));
+  EXPECT_THAT(
+      [] {
+        Vocabulary({"<pad>", "a"});
+      },
+      ThrowsMessage<std::invalid_argument>(HasSubstr("'<unk>'")));
+  EXPECT_THAT(
+      [] {
+        Vocabulary({"<unk>", "a"});
+      },
+      ThrowsMessage<std::invalid_argument>(HasSubstr("'<pad>'")));
 }
 
 TEST(VocabularyTest, JsonLayoutRoundTrips) {
@@ -161,10 +174,13 @@ TEST(VocabularyTest, FromJsonRejectsInconsistentFields) {
     std::string expected;
   };
   const std::vector<Case> cases = {
-      {"word_list", {"<pad>", "<unk>", 3}, "'word_list' entry 2 must be a string"},
+      {"word_list",
+       {"<pad>", "<unk>", 3},
+       "'word_list' entry 2 must be a string"},
       {"word_list", "<pad>", "'word_list' must be an array"},
       {"itos", {"<pad>", "<unk>", "walk", "door"}, "'itos' differs"},
-      {"stoi", {{"<pad>", 0}, {"<unk>", 1}, {"door", 2}},
+      {"stoi",
+       {{"<pad>", 0}, {"<unk>", 1}, {"door", 2}},
        "'stoi' has 3 entries but word_list has 4"},
       {"word2idx_dict",
        {{"<pad>", 0}, {"<unk>", 1}, {"door", 2}, {"walk", 2}},
@@ -177,10 +193,10 @@ TEST(VocabularyTest, FromJsonRejectsInconsistentFields) {
     SCOPED_TRACE(c.key);
     nlohmann::json bad = good;
     bad[c.key] = c.value;
-    EXPECT_THAT([&] { Vocabulary::fromJson(bad, "file.json: instruction_vocab"); },
-                ThrowsMessage<std::invalid_argument>(
-                    AllOf(HasSubstr("file.json: instruction_vocab"),
-                          HasSubstr(c.expected))));
+    EXPECT_THAT(
+        [&] { Vocabulary::fromJson(bad, "file.json: instruction_vocab"); },
+        ThrowsMessage<std::invalid_argument>(AllOf(
+            HasSubstr("file.json: instruction_vocab"), HasSubstr(c.expected))));
   }
   EXPECT_THAT([] { Vocabulary::fromJson(nlohmann::json::object(), "ctx"); },
               ThrowsMessage<std::invalid_argument>(
