@@ -34,6 +34,9 @@ struct PaperRow {
   /// values[split][metric] as printed in the paper ("0.495", "10.1", or
   /// kNone where the paper reports nothing).
   std::vector<std::vector<std::string>> values;
+  /// False for other authors' nav-graph models (Table 3 top rows): shown
+  /// for reference only, no run of ours can claim them.
+  bool reproducible = true;
 };
 
 /// One paper table.

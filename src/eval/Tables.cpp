@@ -29,7 +29,8 @@ std::string joined(const std::vector<std::string>& items) {
 
 std::vector<std::string> rowKeys(const PaperTable& table) {
   std::vector<std::string> keys;
-  for (const auto& row : table.rows) keys.push_back("'" + row.key + "'");
+  for (const auto& row : table.rows)
+    if (row.reproducible) keys.push_back("'" + row.key + "'");
   return keys;
 }
 
@@ -198,8 +199,12 @@ RunInfo readRunInfo(const std::filesystem::path& runDir) {
                   ": 'table' must be 1, 2 or 3, got ", number);
     const auto key = common::requireField<std::string>(rows[i], "row", ctx);
     const PaperTable& table = paperTable(number);
-    VLN_CHECK_ARG(table.findRow(key) != nullptr, ctx, ": table ", number,
+    const PaperRow* paperRow = table.findRow(key);
+    VLN_CHECK_ARG(paperRow != nullptr, ctx, ": table ", number,
                   " has no row '", key, "'; rows are ", joined(rowKeys(table)));
+    VLN_CHECK_ARG(paperRow->reproducible, ctx, ": table ", number, " row '",
+                  key, "' is another paper's nav-graph model, shown for "
+                  "reference only");
     run.rows.emplace_back(number, key);
     inTable1 |= number == 1;
     inTable2 |= number == 2;
@@ -324,7 +329,9 @@ std::string renderMarkdown(const BuiltTable& table) {
     out << " paper |";
     for (const auto& split : p.values)
       for (const auto& value : split) out << " " << value << " |";
-    out << "\n|" << (numbered(paper) ? " " + p.key + " |" : "") << " ";
+    out << "\n";
+    if (!p.reproducible) continue;
+    out << "|" << (numbered(paper) ? " " + p.key + " |" : "") << " ";
     if (!row.ours) {
       out << "*ours* |";
       for (size_t i = 0; i < paper.attribute_columns.size(); ++i) out << " |";
@@ -397,7 +404,9 @@ std::string renderLatex(const BuiltTable& table) {
     out << " & paper";
     for (const auto& split : p.values)
       for (const auto& value : split) out << " & " << texEscape(value);
-    out << " \\\\\n" << number << "\\quad\\textit{ours}";
+    out << " \\\\\n";
+    if (!p.reproducible) continue;
+    out << number << "\\quad\\textit{ours}";
     if (!row.ours) {
       for (size_t i = 0; i < paper.attribute_columns.size(); ++i) out << " & ";
       out << " & missing";

@@ -170,6 +170,8 @@ TEST(TablesTest, BadRunFilesAreErrorsNamingFileAndField) {
               "unknown field 'visoin'");
   expectError(R"({"model": "m", "rows": [{"table": 3, "row": "RCM"}]})",
               "field 'checkpoint' is missing");
+  expectError("{" + common + R"(, "rows": [{"table": 3, "row": "RCM"}]})",
+              "row 'RCM' is another paper's nav-graph model");
 
   // a malformed stats file is named too
   test::TempDir dir;
@@ -202,8 +204,10 @@ TEST(TablesTest, EmptyResultsGiveOnlyPaperRowsAndMissing) {
   const auto tables = buildTables(dir.path());
   for (const auto& table : tables)
     for (const auto& row : table.rows) EXPECT_FALSE(row.ours.has_value());
+  // Table 3: other papers' nav-graph models get no "ours" line
   const std::string md = renderMarkdown(tables[2]);
-  EXPECT_EQ(count(md, "missing (no run)"), 5);
+  EXPECT_EQ(count(md, "missing (no run)"), 1);
+  EXPECT_EQ(count(md, "*ours"), 1);
   EXPECT_THAT(md, Not(HasSubstr("[1]")));
 }
 
