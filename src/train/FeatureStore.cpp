@@ -121,14 +121,14 @@ struct Txn {
 
 }  // namespace
 
-FeatureStore::FeatureStore(const std::filesystem::path& dir, double maxGib)
-    : dir_(dir), lmdb_(std::make_unique<Lmdb>()) {
+FeatureStore::FeatureStore(const std::filesystem::path& dir, double maxGib, bool readOnly)
+    : dir_(dir), lmdb_(std::make_unique<Lmdb>()), readOnly_(readOnly) {
   openEnv(maxGib);
 }
 
 FeatureStore::FeatureStore(const std::filesystem::path& dir, const StoreLayout& layout,
                            double maxGib)
-    : FeatureStore(dir, maxGib) {
+    : FeatureStore(dir, maxGib, /*readOnly=*/false) {
   std::string meta = readValue(kMetaKey);
   if (meta.empty()) {
     // a new store: an empty episode table and the layout, in one commit
@@ -158,11 +158,10 @@ FeatureStore::FeatureStore(const std::filesystem::path& dir, const StoreLayout& 
                " (use a new run directory)");
 }
 
-std::unique_ptr<FeatureStore> FeatureStore::openExisting(const std::filesystem::path& dir,
-                                                         double maxGib) {
+std::unique_ptr<FeatureStore> FeatureStore::openExisting(const std::filesystem::path& dir) {
   VLN_CHECK_IO(std::filesystem::exists(dir / "data.mdb"), "FeatureStore: no store in '",
                dir.string(), "' (data.mdb is missing)");
-  std::unique_ptr<FeatureStore> store(new FeatureStore(dir, maxGib));
+  std::unique_ptr<FeatureStore> store(new FeatureStore(dir, 0.0, /*readOnly=*/true));
   store->loadIndex();
   return store;
 }
@@ -175,12 +174,16 @@ void FeatureStore::openEnv(double maxGib) {
   VLN_CHECK_IO(!ec, "FeatureStore: cannot create '", dir_.string(), "': ", ec.message());
   int rc = mdb_env_create(&lmdb_->env);
   VLN_CHECK_IO(rc == 0, "FeatureStore: mdb_env_create failed: ", mdb_strerror(rc));
-  const auto mapBytes = static_cast<size_t>(maxGib * 1024.0 * 1024.0 * 1024.0);
-  rc = mdb_env_set_mapsize(lmdb_->env, mapBytes);
-  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot set the map size of '", dir_.string(),
-               "' to ", maxGib, " GiB (trainer.store_max_gib): ", mdb_strerror(rc));
+  // a read-only opener keeps the writer's map size: a write transaction
+  // here would persist another size and break a concurrent writer
+  if (!readOnly_) {
+    const auto mapBytes = static_cast<size_t>(maxGib * 1024.0 * 1024.0 * 1024.0);
+    rc = mdb_env_set_mapsize(lmdb_->env, mapBytes);
+    VLN_CHECK_IO(rc == 0, "FeatureStore: cannot set the map size of '", dir_.string(), "' to ",
+                 maxGib, " GiB (trainer.store_max_gib): ", mdb_strerror(rc));
+  }
   // MDB_NOTLS: read transactions are not tied to threads (prefetching)
-  rc = mdb_env_open(lmdb_->env, dir_.c_str(), MDB_NOTLS, 0664);
+  rc = mdb_env_open(lmdb_->env, dir_.c_str(), MDB_NOTLS | (readOnly_ ? MDB_RDONLY : 0), 0664);
   if (rc != 0) {
     mdb_env_close(lmdb_->env);
     lmdb_->env = nullptr;
@@ -189,7 +192,7 @@ void FeatureStore::openEnv(double maxGib) {
                                     rc == MDB_INVALID ? " (corrupt or not an LMDB store)" : ""));
   }
   Txn txn;
-  rc = mdb_txn_begin(lmdb_->env, nullptr, 0, &txn.txn);
+  rc = mdb_txn_begin(lmdb_->env, nullptr, readOnly_ ? MDB_RDONLY : 0, &txn.txn);
   if (rc == 0) rc = mdb_dbi_open(txn.txn, nullptr, 0, &lmdb_->dbi);
   if (rc == 0) rc = mdb_txn_commit(txn.txn);
   txn.txn = nullptr;
@@ -371,6 +374,7 @@ StoredEpisode FeatureStore::decode(std::string_view bytes, int64_t index) const 
 }
 
 void FeatureStore::append(const StoredEpisode& episode) {
+  VLN_CHECK_ARG(!readOnly_, "FeatureStore::append(): '", dir_.string(), "' was opened read-only");
   const std::string value = encode(episode);
   const int64_t index = size();
   const std::string key = episodeKey(index);

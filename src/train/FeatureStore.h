@@ -106,9 +106,9 @@ class FeatureStore {
   /// that disagrees with the meta) is a std::runtime_error naming `dir`.
   FeatureStore(const std::filesystem::path& dir, const StoreLayout& layout,
                double maxGib);
-  /// Opens an existing store with whatever layout it has (tools, tests).
-  static std::unique_ptr<FeatureStore> openExisting(
-      const std::filesystem::path& dir, double maxGib = 1.0);
+  /// Opens an existing store read-only with whatever layout it has (tools,
+  /// tests; safe while another process appends). append() is refused.
+  static std::unique_ptr<FeatureStore> openExisting(const std::filesystem::path& dir);
   ~FeatureStore();
   FeatureStore(const FeatureStore&) = delete;
   FeatureStore& operator=(const FeatureStore&) = delete;
@@ -148,7 +148,7 @@ class FeatureStore {
   void setBeforeCommitHook(std::function<void()> hook) { beforeCommit_ = std::move(hook); }
 
  private:
-  FeatureStore(const std::filesystem::path& dir, double maxGib);
+  FeatureStore(const std::filesystem::path& dir, double maxGib, bool readOnly);
   void openEnv(double maxGib);
   void loadIndex();
   std::string encode(const StoredEpisode& episode) const;
@@ -163,6 +163,7 @@ class FeatureStore {
   int64_t totalSteps_ = 0;
   int64_t totalBytes_ = 0;
   std::function<void()> beforeCommit_;
+  bool readOnly_ = false;
 };
 
 /// The batches of one epoch over episodes with `lengths`: a seeded shuffle

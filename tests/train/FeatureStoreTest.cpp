@@ -198,23 +198,27 @@ TEST(FeatureStoreTest, MapFullIsAClearErrorAndKeepsEarlierEpisodes) {
   test::TempDir dir;
   StoreLayout layout = smallLayout(/*fp16=*/false);
   layout.rgb_shape = {64, 8, 8};  // 16 KiB per step
-  // 1 MiB map: a few episodes fit, then MDB_MAP_FULL
-  FeatureStore store(dir / "store", layout, 1.0 / 1024.0);
   int appended = 0;
-  try {
-    for (int i = 0; i < 100; ++i) {
-      store.append(makeEpisode(i, 8, layout));
-      ++appended;
+  {
+    // 1 MiB map: a few episodes fit, then MDB_MAP_FULL
+    FeatureStore store(dir / "store", layout, 1.0 / 1024.0);
+    try {
+      for (int i = 0; i < 100; ++i) {
+        store.append(makeEpisode(i, 8, layout));
+        ++appended;
+      }
+      FAIL() << "expected the store to fill up";
+    } catch (const std::runtime_error& error) {
+      EXPECT_THAT(error.what(), HasSubstr("trainer.store_max_gib"));
+      EXPECT_THAT(error.what(), HasSubstr((dir / "store").string()));
     }
-    FAIL() << "expected the store to fill up";
-  } catch (const std::runtime_error& error) {
-    EXPECT_THAT(error.what(), HasSubstr("trainer.store_max_gib"));
-    EXPECT_THAT(error.what(), HasSubstr((dir / "store").string()));
+    EXPECT_GT(appended, 0);
+    EXPECT_EQ(store.size(), appended);
   }
-  EXPECT_GT(appended, 0);
-  EXPECT_EQ(store.size(), appended);
-  auto reopened = FeatureStore::openExisting(dir / "store", 1.0);
-  EXPECT_EQ(reopened->size(), 0 + appended);
+  auto reopened = FeatureStore::openExisting(dir / "store");
+  ASSERT_EQ(reopened->size(), appended);
+  expectEqual(reopened->read(appended - 1), makeEpisode(appended - 1, 8, layout));
+  EXPECT_THROW(reopened->append(makeEpisode(0, 8, layout)), std::invalid_argument);
 }
 
 // The child appends episodes and exits abruptly inside the transaction of

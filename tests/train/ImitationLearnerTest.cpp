@@ -1,0 +1,175 @@
+// Tests of src/train/ImitationLearner.cpp: the inverse inflection frequency
+// on hand-made ground truth, non-finite losses skipped (nothing changes),
+// the consecutive-fault limit, and learning on a small synthetic store.
+
+#include "train/ImitationLearner.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "common/Config.h"
+#include "support/TestPaths.h"
+
+namespace vln::train {
+namespace {
+
+using ::testing::HasSubstr;
+
+ExperimentConfig tinyConfig() {
+  ExperimentConfig c;
+  c.model.policy = models::PolicyType::kSeq2Seq;
+  c.model.rgb_encoder = models::EncoderType::kSmallCnn;
+  c.model.depth_encoder = models::EncoderType::kSmallCnn;
+  c.model.vocab_size = 11;
+  c.model.embedding_dim = 4;
+  c.model.instruction_hidden_size = 6;
+  c.model.hidden_size = 12;
+  c.model.rgb_projection_size = 5;
+  c.model.depth_projection_size = 7;
+  c.model.progress_monitor = true;
+  c.model.rgb_height = c.model.rgb_width = 32;
+  c.model.depth_height = c.model.depth_width = 32;
+  c.trainer.batch_size = 4;
+  c.trainer.lr = 1e-2;
+  c.trainer.max_nonfinite_updates = 3;
+  return c;
+}
+
+// episodes whose oracle action is readable from the features: the depth
+// map's channel `a` is bright where the label is a
+void fillStore(FeatureStore& store, const ExperimentConfig& c, int episodes) {
+  const auto r = models::rgbFeatureShape(c.model);
+  const auto d = models::depthFeatureShape(c.model);
+  torch::manual_seed(5);
+  for (int i = 0; i < episodes; ++i) {
+    StoredEpisode e;
+    e.key.episode_id = i;
+    e.key.slot = i;
+    const int T = 4 + i % 5;
+    e.tokens = {1 + i % 10, 2, 3};
+    e.rgb = torch::rand({T, r[0], r[1], r[2]}) * 0.1;
+    e.depth = torch::rand({T, d[0], d[1], d[2]}) * 0.1;
+    for (int t = 0; t < T; ++t) {
+      const int action = t == T - 1 ? 0 : 1 + (i + t) % 3;
+      e.oracle_actions.push_back(static_cast<uint8_t>(action));
+      e.prev_actions.push_back(static_cast<uint8_t>(t == 0 ? 0 : e.oracle_actions[static_cast<size_t>(t - 1)]));
+      e.progress.push_back(static_cast<float>(t + 1) / static_cast<float>(T));
+      e.depth[t][action].fill_(1.0);
+    }
+    store.append(e);
+  }
+}
+
+StoreLayout layoutOf(const ExperimentConfig& c) {
+  StoreLayout l;
+  l.rgb_shape = models::rgbFeatureShape(c.model);
+  l.depth_shape = models::depthFeatureShape(c.model);
+  l.fp16 = false;
+  l.config_hash = "test";
+  return l;
+}
+
+TEST(ImitationLearnerTest, InverseInflectionFrequencyOfHandMadeGroundTruth) {
+  using sim::Action;
+  data::GroundTruth a, b;
+  // inflections at t = 0, 3 (2 after 1) and 4 (0 after 2): 3 of 5 actions
+  a[1].actions = {Action::kMoveForward, Action::kMoveForward, Action::kMoveForward,
+                  Action::kTurnLeft, Action::kStop};
+  // t = 0 and t = 2: 2 of 3
+  b[7].actions = {Action::kTurnRight, Action::kTurnRight, Action::kStop};
+  EXPECT_DOUBLE_EQ(inverseInflectionFrequency({&a}), 5.0 / 3.0);
+  EXPECT_DOUBLE_EQ(inverseInflectionFrequency({&a, &b, nullptr}), 8.0 / 5.0);
+  data::GroundTruth empty;
+  EXPECT_THAT([&] { inverseInflectionFrequency({&empty}); },
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("inflection_weight")));
+}
+
+TEST(ImitationLearnerTest, NonFiniteLossSkipsTheUpdateAndIsCounted) {
+  const ExperimentConfig c = tinyConfig();
+  vln::test::TempDir dir;
+  FeatureStore store(dir / "store", layoutOf(c), 0.05);
+  fillStore(store, c, 8);
+  torch::manual_seed(1);
+  auto policy = models::makePolicy(c.model);
+  ImitationLearner learner(policy, c);
+
+  std::vector<torch::Tensor> before;
+  for (const auto& p : policy->parameters()) before.push_back(p.detach().clone());
+  const std::vector<int64_t> indices = {0, 1, 2};
+  learner.setLossHook([](const torch::Tensor& loss) { return loss * std::nan(""); });
+  UpdateResult skipped = learner.update(store.loadBatch(indices));
+  EXPECT_TRUE(skipped.skipped);
+  EXPECT_EQ(learner.updates(), 0);
+  EXPECT_EQ(learner.nonFiniteInARow(), 1);
+  const auto params = policy->parameters();
+  for (size_t i = 0; i < params.size(); ++i) EXPECT_TRUE(torch::equal(params[i], before[i]));
+  // Adam saw no step: its state is still empty
+  EXPECT_TRUE(learner.optimizer().state().empty());
+
+  // an infinite loss is skipped too; a finite one applies and resets the run
+  learner.setLossHook([](const torch::Tensor& loss) { return loss + INFINITY; });
+  EXPECT_TRUE(learner.update(store.loadBatch(indices)).skipped);
+  EXPECT_EQ(learner.nonFiniteInARow(), 2);
+  learner.setLossHook({});
+  UpdateResult applied = learner.update(store.loadBatch(indices));
+  EXPECT_FALSE(applied.skipped);
+  EXPECT_TRUE(std::isfinite(applied.loss));
+  EXPECT_EQ(learner.updates(), 1);
+  EXPECT_EQ(learner.nonFiniteInARow(), 0);
+  EXPECT_EQ(learner.nonFiniteTotal(), 2);
+  bool changed = false;
+  for (size_t i = 0; i < params.size(); ++i) changed |= !torch::equal(params[i], before[i]);
+  EXPECT_TRUE(changed);
+}
+
+TEST(ImitationLearnerTest, TooManyConsecutiveNonFiniteLossesStopTraining) {
+  const ExperimentConfig c = tinyConfig();
+  vln::test::TempDir dir;
+  FeatureStore store(dir / "store", layoutOf(c), 0.05);
+  fillStore(store, c, 16);  // 4 batches, limit 3
+  auto policy = models::makePolicy(c.model);
+  ImitationLearner learner(policy, c);
+  learner.setLossHook([](const torch::Tensor& loss) { return loss * std::nan(""); });
+  int seen = 0;
+  EXPECT_THAT([&] { learner.trainEpoch(store, 1, 0, [&](const UpdateResult&) { ++seen; }); },
+              ::testing::ThrowsMessage<std::runtime_error>(
+                  HasSubstr("3 consecutive non-finite losses (trainer.max_nonfinite_updates = 3)")));
+  EXPECT_EQ(seen, 2);  // the third one throws before the callback
+  EXPECT_EQ(learner.updates(), 0);
+}
+
+TEST(ImitationLearnerTest, IsolatedNonFiniteLossesDoNotStopAnEpoch) {
+  const ExperimentConfig c = tinyConfig();
+  vln::test::TempDir dir;
+  FeatureStore store(dir / "store", layoutOf(c), 0.05);
+  fillStore(store, c, 16);
+  auto policy = models::makePolicy(c.model);
+  ImitationLearner learner(policy, c);
+  int calls = 0;
+  learner.setLossHook([&](const torch::Tensor& loss) {
+    return ++calls % 2 == 0 ? loss * std::nan("") : loss;
+  });
+  const EpochResult r = learner.trainEpoch(store, 1, 0);
+  EXPECT_EQ(r.updates, 2);
+  EXPECT_EQ(r.skipped, 2);
+  EXPECT_TRUE(std::isfinite(r.mean.loss));
+}
+
+TEST(ImitationLearnerTest, LossFallsOnALearnableStore) {
+  ExperimentConfig c = tinyConfig();
+  vln::test::TempDir dir;
+  FeatureStore store(dir / "store", layoutOf(c), 0.05);
+  fillStore(store, c, 12);
+  torch::manual_seed(3);
+  auto policy = models::makePolicy(c.model);
+  ImitationLearner learner(policy, c);
+  const EpochResult first = learner.trainEpoch(store, 1, 0);
+  EpochResult last;
+  for (int epoch = 1; epoch < 30; ++epoch) last = learner.trainEpoch(store, 1, epoch);
+  EXPECT_LT(last.mean.action_loss, 0.5 * first.mean.action_loss);
+  EXPECT_LT(last.mean.progress_loss, first.mean.progress_loss);
+  EXPECT_EQ(learner.updates(), 30 * 3);
+}
+
+}  // namespace
+}  // namespace vln::train
