@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "common/Config.h"
 #include "sim/Mesh.h"
@@ -47,11 +48,32 @@ struct HouseConfig {
 
 /// A generated house: triangles (lighting baked into vertex colours) and its
 /// semantic annotations.
+///
+/// Frames and layout: world frame (+Y up, metres), floor at y = 0. Room
+/// footprints run to the wall centre lines, so they tile the house outline.
+/// Doorway centres lie on the wall centre line at floor height. Object ids
+/// are 0..n-1; every triangle of object i has triangle_object == i, all
+/// other triangles -1. Materials are one per surface finish ("plain",
+/// "wood_floor", "tiles", "carpet", "wallpaper", "plaster", "wood",
+/// "fabric"); uvs are world coordinates divided by each finish's repeat
+/// size, so textures need REPEAT wrapping. With texture_detail == 0 the
+/// mesh has no textures and no uvs.
 struct House {
   std::string name;
   TriangleMesh mesh;
   SceneSemantics semantics;
+  /// Missing floor patches (as scans have), (x, z) metres; at most one.
+  std::vector<Eigen::AlignedBox2f> floor_holes;
 };
+
+/// A doorway's clear zone is kept free of furniture and floor holes: the
+/// opening widened by this on each side, metres.
+inline constexpr float kDoorwayClearMargin = 0.2f;
+/// ... and this deep on both sides of the wall centre line, metres.
+inline constexpr float kDoorwayClearDepth = 1.0f;
+
+/// The clear zone of `door` in the horizontal plane ((x, z), metres).
+Eigen::AlignedBox2f doorwayClearZone(const Doorway& door);
 
 /// Generates house `seed`. Equal seeds and configs give identical houses on
 /// every machine (no std:: distributions, whose output is unspecified).

@@ -120,6 +120,40 @@ std::string groupName(int object) {
                     : strCat(kObjectPrefix, object);
 }
 
+// Renumbers materials in order of first use by triangles (in `order`, or
+// the mesh's own order) and drops unused ones; then the same for textures
+// in order of first use by the kept materials.
+void keepUsedMaterials(TriangleMesh& mesh,
+                       const std::vector<uint32_t>* order = nullptr) {
+  std::vector<int> newMaterial(mesh.materials.size(), -1);
+  std::vector<Material> materials;
+  auto visit = [&](uint32_t t) {
+    const int m = mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
+    if (m >= 0 && newMaterial[m] < 0) {
+      newMaterial[m] = static_cast<int>(materials.size());
+      materials.push_back(mesh.materials[m]);
+    }
+  };
+  if (order)
+    for (uint32_t t : *order) visit(t);
+  else
+    for (uint32_t t = 0; t < mesh.triangle_material.size(); ++t) visit(t);
+  for (int32_t& m : mesh.triangle_material)
+    if (m >= 0) m = newMaterial[m];
+  std::vector<int> newTexture(mesh.textures.size(), -1);
+  std::vector<Texture> textures;
+  for (Material& m : materials) {
+    if (m.texture < 0) continue;
+    if (newTexture[m.texture] < 0) {
+      newTexture[m.texture] = static_cast<int>(textures.size());
+      textures.push_back(mesh.textures[m.texture]);
+    }
+    m.texture = newTexture[m.texture];
+  }
+  mesh.materials = std::move(materials);
+  mesh.textures = std::move(textures);
+}
+
 // ===========================================================================
 // binary glTF 2.0 export
 // ===========================================================================
@@ -246,7 +280,15 @@ json writePrimitive(const TriangleMesh& mesh,
   return primitive;
 }
 
-void writeGlb(const fs::path& file, const TriangleMesh& mesh) {
+void writeGlb(const fs::path& file, const TriangleMesh& input) {
+  // materials and textures in order of first use as written (the order in
+  // which glTF readers that load lazily, like assimp's, will see them)
+  TriangleMesh mesh = input;
+  std::vector<uint32_t> emitted;
+  for (const auto& [object, byMaterial] : groupTriangles(mesh))
+    for (const auto& [material, triangles] : byMaterial)
+      emitted.insert(emitted.end(), triangles.begin(), triangles.end());
+  keepUsedMaterials(mesh, &emitted);
   GlbBuffer buffer;
   json root;
   root["asset"] = {{"version", "2.0"}, {"generator", "vlnce-cpp"}};
@@ -635,14 +677,16 @@ class SceneImporter {
     }
   }
 
-  // optional arrays stay empty when the file had none of them
+  // Optional arrays stay empty when the file had none of them; materials
+  // and textures are reduced to those in use, in order of first use, for
+  // every format alike (assimp's glTF reader already drops unused ones).
   void finish() {
     if (anyColors_) mesh_.colors = std::move(colors_);
     if (anyUvs_) mesh_.uvs = std::move(uvs_);
+    keepUsedMaterials(mesh_);
     const auto isNone = [](int32_t value) { return value < 0; };
     if (std::all_of(mesh_.triangle_material.begin(),
-                    mesh_.triangle_material.end(), isNone) &&
-        mesh_.materials.empty())
+                    mesh_.triangle_material.end(), isNone))
       mesh_.triangle_material.clear();
     if (std::all_of(mesh_.triangle_object.begin(), mesh_.triangle_object.end(),
                     isNone))

@@ -21,7 +21,12 @@ struct LoadedScene {
   SceneSemantics semantics;  ///< from the sidecar; empty when there is none
 };
 
-/// Loads `file` and its semantics sidecar (if present). Throws
+/// Loads `file` and its semantics sidecar (if present). The mesh keeps the
+/// materials and textures its triangles use, numbered in order of first use
+/// (for every format; assimp's glTF reader drops unused ones anyway), so a
+/// saved mesh comes back with equal triangles, colours, uvs and per-triangle
+/// materials, and with equal material/texture lists when those were already
+/// all used in that order. Throws
 /// std::runtime_error naming the file when it is missing or assimp cannot
 /// parse it, and std::invalid_argument when it has no triangles or invalid
 /// geometry (NaN, bad indices).

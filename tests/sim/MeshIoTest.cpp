@@ -430,6 +430,28 @@ TEST_P(RoundTripTest, MeshWithoutOptionalArraysStaysWithout) {
   EXPECT_TRUE(loaded.mesh.materials.empty());
 }
 
+TEST_P(RoundTripTest, MaterialsComeBackInOrderOfFirstUse) {
+  test::TempDir dir;
+  const fs::path file = dir / ("order" + GetParam());
+  TriangleMesh mesh;
+  mesh.positions = {{0, 0, 0}, {1, 0, 0}, {0, 0, -1}, {2, 0, 0}};
+  mesh.indices = {0, 1, 2, 1, 3, 2};
+  mesh.materials = {{"unused", {1, 0, 0}, -1},
+                    {"second", {0, 1, 0}, -1},
+                    {"first", {0, 0, 1}, 0}};
+  mesh.textures = {checkerTexture("only")};
+  mesh.triangle_material = {2, 1};
+  mesh.triangle_object = {4, 5};
+  saveScene(file, mesh);
+  const LoadedScene loaded = loadScene(file, MeshLoadConfig{});
+  expectSameTriangles(mesh, loaded.mesh);
+  ASSERT_EQ(loaded.mesh.materials.size(), 2u);
+  EXPECT_EQ(loaded.mesh.materials[0].name, "first");
+  EXPECT_EQ(loaded.mesh.materials[0].texture, 0);
+  EXPECT_EQ(loaded.mesh.materials[1].name, "second");
+  EXPECT_EQ(loaded.mesh.textures, mesh.textures);
+}
+
 INSTANTIATE_TEST_SUITE_P(Formats, RoundTripTest,
                          ::testing::Values(".glb", ".obj"),
                          [](const auto& info) { return info.param.substr(1); });
