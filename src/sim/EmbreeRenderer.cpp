@@ -1,12 +1,16 @@
 #include "sim/EmbreeRenderer.h"
 
 #include <embree3/rtcore.h>
-#include <pmmintrin.h>
-#include <xmmintrin.h>
+#include <immintrin.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdlib>
+#include <cstring>
 #include <limits>
+#include <optional>
+#include <string_view>
 #include <vector>
 
 #include "common/Check.h"
@@ -43,59 +47,331 @@ class FlushDenormalsScope {
   unsigned saved_;
 };
 
-// A material flattened for shading: base colour and texture (or null).
-struct ShadeMaterial {
-  float r = 1.0f;
-  float g = 1.0f;
-  float b = 1.0f;
-  const Texture* texture = nullptr;
+// Everything shading needs about one triangle, in one cache line and laid
+// out for 4-wide SSE loads: colour (base colour x vertex colour, in [0, 1])
+// at corner 0 and its changes towards corners 1 and 2, so a hit's colour is
+// c0 + u dc1 + v dc2 with Embree's barycentrics (p = (1-u-v) p0 + u p1 +
+// v p2); the same for uv. The fourth lane of each colour row carries a
+// scalar so the record stays 64 bytes.
+struct alignas(64) TriangleShade {
+  float color0[3];
+  int32_t texture;  // index into TriangleMesh::textures or -1
+  float dcolor1[3];
+  float s0;  // uv at corner 0
+  float dcolor2[3];
+  float t0;
+  float duv[4];  // d(s, t) towards corner 1, then towards corner 2
+};
+static_assert(sizeof(TriangleShade) == 64);
+
+// A texture as the sampler needs it.
+struct TextureView {
+  const uint8_t* rgb = nullptr;
+  const uint8_t* end = nullptr;  // one past the last byte
+  int width = 0;
+  int height = 0;
 };
 
-// Texel index with GL_REPEAT semantics.
-inline int wrapIndex(int i, int size) {
-  const int m = i % size;
-  return m < 0 ? m + size : m;
+// floor() for |x| < 2^31 without SSE4.1's roundss: the baseline x86-64 build
+// would otherwise call into libm for every texel coordinate
+inline int floorToInt(float x) {
+  const int i = static_cast<int>(x);
+  return i - (x < static_cast<float>(i) ? 1 : 0);
+}
+
+// One RGB8 texel as floats (r, g, b, junk). Reads 4 bytes at once except
+// for the very last texel, whose fourth byte lies past the image.
+inline __m128 loadTexel(const uint8_t* p, const uint8_t* end) {
+  int32_t bits;
+  if (p + 4 <= end) {
+    std::memcpy(&bits, p, 4);
+  } else {
+    bits = p[0] | (p[1] << 8) | (p[2] << 16);
+  }
+  const __m128i zero = _mm_setzero_si128();
+  __m128i v = _mm_cvtsi32_si128(bits);
+  v = _mm_unpacklo_epi8(v, zero);
+  v = _mm_unpacklo_epi16(v, zero);
+  return _mm_cvtepi32_ps(v);
 }
 
 // Bilinear lookup with wrap, as GL_LINEAR + GL_REPEAT without mipmaps: texel
 // centres at (i + 0.5) / size, row 0 at v = 0 (the rasteriser uploads the
-// rows in the same order). Returns colour in [0, 1].
-inline void sampleBilinear(const Texture& texture, float s, float t,
-                           float out[3]) {
-  if (!std::isfinite(s)) s = 0.0f;
-  if (!std::isfinite(t)) t = 0.0f;
-  // wrapping the coordinate first keeps the float-to-int conversion in range
-  s -= std::floor(s);
-  t -= std::floor(t);
-  const float x = s * static_cast<float>(texture.width) - 0.5f;
-  const float y = t * static_cast<float>(texture.height) - 0.5f;
-  const float x0f = std::floor(x);
-  const float y0f = std::floor(y);
-  const float fx = x - x0f;
-  const float fy = y - y0f;
-  const int x0 = wrapIndex(static_cast<int>(x0f), texture.width);
-  const int x1 = wrapIndex(static_cast<int>(x0f) + 1, texture.width);
-  const int y0 = wrapIndex(static_cast<int>(y0f), texture.height);
-  const int y1 = wrapIndex(static_cast<int>(y0f) + 1, texture.height);
-  const uint8_t* row0 = texture.rgb.data() + static_cast<size_t>(y0) *
-                                                 static_cast<size_t>(texture.width) * 3;
-  const uint8_t* row1 = texture.rgb.data() + static_cast<size_t>(y1) *
-                                                 static_cast<size_t>(texture.width) * 3;
-  const float w00 = (1.0f - fx) * (1.0f - fy);
-  const float w10 = fx * (1.0f - fy);
-  const float w01 = (1.0f - fx) * fy;
-  const float w11 = fx * fy;
-  for (int c = 0; c < 3; ++c) {
-    out[c] = (w00 * row0[3 * x0 + c] + w10 * row0[3 * x1 + c] +
-              w01 * row1[3 * x0 + c] + w11 * row1[3 * x1 + c]) *
-             (1.0f / 255.0f);
-  }
+// rows in the same order). Returns colour in [0, 1] in lanes 0-2.
+inline __m128 sampleBilinear(const TextureView& texture, float s, float t) {
+  // non-finite or absurd coordinates sample texel row/column 0
+  if (!(std::abs(s) < 1e6f)) s = 0.0f;
+  if (!(std::abs(t) < 1e6f)) t = 0.0f;
+  // with the coordinate wrapped into [0, 1) first, the lower texel is in
+  // [-1, size - 1] and the upper in [0, size]: one comparison each wraps
+  // them (no integer division)
+  s -= static_cast<float>(floorToInt(s));
+  t -= static_cast<float>(floorToInt(t));
+  const int width = texture.width;
+  const int height = texture.height;
+  const float x = s * static_cast<float>(width) - 0.5f;
+  const float y = t * static_cast<float>(height) - 0.5f;
+  int x0 = floorToInt(x);
+  int y0 = floorToInt(y);
+  const float fx = x - static_cast<float>(x0);
+  const float fy = y - static_cast<float>(y0);
+  int x1 = x0 + 1;
+  int y1 = y0 + 1;
+  if (x0 < 0) x0 += width;
+  if (y0 < 0) y0 += height;
+  if (x1 >= width) x1 -= width;
+  if (y1 >= height) y1 -= height;
+  const ptrdiff_t stride = static_cast<ptrdiff_t>(width) * 3;
+  const uint8_t* row0 = texture.rgb + y0 * stride;
+  const uint8_t* row1 = texture.rgb + y1 * stride;
+  constexpr float kInv255 = 1.0f / 255.0f;
+  const __m128 w00 = _mm_set1_ps((1.0f - fx) * (1.0f - fy) * kInv255);
+  const __m128 w10 = _mm_set1_ps(fx * (1.0f - fy) * kInv255);
+  const __m128 w01 = _mm_set1_ps((1.0f - fx) * fy * kInv255);
+  const __m128 w11 = _mm_set1_ps(fx * fy * kInv255);
+  const __m128 top = _mm_add_ps(_mm_mul_ps(w00, loadTexel(row0 + 3 * x0, texture.end)),
+                                _mm_mul_ps(w10, loadTexel(row0 + 3 * x1, texture.end)));
+  const __m128 bottom = _mm_add_ps(_mm_mul_ps(w01, loadTexel(row1 + 3 * x0, texture.end)),
+                                   _mm_mul_ps(w11, loadTexel(row1 + 3 * x1, texture.end)));
+  return _mm_add_ps(top, bottom);
 }
 
-inline uint8_t toUnorm8(float value) {
-  // GL's float-to-unorm conversion: clamp, scale, round to nearest
-  return static_cast<uint8_t>(std::clamp(value, 0.0f, 1.0f) * 255.0f + 0.5f);
+// The shading table of `mesh` (see TriangleShade).
+std::vector<TriangleShade> buildShadeTable(const TriangleMesh& mesh) {
+  std::vector<TriangleShade> table(mesh.triangleCount());
+  for (size_t t = 0; t < table.size(); ++t) {
+    const uint32_t* corner = mesh.indices.data() + 3 * t;
+    std::array<float, 3> base{1.0f, 1.0f, 1.0f};
+    int texture = -1;
+    const int material = mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
+    if (material >= 0) {
+      base = mesh.materials[static_cast<size_t>(material)].base_color;
+      texture = mesh.materials[static_cast<size_t>(material)].texture;
+    }
+    float color[3][3];
+    for (int k = 0; k < 3; ++k) {
+      for (int c = 0; c < 3; ++c) {
+        const float vertex = mesh.colors.empty()
+                                 ? 1.0f
+                                 : mesh.colors[corner[k]][c] * (1.0f / 255.0f);
+        color[k][c] = base[c] * vertex;
+      }
+    }
+    TriangleShade& shade = table[t];
+    for (int c = 0; c < 3; ++c) {
+      shade.color0[c] = color[0][c];
+      shade.dcolor1[c] = color[1][c] - color[0][c];
+      shade.dcolor2[c] = color[2][c] - color[0][c];
+    }
+    shade.texture = texture;
+    Vec2f uv[3] = {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()};
+    if (!mesh.uvs.empty())
+      for (int k = 0; k < 3; ++k) uv[k] = mesh.uvs[corner[k]];
+    shade.s0 = uv[0].x();
+    shade.t0 = uv[0].y();
+    shade.duv[0] = uv[1].x() - uv[0].x();
+    shade.duv[1] = uv[1].y() - uv[0].y();
+    shade.duv[2] = uv[2].x() - uv[0].x();
+    shade.duv[3] = uv[2].y() - uv[0].y();
+  }
+  return table;
 }
+
+// Colour of one hit as r | g << 8 | b << 16: base colour x vertex colour x
+// texture, interpolated with the hit's barycentrics, 4-wide with SSE2 (the
+// fourth lane is ignored).
+inline uint32_t shadeScalar(const TriangleShade& t, float u, float v,
+                            const std::vector<TextureView>& textures) {
+  const __m128 mu = _mm_set1_ps(u);
+  const __m128 mv = _mm_set1_ps(v);
+  __m128 color = _mm_add_ps(_mm_load_ps(t.color0),
+                            _mm_add_ps(_mm_mul_ps(mu, _mm_load_ps(t.dcolor1)),
+                                       _mm_mul_ps(mv, _mm_load_ps(t.dcolor2))));
+  if (t.texture >= 0) {
+    const float s = t.s0 + u * t.duv[0] + v * t.duv[2];
+    const float r = t.t0 + u * t.duv[1] + v * t.duv[3];
+    color = _mm_mul_ps(color,
+                       sampleBilinear(textures[static_cast<size_t>(t.texture)], s, r));
+  }
+  // GL's float-to-unorm conversion: clamp to [0, 1], scale, round to nearest
+  color = _mm_min_ps(_mm_max_ps(color, _mm_setzero_ps()), _mm_set1_ps(1.0f));
+  const __m128i bytes = _mm_cvttps_epi32(
+      _mm_add_ps(_mm_mul_ps(color, _mm_set1_ps(255.0f)), _mm_set1_ps(0.5f)));
+  alignas(16) int32_t values[4];
+  _mm_store_si128(reinterpret_cast<__m128i*>(values), bytes);
+  return static_cast<uint32_t>(values[0]) | static_cast<uint32_t>(values[1]) << 8 |
+         static_cast<uint32_t>(values[2]) << 16;
+}
+
+// ---------------------------------------------------------------------------
+// AVX-512 shading of a whole packet
+// ---------------------------------------------------------------------------
+
+// All textures in one RGB8 buffer (plus 4 bytes of padding so a 4-byte
+// gather of the last texel stays inside it), addressed by byte offset.
+struct PackedTextures {
+  std::vector<uint8_t> texels;
+  std::vector<int32_t> offset;
+  std::vector<int32_t> width;
+  std::vector<int32_t> height;
+};
+
+// The packed copy of the mesh's textures, or nullopt when they exceed the
+// 32-bit offsets of the gathers.
+std::optional<PackedTextures> packTextures(const TriangleMesh& mesh) {
+  PackedTextures packed;
+  size_t total = 0;
+  for (const Texture& texture : mesh.textures) total += texture.rgb.size();
+  if (total + 4 > static_cast<size_t>(std::numeric_limits<int32_t>::max()))
+    return std::nullopt;
+  packed.texels.reserve(total + 4);
+  for (const Texture& texture : mesh.textures) {
+    packed.offset.push_back(static_cast<int32_t>(packed.texels.size()));
+    packed.width.push_back(texture.width);
+    packed.height.push_back(texture.height);
+    packed.texels.insert(packed.texels.end(), texture.rgb.begin(), texture.rgb.end());
+  }
+  packed.texels.resize(packed.texels.size() + 4, 0);
+  // gathers index these by texture id; keep them non-empty
+  if (packed.offset.empty()) {
+    packed.offset.push_back(0);
+    packed.width.push_back(1);
+    packed.height.push_back(1);
+  }
+  return packed;
+}
+
+bool cpuHasAvx512() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx512f") != 0;
+}
+
+// Everything up to the matching pop_options is compiled for AVX-512F + FMA
+// (lambdas included, which a function attribute would not cover) and only
+// called after cpuHasAvx512().
+#pragma GCC push_options
+#pragma GCC target("avx512f,fma")
+
+// GCC 12's unmasked forms of several intrinsics start from an "undefined"
+// register and trip -Wuninitialized; the all-lanes zero-masked forms are the
+// same instructions without the warning.
+constexpr __mmask16 kAll = 0xFFFF;
+
+// The same rule as shadeScalar() for the 16 lanes of a packet at once (the
+// scalar path takes ~100 instructions per textured pixel; this ~15).
+// Lanes outside `hitMask` get 0. Results equal shadeScalar()'s up to the
+// rounding of fused multiply-adds (at most one level, rarely).
+void shadePacketAvx512(const TriangleShade* table,
+                                  const PackedTextures& textures,
+                                  const RTCHit16& hits, unsigned hitMask,
+                                  uint32_t packed[kPacket]) {
+  const __mmask16 lanes = static_cast<__mmask16>(hitMask);
+  const __m512i zero = _mm512_setzero_si512();
+  const __m512 zerof = _mm512_setzero_ps();
+  // fields of each lane's TriangleShade record (16 floats per record)
+  const __m512i record = _mm512_maskz_slli_epi32(kAll, 
+      _mm512_maskz_loadu_epi32(lanes, hits.primID), 4);
+  const auto* base = reinterpret_cast<const float*>(table);
+  auto field = [&](int index) {
+    return _mm512_mask_i32gather_ps(zerof, lanes,
+                                    _mm512_add_epi32(record, _mm512_set1_epi32(index)),
+                                    base, 4);
+  };
+  const __m512 u = _mm512_maskz_loadu_ps(lanes, hits.u);
+  const __m512 v = _mm512_maskz_loadu_ps(lanes, hits.v);
+  __m512 r = _mm512_fmadd_ps(v, field(8), _mm512_fmadd_ps(u, field(4), field(0)));
+  __m512 g = _mm512_fmadd_ps(v, field(9), _mm512_fmadd_ps(u, field(5), field(1)));
+  __m512 b = _mm512_fmadd_ps(v, field(10), _mm512_fmadd_ps(u, field(6), field(2)));
+  const __m512i texture = _mm512_castps_si512(field(3));
+  const __mmask16 textured = _mm512_mask_cmpge_epi32_mask(lanes, texture, zero);
+
+  if (textured != 0) {
+    // uv, sanitised and wrapped into [0, 1) as in sampleBilinear()
+    __m512 s = _mm512_fmadd_ps(v, field(14), _mm512_fmadd_ps(u, field(12), field(7)));
+    __m512 t = _mm512_fmadd_ps(v, field(15), _mm512_fmadd_ps(u, field(13), field(11)));
+    const __m512 limit = _mm512_set1_ps(1e6f);
+    s = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(_mm512_abs_ps(s), limit, _CMP_LT_OQ), s);
+    t = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(_mm512_abs_ps(t), limit, _CMP_LT_OQ), t);
+    constexpr int kFloor = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
+    s = _mm512_sub_ps(s, _mm512_maskz_roundscale_ps(kAll, s, kFloor));
+    t = _mm512_sub_ps(t, _mm512_maskz_roundscale_ps(kAll, t, kFloor));
+    const __m512i width = _mm512_mask_i32gather_epi32(zero, textured, texture,
+                                                      textures.width.data(), 4);
+    const __m512i height = _mm512_mask_i32gather_epi32(zero, textured, texture,
+                                                       textures.height.data(), 4);
+    const __m512i offset = _mm512_mask_i32gather_epi32(zero, textured, texture,
+                                                       textures.offset.data(), 4);
+    const __m512 half = _mm512_set1_ps(0.5f);
+    const __m512 x = _mm512_fmsub_ps(s, _mm512_maskz_cvtepi32_ps(kAll, width), half);
+    const __m512 y = _mm512_fmsub_ps(t, _mm512_maskz_cvtepi32_ps(kAll, height), half);
+    const __m512 x0f = _mm512_maskz_roundscale_ps(kAll, x, kFloor);
+    const __m512 y0f = _mm512_maskz_roundscale_ps(kAll, y, kFloor);
+    const __m512 fx = _mm512_sub_ps(x, x0f);
+    const __m512 fy = _mm512_sub_ps(y, y0f);
+    // texel indices wrapped with one comparison each
+    __m512i x0 = _mm512_maskz_cvttps_epi32(kAll, x0f);
+    __m512i y0 = _mm512_maskz_cvttps_epi32(kAll, y0f);
+    const __m512i one = _mm512_set1_epi32(1);
+    __m512i x1 = _mm512_add_epi32(x0, one);
+    __m512i y1 = _mm512_add_epi32(y0, one);
+    x0 = _mm512_mask_add_epi32(x0, _mm512_cmplt_epi32_mask(x0, zero), x0, width);
+    y0 = _mm512_mask_add_epi32(y0, _mm512_cmplt_epi32_mask(y0, zero), y0, height);
+    x1 = _mm512_mask_sub_epi32(x1, _mm512_cmpge_epi32_mask(x1, width), x1, width);
+    y1 = _mm512_mask_sub_epi32(y1, _mm512_cmpge_epi32_mask(y1, height), y1, height);
+    // byte addresses of the four texels
+    const __m512i three = _mm512_set1_epi32(3);
+    const __m512i row0 = _mm512_mullo_epi32(y0, width);
+    const __m512i row1 = _mm512_mullo_epi32(y1, width);
+    auto address = [&](__m512i row, __m512i column) {
+      return _mm512_add_epi32(offset, _mm512_mullo_epi32(_mm512_add_epi32(row, column), three));
+    };
+    const auto* texels = reinterpret_cast<const int*>(textures.texels.data());
+    auto fetch = [&](__m512i at) {
+      return _mm512_mask_i32gather_epi32(zero, textured, at, texels, 1);
+    };
+    const __m512i t00 = fetch(address(row0, x0));
+    const __m512i t10 = fetch(address(row0, x1));
+    const __m512i t01 = fetch(address(row1, x0));
+    const __m512i t11 = fetch(address(row1, x1));
+    const __m512 inv255 = _mm512_set1_ps(1.0f / 255.0f);
+    const __m512 onef = _mm512_set1_ps(1.0f);
+    const __m512 gx = _mm512_sub_ps(onef, fx);
+    const __m512 gy = _mm512_sub_ps(onef, fy);
+    const __m512 w00 = _mm512_mul_ps(_mm512_mul_ps(gx, gy), inv255);
+    const __m512 w10 = _mm512_mul_ps(_mm512_mul_ps(fx, gy), inv255);
+    const __m512 w01 = _mm512_mul_ps(_mm512_mul_ps(gx, fy), inv255);
+    const __m512 w11 = _mm512_mul_ps(_mm512_mul_ps(fx, fy), inv255);
+    const __m512i byteMask = _mm512_set1_epi32(0xFF);
+    auto channel = [&](int shift) {
+      auto value = [&](__m512i texel) {
+        return _mm512_maskz_cvtepi32_ps(kAll, 
+            _mm512_and_si512(_mm512_maskz_srli_epi32(kAll, texel, static_cast<unsigned>(shift)), byteMask));
+      };
+      return _mm512_fmadd_ps(
+          w11, value(t11),
+          _mm512_fmadd_ps(w01, value(t01),
+                          _mm512_fmadd_ps(w10, value(t10), _mm512_mul_ps(w00, value(t00)))));
+    };
+    r = _mm512_mask_mul_ps(r, textured, r, channel(0));
+    g = _mm512_mask_mul_ps(g, textured, g, channel(8));
+    b = _mm512_mask_mul_ps(b, textured, b, channel(16));
+  }
+
+  // GL's float-to-unorm conversion, then r | g << 8 | b << 16
+  const __m512 scale = _mm512_set1_ps(255.0f);
+  const __m512 half = _mm512_set1_ps(0.5f);
+  const __m512 onef = _mm512_set1_ps(1.0f);
+  auto toByte = [&](__m512 c) {
+    c = _mm512_maskz_min_ps(kAll, _mm512_maskz_max_ps(kAll, c, zerof), onef);
+    return _mm512_maskz_cvttps_epi32(kAll, _mm512_fmadd_ps(c, scale, half));
+  };
+  const __m512i rgb = _mm512_or_si512(
+      toByte(r), _mm512_or_si512(_mm512_maskz_slli_epi32(kAll, toByte(g), 8),
+                                 _mm512_maskz_slli_epi32(kAll, toByte(b), 16)));
+  _mm512_storeu_si512(packed, _mm512_maskz_mov_epi32(lanes, rgb));
+}
+
+#pragma GCC pop_options
 
 // ---------------------------------------------------------------------------
 // EmbreeRenderer
@@ -105,16 +381,15 @@ class EmbreeRenderer final : public Renderer {
  public:
   EmbreeRenderer(const TriangleMesh& mesh, const RayTracer& rayTracer)
       : mesh_(mesh), scene_(static_cast<RTCScene>(rayTracer.embreeScene())) {
-    // slot 0 is the default material of triangles without one
-    materials_.emplace_back();
-    for (const Material& m : mesh.materials) {
-      ShadeMaterial shade;
-      shade.r = m.base_color[0];
-      shade.g = m.base_color[1];
-      shade.b = m.base_color[2];
-      if (m.texture >= 0) shade.texture = &mesh.textures[m.texture];
-      materials_.push_back(shade);
-    }
+    for (const Texture& texture : mesh.textures)
+      textures_.push_back({texture.rgb.data(),
+                           texture.rgb.data() + texture.rgb.size(),
+                           texture.width, texture.height});
+    // the packet shader needs AVX-512F; VLN_EMBREE_SHADING=scalar forces the
+    // SSE2 path (tests compare the two)
+    const char* forced = std::getenv("VLN_EMBREE_SHADING");
+    const bool scalarOnly = forced != nullptr && std::string_view(forced) == "scalar";
+    if (!scalarOnly && cpuHasAvx512()) packedTextures_ = packTextures(mesh);
   }
 
   void renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
@@ -151,11 +426,16 @@ class EmbreeRenderer final : public Renderer {
   void updateRayTable(const CameraIntrinsics& camera);
   void render(const CameraPose& pose, const CameraIntrinsics& camera,
               unsigned outputs, uint8_t* rgb, float* depth, int32_t* objects);
-  void shade(unsigned triangle, float u, float v, uint8_t* out) const;
+  void shadePacket(const RTCHit16& hits, unsigned hitMask,
+                   uint32_t packed[kPacket]) const;
 
   const TriangleMesh& mesh_;
   RTCScene scene_;
-  std::vector<ShadeMaterial> materials_;
+  // built on the first colour render: depth-only renderers never pay for it
+  std::vector<TriangleShade> shadeTable_;
+  std::vector<TextureView> textures_;
+  // set when the CPU has AVX-512 (and the textures fit its 32-bit offsets)
+  std::optional<PackedTextures> packedTextures_;
   // camera-frame ray slopes per column (x) and row (y) of the last intrinsics
   CameraIntrinsics tableCamera_{0, 0, 0.0f};
   std::vector<float> columnX_;
@@ -185,6 +465,7 @@ void EmbreeRenderer::render(const CameraPose& pose,
                             uint8_t* rgb, float* depth, int32_t* objects) {
   FlushDenormalsScope flushDenormals;
   updateRayTable(camera);
+  if ((outputs & kColor) && shadeTable_.empty()) shadeTable_ = buildShadeTable(mesh_);
   const Eigen::Matrix3f rotation = cameraToWorld(pose);
   const Vec3f right = rotation.col(0);
   const Vec3f up = rotation.col(1);
@@ -198,51 +479,63 @@ void EmbreeRenderer::render(const CameraPose& pose,
   context.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   RTCRayHit16 packet;
   alignas(64) int valid[kPacket];
+  // Embree only writes tfar and the hit, so the rest of the rays is set once
+  for (int k = 0; k < kPacket; ++k) {
+    packet.ray.org_x[k] = pose.eye.x();
+    packet.ray.org_y[k] = pose.eye.y();
+    packet.ray.org_z[k] = pose.eye.z();
+    packet.ray.tnear[k] = 0.0f;
+    packet.ray.time[k] = 0.0f;
+    packet.ray.mask[k] = std::numeric_limits<unsigned>::max();
+    packet.ray.id[k] = static_cast<unsigned>(k);
+    packet.ray.flags[k] = 0;
+  }
 
   for (int tileY = 0; tileY < height; tileY += kTile) {
     for (int tileX = 0; tileX < width; tileX += kTile) {
       // primary rays of one 4x4 tile; directions have unit length along the
       // optical axis, so the hit distance t is the z-depth itself
       for (int k = 0; k < kPacket; ++k) {
-        const int i = tileX + k % kTile;
+        const int i = tileX + (k & (kTile - 1));
         const int j = tileY + k / kTile;
         valid[k] = (i < width && j < height) ? -1 : 0;
-        const Vec3f dir = columnX_[i] * right + rowY_[j] * up + forward;
-        packet.ray.org_x[k] = pose.eye.x();
-        packet.ray.org_y[k] = pose.eye.y();
-        packet.ray.org_z[k] = pose.eye.z();
-        packet.ray.dir_x[k] = dir.x();
-        packet.ray.dir_y[k] = dir.y();
-        packet.ray.dir_z[k] = dir.z();
-        packet.ray.tnear[k] = 0.0f;
+        const float x = columnX_[static_cast<size_t>(i)];
+        const float y = rowY_[static_cast<size_t>(j)];
+        packet.ray.dir_x[k] = x * right.x() + y * up.x() + forward.x();
+        packet.ray.dir_y[k] = x * right.y() + y * up.y() + forward.y();
+        packet.ray.dir_z[k] = x * right.z() + y * up.z() + forward.z();
         packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
-        packet.ray.time[k] = 0.0f;
-        packet.ray.mask[k] = std::numeric_limits<unsigned>::max();
-        packet.ray.id[k] = static_cast<unsigned>(k);
-        packet.ray.flags[k] = 0;
         packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
       }
       rtcIntersect16(valid, scene_, &context, &packet);
 
-      // write the tile's pixels
-      for (int k = 0; k < kPacket; ++k) {
-        if (valid[k] == 0) continue;
-        const int i = tileX + k % kTile;
-        const int j = tileY + k / kTile;
-        const size_t pixel = static_cast<size_t>(j) * static_cast<size_t>(width) +
-                             static_cast<size_t>(i);
-        const bool hit = packet.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID;
-        const unsigned triangle = packet.hit.primID[k];
-        if (outputs & kDepth) depth[pixel] = hit ? packet.ray.tfar[k] : 0.0f;
-        if (outputs & kObject)
-          objects[pixel] =
-              (hit && !triangleObject.empty()) ? triangleObject[triangle] : -1;
-        if (outputs & kColor) {
-          uint8_t* out = rgb + 3 * pixel;
-          if (hit) {
-            shade(triangle, packet.hit.u[k], packet.hit.v[k], out);
-          } else {
-            out[0] = out[1] = out[2] = 0;
+      unsigned hitMask = 0;
+      for (int k = 0; k < kPacket; ++k)
+        if (valid[k] != 0 && packet.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID)
+          hitMask |= 1u << k;
+      alignas(64) uint32_t colors[kPacket];
+      if (outputs & kColor) shadePacket(packet.hit, hitMask, colors);
+
+      // write the tile's rows (the last tiles may overhang the image)
+      const int rows = std::min(kTile, height - tileY);
+      const int columns = std::min(kTile, width - tileX);
+      for (int row = 0; row < rows; ++row) {
+        const size_t first = static_cast<size_t>(tileY + row) * static_cast<size_t>(width) +
+                             static_cast<size_t>(tileX);
+        for (int column = 0; column < columns; ++column) {
+          const int k = row * kTile + column;
+          const bool hit = (hitMask >> k) & 1u;
+          const size_t pixel = first + static_cast<size_t>(column);
+          if (outputs & kDepth) depth[pixel] = hit ? packet.ray.tfar[k] : 0.0f;
+          if (outputs & kObject)
+            objects[pixel] = (hit && !triangleObject.empty())
+                                 ? triangleObject[packet.hit.primID[k]]
+                                 : -1;
+          if (outputs & kColor) {
+            uint8_t* out = rgb + 3 * pixel;
+            out[0] = static_cast<uint8_t>(colors[k]);
+            out[1] = static_cast<uint8_t>(colors[k] >> 8);
+            out[2] = static_cast<uint8_t>(colors[k] >> 16);
           }
         }
       }
@@ -250,36 +543,17 @@ void EmbreeRenderer::render(const CameraPose& pose,
   }
 }
 
-void EmbreeRenderer::shade(unsigned triangle, float u, float v,
-                           uint8_t* out) const {
-  // colour = base colour x vertex colour x texture, all interpolated with the
-  // hit's barycentrics (p = (1-u-v) p0 + u p1 + v p2, Embree's convention)
-  const uint32_t* corner = mesh_.indices.data() + 3 * static_cast<size_t>(triangle);
-  const float w = 1.0f - u - v;
-  float color[3] = {1.0f, 1.0f, 1.0f};
-  if (!mesh_.colors.empty()) {
-    const Rgb8& c0 = mesh_.colors[corner[0]];
-    const Rgb8& c1 = mesh_.colors[corner[1]];
-    const Rgb8& c2 = mesh_.colors[corner[2]];
-    for (int c = 0; c < 3; ++c)
-      color[c] = (w * c0[c] + u * c1[c] + v * c2[c]) * (1.0f / 255.0f);
+void EmbreeRenderer::shadePacket(const RTCHit16& hits, unsigned hitMask,
+                                 uint32_t packed[kPacket]) const {
+  if (packedTextures_) {
+    shadePacketAvx512(shadeTable_.data(), *packedTextures_, hits, hitMask, packed);
+    return;
   }
-  const int material =
-      mesh_.triangle_material.empty() ? -1 : mesh_.triangle_material[triangle];
-  const ShadeMaterial& m = materials_[static_cast<size_t>(material + 1)];
-  color[0] *= m.r;
-  color[1] *= m.g;
-  color[2] *= m.b;
-  if (m.texture != nullptr) {
-    Vec2f uv = Vec2f::Zero();
-    if (!mesh_.uvs.empty())
-      uv = w * mesh_.uvs[corner[0]] + u * mesh_.uvs[corner[1]] +
-           v * mesh_.uvs[corner[2]];
-    float texel[3];
-    sampleBilinear(*m.texture, uv.x(), uv.y(), texel);
-    for (int c = 0; c < 3; ++c) color[c] *= texel[c];
+  for (int k = 0; k < kPacket; ++k) {
+    packed[k] = (hitMask >> k) & 1u
+                    ? shadeScalar(shadeTable_[hits.primID[k]], hits.u[k], hits.v[k], textures_)
+                    : 0u;
   }
-  for (int c = 0; c < 3; ++c) out[c] = toUnorm8(color[c]);
 }
 
 }  // namespace

@@ -11,7 +11,10 @@ namespace vln::sim {
 /// A renderer that traces one primary ray per pixel through `rayTracer`'s
 /// BVH in coherent 4x4 packets (rtcIntersect16) and shades the hit with the
 /// unlit material rule of Renderer.h. `mesh` and `rayTracer` must outlive it.
-/// Creation is cheap (no copy of the scene).
+/// Creation is cheap (no copy of the scene; the first colour render builds a
+/// 64-byte shading record per triangle). On CPUs with AVX-512F whole packets
+/// are shaded at once; setting VLN_EMBREE_SHADING=scalar before creation
+/// forces the portable SSE2 path (the two agree to one colour level).
 std::unique_ptr<Renderer> createEmbreeRenderer(const TriangleMesh& mesh,
                                                const RayTracer& rayTracer);
 
