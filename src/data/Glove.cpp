@@ -188,22 +188,25 @@ WordVectors readGloveText(const std::filesystem::path& file,
       return strCat("readGloveText(): '", file.string(), "' line ", lineNumber);
     };
 
-    // the first row fixes the dimension unless it was given; a word2vec
-    // "<count> <dim>" header gives it too and is not a row
-    if (dim == 0) {
+    // a word2vec "<count> <dim>" header may open the file; it is not a row
+    // (a 1-d first row such as "7 3" looks the same: pass dim = 1 for such
+    // files)
+    if (vectors.dim() == 0) {
       auto fields = splitSpaces(text);
       int64_t count = 0;
       int64_t headerDim = 0;
       if (fields.size() == 2 && parseInt(fields[0], count) &&
-          parseInt(fields[1], headerDim) && headerDim >= 1) {
+          parseInt(fields[1], headerDim) && headerDim >= 2 &&
+          (dim == 0 || headerDim == dim)) {
         dim = static_cast<int>(headerDim);
         vectors = WordVectors(dim);
         continue;
       }
+      // otherwise the first row fixes the dimension unless it was given
       VLN_CHECK_ARG(fields.size() >= 2, where(),
                     ": expected 'word v1 ... vN', got '", text.substr(0, 80),
                     "'");
-      dim = static_cast<int>(fields.size()) - 1;
+      if (dim == 0) dim = static_cast<int>(fields.size()) - 1;
     }
     if (vectors.dim() == 0) vectors = WordVectors(dim);
 

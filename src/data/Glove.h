@@ -80,7 +80,8 @@ struct GloveReadOptions {
 /// the vector and everything before them is the word, so the tokens of
 /// glove.840B that contain spaces (". . .", "at name@domain.com") are read
 /// whole; a repeated word keeps its first row; a word2vec-style "<count>
-/// <dim>" header line is skipped; empty lines are ignored. Throws
+/// <dim>" first line (dim >= 2) is skipped; empty lines and rows whose word
+/// is empty are ignored. Throws
 /// std::runtime_error when the file cannot be read and
 /// std::invalid_argument naming the file and the 1-based line for a row
 /// with fewer than N values, with more than N numeric values, or with a

@@ -79,6 +79,16 @@ TEST(GloveTest, ToleratesHeadersCrlfGzipAndFiltersWords) {
   EXPECT_EQ(vectors.dim(), 2);
   EXPECT_THAT(vectors.words(), ElementsAre("left", "right"));
   EXPECT_THAT(row(vectors, "right"), ElementsAre(3.0f, 4.0f));
+  GloveReadOptions twoD;
+  twoD.dim = 2;
+  EXPECT_EQ(readGloveText(dir / "w2v.txt", twoD).size(), 2);
+  twoD.dim = 1;
+  test::writeText(dir / "one.txt", "7 3\nx 0.5\n");
+  EXPECT_THAT(readGloveText(dir / "one.txt", twoD).words(),
+              ElementsAre("7", "x"));
+  // glove.840B has rows whose word is empty; nothing could look them up
+  test::writeText(dir / "empty.txt", "a 1 2\n 3 4\nb 5 6\n");
+  EXPECT_THAT(readGloveText(dir / "empty.txt").words(), ElementsAre("a", "b"));
 
   // gzip is detected by content; only_words keeps the requested rows
   common::writeFileAtomic(dir / "glove.txt.gz",
