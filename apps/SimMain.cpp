@@ -11,11 +11,12 @@
 //   vlnce-sim navmesh --scene F [--map out.png] [--meters-per-pixel M]
 //     prints polygon count, islands with their areas and the navigable area.
 //   vlnce-sim bench (--scene F | --procedural SEED) [--res N] [--backend B]
-//       [--frames K] [--threads T] [--subdivide L]
+//       [--frames K] [--threads T] [--subdivide N]
 //     prints frames/s for RGB, depth and RGB-D at NxN from random navigable
 //     poses, and agent steps/s; with --threads, one renderer per thread and
-//     the aggregate rate. --subdivide splits every triangle into 4^L (dense
-//     meshes for the large-scene target).
+//     the aggregate rate. --subdivide N splits every triangle into N^2
+//     (dense meshes for the large-scene target: house 1 with N = 10 has
+//     645,800 triangles).
 
 #include <CLI/CLI.hpp>
 
@@ -25,6 +26,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <string>
@@ -69,47 +71,62 @@ RendererBackend parseBackend(const std::string& name) {
       strCat("vlnce-sim: --backend must be embree or osmesa, got '", name, "'"));
 }
 
-// Every triangle split into four at its edge midpoints, `levels` times;
-// vertex attributes are interpolated and per-triangle ones inherited, so the
-// images stay the same while the triangle count grows 4^levels.
-TriangleMesh subdivide(TriangleMesh mesh, int levels) {
-  for (int level = 0; level < levels; ++level) {
-    TriangleMesh out;
-    out.materials = mesh.materials;
-    out.textures = mesh.textures;
-    const bool colors = !mesh.colors.empty();
-    const bool uvs = !mesh.uvs.empty();
-    auto vertex = [&](uint32_t a, uint32_t b) {
-      // midpoint (a == b: the corner itself); duplicated vertices are fine
-      // for rendering and keep this a single pass
-      out.positions.push_back(0.5f * (mesh.positions[a] + mesh.positions[b]));
-      if (colors) {
-        Rgb8 c;
-        for (int k = 0; k < 3; ++k)
-          c[k] = static_cast<uint8_t>((mesh.colors[a][k] + mesh.colors[b][k] + 1) / 2);
-        out.colors.push_back(c);
-      }
-      if (uvs) out.uvs.push_back(0.5f * (mesh.uvs[a] + mesh.uvs[b]));
-      return static_cast<uint32_t>(out.positions.size() - 1);
-    };
-    for (size_t t = 0; t < mesh.triangleCount(); ++t) {
-      const uint32_t i0 = mesh.indices[3 * t];
-      const uint32_t i1 = mesh.indices[3 * t + 1];
-      const uint32_t i2 = mesh.indices[3 * t + 2];
-      const uint32_t c0 = vertex(i0, i0), c1 = vertex(i1, i1), c2 = vertex(i2, i2);
-      const uint32_t m01 = vertex(i0, i1), m12 = vertex(i1, i2), m20 = vertex(i2, i0);
-      for (uint32_t index : {c0, m01, m20, m01, c1, m12, m20, m12, c2, m01, m12, m20})
-        out.indices.push_back(index);
-      for (int k = 0; k < 4; ++k) {
-        if (!mesh.triangle_material.empty())
-          out.triangle_material.push_back(mesh.triangle_material[t]);
-        if (!mesh.triangle_object.empty())
-          out.triangle_object.push_back(mesh.triangle_object[t]);
+// Every triangle split into n x n smaller ones on a barycentric grid
+// (edges cut into n pieces); vertex colours and uvs are interpolated and
+// per-triangle data inherited, so the images stay the same while the
+// triangle count grows n^2-fold (dense meshes for the large-scene target).
+TriangleMesh subdivide(const TriangleMesh& mesh, int n) {
+  TriangleMesh out;
+  out.materials = mesh.materials;
+  out.textures = mesh.textures;
+  const bool colors = !mesh.colors.empty();
+  const bool uvs = !mesh.uvs.empty();
+  const float step = 1.0f / static_cast<float>(n);
+  std::vector<uint32_t> grid;
+  for (size_t t = 0; t < mesh.triangleCount(); ++t) {
+    const uint32_t c[3] = {mesh.indices[3 * t], mesh.indices[3 * t + 1],
+                           mesh.indices[3 * t + 2]};
+    // vertices at barycentric (i/n, j/n) towards corners 1 and 2, i + j <= n
+    grid.clear();
+    for (int i = 0; i <= n; ++i) {
+      for (int j = 0; i + j <= n; ++j) {
+        const float b1 = static_cast<float>(i) * step;
+        const float b2 = static_cast<float>(j) * step;
+        const float b0 = 1.0f - b1 - b2;
+        out.positions.push_back(b0 * mesh.positions[c[0]] + b1 * mesh.positions[c[1]] +
+                                b2 * mesh.positions[c[2]]);
+        if (colors) {
+          Rgb8 color;
+          for (int k = 0; k < 3; ++k)
+            color[k] = static_cast<uint8_t>(std::lround(
+                b0 * mesh.colors[c[0]][k] + b1 * mesh.colors[c[1]][k] + b2 * mesh.colors[c[2]][k]));
+          out.colors.push_back(color);
+        }
+        if (uvs)
+          out.uvs.push_back(b0 * mesh.uvs[c[0]] + b1 * mesh.uvs[c[1]] + b2 * mesh.uvs[c[2]]);
+        grid.push_back(static_cast<uint32_t>(out.positions.size() - 1));
       }
     }
-    mesh = std::move(out);
+    // row i holds n + 1 - i vertices
+    auto at = [&](int i, int j) {
+      return grid[static_cast<size_t>(i * (n + 1) - i * (i - 1) / 2 + j)];
+    };
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; i + j < n; ++j) {
+        for (uint32_t index : {at(i, j), at(i + 1, j), at(i, j + 1)})
+          out.indices.push_back(index);
+        if (i + j + 1 < n)
+          for (uint32_t index : {at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)})
+            out.indices.push_back(index);
+      }
+    }
+    const size_t pieces = static_cast<size_t>(n) * static_cast<size_t>(n);
+    if (!mesh.triangle_material.empty())
+      out.triangle_material.insert(out.triangle_material.end(), pieces, mesh.triangle_material[t]);
+    if (!mesh.triangle_object.empty())
+      out.triangle_object.insert(out.triangle_object.end(), pieces, mesh.triangle_object[t]);
   }
-  return mesh;
+  return out;
 }
 
 // ---------------------------------------------------------------------------
@@ -203,7 +220,7 @@ struct BenchArgs {
   std::string backend = "embree";
   int frames = 1000;
   int threads = 1;
-  int subdivide = 0;
+  int subdivide = 1;
 };
 
 enum class Pass { kRgb, kDepth, kRgbDepth };
@@ -224,13 +241,14 @@ struct Rate {
 
 // Frames per second of `pass` over `frames` renders per thread, one
 // renderer per thread, all threads starting together.
-Rate measurePass(const Scene& scene, RendererBackend backend,
+Rate measurePass(const TriangleMesh& mesh, const RayTracer& tracer,
+                 RendererBackend backend,
                    const std::vector<CameraPose>& poses,
                    const CameraIntrinsics& camera, int frames, int threads,
                    Pass pass) {
   std::vector<std::unique_ptr<Renderer>> renderers;
   for (int t = 0; t < threads; ++t)
-    renderers.push_back(createRenderer(scene.mesh(), scene.rayTracer(), backend));
+    renderers.push_back(createRenderer(mesh, tracer, backend));
   std::atomic<int> ready{0};
   std::atomic<bool> go{false};
   auto work = [&](int t) {
@@ -307,8 +325,8 @@ int runBench(const BenchArgs& args) {
                 args.frames);
   VLN_CHECK_ARG(args.threads >= 1 && args.threads <= 256,
                 "vlnce-sim bench: --threads must be in [1, 256], got ", args.threads);
-  VLN_CHECK_ARG(args.subdivide >= 0 && args.subdivide <= 6,
-                "vlnce-sim bench: --subdivide must be in [0, 6], got ",
+  VLN_CHECK_ARG(args.subdivide >= 1 && args.subdivide <= 64,
+                "vlnce-sim bench: --subdivide must be in [1, 64], got ",
                 args.subdivide);
   const RendererBackend backend = parseBackend(args.backend);
 
@@ -329,18 +347,18 @@ int runBench(const BenchArgs& args) {
     semantics = std::move(house.semantics);
     name = house.name;
   }
-  const auto coarse = Scene::fromMesh(name, mesh, semantics, NavMeshConfig{});
-  std::shared_ptr<const Scene> scene = coarse;
-  if (args.subdivide > 0) {
-    scene = Scene::fromMesh(name, subdivide(mesh, args.subdivide), semantics,
-                            NavMeshConfig{});
-  }
-  const size_t triangles = scene->mesh().triangleCount();
+  // the navmesh (poses, agent steps) comes from the original triangles; the
+  // renderers trace or rasterise the subdivided ones, which lie on the same
+  // surfaces
+  const auto scene = Scene::fromMesh(name, mesh, semantics, NavMeshConfig{});
+  std::optional<TriangleMesh> dense;
+  if (args.subdivide > 1) dense = subdivide(scene->mesh(), args.subdivide);
+  const TriangleMesh& rendered = dense ? *dense : scene->mesh();
   common::Stopwatch bvh;
-  scene->rayTracer();
+  const RayTracer tracer(rendered);
   const double bvhSeconds = bvh.seconds();
-  std::printf("scene: %s, %zu triangles, setup %.2f s (BVH %.2f s)\n", name.c_str(),
-              triangles, setup.seconds(), bvhSeconds);
+  std::printf("scene: %s, %zu triangles rendered, setup %.2f s (BVH %.2f s)\n",
+              name.c_str(), rendered.triangleCount(), setup.seconds(), bvhSeconds);
 
   // random navigable poses on the main island, eye at VLN-CE's 1.25 m
   std::mt19937_64 rng(12345);
@@ -359,11 +377,11 @@ int runBench(const BenchArgs& args) {
               lpThreads ? lpThreads : "(unset)");
   std::printf("load average (1 min) before measuring: %s\n", loadAverage().c_str());
   const CameraIntrinsics camera{args.res, args.res, 90.0f};
-  const Rate rgb = measurePass(*scene, backend, poses, camera, args.frames,
+  const Rate rgb = measurePass(rendered, tracer, backend, poses, camera, args.frames,
                                  args.threads, Pass::kRgb);
-  const Rate depth = measurePass(*scene, backend, poses, camera, args.frames,
+  const Rate depth = measurePass(rendered, tracer, backend, poses, camera, args.frames,
                                    args.threads, Pass::kDepth);
-  const Rate rgbd = measurePass(*scene, backend, poses, camera, args.frames,
+  const Rate rgbd = measurePass(rendered, tracer, backend, poses, camera, args.frames,
                                   args.threads, Pass::kRgbDepth);
   const Rate steps = measureSteps(scene, starts, args.frames * 20, args.threads);
   const double pixels = static_cast<double>(camera.width) * camera.height;
@@ -414,7 +432,8 @@ int main(int argc, char** argv) {
     benchCmd->add_option("--backend", bench.backend, "embree or osmesa");
     benchCmd->add_option("--frames", bench.frames, "Frames per thread and pass");
     benchCmd->add_option("--threads", bench.threads, "Renderers in parallel, one per thread");
-    benchCmd->add_option("--subdivide", bench.subdivide, "Split triangles into 4^L");
+    benchCmd->add_option("--subdivide", bench.subdivide,
+                         "Split every triangle into N x N (edges cut in N)");
 
     try {
       app.parse(argc, argv);

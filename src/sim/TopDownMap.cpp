@@ -33,6 +33,9 @@ constexpr float kFloorBand = 0.5f;
 // Blank border around the navigable area, metres: walls and objects at its
 // edge stay on the canvas.
 constexpr float kMargin = 0.5f;
+// Objects whose bottom is higher above the floor than this (metres) hang on
+// walls and get no label.
+constexpr float kLabelMaxBase = 0.3f;
 // Canvases beyond this many pixels mean a wrong scale, not a real map.
 constexpr double kMaxPixels = 64.0 * 1024.0 * 1024.0;
 // OpenCV drawing with 4 fractional bits keeps sub-pixel vertex positions.
@@ -186,7 +189,10 @@ TopDownMap::TopDownMap(const Scene& scene, float metersPerPixel, float floorY)
     const cv::Point hi = impl_->pixel(object.bounds.max());
     cv::rectangle(image, lo, hi, fill, cv::FILLED);
     cv::rectangle(image, lo, hi, kWall, 1);
-    drawText(object.bounds.center(), object.category, Rgb8{0, 0, 0});
+    // only furniture standing on the floor is labelled: windows and pictures
+    // on the walls would bury the map in overlapping text
+    if (object.bounds.min().y() < level + kLabelMaxBase)
+      drawText(object.bounds.center(), object.category, Rgb8{0, 0, 0});
   }
 }
 
