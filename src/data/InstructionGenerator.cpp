@@ -449,8 +449,8 @@ class Writer {
       }
       case TurnKind::kAround:
         if (!human_) return "turn around";
-        return pick(rng_, {"turn around", "turn around", "turn all the way around",
-                           "turn around completely"});
+        return pick(rng_, {"turn around", "turn around", "turn around",
+                           "turn all the way around"});
       case TurnKind::kStraight:
         break;
     }
@@ -490,7 +490,7 @@ class Writer {
                                           "head into the ", "step into the ",
                                           "enter the "}),
                              to);
-    if (hallway && chance(0.4))
+    if (hallway && chance(0.25))
       out += strCat(" and ", pick(rng_, {"walk down", "go down", "continue down",
                                          "walk along"}),
                     " the ", roomName(t.to));
@@ -540,6 +540,15 @@ class Writer {
   }
 
   // The object nearest to waypoint `w` to "turn at", or -1.
+  // True for objects already named or kept for the stop clause: each
+  // landmark is named once.
+  bool reserved(int object) const {
+    if (object == facts_.stop.object) return true;
+    const int id = semantics_.objects[static_cast<size_t>(object)].id;
+    return std::any_of(mentions_.begin(), mentions_.end(),
+                       [&](const LandmarkMention& m) { return m.object_id == id; });
+  }
+
   int turnAnchor(int w) const {
     const Vec3f& p = facts_.waypoints[static_cast<size_t>(w)];
     const int room = semantics_.roomAt(p);
@@ -547,7 +556,9 @@ class Writer {
     float bestDistance = kTurnAnchorDistance;
     for (size_t o = 0; o < semantics_.objects.size(); ++o) {
       const auto& object = semantics_.objects[o];
-      if (!names_[o].nameable || object.room != room || room < 0) continue;
+      if (!names_[o].nameable || object.room != room || room < 0 ||
+          reserved(static_cast<int>(o)))
+        continue;
       const float d = footprintDistance(object.bounds, p);
       if (d <= bestDistance) {
         bestDistance = d;
@@ -562,7 +573,7 @@ class Writer {
     // off is often left unsaid
     const TurnKind kind = facts_.initial;
     std::string text;
-    if (kind != TurnKind::kStraight || chance(human_ ? 0.35 : 0.5))
+    if (kind != TurnKind::kStraight || chance(human_ ? 0.2 : 0.3))
       text = turnPhrase(kind);
     // joined with leaving the start room when that comes first
     if (!facts_.transitions.empty() && facts_.transitions.front().s < 3.0f &&
@@ -576,11 +587,12 @@ class Writer {
   void middle(std::vector<Clause>& clauses, std::vector<bool>& transitionUsed) {
     // choose the landmarks this instruction mentions
     const double passChance =
-        human_ ? 0.2 + 0.4 * config_.detail : 1.0 - config_.speaker_drop_landmark;
+        human_ ? 0.1 + 0.3 * config_.detail : 1.0 - config_.speaker_drop_landmark;
     const size_t maxPasses = human_ ? 2 : 1;
     std::vector<int> chosen;
     for (size_t i = 0; i < facts_.passes.size(); ++i)
-      if (chosen.size() < maxPasses && chance(passChance))
+      if (chosen.size() < maxPasses &&
+          facts_.passes[i].object != facts_.stop.object && chance(passChance))
         chosen.push_back(static_cast<int>(i));
 
     // passes (pairs on opposite sides close together become "between")
@@ -603,8 +615,8 @@ class Writer {
     if (human_) {
       for (const Toward& t : facts_.towards) {
         // the stop landmark is named once, at the stop
-        if (legHasLandmark[static_cast<size_t>(t.leg)] || t.object == facts_.stop.object ||
-            !chance(0.3 * config_.detail + 0.1))
+        if (legHasLandmark[static_cast<size_t>(t.leg)] || reserved(t.object) ||
+            !chance(0.2 * config_.detail + 0.1))
           continue;
         legHasLandmark[static_cast<size_t>(t.leg)] = true;
         clauses.push_back({t.s + 0.01f, towardPhrase(t)});
@@ -616,16 +628,16 @@ class Writer {
       // annotators often leave slight bends unsaid
       const bool slight = turn.kind == TurnKind::kSlightLeft ||
                           turn.kind == TurnKind::kSlightRight;
-      if (slight && human_ && chance(0.5)) continue;
+      if (slight && chance(human_ ? 0.55 : 0.4)) continue;
       std::string text = turnPhrase(turn.kind);
       const int anchor = human_ ? turnAnchor(turn.waypoint) : -1;
-      if (anchor >= 0 && chance(0.5 * config_.detail + 0.1))
+      if (anchor >= 0 && chance(0.3 * config_.detail + 0.05))
         text += strCat(" at the ", objectPhrase(anchor, LandmarkRole::kTurnAt,
                                                 Side::kNone, turn.waypoint));
       for (size_t t = 0; t < facts_.transitions.size(); ++t) {
         const Transition& tr = facts_.transitions[t];
         if (transitionUsed[t] || tr.s < turn.s || tr.s > turn.s + 1.5f) continue;
-        if (human_ && chance(0.5)) {
+        if (human_ && chance(0.6)) {
           text += strCat(" into the ", roomName(tr.to));
           transitionUsed[t] = true;
         }
@@ -639,7 +651,7 @@ class Writer {
     for (size_t t = 0; t < facts_.transitions.size(); ++t) {
       if (transitionUsed[t]) continue;
       const bool intoGoalRoom = t + 1 == facts_.transitions.size();
-      if (!chance(intoGoalRoom ? 0.9 : (human_ ? 0.65 : 0.8))) continue;
+      if (!chance(intoGoalRoom ? 0.9 : (human_ ? 0.5 : 0.55))) continue;
       clauses.push_back({facts_.transitions[t].s - 0.01f,
                          transitionPhrase(facts_.transitions[t], t == 0)});
     }
@@ -649,7 +661,7 @@ class Writer {
       for (size_t leg = 0; leg + 1 < facts_.leg_start.size(); ++leg) {
         const float begin = facts_.leg_start[leg];
         const float end = facts_.leg_start[leg + 1];
-        if (end - begin < 3.0f || legHasLandmark[leg] || !chance(0.3)) continue;
+        if (end - begin < 3.0f || legHasLandmark[leg] || !chance(0.2)) continue;
         bool described = false;
         for (const Clause& c : clauses)
           if (c.s >= begin && c.s < end) described = true;

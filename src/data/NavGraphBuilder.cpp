@@ -93,9 +93,8 @@ bool isLargeFlat(const sim::SemanticObject& object, float floorY,
 // floor holes
 // ---------------------------------------------------------------------------
 
-std::vector<Hole> findHoles(const sim::Scene& scene) {
-  const auto& semantics = scene.semantics();
-  const sim::RayTracer& tracer = scene.rayTracer();
+std::vector<Hole> findHoles(const sim::SceneSemantics& semantics,
+                            const sim::RayTracer& tracer) {
   std::vector<Hole> holes;
   for (size_t r = 0; r < semantics.rooms.size(); ++r) {
     const sim::Room& room = semantics.rooms[r];
@@ -190,8 +189,11 @@ class FurnitureMap {
       return true;
     }
     // the four ways out of the grown footprint, nearest first
+    const float clearance =
+        config_.object_clearance +
+        uniformRange(rng, 0.0f, config_.object_clearance_spread) + 0.01f;
     const Eigen::AlignedBox2f box =
-        grow(footprintXZ(object->bounds), config_.object_clearance + 0.01f);
+        grow(footprintXZ(object->bounds), clearance);
     std::array<std::pair<float, Vec2f>, 4> exits = {{
         {c.xz.x() - box.min().x(), Vec2f(box.min().x(), c.xz.y())},
         {box.max().x() - c.xz.x(), Vec2f(box.max().x(), c.xz.y())},
@@ -277,13 +279,13 @@ std::string nodePlacementName(NodePlacement placement) {
   return {};
 }
 
-BuiltNavGraph buildNavGraph(const sim::Scene& scene,
+BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
+                            const sim::RayTracer& tracer,
                             const NavGraphBuildConfig& config, uint64_t seed) {
   config.validate();
-  const sim::SceneSemantics& semantics = scene.semantics();
-  VLN_CHECK_ARG(!semantics.rooms.empty(), "buildNavGraph(): scene '",
-                scene.name(),
-                "' has no room semantics to place panoramas in");
+  VLN_CHECK_ARG(!semantics.rooms.empty(),
+                "buildNavGraph(): the house has no room semantics to place "
+                "panoramas in");
   const FurnitureMap furniture(semantics, config);
   std::vector<Candidate> accepted;
   const auto farFromAccepted = [&](const Candidate& c) {
@@ -306,7 +308,7 @@ BuiltNavGraph buildNavGraph(const sim::Scene& scene,
   }
 
   // then holes in the floor, where the scan under a tripod failed
-  const std::vector<Hole> holes = findHoles(scene);
+  const std::vector<Hole> holes = findHoles(semantics, tracer);
   std::mt19937_64 holeRng(deriveSeed(seed, kHoleStream));
   for (const Hole& hole : holes) {
     if (!bernoulli(holeRng, config.hole_node_probability)) continue;
@@ -363,7 +365,6 @@ BuiltNavGraph buildNavGraph(const sim::Scene& scene,
   built.holes_found = static_cast<int>(holes.size());
 
   // edges: line of sight at camera height within reach
-  const sim::RayTracer& tracer = scene.rayTracer();
   const int n = built.graph.numNodes();
   std::vector<std::pair<int, int>> visible;
   std::vector<std::vector<std::pair<int, bool>>> adjacency(

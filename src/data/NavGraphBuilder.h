@@ -17,7 +17,8 @@
 
 #include "data/NavGraph.h"
 #include "data/WorldConfig.h"
-#include "sim/Scene.h"
+#include "sim/Mesh.h"
+#include "sim/RayTracer.h"
 
 namespace vln::data {
 
@@ -44,12 +45,13 @@ struct BuiltNavGraph {
   int holes_found = 0;
 };
 
-/// Builds the nav-graph of `scene` (a house with room, door and object
-/// semantics; uses its ray tracer) with node ids that are 32 hex digits
-/// derived from `seed`, like R2R viewpoint ids. Deterministic for equal
-/// scenes, configs and seeds. Throws std::invalid_argument when the scene
-/// has no rooms.
-BuiltNavGraph buildNavGraph(const sim::Scene& scene,
+/// Builds the nav-graph of a house from its room, door and object
+/// `semantics` and a ray tracer over its mesh, with node ids that are 32 hex
+/// digits derived from `seed`, like R2R viewpoint ids. Deterministic for
+/// equal houses, configs and seeds. Throws std::invalid_argument when there
+/// are no rooms.
+BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
+                            const sim::RayTracer& tracer,
                             const NavGraphBuildConfig& config, uint64_t seed);
 
 /// Sizes of the connected components of `graph`, largest first.

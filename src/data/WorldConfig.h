@@ -82,11 +82,15 @@ struct NavGraphBuildConfig {
   float min_node_separation = 1.1f;  ///< closer nodes are merged away
   float min_camera_height = 1.2f;  ///< tripod camera height above the floor
   float max_camera_height = 1.6f;
-  float doorway_node_probability = 0.85f;  ///< a doorway gets its own node
-  float object_clearance = 0.25f;  ///< nodes pushed out of furniture keep this gap
+  float doorway_node_probability = 0.6f;  ///< a doorway gets its own node
+  /// Nodes closer than this to furniture are pushed out, to a gap drawn
+  /// uniformly from [object_clearance, object_clearance +
+  /// object_clearance_spread] (tripods end up at varied distances).
+  float object_clearance = 0.1f;
+  float object_clearance_spread = 0.4f;
   /// Chance that a node over a large flat object (table, counter, bed top)
   /// stays there, as R2R tripods over tables appear in the scans.
-  float furniture_node_probability = 0.35f;
+  float furniture_node_probability = 0.2f;
   float flat_object_min_area = 0.7f;    ///< footprint (m^2) of a "large flat" object
   float flat_object_max_height = 1.15f; ///< its top is at most this above the floor
   /// Chance that a detected floor hole gets a node above it.
@@ -104,7 +108,8 @@ struct NavGraphBuildConfig {
     v.field("min_camera_height", min_camera_height, "Lowest camera height above the floor (m)", common::inRange(0.2, 3.0));
     v.field("max_camera_height", max_camera_height, "Highest camera height above the floor (m)", common::inRange(0.2, 3.0));
     v.field("doorway_node_probability", doorway_node_probability, "Chance a doorway gets a node", common::inRange(0.0, 1.0));
-    v.field("object_clearance", object_clearance, "Gap kept by nodes pushed out of furniture (m)", common::inRange(0.0, 2.0));
+    v.field("object_clearance", object_clearance, "Nodes closer than this to furniture are pushed out (m)", common::inRange(0.0, 2.0));
+    v.field("object_clearance_spread", object_clearance_spread, "Pushed nodes keep a gap up to this much larger (m)", common::inRange(0.0, 2.0));
     v.field("furniture_node_probability", furniture_node_probability, "Chance a node over a large flat object stays there", common::inRange(0.0, 1.0));
     v.field("flat_object_min_area", flat_object_min_area, "Footprint of a large flat object (m^2)", common::inRange(0.0, 100.0));
     v.field("flat_object_max_height", flat_object_max_height, "Top height of a large flat object above the floor (m)", common::inRange(0.1, 3.0));
@@ -118,6 +123,25 @@ struct NavGraphBuildConfig {
                   ") exceeds max_camera_height (", max_camera_height, ")");
   }
   bool operator==(const NavGraphBuildConfig&) const = default;
+};
+
+/// How the reconstructed scene differs from what the panoramas saw. The
+/// paper traces most non-navigable trajectories to such differences: doors
+/// closed and objects (chairs) moved between captures, so that the mesh
+/// blocks a path the nav-graph's annotators connected, or covers a node.
+/// The nav-graph is placed in the house as captured; these changes are then
+/// made to the scene that agents move in.
+struct ReconstructionConfig {
+  float closed_door_probability = 0.035f;  ///< per interior doorway
+  float moved_object_probability = 0.02f;  ///< per nav-graph node: a movable object ends up on it
+  float moved_object_offset = 0.3f;        ///< largest horizontal offset of that object from the node
+
+  void visit(common::ConfigVisitor& v) {
+    v.field("closed_door_probability", closed_door_probability, "Chance an interior doorway is closed in the scene", common::inRange(0.0, 1.0));
+    v.field("moved_object_probability", moved_object_probability, "Chance per node that a movable object covers it", common::inRange(0.0, 1.0));
+    v.field("moved_object_offset", moved_object_offset, "Largest offset of a moved object from its node (m)", common::inRange(0.0, 2.0));
+  }
+  bool operator==(const ReconstructionConfig&) const = default;
 };
 
 /// Which nav-graph shortest paths count as R2R-like trajectories. R2R
@@ -208,11 +232,11 @@ struct InstructionConfig {
 struct SplitConfig {
   float val_unseen_fraction = 0.14f;  ///< share of houses held out for val_unseen
   float test_fraction = 0.14f;        ///< share of houses held out for test
-  int train_per_house = 40;           ///< navigable train trajectories per train house
-  int val_seen_per_house = 4;         ///< new trajectories per train house for val_seen
-  int val_unseen_per_house = 12;      ///< trajectories per val_unseen house
-  int test_per_house = 12;            ///< trajectories per test house
-  int aug_per_house = 80;             ///< train_aug trajectories per train house
+  int train_per_house = 20;           ///< navigable train trajectories per train house
+  int val_seen_per_house = 2;         ///< new trajectories per train house for val_seen
+  int val_unseen_per_house = 15;      ///< trajectories per val_unseen house
+  int test_per_house = 15;            ///< trajectories per test house
+  int aug_per_house = 60;             ///< train_aug trajectories per train house
 
   void visit(common::ConfigVisitor& v) {
     v.field("val_unseen_fraction", val_unseen_fraction, "Share of houses held out for val_unseen", common::inRange(0.0, 1.0));
@@ -234,13 +258,14 @@ struct SplitConfig {
 
 /// The whole world: configs/world/default.yaml.
 struct WorldConfig {
-  int houses = 36;       ///< number of procedural houses
+  int houses = 40;       ///< number of procedural houses
   int64_t seed = 1;      ///< master seed; every house and stage derives from it
   std::string scene_prefix = "procedural";  ///< scene ids are <prefix>/<house>/<house>.glb
   sim::HouseConfig house;
   sim::NavMeshConfig navmesh;
   sim::AgentConfig agent;
   NavGraphBuildConfig nav_graph;
+  ReconstructionConfig reconstruction;
   TrajectoryConfig trajectories;
   TransferConfig transfer;
   InstructionConfig instructions;
@@ -255,6 +280,7 @@ struct WorldConfig {
     v.section("navmesh", navmesh, "Navmesh build parameters (written beside each scene)");
     v.section("agent", agent, "Agent actions of the ground-truth follower");
     v.section("nav_graph", nav_graph, "Panorama nodes and edges");
+    v.section("reconstruction", reconstruction, "Differences between the captured house and its scene");
     v.section("trajectories", trajectories, "R2R-like trajectory sampling");
     v.section("transfer", transfer, "Section 3.2 transfer and navigability");
     v.section("instructions", instructions, "Generated instructions");

@@ -1,0 +1,705 @@
+#include "data/WorldGenerator.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <exception>
+#include <mutex>
+#include <optional>
+#include <system_error>
+#include <thread>
+#include <unistd.h>
+
+#include "common/Check.h"
+#include "common/Config.h"
+#include "common/FileIo.h"
+#include "common/Json.h"
+#include "common/Progress.h"
+#include "data/Episode.h"
+#include "data/Glove.h"
+#include "data/GroundTruth.h"
+#include "data/InstructionGenerator.h"
+#include "data/NavGraphBuilder.h"
+#include "data/TrajectorySampler.h"
+#include "data/Vocabulary.h"
+#include "sim/HouseGenerator.h"
+#include "sim/MeshIo.h"
+#include "sim/RayTracer.h"
+#include "sim/Scene.h"
+
+namespace vln::data {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+// Stream labels for deriveSeed(): every stage of a house draws from its
+// own generator.
+enum Stream : uint64_t {
+  kHouseStream = 0x686f757365ull,  // "house"
+  kSplitStream = 0x73706c6974ull,  // "split"
+  kGraphStream = 1,
+  kOrderStream = 2,
+  kHeadingStream = 3,
+  kInstructionStream = 4,
+  kReconstructionStream = 5,
+};
+
+constexpr const char* kTrain = "train";
+constexpr const char* kValSeen = "val_seen";
+constexpr const char* kValUnseen = "val_unseen";
+constexpr const char* kTest = "test";
+constexpr const char* kTrainAug = "train_aug";
+
+// ---------------------------------------------------------------------------
+// per house
+// ---------------------------------------------------------------------------
+
+// One kept trajectory with everything an episode needs.
+struct Trajectory {
+  std::string split;
+  std::vector<Vec3f> waypoints;  // transferred reference path
+  float start_heading = 0.0f;
+  float geodesic = 0.0f;
+  double graph_length = 0.0;  // along nav-graph edges, metres
+  GroundTruthPath ground_truth;
+  std::vector<std::string> instructions;
+};
+
+struct HouseResult {
+  std::string name;
+  std::string scene_id;
+  std::string role;
+  NavGraph graph;
+  std::map<std::string, int> placements;
+  // per placement kind: transfer outcome of its nodes
+  std::map<std::string, TransferStats> placementTransfer;
+  int holes_found = 0;
+  int closed_doors = 0;
+  int moved_objects = 0;
+  int largest_component = 0;
+  int candidates = 0;
+  TransferStats transfer;
+  std::vector<Trajectory> trajectories;  // in acceptance order
+};
+
+// ---------------------------------------------------------------------------
+// differences between the captured house and its reconstruction
+// ---------------------------------------------------------------------------
+
+// A closed door leaf fills the opening up to the generator's door top
+// (2.1 m, or 15 cm under the ceiling) and is this thick.
+constexpr float kDoorLeafThickness = 0.04f;
+constexpr float kDoorTop = 2.1f;
+constexpr float kDoorTopBelowCeiling = 0.15f;
+// Movable objects: standing, at most this footprint (m^2) and height (m).
+constexpr float kMovableMaxArea = 0.5f;
+constexpr float kMovableMaxHeight = 1.3f;
+
+Vec3f horizontal(const Vec3f& v) { return {v.x(), 0.0f, v.z()}; }
+
+// Appends an oriented box (8 corners, 12 outward-facing triangles) with one
+// vertex colour.
+void appendBox(sim::TriangleMesh& mesh, const Vec3f& center, const Vec3f& axisU,
+               const Vec3f& axisV, float halfU, float halfV, float y0, float y1,
+               const sim::Rgb8& color) {
+  // corners: bit 0 = +u, bit 1 = +v, bit 2 = top
+  std::array<Vec3f, 8> corner;
+  for (int k = 0; k < 8; ++k) {
+    const Vec3f horizontalPart = center + ((k & 1) ? halfU : -halfU) * axisU +
+                                 ((k & 2) ? halfV : -halfV) * axisV;
+    corner[static_cast<size_t>(k)] =
+        Vec3f(horizontalPart.x(), (k & 4) ? y1 : y0, horizontalPart.z());
+  }
+  const auto base = static_cast<uint32_t>(mesh.positions.size());
+  for (const Vec3f& c : corner) mesh.positions.push_back(c);
+  const bool hadColors = !mesh.colors.empty() || base == 0;
+  if (hadColors) mesh.colors.resize(mesh.positions.size(), color);
+  if (!mesh.uvs.empty()) mesh.uvs.resize(mesh.positions.size(), Vec2f::Zero());
+  static constexpr std::array<std::array<uint32_t, 4>, 6> kFaces = {{
+      {0, 1, 3, 2},  // bottom
+      {4, 6, 7, 5},  // top
+      {0, 4, 5, 1},  // -v
+      {2, 3, 7, 6},  // +v
+      {0, 2, 6, 4},  // -u
+      {1, 5, 7, 3},  // +u
+  }};
+  for (const auto& f : kFaces) {
+    for (const uint32_t i : {f[0], f[1], f[2], f[0], f[2], f[3]})
+      mesh.indices.push_back(base + i);
+    for (int t = 0; t < 2; ++t) {
+      if (!mesh.triangle_material.empty()) mesh.triangle_material.push_back(-1);
+      if (!mesh.triangle_object.empty()) mesh.triangle_object.push_back(-1);
+    }
+  }
+  // the winding above faces outward when u x v points down; mirror it
+  // otherwise
+  if (axisU.cross(axisV).y() < 0.0f) return;
+  for (size_t i = mesh.indices.size() - 36; i < mesh.indices.size(); i += 3)
+    std::swap(mesh.indices[i + 1], mesh.indices[i + 2]);
+}
+
+// Copies the triangles of `object` translated by `offset` as a new semantic
+// object; returns false when the object has no triangles.
+bool duplicateObject(sim::House& house, const sim::SemanticObject& object,
+                     const Vec3f& offset, int room) {
+  sim::TriangleMesh& mesh = house.mesh;
+  if (mesh.triangle_object.empty()) return false;
+  int newId = 0;
+  for (const auto& o : house.semantics.objects) newId = std::max(newId, o.id + 1);
+  const size_t triangles = mesh.triangleCount();
+  bool copied = false;
+  for (size_t t = 0; t < triangles; ++t) {
+    if (mesh.triangle_object[t] != object.id) continue;
+    copied = true;
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t v = mesh.indices[3 * t + static_cast<size_t>(k)];
+      mesh.indices.push_back(static_cast<uint32_t>(mesh.positions.size()));
+      mesh.positions.push_back(mesh.positions[v] + offset);
+      if (!mesh.colors.empty()) mesh.colors.push_back(mesh.colors[v]);
+      if (!mesh.uvs.empty()) mesh.uvs.push_back(mesh.uvs[v]);
+    }
+    if (!mesh.triangle_material.empty())
+      mesh.triangle_material.push_back(mesh.triangle_material[t]);
+    mesh.triangle_object.push_back(newId);
+  }
+  if (!copied) return false;
+  sim::SemanticObject moved = object;
+  moved.id = newId;
+  moved.room = room;
+  moved.bounds.translate(offset);
+  house.semantics.objects.push_back(moved);
+  return true;
+}
+
+struct CaptureDifferences {
+  int closed_doors = 0;
+  int moved_objects = 0;
+};
+
+// Closes doors and moves objects onto nodes (ReconstructionConfig).
+CaptureDifferences applyCaptureDifferences(sim::House& house,
+                                           const BuiltNavGraph& built,
+                                           const WorldConfig& config,
+                                           uint64_t seed) {
+  CaptureDifferences made;
+  const ReconstructionConfig& rc = config.reconstruction;
+  std::mt19937_64 rng(seed);
+
+  // closed doors: a leaf in the opening
+  const float top = std::min(kDoorTop, config.house.wall_height - kDoorTopBelowCeiling);
+  const std::vector<sim::Doorway> doors = house.semantics.doors;
+  for (const sim::Doorway& door : doors) {
+    const bool close = bernoulli(rng, rc.closed_door_probability);
+    if (!close || door.room_a < 0 || door.room_b < 0) continue;
+    const Vec3f normal = horizontal(door.normal).normalized();
+    const Vec3f along(normal.z(), 0.0f, -normal.x());
+    appendBox(house.mesh, door.center, along, normal, 0.5f * door.width,
+              0.5f * kDoorLeafThickness, door.center.y(), door.center.y() + top,
+              sim::Rgb8{124, 86, 52});
+    ++made.closed_doors;
+  }
+
+  // moved objects: a copy of a movable object on top of a node
+  const auto& objects = house.semantics.objects;
+  std::vector<int> movable;
+  for (size_t i = 0; i < objects.size(); ++i) {
+    const auto& o = objects[i];
+    const Vec3f size = o.bounds.sizes();
+    const int room = o.room;
+    const float floorY =
+        room >= 0 ? house.semantics.rooms[static_cast<size_t>(room)].floor_y : 0.0f;
+    if (o.bounds.min().y() < floorY + 0.05f && size.y() > 0.3f &&
+        size.y() <= kMovableMaxHeight && size.x() * size.z() <= kMovableMaxArea)
+      movable.push_back(static_cast<int>(i));
+  }
+  if (movable.empty()) return made;
+  for (int n = 0; n < built.graph.numNodes(); ++n) {
+    if (!bernoulli(rng, rc.moved_object_probability)) continue;
+    const int room = built.room[static_cast<size_t>(n)];
+    std::vector<int> choices;
+    for (const int i : movable)
+      if (objects[static_cast<size_t>(i)].room == room) choices.push_back(i);
+    if (choices.empty()) choices = movable;
+    const sim::SemanticObject object =
+        objects[static_cast<size_t>(choices[static_cast<size_t>(
+            uniformIndex(rng, static_cast<int>(choices.size())))])];
+    const Vec3f node = built.graph.node(n).position;
+    const float angle = uniformRange(rng, -kPi, kPi);
+    const float radius = rc.moved_object_offset * static_cast<float>(std::sqrt(uniform01(rng)));
+    const Vec3f target(node.x() + radius * std::cos(angle), 0.0f,
+                       node.z() + radius * std::sin(angle));
+    const Vec3f center = object.bounds.center();
+    const Vec3f offset(target.x() - center.x(), 0.0f, target.z() - center.z());
+
+    // it must stand inside the room, clear of the walls and other furniture
+    if (room < 0) continue;
+    const sim::Room& r = house.semantics.rooms[static_cast<size_t>(room)];
+    Eigen::AlignedBox3f placed = object.bounds;
+    placed.translate(offset);
+    const float inset = 0.5f * config.house.wall_thickness + 0.02f;
+    const bool inside = placed.min().x() >= r.footprint.min().x() + inset &&
+                        placed.max().x() <= r.footprint.max().x() - inset &&
+                        placed.min().z() >= r.footprint.min().y() + inset &&
+                        placed.max().z() <= r.footprint.max().y() - inset;
+    bool overlaps = false;
+    for (const auto& o : house.semantics.objects) {
+      if (o.bounds.sizes().y() < 0.05f) continue;  // rugs lie under things
+      const Eigen::AlignedBox3f both = o.bounds.intersection(placed);
+      if (!both.isEmpty() && both.sizes().x() > 0.0f && both.sizes().z() > 0.0f)
+        overlaps = true;
+    }
+    if (!inside || overlaps) continue;
+    if (duplicateObject(house, object, offset, room)) ++made.moved_objects;
+  }
+  return made;
+}
+
+uint64_t fnv1a(const std::string& text) {
+  uint64_t hash = 0xcbf29ce484222325ull;
+  for (const unsigned char c : text) {
+    hash ^= c;
+    hash *= 0x100000001b3ull;
+  }
+  return hash;
+}
+
+uint64_t houseSeed(const WorldConfig& config, int index) {
+  return deriveSeed(deriveSeed(static_cast<uint64_t>(config.seed), kHouseStream),
+                    static_cast<uint64_t>(index));
+}
+
+// Split quotas of a house of role `role`, in filling priority order.
+std::vector<std::pair<std::string, int>> quotas(const WorldConfig& config,
+                                                const std::string& role) {
+  const SplitConfig& s = config.splits;
+  if (role == kTrain)
+    return {{kTrain, s.train_per_house},
+            {kValSeen, s.val_seen_per_house},
+            {kTrainAug, s.aug_per_house}};
+  if (role == kValUnseen) return {{kValUnseen, s.val_unseen_per_house}};
+  return {{kTest, s.test_per_house}};
+}
+
+HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
+                         int index, const std::string& role) {
+  HouseResult result;
+  result.name = worldHouseName(config, index);
+  result.role = role;
+  result.scene_id =
+      strCat(config.scene_prefix, "/", result.name, "/", result.name, ".glb");
+  const uint64_t seed = houseSeed(config, index);
+
+  // the house as the panoramas captured it, and its nav-graph
+  sim::House house = sim::generateHouse(seed, config.house, result.name);
+  BuiltNavGraph built = [&] {
+    const sim::RayTracer tracer(house.mesh);
+    return buildNavGraph(house.semantics, tracer, config.nav_graph,
+                         deriveSeed(seed, kGraphStream));
+  }();
+
+  // the reconstruction differs a little, and is what agents move in; it is
+  // saved as a scene with its navmesh beside it (written after the scene so
+  // that the cache is never older than the file it belongs to)
+  const CaptureDifferences differences = applyCaptureDifferences(
+      house, built, config, deriveSeed(seed, kReconstructionStream));
+  result.closed_doors = differences.closed_doors;
+  result.moved_objects = differences.moved_objects;
+  const fs::path sceneFile = output.scenes_dir / result.scene_id;
+  sim::saveScene(sceneFile, house.mesh, house.semantics);
+  const auto scene = sim::Scene::fromMesh(result.name, std::move(house.mesh),
+                                          std::move(house.semantics),
+                                          config.navmesh);
+  fs::path navmeshFile = sceneFile;
+  navmeshFile += ".navmesh";
+  scene->navmesh().save(navmeshFile);
+  const sim::NavMesh& navmesh = scene->navmesh();
+
+  // the panoramas' transfer to the navmesh
+  for (const NodePlacement p : built.placement)
+    ++result.placements[nodePlacementName(p)];
+  result.holes_found = built.holes_found;
+  const auto components = componentSizes(built.graph);
+  result.largest_component = components.empty() ? 0 : components.front();
+  const std::vector<NodeTransferResult> transferred =
+      transferGraph(built.graph, navmesh, config.transfer);
+  result.transfer.addNodes(transferred, config.transfer);
+  for (size_t i = 0; i < transferred.size(); ++i)
+    result.placementTransfer[nodePlacementName(built.placement[i])].addNodes(
+        {transferred[i]}, config.transfer);
+
+  // R2R-like trajectories in a seeded order; the navigable ones fill the
+  // splits of this house, each taking the next one while it is the least
+  // filled relative to its quota
+  const TrajectorySampler sampler(built.graph, config.trajectories);
+  result.candidates = sampler.size();
+  auto splits = quotas(config, role);
+  std::vector<int> filled(splits.size(), 0);
+  int wanted = 0;
+  for (const auto& [name, quota] : splits) wanted += quota;
+  const InstructionGenerator instructions(scene->semantics(),
+                                          config.instructions);
+  for (const int candidate : sampler.shuffledOrder(deriveSeed(seed, kOrderStream))) {
+    if (wanted == 0) break;
+    const GraphPath& path = sampler.candidate(candidate);
+    std::mt19937_64 headingRng(
+        deriveSeed(deriveSeed(seed, kHeadingStream), static_cast<uint64_t>(candidate)));
+    const float heading = uniformRange(headingRng, -kPi, kPi);
+    NavigabilityResult checked = checkNavigability(
+        navmesh, config.agent, config.transfer, transferred, path, heading);
+    result.transfer.addTrajectory(checked);
+    if (!checked.navigable()) continue;
+
+    size_t pick = splits.size();
+    for (size_t k = 0; k < splits.size(); ++k) {
+      if (filled[k] >= splits[k].second) continue;
+      if (pick == splits.size() ||
+          static_cast<int64_t>(filled[k]) * splits[pick].second <
+              static_cast<int64_t>(filled[pick]) * splits[k].second)
+        pick = k;
+    }
+    VLN_ASSERT(pick < splits.size());
+    ++filled[pick];
+    --wanted;
+
+    Trajectory t;
+    t.split = splits[pick].first;
+    for (const int node : path)
+      t.waypoints.push_back(transferred[static_cast<size_t>(node)].waypoint);
+    t.start_heading = heading;
+    t.geodesic = checked.geodesic_distance;
+    t.graph_length = pathLength(built.graph, path);
+    t.ground_truth = std::move(checked.ground_truth);
+    const bool aug = t.split == kTrainAug;
+    const auto generated = instructions.generate(
+        t.waypoints, heading,
+        aug ? InstructionStyle::kSpeaker : InstructionStyle::kHuman,
+        aug ? config.instructions.aug_per_trajectory
+            : config.instructions.per_trajectory,
+        deriveSeed(deriveSeed(seed, kInstructionStream),
+                   static_cast<uint64_t>(candidate)));
+    for (const auto& g : generated) t.instructions.push_back(g.text);
+    result.trajectories.push_back(std::move(t));
+  }
+  result.graph = std::move(built.graph);
+  return result;
+}
+
+// ---------------------------------------------------------------------------
+// house roles
+// ---------------------------------------------------------------------------
+
+std::vector<std::string> assignRoles(const WorldConfig& config) {
+  const int n = config.houses;
+  auto count = [&](float fraction) {
+    int c = static_cast<int>(std::lround(fraction * static_cast<float>(n)));
+    // a held-out split with a non-zero share gets at least one house when
+    // there are three houses or more
+    if (fraction > 0.0f && c == 0 && n >= 3) c = 1;
+    return c;
+  };
+  const int valUnseen = count(config.splits.val_unseen_fraction);
+  const int test = count(config.splits.test_fraction);
+  VLN_CHECK_ARG(n - valUnseen - test >= 1, "generateWorld(): ", n,
+                " houses leave no train house after ", valUnseen,
+                " val_unseen and ", test, " test houses");
+  std::vector<int> order(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) order[static_cast<size_t>(i)] = i;
+  std::mt19937_64 rng(deriveSeed(static_cast<uint64_t>(config.seed), kSplitStream));
+  deterministicShuffle(order, rng);
+  std::vector<std::string> roles(static_cast<size_t>(n), kTrain);
+  for (int k = 0; k < valUnseen + test; ++k)
+    roles[static_cast<size_t>(order[static_cast<size_t>(k)])] =
+        k < valUnseen ? kValUnseen : kTest;
+  return roles;
+}
+
+// ---------------------------------------------------------------------------
+// staging and publishing
+// ---------------------------------------------------------------------------
+
+// Moves every entry of `staging` into `out`, replacing what was there; the
+// replaced entries go to `trash` first and are removed at the end.
+void publish(const fs::path& staging, const fs::path& out, const fs::path& trash) {
+  std::vector<fs::path> entries;
+  for (const auto& entry : fs::directory_iterator(staging))
+    entries.push_back(entry.path().filename());
+  std::sort(entries.begin(), entries.end());
+  fs::create_directories(trash);
+  for (const fs::path& name : entries) {
+    std::error_code ec;
+    if (fs::exists(out / name)) {
+      fs::rename(out / name, trash / name, ec);
+      VLN_CHECK_IO(!ec, "generateWorld(): cannot move aside '",
+                   (out / name).string(), "': ", ec.message());
+    }
+    fs::rename(staging / name, out / name, ec);
+    VLN_CHECK_IO(!ec, "generateWorld(): cannot move '", (staging / name).string(),
+                 "' into place: ", ec.message());
+  }
+  common::syncDirectory(out);
+  std::error_code ignored;
+  fs::remove_all(trash, ignored);
+  fs::remove_all(staging, ignored);
+}
+
+double mean(double sum, int64_t count) {
+  return count > 0 ? sum / static_cast<double>(count) : 0.0;
+}
+
+}  // namespace
+
+// ===========================================================================
+// public API
+// ===========================================================================
+
+const std::vector<std::string>& worldSplitNames() {
+  static const std::vector<std::string> kNames = {kTrain, kValSeen, kValUnseen,
+                                                  kTest, kTrainAug};
+  return kNames;
+}
+
+std::string worldHouseName(const WorldConfig& config, int index) {
+  const uint64_t hash =
+      mixBits(houseSeed(config, index) ^ fnv1a(common::configToYaml(config.house)) ^
+              mixBits(fnv1a(common::configToYaml(config.navmesh))));
+  char buffer[64];
+  std::snprintf(buffer, sizeof(buffer), "house_%03d_%08llx", index,
+                static_cast<unsigned long long>(hash >> 32));
+  return buffer;
+}
+
+WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
+                           std::ostream* log) {
+  WorldConfig checked = config;  // visit() is non-const
+  common::checkConfig([&](common::ConfigVisitor& v) { checked.visit(v); },
+                      "generateWorld()");
+  config.validate();
+  VLN_CHECK_ARG(output.threads >= 1, "generateWorld(): threads must be >= 1, got ",
+                output.threads);
+  VLN_CHECK_ARG(!output.out.empty(), "generateWorld(): the output directory is empty");
+  const std::vector<std::string> roles = assignRoles(config);
+
+  // houses on a pool of threads; results land in house order
+  const int n = config.houses;
+  std::vector<std::optional<HouseResult>> houses(static_cast<size_t>(n));
+  std::vector<std::exception_ptr> errors(static_cast<size_t>(n));
+  std::atomic<int> next{0};
+  std::mutex progressMutex;
+  common::ProgressLine progress("generate", n, "houses", 10.0);
+  auto worker = [&] {
+    for (int i = next++; i < n; i = next++) {
+      try {
+        houses[static_cast<size_t>(i)] =
+            processHouse(config, output, i, roles[static_cast<size_t>(i)]);
+      } catch (...) {
+        errors[static_cast<size_t>(i)] = std::current_exception();
+        next = n;  // stop handing out work
+      }
+      std::lock_guard lock(progressMutex);
+      progress.advance();
+    }
+  };
+  const int threads = std::min(output.threads, n);
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& thread : pool) thread.join();
+  for (const auto& error : errors)
+    if (error) std::rethrow_exception(error);
+
+  // episodes of every split, merged in house order
+  std::map<std::string, EpisodeDataset> datasets;
+  std::map<std::string, GroundTruth> truths;
+  std::map<std::string, int> trajectoryCount;
+  std::map<std::string, double> pathLength, geodesic, actions, tokens;
+  std::vector<std::string> trainCorpus;
+  int trajectoryId = 0;
+  for (const std::string& split : worldSplitNames()) {
+    int episodeId = 0;
+    for (const auto& house : houses) {
+      for (const Trajectory& t : house->trajectories) {
+        if (t.split != split) continue;
+        ++trajectoryId;
+        ++trajectoryCount[split];
+        pathLength[split] += t.graph_length;
+        geodesic[split] += t.geodesic;
+        actions[split] += static_cast<double>(t.ground_truth.actions.size());
+        for (const std::string& text : t.instructions) {
+          Episode e;
+          e.episode_id = ++episodeId;
+          e.trajectory_id = trajectoryId;
+          e.scene_id = house->scene_id;
+          e.start_position = t.waypoints.front();
+          e.start_rotation = headingToQuaternion(t.start_heading);
+          e.instruction.instruction_text = text;
+          if (split != kTest) {
+            e.geodesic_distance = t.geodesic;
+            e.goals = {Goal{t.waypoints.back(), kDefaultGoalRadius}};
+            e.reference_path = t.waypoints;
+            truths[split][e.episode_id] = t.ground_truth;
+          }
+          if (split == kTrain || split == kTrainAug) trainCorpus.push_back(text);
+          datasets[split].episodes.push_back(std::move(e));
+        }
+      }
+    }
+  }
+  for (const std::string& split : worldSplitNames()) {
+    int wanted = 0;
+    for (size_t i = 0; i < roles.size(); ++i)
+      for (const auto& [name, quota] : quotas(config, roles[i]))
+        if (name == split) wanted += quota;
+    VLN_CHECK_IO(wanted == 0 || !datasets[split].episodes.empty(),
+                 "generateWorld(): split '", split,
+                 "' got no navigable trajectory; the world is too small for "
+                 "its quotas (houses ",
+                 config.houses, ", nodes per house too few?)");
+  }
+
+  // the vocabulary and GloVe of the training corpus (train + train_aug)
+  const Vocabulary vocabulary = Vocabulary::build(trainCorpus);
+  for (auto& [split, dataset] : datasets) {
+    for (Episode& e : dataset.episodes) {
+      e.instruction.instruction_tokens = vocabulary.encode(e.instruction.instruction_text);
+      tokens[split] += unpaddedLength(e.instruction.instruction_tokens,
+                                      vocabulary.padIndex());
+    }
+    dataset.instruction_vocab = vocabulary;
+  }
+  std::vector<std::vector<std::string>> sentences;
+  sentences.reserve(trainCorpus.size());
+  for (const std::string& text : trainCorpus) sentences.push_back(tokenize(text));
+  const GloveFitResult glove = fitGlove(sentences, config.glove);
+  const EmbeddingMatrix embeddings = buildEmbeddingMatrix(vocabulary, glove.vectors);
+
+  // statistics
+  WorldSummary summary;
+  nlohmann::json perHouse = nlohmann::json::object();
+  std::map<std::string, int64_t> placements;
+  std::map<std::string, TransferStats> placementTransfer;
+  int64_t nodes = 0, edges = 0, largest = 0, holes = 0, candidates = 0;
+  int64_t closedDoors = 0, movedObjects = 0;
+  for (const auto& house : houses) {
+    summary.transfer.merge(house->transfer);
+    summary.houses[house->role].push_back(house->name);
+    nodes += house->graph.numNodes();
+    edges += house->graph.numEdges();
+    largest += house->largest_component;
+    holes += house->holes_found;
+    closedDoors += house->closed_doors;
+    movedObjects += house->moved_objects;
+    candidates += house->candidates;
+    for (const auto& [name, count] : house->placements) placements[name] += count;
+    for (const auto& [name, stats] : house->placementTransfer)
+      placementTransfer[name].merge(stats);
+    nlohmann::json splits = nlohmann::json::object();
+    for (const Trajectory& t : house->trajectories)
+      splits[t.split] = splits.value(t.split, 0) + 1;
+    perHouse[house->name] = {{"role", house->role},
+                             {"scene_id", house->scene_id},
+                             {"nodes", house->graph.numNodes()},
+                             {"edges", house->graph.numEdges()},
+                             {"largest_component", house->largest_component},
+                             {"closed_doors", house->closed_doors},
+                             {"moved_objects", house->moved_objects},
+                             {"candidate_trajectories", house->candidates},
+                             {"trajectories", splits},
+                             {"transfer", house->transfer.toJson()}};
+  }
+  nlohmann::json splitStats = nlohmann::json::object();
+  for (const std::string& split : worldSplitNames()) {
+    const int trajectories = trajectoryCount[split];
+    const int episodes = static_cast<int>(datasets[split].episodes.size());
+    summary.episodes[split] = episodes;
+    summary.trajectories[split] = trajectories;
+    splitStats[split] = {
+        {"episodes", episodes},
+        {"trajectories", trajectories},
+        {"mean_instruction_tokens", mean(tokens[split], episodes)},
+        {"mean_graph_path_length", mean(pathLength[split], trajectories)},
+        {"mean_geodesic_distance", mean(geodesic[split], trajectories)},
+        {"mean_actions", mean(actions[split], trajectories)},
+    };
+  }
+  summary.vocabulary_size = vocabulary.size();
+  nlohmann::json placementJson = nlohmann::json::object();
+  for (const auto& [name, stats] : placementTransfer) {
+    const nlohmann::json full = stats.toJson();
+    placementJson[name] = {{"nodes", full["nodes"]},
+                           {"nodes_valid", full["nodes_valid"]},
+                           {"nodes_adjusted", full["nodes_adjusted"]},
+                           {"mean_adjusted_displacement",
+                            full["mean_adjusted_displacement"]}};
+  }
+  summary.stats = {
+      {"seed", config.seed},
+      {"houses", config.houses},
+      {"house_roles", summary.houses},
+      {"transfer", summary.transfer.toJson()},
+      {"nav_graph",
+       {{"nodes", nodes},
+        {"edges", edges},
+        {"mean_nodes_per_house", mean(static_cast<double>(nodes), n)},
+        {"largest_component_share", mean(static_cast<double>(largest), nodes)},
+        {"placements", placements},
+        {"placement_transfer", placementJson},
+        {"floor_holes_found", holes},
+        {"closed_doors", closedDoors},
+        {"moved_objects", movedObjects},
+        {"candidate_trajectories", candidates}}},
+      {"splits", splitStats},
+      {"vocabulary_size", vocabulary.size()},
+      {"glove",
+       {{"dim", config.glove.dim},
+        {"final_loss", glove.epoch_loss.empty() ? 0.0 : glove.epoch_loss.back()},
+        {"cooccurrence_entries", glove.cooccurrence_entries}}},
+      {"per_house", perHouse},
+      {"config", common::configToYaml(config)},
+  };
+
+  // stage every output, then move it into place
+  std::error_code ec;
+  fs::create_directories(output.out, ec);
+  VLN_CHECK_IO(!ec, "generateWorld(): cannot create '", output.out.string(),
+               "': ", ec.message());
+  const std::string tag = strCat(".generate-", ::getpid());
+  const fs::path staging = output.out / (tag + ".staging");
+  const fs::path trash = output.out / (tag + ".old");
+  fs::remove_all(staging, ec);
+  try {
+    for (const std::string& split : worldSplitNames()) {
+      writeEpisodes(splitEpisodesPath(staging, split), datasets[split]);
+      if (split != kTest)
+        writeGroundTruth(splitGroundTruthPath(staging, split), truths[split]);
+    }
+    writeEmbeddingsJson(staging / "embeddings.json.gz", embeddings);
+    for (const auto& house : houses)
+      writeNavGraph(staging / "connectivity" / (house->name + "_connectivity.json"),
+                    house->graph);
+    common::writeJsonFile(staging / "generation_stats.json", summary.stats, 2);
+    publish(staging, output.out, trash);
+  } catch (...) {
+    fs::remove_all(staging, ec);
+    throw;
+  }
+
+  if (log != nullptr) {
+    *log << "generated " << n << " houses (" << summary.houses["train"].size()
+         << " train, " << summary.houses["val_unseen"].size() << " val_unseen, "
+         << summary.houses["test"].size() << " test) into " << output.out.string()
+         << "\n";
+    for (const std::string& split : worldSplitNames())
+      *log << "  " << split << ": " << summary.episodes[split] << " episodes, "
+           << summary.trajectories[split] << " trajectories\n";
+    *log << "  vocabulary: " << vocabulary.size() << " words\n"
+         << summary.transfer.report();
+  }
+  return summary;
+}
+
+}  // namespace vln::data
