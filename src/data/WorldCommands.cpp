@@ -121,7 +121,7 @@ int runTransferCommand(const TransferCommandOptions& options,
           transferred[static_cast<size_t>(b)].valid)
         result["edges"].push_back({graph.node(a).id, graph.node(b).id});
     common::writeJsonFile(options.out, result, 2);
-    out << "wrote " << options.out.string() << "\n";
+    if (!options.json) out << "wrote " << options.out.string() << "\n";
   }
   return 0;
 }

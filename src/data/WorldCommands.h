@@ -47,7 +47,7 @@ struct TransferCommandOptions {
   std::string up_axis = "y";           ///< up axis of the scene file: y or z
   int trajectories = 500;  ///< sampled R2R-like trajectories to check
   int64_t seed = 1;        ///< trajectory sampling and start headings
-  bool json = false;       ///< print the statistics as JSON
+  bool json = false;       ///< print only the statistics, as JSON
 };
 
 /// Runs the Section 3.2 transfer of every node of a nav-graph onto the
