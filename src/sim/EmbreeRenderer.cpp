@@ -268,11 +268,20 @@ void shadePacketAvx512(const TriangleShade* table,
   const __mmask16 lanes = static_cast<__mmask16>(hitMask);
   const __m512i zero = _mm512_setzero_si512();
   const __m512 zerof = _mm512_setzero_ps();
-  // fields of each lane's TriangleShade record (16 floats per record)
-  const __m512i record = _mm512_maskz_slli_epi32(kAll, 
-      _mm512_maskz_loadu_epi32(lanes, hits.primID), 4);
+  // fields of each lane's TriangleShade record (16 floats per record). In
+  // most packets every lane hits the same large triangle (walls, floors);
+  // broadcasting its record then replaces 16 gathers, the dominant cost.
+  const __m512i primitive = _mm512_maskz_loadu_epi32(lanes, hits.primID);
+  const unsigned firstLane = static_cast<unsigned>(__builtin_ctz(hitMask | 0x10000u));
+  const uint32_t firstPrimitive = firstLane < kPacket ? hits.primID[firstLane] : 0u;
+  const bool uniform =
+      _mm512_mask_cmpneq_epi32_mask(lanes, primitive,
+                                    _mm512_set1_epi32(static_cast<int>(firstPrimitive))) == 0;
+  const __m512i record = _mm512_maskz_slli_epi32(kAll, primitive, 4);
   const auto* base = reinterpret_cast<const float*>(table);
+  const float* uniformRecord = base + 16 * static_cast<size_t>(firstPrimitive);
   auto field = [&](int index) {
+    if (uniform) return _mm512_set1_ps(uniformRecord[index]);
     return _mm512_mask_i32gather_ps(zerof, lanes,
                                     _mm512_add_epi32(record, _mm512_set1_epi32(index)),
                                     base, 4);
@@ -295,12 +304,14 @@ void shadePacketAvx512(const TriangleShade* table,
     constexpr int kFloor = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
     s = _mm512_sub_ps(s, _mm512_maskz_roundscale_ps(kAll, s, kFloor));
     t = _mm512_sub_ps(t, _mm512_maskz_roundscale_ps(kAll, t, kFloor));
-    const __m512i width = _mm512_mask_i32gather_epi32(zero, textured, texture,
-                                                      textures.width.data(), 4);
-    const __m512i height = _mm512_mask_i32gather_epi32(zero, textured, texture,
-                                                       textures.height.data(), 4);
-    const __m512i offset = _mm512_mask_i32gather_epi32(zero, textured, texture,
-                                                       textures.offset.data(), 4);
+    // per-texture size and offset, broadcast when all lanes share a triangle
+    auto textureField = [&](const std::vector<int32_t>& values) {
+      if (uniform) return _mm512_set1_epi32(values[static_cast<size_t>(table[firstPrimitive].texture)]);
+      return _mm512_mask_i32gather_epi32(zero, textured, texture, values.data(), 4);
+    };
+    const __m512i width = textureField(textures.width);
+    const __m512i height = textureField(textures.height);
+    const __m512i offset = textureField(textures.offset);
     const __m512 half = _mm512_set1_ps(0.5f);
     const __m512 x = _mm512_fmsub_ps(s, _mm512_maskz_cvtepi32_ps(kAll, width), half);
     const __m512 y = _mm512_fmsub_ps(t, _mm512_maskz_cvtepi32_ps(kAll, height), half);
@@ -371,6 +382,38 @@ void shadePacketAvx512(const TriangleShade* table,
   _mm512_storeu_si512(packed, _mm512_maskz_mov_epi32(lanes, rgb));
 }
 
+// Directions of the 16 primary rays of a 4x4 tile (lane k is column k % 4,
+// row k / 4), reset tfar and hit, and the valid mask for tiles overhanging
+// the image; the same values as the scalar loop in render() up to FMA
+// rounding. `columnX` and `rowY` point at the tile's first column and row.
+void setupPacketAvx512(const float* columnX, const float* rowY,
+                       const Eigen::Matrix3f& toWorld, int columns, int rows,
+                       RTCRayHit16& packet, int valid[kPacket]) {
+  const __m512 x = _mm512_maskz_broadcast_f32x4(kAll, _mm_loadu_ps(columnX));
+  const __m512 y = _mm512_maskz_permutexvar_ps(kAll, 
+      _mm512_set_epi32(3, 3, 3, 3, 2, 2, 2, 2, 1, 1, 1, 1, 0, 0, 0, 0),
+      _mm512_maskz_broadcast_f32x4(kAll, _mm_loadu_ps(rowY)));
+  // world direction = x * right + y * up - back (columns of toWorld)
+  float* directions[3] = {packet.ray.dir_x, packet.ray.dir_y, packet.ray.dir_z};
+  for (int axis = 0; axis < 3; ++axis) {
+    const __m512 d = _mm512_fmadd_ps(
+        x, _mm512_set1_ps(toWorld(axis, 0)),
+        _mm512_fmsub_ps(y, _mm512_set1_ps(toWorld(axis, 1)),
+                        _mm512_set1_ps(toWorld(axis, 2))));
+    _mm512_store_ps(directions[axis], d);
+  }
+  _mm512_store_ps(packet.ray.tfar, _mm512_set1_ps(std::numeric_limits<float>::infinity()));
+  _mm512_store_si512(packet.hit.geomID,
+                     _mm512_set1_epi32(static_cast<int>(RTC_INVALID_GEOMETRY_ID)));
+  const __m512i lane = _mm512_set_epi32(15, 14, 13, 12, 11, 10, 9, 8, 7, 6, 5, 4, 3, 2, 1, 0);
+  const __m512i column = _mm512_and_si512(lane, _mm512_set1_epi32(kTile - 1));
+  const __m512i row = _mm512_maskz_srli_epi32(kAll, lane, 2);
+  const __mmask16 inside =
+      _mm512_cmplt_epi32_mask(column, _mm512_set1_epi32(columns)) &
+      _mm512_cmplt_epi32_mask(row, _mm512_set1_epi32(rows));
+  _mm512_store_si512(valid, _mm512_maskz_mov_epi32(inside, _mm512_set1_epi32(-1)));
+}
+
 #pragma GCC pop_options
 
 // ---------------------------------------------------------------------------
@@ -389,7 +432,8 @@ class EmbreeRenderer final : public Renderer {
     // SSE2 path (tests compare the two)
     const char* forced = std::getenv("VLN_EMBREE_SHADING");
     const bool scalarOnly = forced != nullptr && std::string_view(forced) == "scalar";
-    if (!scalarOnly && cpuHasAvx512()) packedTextures_ = packTextures(mesh);
+    avx512_ = !scalarOnly && cpuHasAvx512();
+    if (avx512_) packedTextures_ = packTextures(mesh);
   }
 
   void renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
@@ -434,7 +478,10 @@ class EmbreeRenderer final : public Renderer {
   // built on the first colour render: depth-only renderers never pay for it
   std::vector<TriangleShade> shadeTable_;
   std::vector<TextureView> textures_;
-  // set when the CPU has AVX-512 (and the textures fit its 32-bit offsets)
+  // packet ray setup and shading with AVX-512F (the CPU has it and the
+  // scalar path is not forced); shading also needs the textures to fit the
+  // gathers' 32-bit offsets
+  bool avx512_ = false;
   std::optional<PackedTextures> packedTextures_;
   // camera-frame ray slopes per column (x) and row (y) of the last intrinsics
   CameraIntrinsics tableCamera_{0, 0, 0.0f};
@@ -495,17 +542,22 @@ void EmbreeRenderer::render(const CameraPose& pose,
     for (int tileX = 0; tileX < width; tileX += kTile) {
       // primary rays of one 4x4 tile; directions have unit length along the
       // optical axis, so the hit distance t is the z-depth itself
-      for (int k = 0; k < kPacket; ++k) {
-        const int i = tileX + (k & (kTile - 1));
-        const int j = tileY + k / kTile;
-        valid[k] = (i < width && j < height) ? -1 : 0;
-        const float x = columnX_[static_cast<size_t>(i)];
-        const float y = rowY_[static_cast<size_t>(j)];
-        packet.ray.dir_x[k] = x * right.x() + y * up.x() + forward.x();
-        packet.ray.dir_y[k] = x * right.y() + y * up.y() + forward.y();
-        packet.ray.dir_z[k] = x * right.z() + y * up.z() + forward.z();
-        packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
-        packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+      if (avx512_) {
+        setupPacketAvx512(columnX_.data() + tileX, rowY_.data() + tileY, rotation,
+                          width - tileX, height - tileY, packet, valid);
+      } else {
+        for (int k = 0; k < kPacket; ++k) {
+          const int i = tileX + (k & (kTile - 1));
+          const int j = tileY + k / kTile;
+          valid[k] = (i < width && j < height) ? -1 : 0;
+          const float x = columnX_[static_cast<size_t>(i)];
+          const float y = rowY_[static_cast<size_t>(j)];
+          packet.ray.dir_x[k] = x * right.x() + y * up.x() + forward.x();
+          packet.ray.dir_y[k] = x * right.y() + y * up.y() + forward.y();
+          packet.ray.dir_z[k] = x * right.z() + y * up.z() + forward.z();
+          packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
+          packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+        }
       }
       rtcIntersect16(valid, scene_, &context, &packet);
 
