@@ -45,6 +45,9 @@ constexpr float kNoSlideTolerance = 1e-4f;
 constexpr float kThinWallNudge = 1e-4f;
 // dtNodePool indexes nodes with 16 bits.
 constexpr int kMaxQueryNodes = 65535;
+// Loaded vertex coordinates beyond this (m) are corrupt: their squares would
+// overflow the float distance tests inside Detour.
+constexpr float kMaxCoordinate = 1e6f;
 
 // "MSET" tile-set layout of the Recast demo, used by Habitat's .navmesh files.
 constexpr int32_t kNavMeshSetMagic = 'M' << 24 | 'S' << 16 | 'E' << 8 | 'T';
@@ -117,10 +120,54 @@ T readRaw(const std::string& bytes, size_t offset) {
   return value;
 }
 
-// Checks that a tile's header counts fit its size and that every index in it
-// stays in range, so that a corrupt file cannot make Detour read out of
-// bounds. Returns an empty string when the tile is sound, else the reason.
-std::string tileDataProblem(const unsigned char* data, int size) {
+// Where each array of a Detour tile lives inside its data blob (the same
+// layout arithmetic as dtNavMesh::addTile).
+struct TileLayout {
+  dtMeshHeader header;
+  int64_t bytes = 0;  // total size the header's counts require
+  float* verts = nullptr;
+  dtPoly* polys = nullptr;
+  dtPolyDetail* details = nullptr;
+  float* detailVerts = nullptr;
+  unsigned char* detailTris = nullptr;
+  dtBVNode* bvNodes = nullptr;
+  dtOffMeshConnection* offMeshCons = nullptr;
+};
+
+// The layout of `data` (its header must be readable and its counts sane);
+// pointers are only valid when layout.bytes <= the data size.
+TileLayout tileLayout(unsigned char* data) {
+  TileLayout t;
+  std::memcpy(&t.header, data, sizeof(t.header));
+  const dtMeshHeader& h = t.header;
+  int64_t offset = dtAlign4(sizeof(dtMeshHeader));
+  auto take = [&](int64_t size) {
+    unsigned char* at = data + offset;
+    offset += dtAlign4(static_cast<int>(size));
+    return at;
+  };
+  t.verts = reinterpret_cast<float*>(take(int64_t{12} * h.vertCount));
+  t.polys =
+      reinterpret_cast<dtPoly*>(take(int64_t{sizeof(dtPoly)} * h.polyCount));
+  take(int64_t{sizeof(dtLink)} * h.maxLinkCount);
+  t.details = reinterpret_cast<dtPolyDetail*>(
+      take(int64_t{sizeof(dtPolyDetail)} * h.detailMeshCount));
+  t.detailVerts =
+      reinterpret_cast<float*>(take(int64_t{12} * h.detailVertCount));
+  t.detailTris = take(int64_t{4} * h.detailTriCount);
+  t.bvNodes = reinterpret_cast<dtBVNode*>(
+      take(int64_t{sizeof(dtBVNode)} * h.bvNodeCount));
+  t.offMeshCons = reinterpret_cast<dtOffMeshConnection*>(
+      take(int64_t{sizeof(dtOffMeshConnection)} * h.offMeshConCount));
+  t.bytes = offset;
+  return t;
+}
+
+// Checks that a tile's header counts fit its size and that every index and
+// coordinate in it is usable, so that a corrupt file cannot make Detour read
+// out of bounds or divide its way to NaN. Returns an empty string when the
+// tile is sound, else the reason.
+std::string tileDataProblem(unsigned char* data, int size) {
   if (size < static_cast<int>(sizeof(dtMeshHeader)))
     return strCat("tile of ", size, " bytes is smaller than its header");
   dtMeshHeader h;
@@ -134,32 +181,28 @@ std::string tileDataProblem(const unsigned char* data, int size) {
                         h.bvNodeCount,     h.offMeshConCount, h.offMeshBase};
   for (int c : counts)
     if (c < 0 || c > (1 << 24)) return "tile has an impossible element count";
-  if (h.detailMeshCount > h.polyCount || h.offMeshBase > h.polyCount)
+  if (h.detailMeshCount > h.polyCount)
     return "tile has more detail meshes than polygons";
-  // the same layout arithmetic as dtNavMesh::addTile
-  const int64_t layout[] = {
-      dtAlign4(sizeof(dtMeshHeader)),
-      dtAlign4(static_cast<int>(sizeof(float)) * 3 * h.vertCount),
-      dtAlign4(static_cast<int>(sizeof(dtPoly)) * h.polyCount),
-      dtAlign4(static_cast<int>(sizeof(dtLink)) * h.maxLinkCount),
-      dtAlign4(static_cast<int>(sizeof(dtPolyDetail)) * h.detailMeshCount),
-      dtAlign4(static_cast<int>(sizeof(float)) * 3 * h.detailVertCount),
-      dtAlign4(4 * h.detailTriCount),
-      dtAlign4(static_cast<int>(sizeof(dtBVNode)) * h.bvNodeCount),
-      dtAlign4(static_cast<int>(sizeof(dtOffMeshConnection)) *
-               h.offMeshConCount)};
-  const int64_t needed =
-      std::accumulate(std::begin(layout), std::end(layout), int64_t{0});
-  if (needed > size)
-    return strCat("tile header describes ", needed, " bytes but the tile has ",
+  const TileLayout t = tileLayout(data);
+  if (t.bytes > size)
+    return strCat("tile header describes ", t.bytes, " bytes but the tile has ",
                   size);
+
+  // coordinates: finite and small enough that squared distances stay finite
+  auto badCoordinate = [](const float* v, int n) {
+    for (int i = 0; i < 3 * n; ++i)
+      if (!(std::abs(v[i]) < kMaxCoordinate)) return true;
+    return false;
+  };
+  if (badCoordinate(t.verts, h.vertCount) ||
+      badCoordinate(t.detailVerts, h.detailVertCount))
+    return "tile has non-finite or huge vertex coordinates";
+
   // polygon vertices and internal neighbours
-  const auto* polys =
-      reinterpret_cast<const dtPoly*>(data + layout[0] + layout[1]);
   for (int i = 0; i < h.polyCount; ++i) {
-    const dtPoly& p = polys[i];
+    const dtPoly& p = t.polys[i];
     if (p.vertCount > DT_VERTS_PER_POLYGON)
-      return strCat("polygon ", i, " has ", int(p.vertCount), " vertices");
+      return strCat("polygon ", i, " has ", int{p.vertCount}, " vertices");
     for (int j = 0; j < p.vertCount; ++j) {
       if (p.verts[j] >= h.vertCount)
         return strCat("polygon ", i, " uses vertex ", p.verts[j], " of ",
@@ -170,31 +213,58 @@ std::string tileDataProblem(const unsigned char* data, int size) {
                       h.polyCount);
     }
   }
-  // detail meshes
-  const auto* details = reinterpret_cast<const dtPolyDetail*>(
-      data + layout[0] + layout[1] + layout[2] + layout[3]);
-  const unsigned char* detailTris = data + layout[0] + layout[1] + layout[2] +
-                                    layout[3] + layout[4] + layout[5];
-  for (int i = 0; i < h.detailMeshCount; ++i) {
-    const dtPolyDetail& d = details[i];
+  // every ground polygon has a non-empty detail mesh inside the arrays
+  for (int i = 0; i < h.polyCount; ++i) {
+    if (t.polys[i].getType() == DT_POLYTYPE_OFFMESH_CONNECTION) continue;
+    if (i >= h.detailMeshCount)
+      return strCat("ground polygon ", i, " has no detail mesh");
+    const dtPolyDetail& d = t.details[i];
+    if (t.polys[i].vertCount < 3 || d.triCount == 0)
+      return strCat("ground polygon ", i, " is degenerate");
     if (int64_t{d.vertBase} + d.vertCount > h.detailVertCount ||
         int64_t{d.triBase} + d.triCount > h.detailTriCount)
       return strCat("detail mesh ", i, " exceeds the detail arrays");
-    const int limit = polys[i].vertCount + d.vertCount;
-    for (int t = 0; t < d.triCount; ++t)
-      for (int k = 0; k < 3; ++k)
-        if (detailTris[(d.triBase + t) * 4 + k] >= limit)
-          return strCat("detail mesh ", i, " has a bad triangle index");
+    const int limit = t.polys[i].vertCount + d.vertCount;
+    for (int k = 0; k < 4 * d.triCount; ++k)
+      if (k % 4 != 3 && t.detailTris[4 * d.triBase + k] >= limit)
+        return strCat("detail mesh ", i, " has a bad triangle index");
   }
-  for (int i = h.detailMeshCount; i < h.polyCount; ++i)
-    if (polys[i].getType() != DT_POLYTYPE_OFFMESH_CONNECTION)
-      return strCat("ground polygon ", i, " has no detail mesh");
+  // off-mesh connections name their polygon
+  if (int64_t{h.offMeshBase} + h.offMeshConCount > h.polyCount)
+    return "tile has more off-mesh connections than polygons";
+  for (int i = 0; i < h.offMeshConCount; ++i)
+    if (int{t.offMeshCons[i].poly} >= h.polyCount)
+      return strCat("off-mesh connection ", i, " names polygon ",
+                    t.offMeshCons[i].poly);
   // bounding-volume leaves name polygons
-  const auto* nodes = reinterpret_cast<const dtBVNode*>(detailTris + layout[6]);
   for (int i = 0; i < h.bvNodeCount; ++i)
-    if (nodes[i].i >= h.polyCount || nodes[i].i < -h.bvNodeCount)
-      return strCat("bounding-volume node ", i, " names polygon ", nodes[i].i);
+    if (t.bvNodes[i].i >= h.polyCount || t.bvNodes[i].i < -h.bvNodeCount)
+      return strCat("bounding-volume node ", i, " names polygon ",
+                    t.bvNodes[i].i);
   return {};
+}
+
+// Detour's closestPointOnPoly dereferences a null pointer when no detail
+// triangle of a polygon has an edge flagged as lying on the polygon outline
+// (recastnavigation issues #394 and #656; Recast's flags can miss edges).
+// Such polygons get every detail edge flagged, which the maintainers note is
+// harmless: a false boundary only costs an extra distance test. Call on
+// tiles that passed tileDataProblem().
+void ensureDetailBoundaryEdges(unsigned char* data) {
+  constexpr unsigned char kAllEdgesBoundary = DT_DETAIL_EDGE_BOUNDARY |
+                                              DT_DETAIL_EDGE_BOUNDARY << 2 |
+                                              DT_DETAIL_EDGE_BOUNDARY << 4;
+  const TileLayout t = tileLayout(data);
+  for (int i = 0; i < t.header.polyCount; ++i) {
+    if (t.polys[i].getType() == DT_POLYTYPE_OFFMESH_CONNECTION) continue;
+    const dtPolyDetail& d = t.details[i];
+    unsigned char* flags = t.detailTris + 4 * d.triBase + 3;
+    bool anyBoundary = false;
+    for (int k = 0; k < d.triCount; ++k)
+      anyBoundary = anyBoundary || (flags[4 * k] & kAllEdgesBoundary) != 0;
+    if (!anyBoundary)
+      for (int k = 0; k < d.triCount; ++k) flags[4 * k] |= kAllEdgesBoundary;
+  }
 }
 
 }  // namespace
@@ -537,6 +607,10 @@ NavMesh::~NavMesh() = default;
 std::unique_ptr<NavMesh> NavMesh::build(const TriangleMesh& mesh,
                                         const NavMeshConfig& config) {
   detail::DetourTile tile = detail::buildDetourTile(mesh, config);
+  const std::string problem = tileDataProblem(tile.data.get(), tile.size);
+  VLN_CHECK_IO(problem.empty(),
+               "NavMesh::build(): Recast produced an unusable tile: ", problem);
+  ensureDetailBoundaryEdges(tile.data.get());
   DtNavMeshPtr nav(dtAllocNavMesh());
   VLN_CHECK_IO(nav != nullptr, "NavMesh::build(): out of memory");
   // with DT_TILE_FREE_DATA the navmesh owns the data once init succeeds
@@ -632,13 +706,18 @@ std::unique_ptr<NavMesh> NavMesh::load(const std::filesystem::path& file) {
     offset += static_cast<size_t>(dataSize);
     const std::string problem = tileDataProblem(data.get(), dataSize);
     VLN_CHECK_IO(problem.empty(), where, "corrupt tile ", i, ": ", problem);
+    ensureDetailBoundaryEdges(data.get());
+    // polygon refs reserve bits for maxPolys polygons per tile only
+    const auto* header = reinterpret_cast<const dtMeshHeader*>(data.get());
+    VLN_CHECK_IO(header->polyCount <= params.maxPolys, where, "corrupt tile ",
+                 i, ": ", header->polyCount, " polygons, the header allows ",
+                 params.maxPolys);
     const dtStatus status =
         nav->addTile(data.get(), dataSize, DT_TILE_FREE_DATA, tileRef, nullptr);
     VLN_CHECK_IO(dtStatusSucceed(status), where, "corrupt tile ", i,
                  ": Detour rejects it (status 0x", std::hex, status, ")");
     // the file records the agent it was built for; the rest stay defaults
     if (!configFromTile) {
-      const auto* header = reinterpret_cast<const dtMeshHeader*>(data.get());
       config.agent_height = header->walkableHeight;
       config.agent_radius = header->walkableRadius;
       config.agent_max_climb = header->walkableClimb;

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <random>
 #include <thread>
@@ -516,6 +517,36 @@ TEST_F(CorruptNavMeshTest, CorruptTilesAreReported) {
   std::string tiles = bytes_;
   tiles[8] = 9;
   EXPECT_THAT(loadError(tiles), HasSubstr("corrupt header"));
+}
+
+TEST_F(CorruptNavMeshTest, LoadsFilesWithoutDetailEdgeFlags) {
+  // Detour dereferences null in closestPointOnPoly when no detail edge of a
+  // polygon is flagged as outline (recastnavigation #394/#656); files from
+  // tools that leave the flags at 0 must still work. Offsets follow Detour's
+  // tile layout: 100-byte dtMeshHeader (counts at bytes 24..47), then
+  // vertices (12 B), polygons (32 B), links (12 B), detail meshes (12 B),
+  // detail vertices (12 B) and detail triangles (4 B: 3 indices + flags).
+  constexpr size_t kTile = 48;
+  auto count = [&](size_t at) {
+    int32_t v;
+    std::memcpy(&v, &bytes_[kTile + at], sizeof(v));
+    return static_cast<size_t>(v);
+  };
+  const size_t detailTris = kTile + 100 + 12 * count(28) + 32 * count(24) +
+                            12 * count(32) + 12 * count(36) + 12 * count(40);
+  std::string unflagged = bytes_;
+  for (size_t t = 0; t < count(44); ++t) unflagged[detailTris + 4 * t + 3] = 0;
+  ASSERT_NE(unflagged, bytes_);  // there were flags to clear
+
+  const auto file = dir_ / "unflagged.navmesh";
+  test::writeText(file, unflagged);
+  const auto loaded = NavMesh::load(file);
+  // snapping from outside every polygon runs the edge search
+  const auto edge = loaded->snapPoint({-0.06f, 0.0f, 1.0f});
+  ASSERT_TRUE(edge.has_value());
+  EXPECT_EQ(*edge, *room().snapPoint({-0.06f, 0.0f, 1.0f}));
+  EXPECT_EQ(loaded->geodesicDistance({1, 0, 1}, {5, 0, 5}),
+            room().geodesicDistance({1, 0, 1}, {5, 0, 5}));
 }
 
 TEST_F(CorruptNavMeshTest, MissingFileNamesTheFile) {
