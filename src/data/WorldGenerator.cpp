@@ -10,6 +10,7 @@
 #include <exception>
 #include <mutex>
 #include <optional>
+#include <stdexcept>
 #include <system_error>
 #include <thread>
 #include <unistd.h>
@@ -493,13 +494,20 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   common::ProgressLine progress("generate", n, "houses", 10.0);
   auto worker = [&] {
     for (int i = next++; i < n; i = next++) {
+      // errors name the house; their type (bad input or I/O) is kept
+      const std::string where =
+          strCat("generateWorld(): house ", i, " '", worldHouseName(config, i), "': ");
       try {
         houses[static_cast<size_t>(i)] =
             processHouse(config, output, i, roles[static_cast<size_t>(i)]);
-      } catch (...) {
-        errors[static_cast<size_t>(i)] = std::current_exception();
-        next = n;  // stop handing out work
+      } catch (const std::invalid_argument& e) {
+        errors[static_cast<size_t>(i)] =
+            std::make_exception_ptr(std::invalid_argument(where + e.what()));
+      } catch (const std::exception& e) {
+        errors[static_cast<size_t>(i)] =
+            std::make_exception_ptr(std::runtime_error(where + e.what()));
       }
+      if (errors[static_cast<size_t>(i)]) next = n;  // stop handing out work
       std::lock_guard lock(progressMutex);
       progress.advance();
     }

@@ -232,6 +232,70 @@ TEST(InstructionGeneratorTest, MentionsAreGrounded) {
   EXPECT_GT(sided, 10);
 }
 
+// The same grounding checks on generated houses (windows, pictures, rugs,
+// many rooms): routes from each room's centre through two doorways.
+TEST(InstructionGeneratorTest, MentionsAreGroundedInGeneratedHouses) {
+  const InstructionConfig config;
+  int mentions = 0;
+  for (uint64_t seed : {1u, 2u, 3u}) {
+    const sim::House house = sim::generateHouse(seed, sim::HouseConfig{});
+    const auto& s = house.semantics;
+    const InstructionGenerator generator(s, config);
+    auto center = [&](int r) {
+      const Vec2f c = s.rooms[static_cast<size_t>(r)].footprint.center();
+      return Vec3f(c.x(), s.rooms[static_cast<size_t>(r)].floor_y, c.y());
+    };
+    for (int start = 0; start < static_cast<int>(s.rooms.size()); ++start) {
+      std::vector<Vec3f> path = {center(start)};
+      int room = start;
+      int previous = -1;
+      for (int hop = 0; hop < 2; ++hop) {
+        const sim::Doorway* through = nullptr;
+        for (const auto& d : s.doors) {
+          const int other = d.room_a == room ? d.room_b : d.room_b == room ? d.room_a : -1;
+          if (other >= 0 && other != previous) {
+            through = &d;
+            previous = room;
+            room = other;
+            break;
+          }
+        }
+        if (through == nullptr) break;
+        path.push_back(through->center);
+        path.push_back(center(room));
+      }
+      if (path.size() < 3) continue;
+      for (const auto& g : generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
+        EXPECT_EQ(g.goal_room, s.roomAt(path.back())) << g.text;
+        for (const LandmarkMention& m : g.landmarks) {
+          const auto& o = objectById(s, m.object_id);
+          EXPECT_THAT(lower(g.text), HasSubstr(m.phrase));
+          ++mentions;
+          switch (m.role) {
+            case LandmarkRole::kPass:
+            case LandmarkRole::kBetween:
+              EXPECT_TRUE(passedOnSide(path, o, m.side, config.landmark_distance + 0.05f))
+                  << g.text << " -- " << m.phrase;
+              break;
+            case LandmarkRole::kToward:
+              EXPECT_LE(distanceToPath(path, o), config.landmark_distance + 0.05f);
+              break;
+            case LandmarkRole::kTurnAt:
+              EXPECT_LE(footprintDistance(o.bounds, path[static_cast<size_t>(m.leg)]), 1.25f);
+              break;
+            case LandmarkRole::kStop:
+              EXPECT_LE(footprintDistance(o.bounds, path.back()),
+                        config.stop_landmark_distance + 1e-4f);
+              EXPECT_EQ(o.room, g.goal_room);
+              break;
+          }
+        }
+      }
+    }
+  }
+  EXPECT_GT(mentions, 50);
+}
+
 TEST(InstructionGeneratorTest, PassedSidesMatchTheGeometry) {
   // a straight corridor along -Z with a sofa on the left (-X) and a tv on
   // the right (+X)
