@@ -19,8 +19,8 @@ int NavGraph::addNode(std::string id, const Vec3f& position) {
   VLN_CHECK_ARG(!id.empty(), "NavGraph::addNode(): empty node id");
   VLN_CHECK_ARG(position.allFinite(), "NavGraph::addNode(): node '", id,
                 "' has a non-finite position");
-  VLN_CHECK_ARG(!index_.contains(id), "NavGraph::addNode(): duplicate node id '",
-                id, "'");
+  VLN_CHECK_ARG(!index_.contains(id),
+                "NavGraph::addNode(): duplicate node id '", id, "'");
   const int index = numNodes();
   index_.emplace(id, index);
   nodes_.push_back({std::move(id), position});
@@ -176,8 +176,9 @@ NavGraph navGraphFromJson(const nlohmann::json& json, std::string_view source) {
   // nodes
   NavGraph graph;
   for (const auto& [id, value] : nodes->items()) {
-    VLN_CHECK_ARG(value.is_array() && value.size() == 3, where, ": field 'nodes.",
-                  id, "' must be [x, y, z], got ", value.dump());
+    VLN_CHECK_ARG(value.is_array() && value.size() == 3, where,
+                  ": field 'nodes.", id, "' must be [x, y, z], got ",
+                  value.dump());
     Vec3f position;
     for (int k = 0; k < 3; ++k) {
       VLN_CHECK_ARG(value[k].is_number(), where, ": field 'nodes.", id, "[", k,

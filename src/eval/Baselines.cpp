@@ -156,13 +156,14 @@ sim::Action HandcraftedAgent::act() {
 std::unique_ptr<BaselineAgent> makeBaseline(
     std::string_view name, const ActionDistribution& distribution,
     int forwardSteps, uint64_t seed) {
-  if (name == "random") return std::make_unique<RandomAgent>(distribution, seed);
+  if (name == "random")
+    return std::make_unique<RandomAgent>(distribution, seed);
   if (name == "handcrafted")
     return std::make_unique<HandcraftedAgent>(forwardSteps,
                                               kHandcraftedMaxTurns, seed);
-  throw std::invalid_argument(strCat(
-      "makeBaseline(): unknown baseline '", name,
-      "', expected one of: random, handcrafted"));
+  throw std::invalid_argument(
+      strCat("makeBaseline(): unknown baseline '", name,
+             "', expected one of: random, handcrafted"));
 }
 
 }  // namespace vln::eval

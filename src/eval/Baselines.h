@@ -71,9 +71,9 @@ class RandomAgent : public BaselineAgent {
  public:
   /// `probabilities` must be non-negative with a positive sum (they are
   /// normalised); throws std::invalid_argument otherwise.
-  explicit RandomAgent(ActionDistribution probabilities =
-                           kPaperActionDistribution,
-                       uint64_t seed = 0);
+  explicit RandomAgent(
+      ActionDistribution probabilities = kPaperActionDistribution,
+      uint64_t seed = 0);
   void reset(std::string_view episodeId) override;
   sim::Action act() override;
   std::string name() const override { return "random"; }

@@ -55,7 +55,8 @@ DtwResult exactDtw(std::span<const P> a, std::span<const P> b, bool wantPath,
   size_t i = n, j = m;
   result.path.emplace_back(static_cast<int>(i - 1), static_cast<int>(j - 1));
   while (i > 1 || j > 1) {
-    const double diag = at(i - 1, j - 1), up = at(i - 1, j), left = at(i, j - 1);
+    const double diag = at(i - 1, j - 1), up = at(i - 1, j),
+                 left = at(i, j - 1);
     if (diag <= up && diag <= left) {
       --i;
       --j;
@@ -168,10 +169,11 @@ std::vector<WindowCell> expandWindow(
   std::vector<LowHigh> bounds2(maxX + radius + 1);
   for (int x = 0; x <= maxX; ++x) {
     bounds2[x].low = std::max(0, bounds1[std::max(0, x - radius)].low - radius);
-    bounds2[x].high = std::min(maxY + radius,
-                               bounds1[std::min(maxX, x + radius)].high + radius);
+    bounds2[x].high = std::min(
+        maxY + radius, bounds1[std::min(maxX, x + radius)].high + radius);
   }
-  for (int x = maxX + 1; x < maxX + radius + 1; ++x) bounds2[x] = bounds2[x - 1];
+  for (int x = maxX + 1; x < maxX + radius + 1; ++x)
+    bounds2[x] = bounds2[x - 1];
 
   // step 3: double the resolution (rows 2x and 2x+1 share a row's bounds)
   const int len3 = std::min(lenX, 2 * (maxX + radius + 1));
@@ -223,7 +225,8 @@ template <class P>
 std::vector<P> reduceByHalf(std::span<const P> x) {
   std::vector<P> out;
   out.reserve(x.size() / 2);
-  for (size_t i = 0; i + 1 < x.size(); i += 2) out.push_back((x[i] + x[i + 1]) / 2.0);
+  for (size_t i = 0; i + 1 < x.size(); i += 2)
+    out.push_back((x[i] + x[i + 1]) / 2.0);
   return out;
 }
 
@@ -231,9 +234,9 @@ template <class P>
 DtwResult fastDtwImpl(std::span<const P> x, std::span<const P> y, int radius) {
   const size_t minTimeSize = static_cast<size_t>(radius) + 2;
   if (x.size() < minTimeSize || y.size() < minTimeSize)
-    return windowedDtw(x, y,
-                       fullWindow(static_cast<int>(x.size()),
-                                  static_cast<int>(y.size())));
+    return windowedDtw(
+        x, y,
+        fullWindow(static_cast<int>(x.size()), static_cast<int>(y.size())));
   const std::vector<P> xs = reduceByHalf(x);
   const std::vector<P> ys = reduceByHalf(y);
   const DtwResult coarse =
@@ -337,7 +340,8 @@ EpisodeMetrics metricsFromJson(const nlohmann::json& j,
 double pathLength(std::span<const Vec3f> positions) {
   double total = 0.0;
   for (size_t i = 1; i < positions.size(); ++i)
-    total += (positions[i].cast<double>() - positions[i - 1].cast<double>()).norm();
+    total +=
+        (positions[i].cast<double>() - positions[i - 1].cast<double>()).norm();
   return total;
 }
 
@@ -419,26 +423,29 @@ EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
       strCat("computeEpisodeMetrics(): episode '", record.episode_id, "'");
 
   // consistency of the record
-  VLN_CHECK_ARG(!record.positions.empty(), where, ": field 'positions' is empty");
+  VLN_CHECK_ARG(!record.positions.empty(), where,
+                ": field 'positions' is empty");
   VLN_CHECK_ARG(record.steps_taken >= 0 &&
                     record.positions.size() ==
                         static_cast<size_t>(record.steps_taken) + 1,
                 where, ": field 'positions' must hold steps_taken + 1 = ",
-                record.steps_taken + 1, " entries, got ", record.positions.size());
+                record.steps_taken + 1, " entries, got ",
+                record.positions.size());
   VLN_CHECK_ARG(record.headings.empty() ||
                     record.headings.size() == record.positions.size(),
                 where, ": field 'headings' must be empty or match positions (",
                 record.positions.size(), "), got ", record.headings.size());
-  VLN_CHECK_ARG(record.actions.empty() ||
-                    record.actions.size() ==
-                        static_cast<size_t>(record.steps_taken),
-                where, ": field 'actions' must be empty or hold steps_taken = ",
-                record.steps_taken, " entries, got ", record.actions.size());
+  VLN_CHECK_ARG(
+      record.actions.empty() ||
+          record.actions.size() == static_cast<size_t>(record.steps_taken),
+      where, ": field 'actions' must be empty or hold steps_taken = ",
+      record.steps_taken, " entries, got ", record.actions.size());
   VLN_CHECK_ARG(!record.reference_path.empty(), where,
                 ": field 'reference_path' is empty");
-  VLN_CHECK_ARG(std::isfinite(record.start_distance) && record.start_distance >= 0,
-                where, ": field 'start_distance' must be finite and >= 0, got ",
-                record.start_distance);
+  VLN_CHECK_ARG(
+      std::isfinite(record.start_distance) && record.start_distance >= 0, where,
+      ": field 'start_distance' must be finite and >= 0, got ",
+      record.start_distance);
   VLN_CHECK_ARG(options.success_distance > 0.0, where,
                 ": success_distance must be positive, got ",
                 options.success_distance);
@@ -450,17 +457,17 @@ EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
                 "not finite, got ",
                 m.distance_to_goal);
   m.path_length = pathLength(record.positions);
-  const bool success =
-      isSuccess(record.called_stop, m.distance_to_goal, options.success_distance);
+  const bool success = isSuccess(record.called_stop, m.distance_to_goal,
+                                 options.success_distance);
   m.success = success ? 1.0 : 0.0;
   m.spl = splScore(success, record.start_distance, m.path_length);
   m.oracle_success = oracleSuccess(record.positions, record.goal, geodesic,
                                    options.success_distance)
                          ? 1.0
                          : 0.0;
-  m.ndtw = ndtwScore(record.positions, record.reference_path,
-                     options.success_distance, options.dtw,
-                     options.fastdtw_radius);
+  m.ndtw =
+      ndtwScore(record.positions, record.reference_path,
+                options.success_distance, options.dtw, options.fastdtw_radius);
   m.sdtw = m.success * m.ndtw;
   m.steps_taken = record.steps_taken;
   return m;
@@ -532,17 +539,17 @@ SplitStats readStatsFile(const std::filesystem::path& file) {
 nlohmann::json episodesToJson(std::span<const EpisodeResult> episodes) {
   nlohmann::json list = nlohmann::json::array();
   for (const auto& [r, m] : episodes) {
-    list.push_back({{"episode_id", r.episode_id},
-                    {"metrics", metricsToJson(m)},
-                    {"called_stop", r.called_stop},
-                    {"steps_taken", r.steps_taken},
-                    {"goal", vecToJson(r.goal)},
-                    {"start_distance", r.start_distance},
-                    {"path",
-                     {{"positions", pointsToJson(r.positions)},
-                      {"headings", r.headings}}},
-                    {"actions", r.actions},
-                    {"reference_path", pointsToJson(r.reference_path)}});
+    list.push_back(
+        {{"episode_id", r.episode_id},
+         {"metrics", metricsToJson(m)},
+         {"called_stop", r.called_stop},
+         {"steps_taken", r.steps_taken},
+         {"goal", vecToJson(r.goal)},
+         {"start_distance", r.start_distance},
+         {"path",
+          {{"positions", pointsToJson(r.positions)}, {"headings", r.headings}}},
+         {"actions", r.actions},
+         {"reference_path", pointsToJson(r.reference_path)}});
   }
   return {{"episodes", std::move(list)}};
 }
@@ -550,9 +557,10 @@ nlohmann::json episodesToJson(std::span<const EpisodeResult> episodes) {
 std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
                                             std::string_view source) {
   const std::string file(source);
-  const auto list = common::requireField<nlohmann::json>(json, "episodes", file);
-  VLN_CHECK_ARG(list.is_array(), file, ": field 'episodes' must be an array, got ",
-                list.type_name());
+  const auto list =
+      common::requireField<nlohmann::json>(json, "episodes", file);
+  VLN_CHECK_ARG(list.is_array(), file,
+                ": field 'episodes' must be an array, got ", list.type_name());
   std::vector<EpisodeResult> out;
   out.reserve(list.size());
   for (size_t i = 0; i < list.size(); ++i) {
@@ -562,18 +570,20 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
     EpisodeRecord& r = result.record;
     r.episode_id = common::requireField<std::string>(e, "episode_id", where);
     const std::string ctx = strCat(file, ": episode '", r.episode_id, "'");
-    result.metrics = metricsFromJson(
-        common::requireField<nlohmann::json>(e, "metrics", ctx), ctx + " metrics");
+    result.metrics =
+        metricsFromJson(common::requireField<nlohmann::json>(e, "metrics", ctx),
+                        ctx + " metrics");
     r.called_stop = common::requireField<bool>(e, "called_stop", ctx);
     r.steps_taken = common::requireField<int>(e, "steps_taken", ctx);
     r.goal = vecFromJson(common::requireField<nlohmann::json>(e, "goal", ctx),
                          ctx + ": field 'goal'");
     r.start_distance = numberField(e, "start_distance", ctx);
     const auto path = common::requireField<nlohmann::json>(e, "path", ctx);
-    r.positions =
-        pointsFromJson(common::requireField<nlohmann::json>(path, "positions", ctx),
-                       ctx + ": field 'path.positions'");
-    r.headings = common::requireField<std::vector<float>>(path, "headings", ctx);
+    r.positions = pointsFromJson(
+        common::requireField<nlohmann::json>(path, "positions", ctx),
+        ctx + ": field 'path.positions'");
+    r.headings =
+        common::requireField<std::vector<float>>(path, "headings", ctx);
     r.actions = common::requireField<std::vector<int>>(e, "actions", ctx);
     r.reference_path = pointsFromJson(
         common::requireField<nlohmann::json>(e, "reference_path", ctx),
@@ -583,8 +593,8 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
                   r.steps_taken + 1, " entries, got ", r.positions.size());
     for (size_t k = 0; k < r.actions.size(); ++k)
       VLN_CHECK_ARG(r.actions[k] >= 0 && r.actions[k] <= 3, ctx,
-                    ": field 'actions[", k, "]' must be an action code 0..3, got ",
-                    r.actions[k]);
+                    ": field 'actions[", k,
+                    "]' must be an action code 0..3, got ", r.actions[k]);
     out.push_back(std::move(result));
   }
   return out;
@@ -624,8 +634,8 @@ std::vector<LeaderboardStep> leaderboardSteps(const EpisodeRecord& record) {
 nlohmann::json leaderboardToJson(const LeaderboardPredictions& predictions) {
   nlohmann::json out = nlohmann::json::object();
   for (const auto& [id, steps] : predictions) {
-    VLN_CHECK_ARG(!out.contains(id), "leaderboardToJson(): duplicate episode id '",
-                  id, "'");
+    VLN_CHECK_ARG(!out.contains(id),
+                  "leaderboardToJson(): duplicate episode id '", id, "'");
     nlohmann::json list = nlohmann::json::array();
     for (const auto& s : steps)
       list.push_back({{"position", vecToJson(s.position)},

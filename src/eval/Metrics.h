@@ -95,7 +95,7 @@ struct EpisodeMetrics {
   double ndtw = 0.0;              ///< normalised DTW to the reference path
   double sdtw = 0.0;              ///< success * ndtw
   double path_length = 0.0;       ///< TL: sum of 3-D step lengths (m)
-  double oracle_success = 0.0;    ///< OS: 1 when any position was within the radius
+  double oracle_success = 0.0;    ///< OS: 1 when ever within the radius
   double steps_taken = 0.0;       ///< actions taken, STOP included
   bool operator==(const EpisodeMetrics&) const = default;
 };

@@ -12,14 +12,15 @@ namespace vln::eval {
 namespace {
 
 constexpr std::array<std::pair<const char*, double GraphEpisodeMetrics::*>, 8>
-    kGraphKeys{{{"path_length", &GraphEpisodeMetrics::path_length},
-                {"distance_to_goal", &GraphEpisodeMetrics::distance_to_goal},
-                {"oracle_error", &GraphEpisodeMetrics::oracle_error},
-                {"oracle_success", &GraphEpisodeMetrics::oracle_success},
-                {"success", &GraphEpisodeMetrics::success},
-                {"spl", &GraphEpisodeMetrics::spl},
-                {"shortest_path_length", &GraphEpisodeMetrics::shortest_path_length},
-                {"trajectory_steps", &GraphEpisodeMetrics::trajectory_steps}}};
+    kGraphKeys{
+        {{"path_length", &GraphEpisodeMetrics::path_length},
+         {"distance_to_goal", &GraphEpisodeMetrics::distance_to_goal},
+         {"oracle_error", &GraphEpisodeMetrics::oracle_error},
+         {"oracle_success", &GraphEpisodeMetrics::oracle_success},
+         {"success", &GraphEpisodeMetrics::success},
+         {"spl", &GraphEpisodeMetrics::spl},
+         {"shortest_path_length", &GraphEpisodeMetrics::shortest_path_length},
+         {"trajectory_steps", &GraphEpisodeMetrics::trajectory_steps}}};
 
 }  // namespace
 
@@ -56,7 +57,8 @@ std::vector<int> snapPathToGraph(const data::NavGraph& graph, int startNode,
   for (size_t t = 1; t < positions.size(); ++t) {
     const Vec3d p = positions[t].cast<double>();
     int best = current;
-    double bestDistance = (graph.node(current).position.cast<double>() - p).norm();
+    double bestDistance =
+        (graph.node(current).position.cast<double>() - p).norm();
     for (int n : graph.neighbors(current)) {  // ascending indices
       const double d = (graph.node(n).position.cast<double>() - p).norm();
       if (d < bestDistance) {
@@ -166,7 +168,8 @@ GraphSplitStats graphStatsFromJson(const nlohmann::json& json,
 }
 
 std::filesystem::path writeGraphStatsFile(const std::filesystem::path& dir,
-                                          int checkpoint, std::string_view split,
+                                          int checkpoint,
+                                          std::string_view split,
                                           const GraphSplitStats& stats) {
   const auto file = dir / graphStatsFileName(checkpoint, split);
   common::writeJsonFile(file, graphStatsToJson(stats), /*indent=*/4);

@@ -51,14 +51,16 @@ std::vector<int> snapPathToGraph(const data::NavGraph& graph, int startNode,
 /// VLN metrics of one graph trajectory, named like VLN-CE's so that the
 /// tables treat both alike.
 struct GraphEpisodeMetrics {
-  double path_length = 0.0;       ///< TL: sum of distances between consecutive nodes (m)
+  double path_length =
+      0.0;  ///< TL: sum of distances between consecutive nodes (m)
   double distance_to_goal = 0.0;  ///< NE: final node to goal node (m)
-  double oracle_error = 0.0;      ///< min over visited nodes of the distance to goal (m)
-  double oracle_success = 0.0;    ///< OS: oracle_error < margin
-  double success = 0.0;           ///< SR: NE < margin
-  double spl = 0.0;               ///< success * d / max(TL, d), d = start-to-goal (m)
+  double oracle_error =
+      0.0;  ///< min over visited nodes of the distance to goal (m)
+  double oracle_success = 0.0;  ///< OS: oracle_error < margin
+  double success = 0.0;         ///< SR: NE < margin
+  double spl = 0.0;  ///< success * d / max(TL, d), d = start-to-goal (m)
   double shortest_path_length = 0.0;  ///< d (m)
-  double trajectory_steps = 0.0;  ///< path.size() - 1
+  double trajectory_steps = 0.0;      ///< path.size() - 1
   bool operator==(const GraphEpisodeMetrics&) const = default;
 };
 
@@ -99,7 +101,8 @@ GraphSplitStats graphStatsFromJson(const nlohmann::json& json,
                                    std::string_view source);
 /// Atomically writes `dir`/graphStatsFileName(); returns the path.
 std::filesystem::path writeGraphStatsFile(const std::filesystem::path& dir,
-                                          int checkpoint, std::string_view split,
+                                          int checkpoint,
+                                          std::string_view split,
                                           const GraphSplitStats& stats);
 /// Reads a nav-graph stats file.
 GraphSplitStats readGraphStatsFile(const std::filesystem::path& file);

@@ -43,9 +43,11 @@ struct PaperRow {
 struct PaperTable {
   int number = 0;
   std::string caption;
-  std::vector<std::string> attribute_columns;  ///< e.g. {"Vision", "Instr.", "History"}
-  std::vector<std::string> splits;             ///< e.g. {"val_seen", "val_unseen"}
-  std::vector<std::string> metrics;            ///< e.g. {"TL", "NE", "nDTW", "OS", "SR", "SPL"}
+  std::vector<std::string>
+      attribute_columns;            ///< e.g. {"Vision", "Instr.", "History"}
+  std::vector<std::string> splits;  ///< e.g. {"val_seen", "val_unseen"}
+  std::vector<std::string>
+      metrics;  ///< e.g. {"TL", "NE", "nDTW", "OS", "SR", "SPL"}
   std::vector<PaperRow> rows;
   /// The row with `key`, or nullptr.
   const PaperRow* findRow(std::string_view key) const;

@@ -16,10 +16,11 @@ namespace vln::eval {
 namespace {
 
 const std::set<std::string> kRunKeys = {
-    "model", "rows",        "checkpoint", "config", "command", "vision",
-    "instruction", "history", "pm",       "da",     "aug",     "notes"};
+    "model",       "rows",    "checkpoint", "config", "command", "vision",
+    "instruction", "history", "pm",         "da",     "aug",     "notes"};
 const std::vector<std::string> kVisionValues = {"RGBD", "RGB", "D", "-"};
-const std::vector<std::string> kDaValues = {"none", "dagger", "dagger_finetune"};
+const std::vector<std::string> kDaValues = {"none", "dagger",
+                                            "dagger_finetune"};
 
 std::string joined(const std::vector<std::string>& items) {
   std::string out;
@@ -83,7 +84,8 @@ std::optional<std::vector<double>> splitValues(const RunInfo& run,
   }
   std::vector<double> values;
   for (const auto& metric : table.metrics)
-    values.push_back(stats.at(std::string(metricStatsKey(metric))).get<double>());
+    values.push_back(
+        stats.at(std::string(metricStatsKey(metric))).get<double>());
   return values;
 }
 
@@ -113,10 +115,14 @@ std::string mdToken(const std::string& token) {
 std::string mdCode(std::string text) {
   std::string out;
   for (char c : text) {
-    if (c == '`') out += '\'';
-    else if (c == '|') out += "\\|";
-    else if (c == '\n') out += ' ';
-    else out += c;
+    if (c == '`')
+      out += '\'';
+    else if (c == '|')
+      out += "\\|";
+    else if (c == '\n')
+      out += ' ';
+    else
+      out += c;
   }
   return "`" + out + "`";
 }
@@ -127,15 +133,30 @@ std::string texEscape(const std::string& text) {
   std::string out;
   for (char c : text) {
     switch (c) {
-      case '\\': out += "\\textbackslash{}"; break;
-      case '_': case '%': case '&': case '#': case '$': case '{': case '}':
+      case '\\':
+        out += "\\textbackslash{}";
+        break;
+      case '_':
+      case '%':
+      case '&':
+      case '#':
+      case '$':
+      case '{':
+      case '}':
         out += '\\';
         out += c;
         break;
-      case '~': out += "\\textasciitilde{}"; break;
-      case '^': out += "\\textasciicircum{}"; break;
-      case '\n': out += ' '; break;
-      default: out += c;
+      case '~':
+        out += "\\textasciitilde{}";
+        break;
+      case '^':
+        out += "\\textasciicircum{}";
+        break;
+      case '\n':
+        out += ' ';
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -155,8 +176,8 @@ std::string reference(const OurRow& ours, const PaperTable& table) {
     episodes += strCat(s ? ", " : "", table.splits[s], " ",
                        ours.values[s] ? std::to_string(ours.num_episodes[s])
                                       : std::string("missing"));
-  return strCat("run ", ours.run, ", checkpoint ", ours.checkpoint, ", episodes ",
-                episodes);
+  return strCat("run ", ours.run, ", checkpoint ", ours.checkpoint,
+                ", episodes ", episodes);
 }
 
 }  // namespace
@@ -200,10 +221,11 @@ RunInfo readRunInfo(const std::filesystem::path& runDir) {
     const auto key = common::requireField<std::string>(rows[i], "row", ctx);
     const PaperTable& table = paperTable(number);
     const PaperRow* paperRow = table.findRow(key);
-    VLN_CHECK_ARG(paperRow != nullptr, ctx, ": table ", number,
-                  " has no row '", key, "'; rows are ", joined(rowKeys(table)));
+    VLN_CHECK_ARG(paperRow != nullptr, ctx, ": table ", number, " has no row '",
+                  key, "'; rows are ", joined(rowKeys(table)));
     VLN_CHECK_ARG(paperRow->reproducible, ctx, ": table ", number, " row '",
-                  key, "' is another paper's nav-graph model, shown for "
+                  key,
+                  "' is another paper's nav-graph model, shown for "
                   "reference only");
     run.rows.emplace_back(number, key);
     inTable1 |= number == 1;
@@ -215,8 +237,8 @@ RunInfo readRunInfo(const std::filesystem::path& runDir) {
                                           "Table 1 rows need it");
   VLN_CHECK_ARG(std::find(kVisionValues.begin(), kVisionValues.end(),
                           run.vision) != kVisionValues.end(),
-                where, ": field 'vision' must be one of ", joined(kVisionValues),
-                ", got '", run.vision, "'");
+                where, ": field 'vision' must be one of ",
+                joined(kVisionValues), ", got '", run.vision, "'");
   run.instruction = optionalField<bool>(json, "instruction", false, inTable1,
                                         where, "Table 1 rows need it");
   run.history = optionalField<bool>(json, "history", false, inTable1, where,
@@ -225,10 +247,10 @@ RunInfo readRunInfo(const std::filesystem::path& runDir) {
                                "Table 2 rows need it");
   run.da = optionalField<std::string>(json, "da", "none", inTable2, where,
                                       "Table 2 rows need it");
-  VLN_CHECK_ARG(std::find(kDaValues.begin(), kDaValues.end(), run.da) !=
-                    kDaValues.end(),
-                where, ": field 'da' must be one of ", joined(kDaValues),
-                ", got '", run.da, "'");
+  VLN_CHECK_ARG(
+      std::find(kDaValues.begin(), kDaValues.end(), run.da) != kDaValues.end(),
+      where, ": field 'da' must be one of ", joined(kDaValues), ", got '",
+      run.da, "'");
   run.aug = optionalField<bool>(json, "aug", false, inTable2, where,
                                 "Table 2 rows need it");
   return run;
@@ -246,7 +268,8 @@ std::vector<BuiltTable> buildTables(const std::filesystem::path& runsDir) {
   // runs in name order so the output does not depend on the file system
   std::vector<std::filesystem::path> dirs;
   for (const auto& entry : std::filesystem::directory_iterator(runsDir))
-    if (entry.is_directory() && std::filesystem::exists(entry.path() / "run.json"))
+    if (entry.is_directory() &&
+        std::filesystem::exists(entry.path() / "run.json"))
       dirs.push_back(entry.path());
   std::sort(dirs.begin(), dirs.end());
   std::vector<RunInfo> runs;
@@ -283,7 +306,8 @@ std::vector<BuiltTable> buildTables(const std::filesystem::path& runsDir) {
         ours.command = run.command;
         for (const auto& split : built.paper->splits) {
           int episodes = 0;
-          ours.values.push_back(splitValues(run, *built.paper, split, &episodes));
+          ours.values.push_back(
+              splitValues(run, *built.paper, split, &episodes));
           ours.num_episodes.push_back(episodes);
         }
         row.ours = std::move(ours);
@@ -306,7 +330,8 @@ std::string renderMarkdown(const BuiltTable& table) {
 
   // header
   out << "|" << (numbered(paper) ? " # |" : "") << " Model |";
-  for (const auto& column : paper.attribute_columns) out << " " << column << " |";
+  for (const auto& column : paper.attribute_columns)
+    out << " " << column << " |";
   out << " Source |";
   for (const auto& split : paper.splits)
     for (const auto& metric : paper.metrics)
@@ -344,7 +369,8 @@ std::string renderMarkdown(const BuiltTable& table) {
     const OurRow& ours = *row.ours;
     cited.push_back(&ours);
     out << "*ours: " << ours.model << "* |";
-    for (const auto& token : ours.attributes) out << " " << mdToken(token) << " |";
+    for (const auto& token : ours.attributes)
+      out << " " << mdToken(token) << " |";
     out << " " << mdCode(ours.run) << " [" << cited.size() << "] |";
     for (const auto& split : ours.values)
       for (size_t m = 0; m < paper.metrics.size(); ++m)
@@ -355,21 +381,23 @@ std::string renderMarkdown(const BuiltTable& table) {
   // references
   if (!cited.empty()) out << "\n";
   for (size_t i = 0; i < cited.size(); ++i)
-    out << "[" << i + 1 << "] " << reference(*cited[i], paper)
-        << "; config " << mdCode(cited[i]->config) << "; command "
-        << mdCode(cited[i]->command) << "\n";
+    out << "[" << i + 1 << "] " << reference(*cited[i], paper) << "; config "
+        << mdCode(cited[i]->config) << "; command " << mdCode(cited[i]->command)
+        << "\n";
   return out.str();
 }
 
 std::string renderLatex(const BuiltTable& table) {
   const PaperTable& paper = *table.paper;
-  const size_t lead = (numbered(paper) ? 1 : 0) + 1 + paper.attribute_columns.size() + 1;
+  const size_t lead =
+      (numbered(paper) ? 1 : 0) + 1 + paper.attribute_columns.size() + 1;
   const size_t nm = paper.metrics.size();
   std::ostringstream out;
-  out << "% Table " << paper.number << " of Krantz et al. (2020) beside our runs\n"
+  out << "% Table " << paper.number
+      << " of Krantz et al. (2020) beside our runs\n"
       << "\\begin{table}[t]\n\\centering\\scriptsize\n"
-      << "\\caption{Table " << paper.number << " (reproduction): "
-      << texEscape(paper.caption) << "}\n";
+      << "\\caption{Table " << paper.number
+      << " (reproduction): " << texEscape(paper.caption) << "}\n";
 
   // column layout and headers
   out << "\\begin{tabular}{" << (numbered(paper) ? "r" : "") << "l";
@@ -431,19 +459,22 @@ std::string renderLatex(const BuiltTable& table) {
     for (size_t i = 0; i < cited.size(); ++i)
       out << "[" << i + 1 << "] " << texEscape(reference(*cited[i], paper))
           << "; config \\texttt{" << texEscape(cited[i]->config)
-          << "}; command \\texttt{" << texEscape(cited[i]->command) << "}\\\\\n";
+          << "}; command \\texttt{" << texEscape(cited[i]->command)
+          << "}\\\\\n";
   }
   out << "\\end{table}\n";
   return out.str();
 }
 
 std::pair<std::filesystem::path, std::filesystem::path> writeTables(
-    const std::vector<BuiltTable>& tables, const std::filesystem::path& outDir) {
+    const std::vector<BuiltTable>& tables,
+    const std::filesystem::path& outDir) {
   std::string markdown =
       "<!-- Generated by vln::eval::writeTables(); numbers marked ours come "
       "from the result files they cite. -->\n\n";
   std::string latex =
-      "% Generated by vln::eval::writeTables(); needs booktabs and amssymb.\n\n";
+      "% Generated by vln::eval::writeTables(); needs booktabs and "
+      "amssymb.\n\n";
   for (const auto& table : tables) {
     markdown += renderMarkdown(table) + "\n";
     latex += renderLatex(table) + "\n";

@@ -6,29 +6,31 @@
 //
 // Layout of the results directory (one folder per run):
 //
-//   <runsDir>/<run name>/run.json
-//   <runsDir>/<run name>/stats_ckpt_<checkpoint>_val_seen.json     (Tables 1, 2)
-//   <runsDir>/<run name>/stats_ckpt_<checkpoint>_val_unseen.json
-//   <runsDir>/<run name>/navgraph_stats_ckpt_<checkpoint>_<split>.json
-//                                      (Table 3; split val_seen, val_unseen, test)
+//   <runsDir>/<run>/run.json
+//   <runsDir>/<run>/stats_ckpt_<ckpt>_val_seen.json       Tables 1 and 2
+//   <runsDir>/<run>/stats_ckpt_<ckpt>_val_unseen.json     Tables 1 and 2
+//   <runsDir>/<run>/navgraph_stats_ckpt_<ckpt>_<split>.json
+//                       Table 3, split val_seen, val_unseen or test
 //
-// run.json (every field required unless marked optional):
+// run.json, every field required unless noted:
 //
-//   {"model": "Seq2Seq",                  display name
+//   {"model": "Seq2Seq",               display name
 //    "rows": [{"table": 1, "row": "Seq2Seq"}, {"table": 2, "row": "1"}],
-//                                         paper rows this run reproduces
-//                                         (keys: PaperRow::key)
-//    "checkpoint": 14,                    index of the chosen checkpoint
-//    "config": "configs/seq2seq.yaml",    config the run used
-//    "command": "build/bin/train ...",    command that produced it
-//    "vision": "RGBD",                    Table 1 rows: "RGBD", "RGB", "D" or "-"
-//    "instruction": true,                 Table 1 rows
-//    "history": true,                     Table 1 rows
-//    "pm": false,                         Table 2 rows: progress monitor
-//    "da": "none",                        Table 2 rows: "none", "dagger" or
-//                                         "dagger_finetune"
-//    "aug": false}                        Table 2 rows: augmented data
+//                                      paper rows this run reproduces
+//                                      (keys: PaperRow::key)
+//    "checkpoint": 14,                 index of the chosen checkpoint
+//    "config": "configs/seq2seq.yaml", config the run used
+//    "command": "build/bin/train ...", command that produced it
+//    "vision": "RGBD",                 Table 1: "RGBD", "RGB", "D" or "-"
+//    "instruction": true,              Table 1
+//    "history": true,                  Table 1
+//    "pm": false,                      Table 2: progress monitor
+//    "da": "none",                     Table 2: "none", "dagger" or
+//                                      "dagger_finetune"
+//    "aug": false,                     Table 2: augmented data
+//    "notes": "..."}                   optional, not printed
 //
+// Attributes a run's tables do not print may be omitted.
 // Sub-folders without run.json are ignored.
 
 #include <filesystem>
@@ -43,8 +45,8 @@ namespace vln::eval {
 
 /// Parsed run.json of one run.
 struct RunInfo {
-  std::string name;            ///< folder name under the results directory
-  std::filesystem::path dir;   ///< the folder
+  std::string name;           ///< folder name under the results directory
+  std::filesystem::path dir;  ///< the folder
   std::string model;
   std::vector<std::pair<int, std::string>> rows;  ///< (table, row key)
   int checkpoint = 0;
@@ -65,12 +67,12 @@ RunInfo readRunInfo(const std::filesystem::path& runDir);
 
 /// Our side of a table row.
 struct OurRow {
-  std::string run;                       ///< run name
+  std::string run;  ///< run name
   std::string model;
-  std::vector<std::string> attributes;   ///< tokens as in PaperRow::attributes
+  std::vector<std::string> attributes;  ///< tokens as in PaperRow::attributes
   /// values[split][metric]; nullopt for a split whose stats file is missing
   std::vector<std::optional<std::vector<double>>> values;
-  std::vector<int> num_episodes;         ///< per split, 0 when missing
+  std::vector<int> num_episodes;  ///< per split, 0 when missing
   int checkpoint = 0;
   std::string config;
   std::string command;

@@ -118,9 +118,12 @@ TEST(NavGraphTest, MalformedFilesNameTheFileAndField) {
 TEST(NavGraphTest, ProgrammaticErrorsNameTheId) {
   NavGraph g;
   g.addNode("a", {0, 0, 0});
-  EXPECT_THAT([&] { g.addNode("a", {1, 0, 0}); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("duplicate node id 'a'")));
+  EXPECT_THAT(
+      [&] {
+        g.addNode("a", {1, 0, 0});
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("duplicate node id 'a'")));
   EXPECT_THAT([&] { g.addEdge("a", "b"); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("unknown node id 'b'")));

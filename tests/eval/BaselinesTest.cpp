@@ -31,8 +31,8 @@ TEST(BaselinesTest, ActionDistributionCountsEveryAction) {
 
   const std::vector<std::vector<int>> bad{{1, 1}, {1, 4}};
   EXPECT_THAT([&] { actionDistribution(bad); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("sequence 1 action 1 is not an action code 0..3, got 4")));
+              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr(
+                  "sequence 1 action 1 is not an action code 0..3, got 4")));
   const std::vector<std::vector<int>> empty{{}};
   EXPECT_THAT([&] { actionDistribution(empty); },
               ::testing::Throws<std::invalid_argument>());
@@ -93,11 +93,17 @@ TEST(BaselinesTest, RandomAgentNormalisesAndSkipsZeroMass) {
     forward += a == sim::Action::kMoveForward;
   }
   EXPECT_NEAR(forward / 4000.0, 0.5, 0.04);
-  EXPECT_THAT([] { RandomAgent({0, 0, 0, 0}); },
-              ::testing::Throws<std::invalid_argument>());
-  EXPECT_THAT([] { RandomAgent({0.5, -0.1, 0.3, 0.3}); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("probability of action 1")));
+  EXPECT_THAT(
+      [] {
+        RandomAgent({0, 0, 0, 0});
+      },
+      ::testing::Throws<std::invalid_argument>());
+  EXPECT_THAT(
+      [] {
+        RandomAgent({0.5, -0.1, 0.3, 0.3});
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("probability of action 1")));
 }
 
 TEST(BaselinesTest, AgentsAreDeterministicPerEpisode) {

@@ -166,7 +166,9 @@ TEST(MetricsTest, OracleSuccessIncludesTheStart) {
 TEST(MetricsTest, DistancesAreGeodesicButPathLengthIsEuclidean3d) {
   // a wall makes every geodesic twice the straight line; a stair step
   // rises 0.3 m while moving 0.4 m
-  auto walled = [](const Vec3f& a, const Vec3f& b) { return 2.0f * (a - b).norm(); };
+  auto walled = [](const Vec3f& a, const Vec3f& b) {
+    return 2.0f * (a - b).norm();
+  };
   EpisodeRecord r = stopAt({0, 0.3f, -0.4f}, {0, 0.3f, -2.4f});
   const EpisodeMetrics m = computeEpisodeMetrics(r, walled);
   EXPECT_NEAR(m.path_length, 0.5, 1e-6);
@@ -184,9 +186,10 @@ TEST(MetricsTest, SplEdgeCases) {
 TEST(MetricsTest, InconsistentRecordsAreRejectedNamingTheEpisode) {
   EpisodeRecord r = straightEpisode(4, true);
   r.steps_taken = 3;  // e.g. the step limit counted wrongly
-  EXPECT_THAT([&] { computeEpisodeMetrics(r, euclid); },
-              ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
-                  HasSubstr("episode 'straight'"), HasSubstr("steps_taken + 1"))));
+  EXPECT_THAT(
+      [&] { computeEpisodeMetrics(r, euclid); },
+      ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
+          HasSubstr("episode 'straight'"), HasSubstr("steps_taken + 1"))));
   r = straightEpisode(4, true);
   r.reference_path.clear();
   EXPECT_THAT([&] { computeEpisodeMetrics(r, euclid); },
@@ -196,9 +199,9 @@ TEST(MetricsTest, InconsistentRecordsAreRejectedNamingTheEpisode) {
   auto unreachable = [](const Vec3f&, const Vec3f&) {
     return std::numeric_limits<float>::infinity();
   };
-  EXPECT_THAT([&] { computeEpisodeMetrics(r, unreachable); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("not finite")));
+  EXPECT_THAT(
+      [&] { computeEpisodeMetrics(r, unreachable); },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("not finite")));
 }
 
 TEST(MetricsTest, NdtwDeduplicatesRepeatedPositions) {
@@ -245,8 +248,9 @@ TEST(MetricsTest, DtwKnownSequences) {
   // single points
   EXPECT_DOUBLE_EQ(dtw(points3({3}), points3({0, 1, 5})).distance, 3 + 2 + 2);
   EXPECT_THAT([&] { dtw({}, a); }, ::testing::Throws<std::invalid_argument>());
-  EXPECT_THAT([&] { fastDtw(a, b, 0); },
-              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("radius")));
+  EXPECT_THAT(
+      [&] { fastDtw(a, b, 0); },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("radius")));
 }
 
 TEST(MetricsTest, FastDtwEqualsExactOnShortSequences) {
@@ -263,7 +267,8 @@ TEST(MetricsTest, FastDtwEqualsExactOnShortSequences) {
   for (int trial = 0; trial < 20; ++trial) {
     const auto a = randomWalk(rng, 9 + trial, 0.5);
     const auto b = randomWalk(rng, 5 + trial / 2, 0.5);
-    EXPECT_NEAR(fastDtw(a, b, /*radius=*/40).distance, dtw(a, b).distance, 1e-9);
+    EXPECT_NEAR(fastDtw(a, b, /*radius=*/40).distance, dtw(a, b).distance,
+                1e-9);
   }
 }
 
@@ -295,14 +300,16 @@ TEST(MetricsTest, FastDtwIsCloseOnLongPaths) {
     std::vector<Vec3d> agent;
     for (size_t i = 0; i + 1 < reference.size(); ++i)
       for (int k = 0; k < 3; ++k)
-        agent.push_back(reference[i] + (reference[i + 1] - reference[i]) * k / 3.0 +
+        agent.push_back(reference[i] +
+                        (reference[i + 1] - reference[i]) * k / 3.0 +
                         Vec3d(noise(rng), 0.0, noise(rng)));
     const double exact = dtw(agent, reference).distance;
     const double fast = fastDtw(agent, reference).distance;
     EXPECT_GE(fast, exact - 1e-9);
     EXPECT_LT(fast, exact * 1.05) << "trial " << trial;
     // what nDTW reports differs by well under 0.01
-    EXPECT_NEAR(std::exp(-fast / (60 * 3.0)), std::exp(-exact / (60 * 3.0)), 0.01);
+    EXPECT_NEAR(std::exp(-fast / (60 * 3.0)), std::exp(-exact / (60 * 3.0)),
+                0.01);
   }
 }
 
@@ -346,7 +353,8 @@ TEST(MetricsTest, AggregateAveragesEveryKey) {
   EXPECT_DOUBLE_EQ(s.mean.path_length, 7.0);
   EXPECT_DOUBLE_EQ(s.mean.oracle_success, 0.5);
   EXPECT_DOUBLE_EQ(s.mean.steps_taken, 270.0);
-  EXPECT_THAT([] { aggregate({}); }, ::testing::Throws<std::invalid_argument>());
+  EXPECT_THAT([] { aggregate({}); },
+              ::testing::Throws<std::invalid_argument>());
 }
 
 TEST(MetricsTest, StatsFileHasVlnceKeysAndRoundTrips) {
@@ -357,9 +365,9 @@ TEST(MetricsTest, StatsFileHasVlnceKeysAndRoundTrips) {
   const auto file = writeStatsFile(dir.path(), 7, "val_unseen", stats);
   EXPECT_EQ(file.filename(), "stats_ckpt_7_val_unseen.json");
   const auto json = common::readJsonFile(file);
-  for (const char* key : {"distance_to_goal", "success", "spl", "ndtw",
-                          "path_length", "oracle_success", "steps_taken",
-                          "sdtw", "num_episodes"})
+  for (const char* key :
+       {"distance_to_goal", "success", "spl", "ndtw", "path_length",
+        "oracle_success", "steps_taken", "sdtw", "num_episodes"})
     EXPECT_TRUE(json.contains(key)) << key;
   EXPECT_EQ(readStatsFile(file), stats);
 
@@ -398,9 +406,10 @@ TEST(MetricsTest, EpisodesFileRoundTrips) {
 
   auto json = episodesToJson(results);
   json["episodes"][1]["actions"][2] = 9;
-  EXPECT_THAT([&] { episodesFromJson(json, "eps.json"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
-                  HasSubstr("eps.json: episode '7'"), HasSubstr("'actions[2]'"))));
+  EXPECT_THAT(
+      [&] { episodesFromJson(json, "eps.json"); },
+      ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
+          HasSubstr("eps.json: episode '7'"), HasSubstr("'actions[2]'"))));
 }
 
 TEST(MetricsTest, LeaderboardFormat) {
@@ -445,10 +454,12 @@ TEST(MetricsTest, SharedFixtureGroundTruthScoresPerfectly) {
   for (const auto& [id, entry] : gt.items()) {
     std::vector<Vec3f> locations;
     for (const auto& p : entry.at("locations"))
-      locations.emplace_back(p[0].get<float>(), p[1].get<float>(), p[2].get<float>());
+      locations.emplace_back(p[0].get<float>(), p[1].get<float>(),
+                             p[2].get<float>());
     ASSERT_GE(locations.size(), 2u) << id;
     EXPECT_DOUBLE_EQ(ndtwScore(locations, locations), 1.0) << id;
-    EXPECT_DOUBLE_EQ(ndtwScore(locations, locations, 3.0, DtwMethod::kFast), 1.0)
+    EXPECT_DOUBLE_EQ(ndtwScore(locations, locations, 3.0, DtwMethod::kFast),
+                     1.0)
         << id;
     const std::vector<Vec3f> start{locations.front()};
     const double stay = ndtwScore(start, locations);

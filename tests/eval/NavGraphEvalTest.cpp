@@ -39,9 +39,8 @@ TEST(NavGraphEvalTest, SnappingMovesAtMostOneHopPerPosition) {
   const data::NavGraph g = corridor();
   auto id = [&](const char* name) { return g.indexOf(name); };
   const std::vector<Vec3f> positions{
-      {0, 0, 0},
-      {0, 0, -0.9f},  // still nearer n0 (0.9) than n1 (1.1)
-      {0, 0, -1.2f},  // n1
+      {0, 0, 0},     {0, 0, -0.9f},  // still nearer n0 (0.9) than n1 (1.1)
+      {0, 0, -1.2f},                 // n1
       {0, 0, -5.5f},  // nearest overall is n3, but from n1 only n2 is reachable
       {0, 0, -5.6f},  // now n3 is a neighbour
       {0, 0, -5.6f},  // repeated position: no new node
@@ -109,8 +108,8 @@ TEST(NavGraphEvalTest, ErrorMarginIsStrictAndOracleCanSucceedAlone) {
 TEST(NavGraphEvalTest, ContinuousEpisodeEndToEnd) {
   const data::NavGraph g = corridor();
   // reference path through n0..n3 on the floor, slightly off the node points
-  const std::vector<Vec3f> reference{{0.1f, 0, 0}, {0, 0, -2}, {0, 0, -4.1f},
-                                     {0, 0, -6}};
+  const std::vector<Vec3f> reference{
+      {0.1f, 0, 0}, {0, 0, -2}, {0, 0, -4.1f}, {0, 0, -6}};
   std::vector<Vec3f> agent;
   for (int i = 0; i <= 24; ++i) agent.push_back({0, 0, -0.25f * i});
   const GraphEpisodeMetrics m = scoreContinuousPath(g, agent, reference, "ep9");

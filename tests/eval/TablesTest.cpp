@@ -49,9 +49,9 @@ TEST(TablesTest, OursComeFromTheChosenCheckpointsStatsFiles) {
   ASSERT_TRUE(seq.ours.has_value());
   EXPECT_EQ(seq.ours->run, "seq2seq");
   EXPECT_EQ(seq.ours->checkpoint, 3);
-  EXPECT_THAT(seq.ours->attributes,
-              ::testing::ElementsAre("RGBD", std::string(kCheck),
-                                     std::string(kCheck)));
+  EXPECT_THAT(
+      seq.ours->attributes,
+      ::testing::ElementsAre("RGBD", std::string(kCheck), std::string(kCheck)));
   ASSERT_TRUE(seq.ours->values[0].has_value());
   // TL NE nDTW OS SR SPL of stats_ckpt_3_val_seen.json (not checkpoint 2's)
   EXPECT_THAT(*seq.ours->values[0],
@@ -75,10 +75,10 @@ TEST(TablesTest, OursComeFromTheChosenCheckpointsStatsFiles) {
               ::testing::ElementsAre(6.5432, 7.8123, 0.3333, 0.2666, 0.2222));
   EXPECT_FALSE(cross.ours->values[1].has_value());
   EXPECT_FALSE(cross.ours->values[2].has_value());
-  EXPECT_THAT(rowOf(tables[1], "10").ours->attributes,
-              ::testing::ElementsAre(std::string(kCheck),
-                                     std::string(kCheckStar),
-                                     std::string(kCheck)));
+  EXPECT_THAT(
+      rowOf(tables[1], "10").ours->attributes,
+      ::testing::ElementsAre(std::string(kCheck), std::string(kCheckStar),
+                             std::string(kCheck)));
 }
 
 TEST(TablesTest, MarkdownShowsPaperOursAndMissing) {
@@ -88,36 +88,42 @@ TEST(TablesTest, MarkdownShowsPaperOursAndMissing) {
   EXPECT_THAT(t1, HasSubstr("| Seq2Seq | RGBD | ✓ | ✓ | paper | 8.40 | 8.54 | "
                             "0.45 | 0.35 | 0.25 | 0.24 | 7.67 | 8.94 | 0.43 | "
                             "0.25 | 0.20 | 0.18 |"));
-  EXPECT_THAT(t1, HasSubstr("| *ours: Seq2Seq* | RGBD | ✓ | ✓ | `seq2seq` [2] | "
-                            "8.12 | 8.46 | 0.44 | 0.40 | 0.20 | 0.19 | 7.33 | "
-                            "9.01 | 0.41 | 0.29 | 0.14 | 0.13 |"));
+  EXPECT_THAT(t1,
+              HasSubstr("| *ours: Seq2Seq* | RGBD | ✓ | ✓ | `seq2seq` [2] | "
+                        "8.12 | 8.46 | 0.44 | 0.40 | 0.20 | 0.19 | 7.33 | "
+                        "9.01 | 0.41 | 0.29 | 0.14 | 0.13 |"));
   // Random: val_seen missing, val_unseen from its file
-  EXPECT_THAT(t1, HasSubstr("| `random` [1] | missing | missing | missing | "
-                            "missing | missing | missing | 3.70 | 9.88 | 0.30 | "
-                            "0.04 | 0.03 | 0.02 |"));
+  EXPECT_THAT(t1,
+              HasSubstr("| `random` [1] | missing | missing | missing | "
+                        "missing | missing | missing | 3.70 | 9.88 | 0.30 | "
+                        "0.04 | 0.03 | 0.02 |"));
   // five Table 1 rows have no run: 12 missing metric cells each
   EXPECT_EQ(count(t1, "missing (no run)"), 5);
   EXPECT_EQ(count(t1, " missing |"), 5 * 12 + 6);
   // each of our rows cites its config and command
-  EXPECT_THAT(t1, HasSubstr("[2] run seq2seq, checkpoint 3, episodes val_seen 5, "
-                            "val_unseen 7; config `configs/seq2seq.yaml`; "
-                            "command `build/bin/train --config "
-                            "configs/seq2seq.yaml --set trainer.run_name=seq2seq`"));
+  EXPECT_THAT(
+      t1, HasSubstr("[2] run seq2seq, checkpoint 3, episodes val_seen 5, "
+                    "val_unseen 7; config `configs/seq2seq.yaml`; "
+                    "command `build/bin/train --config "
+                    "configs/seq2seq.yaml --set trainer.run_name=seq2seq`"));
   EXPECT_THAT(t1, HasSubstr("[1] run random, checkpoint 0, episodes val_seen "
                             "missing, val_unseen 9"));
 
   const std::string t2 = renderMarkdown(tables[1]);
   EXPECT_THAT(t2, HasSubstr("| # | Model | PM | DA | Aug. | Source |"));
-  EXPECT_THAT(t2, HasSubstr("| 10 | Cross-Modal Attention | ✓ | ✓* | ✓ | paper | "
-                            "9.26 | 7.12 | 0.54 | 0.46 | 0.37 | 0.35 |"));
-  EXPECT_THAT(t2, HasSubstr("| 10 | *ours: Cross-Modal Attention* | ✓ | ✓* | ✓ |"));
+  EXPECT_THAT(t2,
+              HasSubstr("| 10 | Cross-Modal Attention | ✓ | ✓* | ✓ | paper | "
+                        "9.26 | 7.12 | 0.54 | 0.46 | 0.37 | 0.35 |"));
+  EXPECT_THAT(t2,
+              HasSubstr("| 10 | *ours: Cross-Modal Attention* | ✓ | ✓* | ✓ |"));
   // the command's && stays inside the code span; nothing breaks the table
   EXPECT_THAT(t2, HasSubstr("&& build/bin/eval"));
 
   const std::string t3 = renderMarkdown(tables[2]);
-  EXPECT_THAT(t3, HasSubstr("| RCM | ✓ | paper | 10.65 | 3.53 | 0.75 | 0.66 | - | "
-                            "11.46 | 6.09 | 0.50 | 0.42 | - | 11.97 | 6.12 | "
-                            "0.495 | 0.43 | 0.38 |"));
+  EXPECT_THAT(t3,
+              HasSubstr("| RCM | ✓ | paper | 10.65 | 3.53 | 0.75 | 0.66 | - | "
+                        "11.46 | 6.09 | 0.50 | 0.42 | - | 11.97 | 6.12 | "
+                        "0.495 | 0.43 | 0.38 |"));
   EXPECT_THAT(t3, HasSubstr("6.54 | 7.81 | 0.33 | 0.27 | 0.22 | missing |"));
 }
 
@@ -151,8 +157,8 @@ TEST(TablesTest, BadRunFilesAreErrorsNamingFileAndField) {
     test::TempDir dir;
     test::writeText(dir / "r" / "run.json", runJson);
     EXPECT_THAT([&] { buildTables(dir.path()); },
-                ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
-                    HasSubstr("run.json"), HasSubstr(what))))
+                ::testing::ThrowsMessage<std::invalid_argument>(
+                    ::testing::AllOf(HasSubstr("run.json"), HasSubstr(what))))
         << runJson;
   };
   const std::string common =
@@ -166,7 +172,8 @@ TEST(TablesTest, BadRunFilesAreErrorsNamingFileAndField) {
   expectError("{" + common + R"(, "rows": [{"table": 2, "row": "3"}],
               "pm": true, "da": "yes", "aug": false})",
               "field 'da' must be one of none, dagger, dagger_finetune");
-  expectError("{" + common + R"(, "rows": [{"table": 3, "row": "RCM"}], "visoin": "D"})",
+  expectError("{" + common +
+                  R"(, "rows": [{"table": 3, "row": "RCM"}], "visoin": "D"})",
               "unknown field 'visoin'");
   expectError(R"({"model": "m", "rows": [{"table": 3, "row": "RCM"}]})",
               "field 'checkpoint' is missing");
@@ -175,9 +182,11 @@ TEST(TablesTest, BadRunFilesAreErrorsNamingFileAndField) {
 
   // a malformed stats file is named too
   test::TempDir dir;
-  test::writeText(dir / "r" / "run.json",
-                  "{" + common + R"(, "rows": [{"table": 3, "row": "Cross-Modal"}]})");
-  test::writeText(dir / "r" / "navgraph_stats_ckpt_1_test.json", R"({"spl": 1})");
+  test::writeText(
+      dir / "r" / "run.json",
+      "{" + common + R"(, "rows": [{"table": 3, "row": "Cross-Modal"}]})");
+  test::writeText(dir / "r" / "navgraph_stats_ckpt_1_test.json",
+                  R"({"spl": 1})");
   EXPECT_THAT([&] { buildTables(dir.path()); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("navgraph_stats_ckpt_1_test.json")));
@@ -189,8 +198,9 @@ TEST(TablesTest, BadRunFilesAreErrorsNamingFileAndField) {
 TEST(TablesTest, TwoRunsCannotClaimOneRow) {
   test::TempDir dir;
   copyFixtures(dir / "results");
-  test::writeText(dir / "results" / "zz_other" / "run.json",
-                  R"({"model": "m", "checkpoint": 1, "config": "c", "command": "x",
+  test::writeText(
+      dir / "results" / "zz_other" / "run.json",
+      R"({"model": "m", "checkpoint": 1, "config": "c", "command": "x",
                       "rows": [{"table": 2, "row": "10"}],
                       "pm": true, "da": "dagger", "aug": true})");
   EXPECT_THAT([&] { buildTables(dir / "results"); },
@@ -214,12 +224,13 @@ TEST(TablesTest, EmptyResultsGiveOnlyPaperRowsAndMissing) {
 // The transcription in PaperResults.cpp against the paper's LaTeX: every
 // number of every row line of Tables 1-3, in order.
 TEST(TablesTest, PaperNumbersMatchTheLatexSource) {
-  const auto texFile =
-      test::sharedFixturesPath().parent_path() / "reference" / "vlnce_paper.tex";
+  const auto texFile = test::sharedFixturesPath().parent_path() / "reference" /
+                       "vlnce_paper.tex";
   if (!std::filesystem::exists(texFile)) GTEST_SKIP() << texFile << " absent";
   const std::string tex = common::readFile(texFile);
   const std::vector<std::pair<int, std::string>> labels{
-      {1, "\\label{tab:ablate}"}, {2, "\\label{tab:results}"},
+      {1, "\\label{tab:ablate}"},
+      {2, "\\label{tab:results}"},
       {3, "\\label{tab:test}"}};
   // numbers of cells, not lengths such as [-0.5em]
   const std::regex number(R"((^|[^\w.])(\d+\.\d+)(?!\d|em|pt))");
@@ -246,8 +257,8 @@ TEST(TablesTest, PaperNumbersMatchTheLatexSource) {
       int dashes = 0;
       for (const auto& row : paperTable(3).rows)
         for (const auto& split : row.values)
-          dashes += static_cast<int>(std::count(split.begin(), split.end(),
-                                                std::string(kNone)));
+          dashes += static_cast<int>(
+              std::count(split.begin(), split.end(), std::string(kNone)));
       EXPECT_EQ(dashes, 10);
     }
   }
