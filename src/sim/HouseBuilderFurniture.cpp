@@ -6,9 +6,17 @@
 //  - the room stays navigable: an agent needing corridors of
 //    2 * kAgentClearance reaches every doorway and gets next to every object.
 
+// Bit-identical houses on every machine: never fuse a*b+c into one FMA
+// instruction, even in builds for CPUs that have it (-march=native). Must
+// precede the includes so that inline header code is covered too.
+#if defined(__clang__)
+#pragma clang fp contract(off)
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
 #include <algorithm>
 #include <cmath>
-#include <deque>
 #include <functional>
 #include <optional>
 
@@ -1164,44 +1172,60 @@ class RoomFurnisher {
   }
 
   // Grid search: with `extra` obstacles added, do all doorways of the room
-  // connect, and does the agent get next to every object?
+  // connect, and does the agent get next to every object? Cells are free
+  // when their centre keeps kAgentClearance from walls and obstacles.
   bool navigable(const std::vector<Box2>& extra) const {
     const int nx = static_cast<int>(interior_.sizes().x() / kGridCell);
     const int nz = static_cast<int>(interior_.sizes().y() / kGridCell);
     if (nx <= 0 || nz <= 0) return false;
-    std::vector<Box2> obstacles = extra;
-    for (const Box3& box : placed_)
-      if (blocksWalking(box)) obstacles.push_back(footprint(box));
+    const float ox = interior_.min().x(), oz = interior_.min().y();
     auto cellCenter = [&](int i, int k) {
-      return Vec2f(interior_.min().x() + (static_cast<float>(i) + 0.5f) * kGridCell,
-                   interior_.min().y() + (static_cast<float>(k) + 0.5f) * kGridCell);
+      return Vec2f(ox + (static_cast<float>(i) + 0.5f) * kGridCell,
+                   oz + (static_cast<float>(k) + 0.5f) * kGridCell);
     };
+    // cells whose centres may lie within `reach` of `box`
+    auto cellRange = [&](const Box2& box, float reach, int& i0, int& i1, int& k0, int& k1) {
+      i0 = std::max(0, static_cast<int>((box.min().x() - reach - ox) / kGridCell) - 1);
+      i1 = std::min(nx - 1, static_cast<int>((box.max().x() + reach - ox) / kGridCell) + 1);
+      k0 = std::max(0, static_cast<int>((box.min().y() - reach - oz) / kGridCell) - 1);
+      k1 = std::min(nz - 1, static_cast<int>((box.max().y() + reach - oz) / kGridCell) + 1);
+    };
+
+    // walls, then each obstacle over the cells near it
     std::vector<uint8_t> free(static_cast<size_t>(nx) * nz, 0);
-    for (int k = 0; k < nz; ++k) {
+    for (int k = 0; k < nz; ++k)
       for (int i = 0; i < nx; ++i) {
         const Vec2f p = cellCenter(i, k);
-        const float toWall = std::min({p.x() - interior_.min().x(), interior_.max().x() - p.x(),
-                                       p.y() - interior_.min().y(), interior_.max().y() - p.y()});
-        bool ok = toWall >= kAgentClearance;
-        for (size_t o = 0; ok && o < obstacles.size(); ++o)
-          ok = distanceToBox(p, obstacles[o]) >= kAgentClearance;
-        free[static_cast<size_t>(k) * nx + i] = ok;
+        const float toWall = std::min({p.x() - ox, interior_.max().x() - p.x(),
+                                       p.y() - oz, interior_.max().y() - p.y()});
+        free[static_cast<size_t>(k) * nx + i] = toWall >= kAgentClearance;
       }
-    }
+    auto block = [&](const Box2& box) {
+      int i0, i1, k0, k1;
+      cellRange(box, kAgentClearance, i0, i1, k0, k1);
+      for (int k = k0; k <= k1; ++k)
+        for (int i = i0; i <= i1; ++i)
+          if (distanceToBox(cellCenter(i, k), box) < kAgentClearance)
+            free[static_cast<size_t>(k) * nx + i] = 0;
+    };
+    for (const Box2& box : extra) block(box);
+    for (const Box3& box : placed_)
+      if (blocksWalking(box)) block(footprint(box));
+
     auto cellOf = [&](const Vec2f& p) {
-      const int i = std::clamp(static_cast<int>((p.x() - interior_.min().x()) / kGridCell), 0, nx - 1);
-      const int k = std::clamp(static_cast<int>((p.y() - interior_.min().y()) / kGridCell), 0, nz - 1);
+      const int i = std::clamp(static_cast<int>((p.x() - ox) / kGridCell), 0, nx - 1);
+      const int k = std::clamp(static_cast<int>((p.y() - oz) / kGridCell), 0, nz - 1);
       return static_cast<size_t>(k) * nx + i;
     };
     // flood fill from the first doorway
     std::vector<uint8_t> reached(free.size(), 0);
     const size_t start = cellOf(seeds_.front());
     if (!free[start]) return false;
-    std::deque<size_t> queue{start};
+    std::vector<size_t> stack{start};
     reached[start] = 1;
-    while (!queue.empty()) {
-      const size_t c = queue.front();
-      queue.pop_front();
+    while (!stack.empty()) {
+      const size_t c = stack.back();
+      stack.pop_back();
       const int i = static_cast<int>(c % nx), k = static_cast<int>(c / nx);
       const int di[4] = {1, -1, 0, 0}, dk[4] = {0, 0, 1, -1};
       for (int n = 0; n < 4; ++n) {
@@ -1210,7 +1234,7 @@ class RoomFurnisher {
         const size_t nc = static_cast<size_t>(kk) * nx + ii;
         if (free[nc] && !reached[nc]) {
           reached[nc] = 1;
-          queue.push_back(nc);
+          stack.push_back(nc);
         }
       }
     }
@@ -1221,12 +1245,13 @@ class RoomFurnisher {
     for (const Box3& box : placed_) {
       const Box2 fp = footprint(box);
       const float reach = kAgentClearance + (box.min().y() > 0.8f ? kHungReach : kReachSlack);
+      int i0, i1, k0, k1;
+      cellRange(fp, reach, i0, i1, k0, k1);
       bool near = false;
-      for (int k = 0; k < nz && !near; ++k)
-        for (int i = 0; i < nx && !near; ++i) {
-          const size_t c = static_cast<size_t>(k) * nx + i;
-          near = reached[c] && distanceToBox(cellCenter(i, k), fp) <= reach;
-        }
+      for (int k = k0; k <= k1 && !near; ++k)
+        for (int i = i0; i <= i1 && !near; ++i)
+          near = reached[static_cast<size_t>(k) * nx + i] &&
+                 distanceToBox(cellCenter(i, k), fp) <= reach;
       if (!near) return false;
     }
     return true;

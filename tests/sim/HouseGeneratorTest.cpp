@@ -474,6 +474,43 @@ TEST(HouseGeneratorTest, VocabulariesAreFixed) {
   EXPECT_EQ(houseObjectCategories().front(), "bed");
 }
 
+TEST(HouseGeneratorTest, WallsAreClosedSoDepthNeverSeesTheSky) {
+  // From points inside every room, rays in all directions must hit a
+  // surface (through doorways they hit the next room). Houses without floor
+  // holes, the one intended opening.
+  HouseConfig config;
+  config.floor_hole_probability = 0.0f;
+  for (int seed = 0; seed < 6; ++seed) {
+    const House house = generateHouse(seed, config);
+    const RayTracer tracer(house.mesh);
+    int escaped = 0, cast = 0;
+    for (const Room& room : house.semantics.rooms) {
+      // inside the walls' inner faces
+      const float inset = 0.5f * config.wall_thickness + 0.05f;
+      const Eigen::AlignedBox2f inner(room.footprint.min() + Vec2f::Constant(inset),
+                                      room.footprint.max() - Vec2f::Constant(inset));
+      for (int p = 0; p < 5; ++p) {
+        const Vec2f at = inner.min() + inner.sizes().cwiseProduct(
+                                           Vec2f(0.1f + 0.2f * p, 0.9f - 0.2f * p));
+        const Vec3f origin(at.x(), 0.3f + 0.45f * p, at.y());
+        // directions on a latitude-longitude sphere, poles included
+        for (int lat = 0; lat <= 8; ++lat) {
+          const float theta = kPi * static_cast<float>(lat) / 8.0f;
+          for (int lon = 0; lon < 16; ++lon) {
+            const float phi = 2.0f * kPi * static_cast<float>(lon) / 16.0f;
+            const Vec3f dir(std::sin(theta) * std::cos(phi), std::cos(theta),
+                            std::sin(theta) * std::sin(phi));
+            ++cast;
+            if (!tracer.cast(origin, dir)) ++escaped;
+          }
+        }
+      }
+    }
+    EXPECT_EQ(escaped, 0) << house.name << ": " << escaped << " of " << cast
+                          << " rays left the house";
+  }
+}
+
 // ---------------------------------------------------------------------------
 // floor holes
 // ---------------------------------------------------------------------------
