@@ -14,12 +14,16 @@ namespace vln::sim {
 
 class Scene;
 
-/// An RGB canvas covering the scene's navmesh bounds in the x-z plane.
+/// An RGB canvas covering the scene's navmesh bounds in the x-z plane (plus
+/// a 0.5 m margin): column = (x - min_x) / metersPerPixel, row = (z - min_z)
+/// / metersPerPixel, so heading 0 (-Z) points up the image.
 class TopDownMap {
  public:
   /// Rasterises navigable area (light), obstacles/walls (dark) and semantic
-  /// objects (their colour, labelled) at `metersPerPixel`, for the floor
-  /// nearest to height `floorY`.
+  /// objects (their mean vertex colour; floor-standing ones labelled) at
+  /// `metersPerPixel`, for the floor nearest to height `floorY` (navmesh
+  /// triangles within 0.5 m of that level). Throws std::invalid_argument for
+  /// a non-positive scale or a canvas beyond 64 Mpixels.
   TopDownMap(const Scene& scene, float metersPerPixel = 0.05f,
              float floorY = 0.0f);
   ~TopDownMap();
