@@ -440,6 +440,13 @@ EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
           record.actions.size() == static_cast<size_t>(record.steps_taken),
       where, ": field 'actions' must be empty or hold steps_taken = ",
       record.steps_taken, " entries, got ", record.actions.size());
+  // STOP is an action: it is the last one exactly when called_stop
+  VLN_CHECK_ARG(!record.called_stop || record.steps_taken > 0, where,
+                ": called_stop is true but no action was taken");
+  VLN_CHECK_ARG(record.actions.empty() ||
+                    (record.actions.back() == 0) == record.called_stop,
+                where, ": called_stop is ", record.called_stop,
+                " but the last action is ", record.actions.back());
   VLN_CHECK_ARG(!record.reference_path.empty(), where,
                 ": field 'reference_path' is empty");
   VLN_CHECK_ARG(

@@ -191,6 +191,11 @@ TEST(MetricsTest, InconsistentRecordsAreRejectedNamingTheEpisode) {
       ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
           HasSubstr("episode 'straight'"), HasSubstr("steps_taken + 1"))));
   r = straightEpisode(4, true);
+  r.called_stop = false;  // yet the last action is STOP
+  EXPECT_THAT([&] { computeEpisodeMetrics(r, euclid); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("the last action is 0")));
+  r = straightEpisode(4, true);
   r.reference_path.clear();
   EXPECT_THAT([&] { computeEpisodeMetrics(r, euclid); },
               ::testing::ThrowsMessage<std::invalid_argument>(
