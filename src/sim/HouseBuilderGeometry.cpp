@@ -112,9 +112,9 @@ uint32_t MeshBuilder::vertex(const Vec3f& p, const Vec3f& normal,
     if (a.y() >= a.x() && a.y() >= a.z())
       uv = Vec2f(p.x(), p.z());
     else if (a.x() >= a.z())
-      uv = Vec2f(p.z(), -p.y());
+      uv = Vec2f(p.z(), 0.0f - p.y());  // 0 - y: no -0 at floor level
     else
-      uv = Vec2f(p.x(), -p.y());
+      uv = Vec2f(p.x(), 0.0f - p.y());
     mesh_.uvs.push_back(uv / period);
   }
   return static_cast<uint32_t>(mesh_.positions.size() - 1);

@@ -3,6 +3,18 @@
 // with doorways, floors and ceilings, and furniture landmarks of named
 // categories and colours with semantic labels. The stand-in for Matterport3D
 // scans so that everything runs with no download.
+//
+// What a house guarantees (tested in tests/sim/HouseGeneratorTest.cpp):
+//  - every room is reachable from every other through doorways (a spanning
+//    tree plus a few loops; bathrooms, closets and laundry rooms are leaves
+//    where the plan allows), and the walls are closed: from inside, every
+//    ray hits a surface except through the optional floor hole;
+//  - one living room and one kitchen per house (two or more rooms);
+//  - objects lie inside their room, never overlap each other (bounds) or a
+//    doorway's clear zone, and leave corridors of at least 0.6 m so that an
+//    agent reaches every doorway and gets next to every object;
+//  - an object's colour name is the colour of its largest visible part,
+//    with RGB as people name it (see houseColorNames()).
 
 #include <cstdint>
 #include <string>
@@ -17,8 +29,8 @@ namespace vln::sim {
 struct HouseConfig {
   int min_rooms = 5;               ///< rooms per house, inclusive range
   int max_rooms = 9;
-  float min_room_size = 2.6f;      ///< shortest room side, metres
-  float max_room_size = 6.0f;      ///< longest room side, metres
+  float min_room_size = 2.6f;      ///< shortest room side (hallways excepted), metres
+  float max_room_size = 6.0f;      ///< longest room side (hallways excepted), metres
   float wall_height = 2.7f;        ///< floor to ceiling, metres
   float wall_thickness = 0.12f;    ///< metres
   float door_width = 1.0f;         ///< clear doorway width, metres
@@ -75,16 +87,23 @@ inline constexpr float kDoorwayClearDepth = 1.0f;
 /// The clear zone of `door` in the horizontal plane ((x, z), metres).
 Eigen::AlignedBox2f doorwayClearZone(const Doorway& door);
 
-/// Generates house `seed`. Equal seeds and configs give identical houses on
-/// every machine (no std:: distributions, whose output is unspecified).
+/// Generates house `seed` (named `name`, or "house_<seed>"). Equal seeds and
+/// configs give bit-identical houses on every machine and compiler: the
+/// generator uses its own PCG32 generator (no std:: distributions, whose
+/// output is unspecified) and IEEE-exact float operations only. Throws
+/// std::invalid_argument for configs out of bounds or without a possible
+/// plan (e.g. doors wider than rooms).
 House generateHouse(uint64_t seed, const HouseConfig& config,
                     const std::string& name = "");
 
-/// Room types the generator uses, in a fixed order.
+/// Room types the generator uses, in a fixed order: living room, kitchen,
+/// dining room, bedroom, bathroom, hallway, office, laundry room, closet.
 const std::vector<std::string>& houseRoomTypes();
-/// Object categories the generator uses, in a fixed order.
+/// Object categories the generator uses, in a fixed order (29, from "bed"
+/// to "window"; windows are closed panes on outside walls).
 const std::vector<std::string>& houseObjectCategories();
-/// Colour names the generator uses, in a fixed order.
+/// Colour names the generator uses, in a fixed order: red, orange, yellow,
+/// green, blue, purple, pink, brown, wooden, white, grey, black.
 const std::vector<std::string>& houseColorNames();
 
 }  // namespace vln::sim

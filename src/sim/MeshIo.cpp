@@ -440,23 +440,41 @@ void writeObj(const fs::path& file, const TriangleMesh& mesh) {
     mtl += "\n";
   }
 
-  // vertices once, then faces grouped by object and material
+  // vertices once, then faces grouped by object and material; appended
+  // with to_chars (streams would dominate the export time of large scans)
   std::string obj = strCat("# vlnce-cpp scene\nmtllib ", mtlName, "\n");
-  obj.reserve(mesh.positions.size() * 60 + mesh.indices.size() * 12);
+  obj.reserve(mesh.positions.size() * 64 + mesh.indices.size() * 12);
+  auto appendFloat = [&obj](float value) {
+    char buffer[32];
+    auto [end, ec] = std::to_chars(buffer, buffer + sizeof(buffer), value);
+    VLN_ASSERT(ec == std::errc());
+    obj.push_back(' ');
+    obj.append(buffer, end);
+  };
+  auto appendIndex = [&obj](uint32_t value) {
+    char buffer[16];
+    auto [end, ec] = std::to_chars(buffer, buffer + sizeof(buffer), value);
+    VLN_ASSERT(ec == std::errc());
+    obj.append(buffer, end);
+  };
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     const Vec3f& p = mesh.positions[i];
-    obj += strCat("v ", floatText(p.x()), " ", floatText(p.y()), " ",
-                  floatText(p.z()));
-    if (!mesh.colors.empty()) {
-      const Rgb8& c = mesh.colors[i];
+    obj += "v";
+    appendFloat(p.x());
+    appendFloat(p.y());
+    appendFloat(p.z());
+    if (!mesh.colors.empty())
       for (int k = 0; k < 3; ++k)
-        obj += strCat(" ", floatText(static_cast<float>(c[k]) / 255.0f));
-    }
+        appendFloat(static_cast<float>(mesh.colors[i][k]) / 255.0f);
     obj += "\n";
   }
   // OBJ puts v = 0 at the bottom of the image; our uvs follow glTF (top)
-  for (const Vec2f& uv : mesh.uvs)
-    obj += strCat("vt ", floatText(uv.x()), " ", floatText(1.0f - uv.y()), "\n");
+  for (const Vec2f& uv : mesh.uvs) {
+    obj += "vt";
+    appendFloat(uv.x());
+    appendFloat(1.0f - uv.y());
+    obj += "\n";
+  }
   const bool withUv = !mesh.uvs.empty();
   for (const auto& [object, byMaterial] : groupTriangles(mesh)) {
     obj += strCat("o ", groupName(object), "\n");
@@ -470,7 +488,12 @@ void writeObj(const fs::path& file, const TriangleMesh& mesh) {
         obj += "f";
         for (int k = 0; k < 3; ++k) {
           const uint32_t v = mesh.indices[3 * t + k] + 1;
-          obj += withUv ? strCat(" ", v, "/", v) : strCat(" ", v);
+          obj += ' ';
+          appendIndex(v);
+          if (withUv) {
+            obj += '/';
+            appendIndex(v);
+          }
         }
         obj += "\n";
       }
