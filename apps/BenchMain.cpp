@@ -1,6 +1,6 @@
 // vlnce-bench: wall-clock timings of the model code on this machine.
 //
-//   vlnce-bench update --model cma --batch 5 --steps 60 --instr-len 30 \
+//   vlnce-bench update --model cma --batch 5 --steps 60 --instr-len 30
 //       --threads 2
 //     one teacher-forcing update on cached features (RGB [2048,4,4], depth
 //     [128,4,4]): forward in sequence mode, inflection-weighted
@@ -9,7 +9,7 @@
 //     scripts/bench_pytorch_update.py with the same flags.
 //   vlnce-bench act --model cma --batch 8 --threads 2
 //     one acting step (step mode, instruction cached) without gradients.
-//   vlnce-bench encode --encoder resnet50 --modality rgb --size 224 \
+//   vlnce-bench encode --encoder resnet50 --modality rgb --size 224
 //       --batch 8 --threads 2
 //     one forward of a frozen visual encoder (feature extraction).
 #include <CLI/CLI.hpp>

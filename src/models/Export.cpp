@@ -43,6 +43,13 @@ std::string pair(int64_t a, int64_t b) {
   return "[" + std::to_string(a) + ", " + std::to_string(b) + "]";
 }
 
+void replaceAll(std::string& text, const std::string& from,
+                const std::string& to) {
+  for (size_t at = text.find(from); at != std::string::npos;
+       at = text.find(from, at + to.size()))
+    text.replace(at, from.size(), to);
+}
+
 // ===========================================================================
 // code writer
 // ===========================================================================
@@ -65,7 +72,11 @@ class ScriptWriter {
   std::string fresh(const std::string& stem) {
     return stem + "_" + std::to_string(counter_++);
   }
-  void line(int indent, const std::string& text) {
+  // writes one line; "{f32}" and "{i64}" become dtype numbers, because
+  // source compiled from C++ has no Python resolver for torch.float32
+  void line(int indent, std::string text) {
+    replaceAll(text, "{f32}", std::to_string(static_cast<int>(torch::kFloat32)));
+    replaceAll(text, "{i64}", std::to_string(static_cast<int>(torch::kInt64)));
     code_ << std::string(static_cast<size_t>(indent) * 4, ' ') << text << '\n';
   }
   std::string code() const { return code_.str(); }
@@ -185,12 +196,12 @@ void emitModule(ScriptWriter& w, nn::Module& module, const std::string& prefix,
 
 void emitRgbEncoder(ScriptWriter& w, RgbEncoderImpl& rgb) {
   w.line(0, "def encode_rgb(self, rgb: Tensor) -> Tensor:");
-  w.line(1, "x = rgb.permute(0, 3, 1, 2).to(torch.float32)");
+  w.line(1, "x = rgb.permute(0, 3, 1, 2).to({f32})");
   w.line(1,
-         "mean = torch.tensor([0.485, 0.456, 0.406], dtype=torch.float32, "
+         "mean = torch.tensor([0.485, 0.456, 0.406], dtype={f32}, "
          "device=x.device).view(1, 3, 1, 1)");
   w.line(1,
-         "std = torch.tensor([0.229, 0.224, 0.225], dtype=torch.float32, "
+         "std = torch.tensor([0.229, 0.224, 0.225], dtype={f32}, "
          "device=x.device).view(1, 3, 1, 1)");
   w.line(1, "x = x * (1.0 / 255.0 / std) - mean / std");
   emitModule(w, rgb.cnnModule(), "encoder.rgb.cnn", "x", 1);
@@ -201,7 +212,7 @@ void emitRgbEncoder(ScriptWriter& w, RgbEncoderImpl& rgb) {
 
 void emitDepthEncoder(ScriptWriter& w, DepthEncoderImpl& depth) {
   w.line(0, "def encode_depth(self, depth: Tensor) -> Tensor:");
-  w.line(1, "x = depth.permute(0, 3, 1, 2).to(torch.float32)");
+  w.line(1, "x = depth.permute(0, 3, 1, 2).to({f32})");
   emitModule(w, depth.cnnModule(), "encoder.depth.cnn", "x", 1);
   w.line(1, "return x");
   w.line(0, "");
@@ -220,14 +231,14 @@ void emitInstructionEncoder(ScriptWriter& w, const ModelConfig& config) {
          "def encode_instruction(self, tokens: Tensor) -> Tuple[Tensor, "
          "Tensor, Tensor]:");
   w.line(1, "mask = tokens != 0");
-  w.line(1, "m = mask.to(torch.float32).unsqueeze(2)");
+  w.line(1, "m = mask.to({f32}).unsqueeze(2)");
   w.line(1, "x = torch.embedding(" + w.ref(p + "embedding.weight") +
                 ", tokens)");
   w.line(1, "length = tokens.size(1)");
   auto direction = [&](const std::string& suffix, bool reverse,
                        const std::string& list) {
     w.line(1, "h = torch.zeros([tokens.size(0), " + hidden +
-                  "], dtype=torch.float32, device=tokens.device)");
+                  "], dtype={f32}, device=tokens.device)");
     w.line(1, "c = torch.zeros_like(h)");
     w.line(1, list + ": List[Tensor] = []");
     w.line(1, "for i in range(length):");
@@ -277,11 +288,11 @@ void emitStepHeader(ScriptWriter& w, bool prevAction) {
          "Tensor, instruction: Tensor, prev_action: Tensor, not_done: Tensor, "
          "hidden: Tensor) -> Tuple[Tensor, Tensor, Tensor]:");
   w.line(1, "n = not_done.size(0)");
-  w.line(1, "mask = not_done.to(torch.float32).unsqueeze(1)");
+  w.line(1, "mask = not_done.to({f32}).unsqueeze(1)");
   if (prevAction)
     w.line(1, "prev = torch.embedding(" +
                   w.ref("policy.prev_action_embedding.weight") +
-                  ", (prev_action + 1) * (not_done != 0).to(torch.int64))");
+                  ", (prev_action + 1) * (not_done != 0).to({i64}))");
 }
 
 void emitHeads(ScriptWriter& w, const std::string& state) {
@@ -292,7 +303,7 @@ void emitHeads(ScriptWriter& w, const std::string& state) {
                   ").squeeze(1)");
   } else {
     w.line(1,
-           "progress = torch.zeros([n], dtype=torch.float32, "
+           "progress = torch.zeros([n], dtype={f32}, "
            "device=logits.device)");
   }
 }
@@ -306,13 +317,13 @@ void emitSeq2Seq(ScriptWriter& w, const ModelConfig& config) {
   if (config.usesDepth())
     w.line(1, "parts.append(torch.relu(" +
                   linear(w, "policy.depth_linear",
-                         "depth_features.to(torch.float32).flatten(1)") +
+                         "depth_features.to({f32}).flatten(1)") +
                   "))");
   if (config.usesRgb())
     w.line(1,
            "parts.append(torch.relu(" +
                linear(w, "policy.rgb_linear",
-                      "rgb_features.to(torch.float32).flatten(2).mean(2)") +
+                      "rgb_features.to({f32}).flatten(2).mean(2)") +
                "))");
   if (config.seq2seq_prev_action) w.line(1, "parts.append(prev)");
   w.line(1, "h = " + gruStep(w, "policy.state_encoder", "torch.cat(parts, 1)",
@@ -356,7 +367,7 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
     const std::string c = std::to_string(s[0]);
     const std::string positions = std::to_string(s[1] * s[2]);
     const std::string wt = w.ref("policy.rgb_linear.weight");
-    w.line(1, "rgb_feats = rgb_features.to(torch.float32).reshape([n, " + c +
+    w.line(1, "rgb_feats = rgb_features.to({f32}).reshape([n, " + c +
                   ", " + positions + "])");
     w.line(1, "rgb_pos = " + w.ref("policy.rgb_spatial_embedding.weight") +
                   ".view([" + posDim + ", " + positions + "])");
@@ -371,7 +382,7 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
     const std::string positions = std::to_string(s[1] * s[2]);
     const std::string split = std::to_string(s[0] * s[1] * s[2]);
     const std::string wt = w.ref("policy.depth_linear.weight");
-    w.line(1, "depth_feats = depth_features.to(torch.float32).reshape([n, " +
+    w.line(1, "depth_feats = depth_features.to({f32}).reshape([n, " +
                   c + ", " + positions + "])");
     w.line(1, "depth_pos = " +
                   w.ref("policy.depth_spatial_embedding.weight") + ".view([" +
@@ -505,10 +516,10 @@ torch::jit::Module buildExportModule(PolicyImpl& policy,
 
   try {
     root.define(w.code());
-  } catch (const c10::Error& e) {
+  } catch (const std::exception& e) {
     // generated code failing to compile is a bug here, not bad input
     std::fprintf(stderr, "exportPolicy(): generated TorchScript:\n%s\n%s\n",
-                 w.code().c_str(), e.what_without_backtrace());
+                 w.code().c_str(), e.what());
     VLN_ASSERT(false && "exportPolicy: generated TorchScript does not compile");
   }
   root.eval();

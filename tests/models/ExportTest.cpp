@@ -187,13 +187,16 @@ TEST(ExportTest, MismatchedEncoderIsRejected) {
                std::invalid_argument);
 }
 
-// Python's torch.jit.load runs the file and reproduces the C++ outputs;
-// tensors travel both ways as TorchScript tensor archives.
+// Python's torch.jit.load runs the files and reproduces the C++ outputs;
+// tensors travel both ways as TorchScript tensor archives. One Python
+// process handles both policies (its start-up dominates the test's time).
 TEST(ExportTest, PythonTorchJitLoadReproducesOutputs) {
   if (vln::test::runCommand("/usr/bin/python3 -c 'import torch'") != 0)
     GTEST_SKIP() << "/usr/bin/python3 cannot import torch";
+  vln::test::TempDir dir;
+  std::string args;
+  std::vector<PolicyOutputs> expected;
   for (PolicyType p : {PolicyType::kSeq2Seq, PolicyType::kCma}) {
-    SCOPED_TRACE(policyName(p));
     torch::manual_seed(13);
     const ModelConfig c = tinyConfig(p);
     auto policy = makePolicy(c);
@@ -201,53 +204,62 @@ TEST(ExportTest, PythonTorchJitLoadReproducesOutputs) {
     policy->eval();
     const torch::Tensor tokens = randomTokens({3, 5}, 6, c.vocab_size);
     const auto data = rollout(c, 1);
-    const torch::Tensor h = torch::randn({2, c.numRecurrentLayers(),
-                                          c.hidden_size});
+    const torch::Tensor h =
+        torch::randn({2, c.numRecurrentLayers(), c.hidden_size});
     const torch::Tensor notDone = torch::ones({2});
-
-    vln::test::TempDir dir;
-    exportPolicy(*policy, encoder.get(), dir / "agent.pt");
-    writeTensorFile(dir / "inputs.pt", {{"rgb", data[0].rgb},
-                                        {"depth", data[0].depth},
-                                        {"instruction", tokens},
-                                        {"prev_action", data[0].prevAction},
-                                        {"not_done", notDone},
-                                        {"hidden", h}});
-    const std::string script = R"PY(
-import sys, torch
-agent = torch.jit.load(sys.argv[1])
-x = dict(torch.jit.load(sys.argv[2]).named_buffers())
-with torch.no_grad():
-    logits, progress, hidden = agent(x["rgb"], x["depth"], x["instruction"],
-                                     x["prev_action"], x["not_done"], x["hidden"])
-class Out(torch.nn.Module):
-    pass
-out = Out()
-out.register_buffer("logits", logits)
-out.register_buffer("progress", progress)
-out.register_buffer("hidden", hidden)
-torch.jit.script(out).save(sys.argv[3])
-)PY";
-    vln::test::writeText(dir / "run.py", script);
-    std::string log;
-    const int status = vln::test::runCommand(
-        "/usr/bin/python3 " + (dir / "run.py").string() + " " +
-            (dir / "agent.pt").string() + " " + (dir / "inputs.pt").string() +
-            " " + (dir / "outputs.pt").string(),
-        &log);
-    ASSERT_EQ(status, 0) << log;
-
-    std::map<std::string, torch::Tensor> py;
-    for (auto& [name, t] : readTensorFile(dir / "outputs.pt")) py[name] = t;
+    const std::string name = policyName(p);
+    exportPolicy(*policy, encoder.get(), dir / (name + "_agent.pt"));
+    writeTensorFile(dir / (name + "_inputs.pt"),
+                    {{"rgb", data[0].rgb},
+                     {"depth", data[0].depth},
+                     {"instruction", tokens},
+                     {"prev_action", data[0].prevAction},
+                     {"not_done", notDone},
+                     {"hidden", h}});
+    for (const char* file : {"_agent.pt ", "_inputs.pt ", "_outputs.pt "})
+      args += (dir / (name + file)).string();
     torch::NoGradGuard g;
     const VisualFeatures f = encoder->forward(data[0].rgb, data[0].depth);
-    const auto expected =
+    expected.push_back(
         policy->step(policy->encodeInstruction(tokens),
-                     {f.rgb, f.depth, data[0].prevAction, notDone}, h);
-    EXPECT_TRUE(torch::allclose(py.at("logits"), expected.logits, 1e-4, 1e-5));
-    EXPECT_TRUE(
-        torch::allclose(py.at("progress"), expected.progress, 1e-4, 1e-5));
-    EXPECT_TRUE(torch::allclose(py.at("hidden"), expected.hidden, 1e-4, 1e-5));
+                     {f.rgb, f.depth, data[0].prevAction, notDone}, h));
+  }
+  const std::string script = R"PY(
+import sys, torch
+class Out(torch.nn.Module):
+    pass
+for i in range(1, len(sys.argv), 3):
+    agent = torch.jit.load(sys.argv[i])
+    x = dict(torch.jit.load(sys.argv[i + 1]).named_buffers())
+    with torch.no_grad():
+        logits, progress, hidden = agent(x["rgb"], x["depth"],
+                                         x["instruction"], x["prev_action"],
+                                         x["not_done"], x["hidden"])
+    out = Out()
+    out.register_buffer("logits", logits)
+    out.register_buffer("progress", progress)
+    out.register_buffer("hidden", hidden)
+    torch.jit.script(out).save(sys.argv[i + 2])
+)PY";
+  vln::test::writeText(dir / "run.py", script);
+  std::string log;
+  ASSERT_EQ(vln::test::runCommand(
+                "/usr/bin/python3 " + (dir / "run.py").string() + " " + args,
+                &log),
+            0)
+      << log;
+
+  size_t k = 0;
+  for (PolicyType p : {PolicyType::kSeq2Seq, PolicyType::kCma}) {
+    SCOPED_TRACE(policyName(p));
+    std::map<std::string, torch::Tensor> py;
+    for (auto& [name, t] : readTensorFile(
+             dir / (std::string(policyName(p)) + "_outputs.pt")))
+      py[name] = t;
+    const PolicyOutputs& e = expected[k++];
+    EXPECT_TRUE(torch::allclose(py.at("logits"), e.logits, 1e-4, 1e-5));
+    EXPECT_TRUE(torch::allclose(py.at("progress"), e.progress, 1e-4, 1e-5));
+    EXPECT_TRUE(torch::allclose(py.at("hidden"), e.hidden, 1e-4, 1e-5));
   }
 }
 
