@@ -44,7 +44,14 @@ constexpr float kJustEntered = 2.0f;
 // Turns the same way at waypoints closer than this are described as one.
 constexpr float kTurnMergeDistance = 2.0f;
 
-enum class TurnKind { kStraight, kSlightLeft, kSlightRight, kLeft, kRight, kAround };
+enum class TurnKind {
+  kStraight,
+  kSlightLeft,
+  kSlightRight,
+  kLeft,
+  kRight,
+  kAround
+};
 
 // Thresholds in degrees, from how R2R annotators describe turns: below 25
 // they say nothing, up to 60 "slightly", beyond 140 "turn around".
@@ -52,7 +59,8 @@ TurnKind classifyTurn(float radians) {
   const float degrees = radToDeg(wrapAngle(radians));
   const float a = std::abs(degrees);
   if (a < 25.0f) return TurnKind::kStraight;
-  if (a < 60.0f) return degrees > 0 ? TurnKind::kSlightLeft : TurnKind::kSlightRight;
+  if (a < 60.0f)
+    return degrees > 0 ? TurnKind::kSlightLeft : TurnKind::kSlightRight;
   if (a < 140.0f) return degrees > 0 ? TurnKind::kLeft : TurnKind::kRight;
   return TurnKind::kAround;
 }
@@ -162,16 +170,18 @@ PathFacts analyzePath(const sim::SceneSemantics& semantics,
   // legs, headings and samples
   for (size_t i = 0; i < legs; ++i) {
     const Vec3f d = horizontal(waypoints[i + 1] - waypoints[i]);
-    f.heading.push_back(d.norm() > 1e-4f ? forwardToHeading(d)
-                                         : (i > 0 ? f.heading.back() : startHeading));
+    f.heading.push_back(d.norm() > 1e-4f
+                            ? forwardToHeading(d)
+                            : (i > 0 ? f.heading.back() : startHeading));
     f.leg_start.push_back(f.total);
     const float length = d.norm();
-    const int n = std::max(1, static_cast<int>(std::ceil(length / kSampleStep)));
+    const int n =
+        std::max(1, static_cast<int>(std::ceil(length / kSampleStep)));
     for (int k = 0; k < n; ++k) {
       const float t = static_cast<float>(k) / static_cast<float>(n);
       const Vec3f p = waypoints[i] + t * (waypoints[i + 1] - waypoints[i]);
-      f.samples.push_back({p, f.total + t * length, static_cast<int>(i),
-                           semantics.roomAt(p)});
+      f.samples.push_back(
+          {p, f.total + t * length, static_cast<int>(i), semantics.roomAt(p)});
     }
     f.total += length;
   }
@@ -183,7 +193,10 @@ PathFacts analyzePath(const sim::SceneSemantics& semantics,
   // the very start)
   int known = -1;
   for (const Sample& s : f.samples)
-    if (s.room >= 0) { known = s.room; break; }
+    if (s.room >= 0) {
+      known = s.room;
+      break;
+    }
   for (Sample& s : f.samples) {
     if (s.room < 0) s.room = known;
     known = s.room;
@@ -207,10 +220,14 @@ PathFacts analyzePath(const sim::SceneSemantics& semantics,
     f.visits.push_back(raw[i]);
   }
   for (size_t i = 1; i < f.visits.size(); ++i) {
-    Transition t{f.visits[i - 1].room, f.visits[i].room, f.visits[i].begin, false};
+    Transition t{f.visits[i - 1].room, f.visits[i].room, f.visits[i].begin,
+                 false};
     Vec3f at = waypoints.back();
     for (const Sample& s : f.samples)
-      if (s.s >= t.s) { at = s.p; break; }
+      if (s.s >= t.s) {
+        at = s.p;
+        break;
+      }
     for (const auto& door : semantics.doors) {
       const bool joins = (door.room_a == t.from && door.room_b == t.to) ||
                          (door.room_a == t.to && door.room_b == t.from);
@@ -226,9 +243,12 @@ PathFacts analyzePath(const sim::SceneSemantics& semantics,
   for (size_t i = 1; i < legs; ++i) {
     float angle = wrapAngle(f.heading[i] - f.heading[i - 1]);
     const size_t first = i;
-    while (i + 1 < legs && f.leg_start[i + 1] - f.leg_start[i] < kTurnMergeDistance) {
+    while (i + 1 < legs &&
+           f.leg_start[i + 1] - f.leg_start[i] < kTurnMergeDistance) {
       const float next = wrapAngle(f.heading[i + 1] - f.heading[i]);
-      if (classifyTurn(next) == TurnKind::kStraight || (next > 0) != (angle > 0)) break;
+      if (classifyTurn(next) == TurnKind::kStraight ||
+          (next > 0) != (angle > 0))
+        break;
       angle += next;
       ++i;
     }
@@ -244,7 +264,8 @@ PathFacts analyzePath(const sim::SceneSemantics& semantics,
     float best = std::numeric_limits<float>::infinity();
     const Sample* closest = nullptr;
     for (const Sample& s : f.samples) {
-      if (s.s < kEndMargin || s.s > f.total - kEndMargin || s.room != object.room)
+      if (s.s < kEndMargin || s.s > f.total - kEndMargin ||
+          s.room != object.room)
         continue;
       const float d = footprintDistance(object.bounds, s.p);
       if (d < best) {
@@ -283,7 +304,8 @@ PathFacts analyzePath(const sim::SceneSemantics& semantics,
   float bestStop = std::numeric_limits<float>::infinity();
   for (size_t o = 0; o < semantics.objects.size(); ++o) {
     const auto& object = semantics.objects[o];
-    if (!names[o].nameable || object.room != stop.room || stop.room < 0) continue;
+    if (!names[o].nameable || object.room != stop.room || stop.room < 0)
+      continue;
     const float d = footprintDistance(object.bounds, goal);
     if (d <= config.stop_landmark_distance && d < bestStop) {
       bestStop = d;
@@ -301,7 +323,8 @@ PathFacts analyzePath(const sim::SceneSemantics& semantics,
       stop.side = lateral > 0 ? Side::kLeft : Side::kRight;
   }
   for (const auto& door : semantics.doors)
-    if (horizontalDistance(door.center, goal) <= kDoorNearGoal) stop.door = true;
+    if (horizontalDistance(door.center, goal) <= kDoorNearGoal)
+      stop.door = true;
   if (stop.room >= 0) {
     const auto& room = semantics.rooms[static_cast<size_t>(stop.room)];
     const Vec2f center = room.footprint.center();
@@ -323,21 +346,27 @@ std::vector<std::string> colorWords(const std::string& color) {
   return {color};
 }
 
-const char* pick(std::mt19937_64& rng, std::initializer_list<const char*> options) {
+const char* pick(std::mt19937_64& rng,
+                 std::initializer_list<const char*> options) {
   VLN_ASSERT(options.size() > 0);
   return options.begin()[uniformIndex(rng, static_cast<int>(options.size()))];
 }
 
-const std::string& pick(std::mt19937_64& rng, const std::vector<std::string>& options) {
+const std::string& pick(std::mt19937_64& rng,
+                        const std::vector<std::string>& options) {
   VLN_ASSERT(!options.empty());
-  return options[static_cast<size_t>(uniformIndex(rng, static_cast<int>(options.size())))];
+  return options[static_cast<size_t>(
+      uniformIndex(rng, static_cast<int>(options.size())))];
 }
 
-const char* sideWord(Side side) { return side == Side::kLeft ? "left" : "right"; }
+const char* sideWord(Side side) {
+  return side == Side::kLeft ? "left" : "right";
+}
 
 Side flip(Side side) {
-  return side == Side::kLeft ? Side::kRight
-                             : side == Side::kRight ? Side::kLeft : Side::kNone;
+  return side == Side::kLeft    ? Side::kRight
+         : side == Side::kRight ? Side::kLeft
+                                : Side::kNone;
 }
 
 // ===========================================================================
@@ -382,7 +411,8 @@ class Writer {
 
   std::string roomName(int room) {
     if (room < 0) return "room";
-    const auto& words = roomTypeWords(semantics_.rooms[static_cast<size_t>(room)].type);
+    const auto& words =
+        roomTypeWords(semantics_.rooms[static_cast<size_t>(room)].type);
     return human_ ? pick(rng_, words) : words.front();
   }
 
@@ -392,18 +422,22 @@ class Writer {
                            bool truthfulSide = true) {
     const auto& object = semantics_.objects[static_cast<size_t>(index)];
     const auto& categories = objectCategoryWords(object.category);
-    const std::string category = human_ ? pick(rng_, categories) : categories.front();
+    const std::string category =
+        human_ ? pick(rng_, categories) : categories.front();
     bool truthful = truthfulSide;
     std::string color;
-    const bool wantColor = names_[static_cast<size_t>(index)].needs_color ||
-                           chance(human_ ? config_.detail : 0.3 * config_.detail);
-    if (!human_ && !object.color.empty() && chance(config_.speaker_wrong_color)) {
+    const bool wantColor =
+        names_[static_cast<size_t>(index)].needs_color ||
+        chance(human_ ? config_.detail : 0.3 * config_.detail);
+    if (!human_ && !object.color.empty() &&
+        chance(config_.speaker_wrong_color)) {
       color = wrongColor(object.color);
       truthful = color.empty() ? truthful : false;
     }
     if (color.empty() && wantColor && !object.color.empty())
       color = pick(rng_, colorWords(object.color));
-    const std::string phrase = color.empty() ? category : color + " " + category;
+    const std::string phrase =
+        color.empty() ? category : color + " " + category;
     mentions_.push_back({object.id, role, phrase, side, leg, truthful});
     return phrase;
   }
@@ -427,12 +461,18 @@ class Writer {
         const char* side = kind == TurnKind::kLeft ? "left" : "right";
         if (!human_) return strCat("turn ", side);
         switch (uniformIndex(rng_, 7)) {
-          case 0: return strCat("take a ", side);
-          case 1: return strCat("make a ", side);
-          case 2: return strCat("turn to your ", side);
-          case 3: return strCat("go ", side);
-          case 4: return strCat("take a ", side, " turn");
-          default: return strCat("turn ", side);
+          case 0:
+            return strCat("take a ", side);
+          case 1:
+            return strCat("make a ", side);
+          case 2:
+            return strCat("turn to your ", side);
+          case 3:
+            return strCat("go ", side);
+          case 4:
+            return strCat("take a ", side, " turn");
+          default:
+            return strCat("turn ", side);
         }
       }
       case TurnKind::kSlightLeft:
@@ -440,11 +480,16 @@ class Writer {
         const char* side = kind == TurnKind::kSlightLeft ? "left" : "right";
         if (!human_) return strCat("turn slightly ", side);
         switch (uniformIndex(rng_, 5)) {
-          case 0: return strCat("veer ", side);
-          case 1: return strCat("bear ", side);
-          case 2: return strCat("take a slight ", side);
-          case 3: return strCat("turn slightly to the ", side);
-          default: return strCat("turn slightly ", side);
+          case 0:
+            return strCat("veer ", side);
+          case 1:
+            return strCat("bear ", side);
+          case 2:
+            return strCat("take a slight ", side);
+          case 3:
+            return strCat("turn slightly to the ", side);
+          default:
+            return strCat("turn slightly ", side);
         }
       }
       case TurnKind::kAround:
@@ -454,28 +499,34 @@ class Writer {
       case TurnKind::kStraight:
         break;
     }
-    return human_ ? pick(rng_, {"walk forward", "go straight", "walk straight ahead",
-                                "head straight", "move forward"})
+    return human_ ? pick(rng_,
+                         {"walk forward", "go straight", "walk straight ahead",
+                          "head straight", "move forward"})
                   : "walk forward";
   }
 
   std::string walkVerb() {
-    return human_ ? pick(rng_, {"walk", "go", "head", "walk", "continue", "proceed"})
+    return human_ ? pick(rng_,
+                         {"walk", "go", "head", "walk", "continue", "proceed"})
                   : "walk";
   }
 
   std::string transitionPhrase(const Transition& t, bool first) {
     const std::string to = roomName(t.to);
     const bool hallway =
-        t.to >= 0 && semantics_.rooms[static_cast<size_t>(t.to)].type == "hallway";
+        t.to >= 0 &&
+        semantics_.rooms[static_cast<size_t>(t.to)].type == "hallway";
     if (!human_) {
-      if (first && chance(0.5)) return strCat("walk out of the ", roomName(t.from));
+      if (first && chance(0.5))
+        return strCat("walk out of the ", roomName(t.from));
       return strCat("walk into the ", to);
     }
     if (first && chance(0.55)) {
       const std::string from = roomName(t.from);
-      std::string out = pick(rng_, {"exit the ", "leave the ", "walk out of the ",
-                                    "go out of the ", "exit the "}) + from;
+      std::string out =
+          pick(rng_, {"exit the ", "leave the ", "walk out of the ",
+                      "go out of the ", "exit the "}) +
+          from;
       if (chance(0.4))
         out += t.door ? strCat(" through the ", pick(rng_, {"doorway", "door"}))
                       : strCat(" into the ", to);
@@ -486,14 +537,15 @@ class Writer {
                                 "pass through the ", "head through the "}),
                     pick(rng_, {"doorway", "door", "doorway"}), " ",
                     pick(rng_, {"into", "to", "into"}), " the ", to);
-    std::string out = strCat(pick(rng_, {"enter the ", "walk into the ", "go into the ",
-                                          "head into the ", "step into the ",
-                                          "enter the "}),
-                             to);
+    std::string out =
+        strCat(pick(rng_, {"enter the ", "walk into the ", "go into the ",
+                           "head into the ", "step into the ", "enter the "}),
+               to);
     if (hallway && chance(0.25))
-      out += strCat(" and ", pick(rng_, {"walk down", "go down", "continue down",
-                                         "walk along"}),
-                    " the ", roomName(t.to));
+      out += strCat(
+          " and ",
+          pick(rng_, {"walk down", "go down", "continue down", "walk along"}),
+          " the ", roomName(t.to));
     return out;
   }
 
@@ -507,36 +559,41 @@ class Writer {
     const bool sayside = !human_ || chance(0.7);
     const Side stated = sayside ? side : Side::kNone;
     if (human_ && sayside && chance(0.2)) {
-      const std::string what =
-          objectPhrase(pass.object, LandmarkRole::kPass, stated, pass.leg, truthful);
+      const std::string what = objectPhrase(pass.object, LandmarkRole::kPass,
+                                            stated, pass.leg, truthful);
       return strCat(pick(rng_, {"keep the ", "keep the "}), what, " on your ",
                     sideWord(side));
     }
     const std::string verb =
         human_ ? pick(rng_, {"walk past the ", "pass the ", "go past the ",
-                             "walk by the ", "continue past the ", "walk passed the ",
-                             "head past the "})
+                             "walk by the ", "continue past the ",
+                             "walk passed the ", "head past the "})
                : "walk past the ";
-    const std::string what =
-        objectPhrase(pass.object, LandmarkRole::kPass, stated, pass.leg, truthful);
+    const std::string what = objectPhrase(pass.object, LandmarkRole::kPass,
+                                          stated, pass.leg, truthful);
     if (!sayside) return verb + what;
-    return strCat(verb, what,
-                  human_ ? pick(rng_, {" on your ", " on the ", " to your ", " on your "})
-                         : " on your ",
-                  sideWord(side));
+    return strCat(
+        verb, what,
+        human_ ? pick(rng_, {" on your ", " on the ", " to your ", " on your "})
+               : " on your ",
+        sideWord(side));
   }
 
   std::string betweenPhrase(const Pass& a, const Pass& b) {
-    const std::string first = objectPhrase(a.object, LandmarkRole::kBetween, Side::kNone, a.leg);
-    const std::string second = objectPhrase(b.object, LandmarkRole::kBetween, Side::kNone, b.leg);
-    return strCat(pick(rng_, {"walk between the ", "go between the ", "pass between the "}),
+    const std::string first =
+        objectPhrase(a.object, LandmarkRole::kBetween, Side::kNone, a.leg);
+    const std::string second =
+        objectPhrase(b.object, LandmarkRole::kBetween, Side::kNone, b.leg);
+    return strCat(pick(rng_, {"walk between the ", "go between the ",
+                              "pass between the "}),
                   first, " and the ", second);
   }
 
   std::string towardPhrase(const Toward& t) {
-    return strCat(pick(rng_, {"walk towards the ", "head towards the ", "go toward the ",
-                              "walk toward the ", "move towards the "}),
-                  objectPhrase(t.object, LandmarkRole::kToward, Side::kNone, t.leg));
+    return strCat(
+        pick(rng_, {"walk towards the ", "head towards the ", "go toward the ",
+                    "walk toward the ", "move towards the "}),
+        objectPhrase(t.object, LandmarkRole::kToward, Side::kNone, t.leg));
   }
 
   // The object nearest to waypoint `w` to "turn at", or -1.
@@ -545,8 +602,9 @@ class Writer {
   bool reserved(int object) const {
     if (object == facts_.stop.object) return true;
     const int id = semantics_.objects[static_cast<size_t>(object)].id;
-    return std::any_of(mentions_.begin(), mentions_.end(),
-                       [&](const LandmarkMention& m) { return m.object_id == id; });
+    return std::any_of(
+        mentions_.begin(), mentions_.end(),
+        [&](const LandmarkMention& m) { return m.object_id == id; });
   }
 
   int turnAnchor(int w) const {
@@ -568,7 +626,8 @@ class Writer {
     return best;
   }
 
-  void opening(std::vector<Clause>& clauses, std::vector<bool>& transitionUsed) {
+  void opening(std::vector<Clause>& clauses,
+               std::vector<bool>& transitionUsed) {
     // the first move relative to where the agent faces; walking straight
     // off is often left unsaid
     const TurnKind kind = facts_.initial;
@@ -578,7 +637,8 @@ class Writer {
     // joined with leaving the start room when that comes first
     if (!facts_.transitions.empty() && facts_.transitions.front().s < 3.0f &&
         !text.empty() && chance(0.5)) {
-      text += " and " + transitionPhrase(facts_.transitions.front(), /*first=*/true);
+      text += " and " +
+              transitionPhrase(facts_.transitions.front(), /*first=*/true);
       transitionUsed[0] = true;
     }
     if (!text.empty()) clauses.push_back({0.0f, text});
@@ -586,8 +646,8 @@ class Writer {
 
   void middle(std::vector<Clause>& clauses, std::vector<bool>& transitionUsed) {
     // choose the landmarks this instruction mentions
-    const double passChance =
-        human_ ? 0.1 + 0.3 * config_.detail : 1.0 - config_.speaker_drop_landmark;
+    const double passChance = human_ ? 0.1 + 0.3 * config_.detail
+                                     : 1.0 - config_.speaker_drop_landmark;
     const size_t maxPasses = human_ ? 2 : 1;
     std::vector<int> chosen;
     for (size_t i = 0; i < facts_.passes.size(); ++i)
@@ -636,7 +696,8 @@ class Writer {
                                                 Side::kNone, turn.waypoint));
       for (size_t t = 0; t < facts_.transitions.size(); ++t) {
         const Transition& tr = facts_.transitions[t];
-        if (transitionUsed[t] || tr.s < turn.s || tr.s > turn.s + 1.5f) continue;
+        if (transitionUsed[t] || tr.s < turn.s || tr.s > turn.s + 1.5f)
+          continue;
         if (human_ && chance(0.6)) {
           text += strCat(" into the ", roomName(tr.to));
           transitionUsed[t] = true;
@@ -666,14 +727,16 @@ class Writer {
         for (const Clause& c : clauses)
           if (c.s >= begin && c.s < end) described = true;
         if (!described)
-          clauses.push_back({begin + 0.02f,
-                             pick(rng_, {"continue straight", "walk straight",
-                                         "keep going straight", "go straight ahead",
-                                         "continue forward"})});
+          clauses.push_back(
+              {begin + 0.02f,
+               pick(rng_, {"continue straight", "walk straight",
+                           "keep going straight", "go straight ahead",
+                           "continue forward"})});
       }
     }
-    std::stable_sort(clauses.begin(), clauses.end(),
-                     [](const Clause& a, const Clause& b) { return a.s < b.s; });
+    std::stable_sort(
+        clauses.begin(), clauses.end(),
+        [](const Clause& a, const Clause& b) { return a.s < b.s; });
   }
 
   std::string stopClause() {
@@ -681,17 +744,22 @@ class Writer {
     const int leg = static_cast<int>(facts_.waypoints.size()) - 1;
     if (!human_) {
       if (stop.object >= 0 && chance(0.8)) {
-        const char* rel = stop.ahead ? "stop in front of the " : "wait near the ";
-        return rel + objectPhrase(stop.object, LandmarkRole::kStop, Side::kNone, leg);
+        const char* rel =
+            stop.ahead ? "stop in front of the " : "wait near the ";
+        return rel +
+               objectPhrase(stop.object, LandmarkRole::kStop, Side::kNone, leg);
       }
       if (stop.door) return "stop in the doorway";
       return strCat("stop in the ", roomName(stop.room));
     }
 
-    const std::string verb = pick(rng_, {"stop", "stop", "wait", "stop", "wait"});
+    const std::string verb =
+        pick(rng_, {"stop", "stop", "wait", "stop", "wait"});
     if (stop.object >= 0 && chance(0.85)) {
-      const Side side = stop.side != Side::kNone && chance(0.3) ? stop.side : Side::kNone;
-      const std::string what = objectPhrase(stop.object, LandmarkRole::kStop, side, leg);
+      const Side side =
+          stop.side != Side::kNone && chance(0.3) ? stop.side : Side::kNone;
+      const std::string what =
+          objectPhrase(stop.object, LandmarkRole::kStop, side, leg);
       std::string out;
       switch (uniformIndex(rng_, 4)) {
         case 0:
@@ -702,10 +770,12 @@ class Writer {
           break;
         default: {
           const std::string rel =
-              stop.ahead ? pick(rng_, {"in front of", "next to", "near", "by", "in front of"})
-                         : pick(rng_, {"next to", "beside", "near", "by", "next to"});
-          out = strCat(pick(rng_, {"stop", "wait", "stand", "stop"}), " ", rel, " the ",
-                       what);
+              stop.ahead
+                  ? pick(rng_, {"in front of", "next to", "near", "by",
+                                "in front of"})
+                  : pick(rng_, {"next to", "beside", "near", "by", "next to"});
+          out = strCat(pick(rng_, {"stop", "wait", "stand", "stop"}), " ", rel,
+                       " the ", what);
         }
       }
       if (side != Side::kNone)
@@ -715,16 +785,20 @@ class Writer {
       return out;
     }
     if (stop.door)
-      return chance(0.5) ? strCat(verb, " in the doorway")
-                         : strCat(verb, " in the doorway of the ", roomName(stop.room));
+      return chance(0.5)
+                 ? strCat(verb, " in the doorway")
+                 : strCat(verb, " in the doorway of the ", roomName(stop.room));
     if (stop.just_entered)
-      return pick(rng_, {"stop once you enter the ", "stop just inside the ",
-                         "wait just inside the ", "stop as soon as you enter the "}) +
+      return pick(rng_,
+                  {"stop once you enter the ", "stop just inside the ",
+                   "wait just inside the ", "stop as soon as you enter the "}) +
              roomName(stop.room);
     if (stop.near_center)
-      return strCat(verb, " in the ", pick(rng_, {"middle", "center", "middle"}), " of the ",
+      return strCat(verb, " in the ",
+                    pick(rng_, {"middle", "center", "middle"}), " of the ",
                     roomName(stop.room));
-    return strCat(verb, " ", pick(rng_, {"in", "inside"}), " the ", roomName(stop.room));
+    return strCat(verb, " ", pick(rng_, {"in", "inside"}), " the ",
+                  roomName(stop.room));
   }
 
   // --- sentences ---------------------------------------------------------
@@ -743,8 +817,8 @@ class Writer {
                                 "from there, "}) +
                     current;
       } else {
-        current += pick(rng_, {" and ", ", then ", ", ", " and then ", ", and ",
-                               " and "});
+        current += pick(
+            rng_, {" and ", ", then ", ", ", " and then ", ", and ", " and "});
         current += clauses[i].text;
       }
       ++inSentence;
@@ -836,8 +910,10 @@ std::vector<std::string> objectCategoryWords(const std::string& category) {
 }
 
 float footprintDistance(const Eigen::AlignedBox3f& box, const Vec3f& p) {
-  const float dx = std::max({box.min().x() - p.x(), 0.0f, p.x() - box.max().x()});
-  const float dz = std::max({box.min().z() - p.z(), 0.0f, p.z() - box.max().z()});
+  const float dx =
+      std::max({box.min().x() - p.x(), 0.0f, p.x() - box.max().x()});
+  const float dz =
+      std::max({box.min().z() - p.z(), 0.0f, p.z() - box.max().z()});
   return std::hypot(dx, dz);
 }
 
@@ -869,11 +945,13 @@ std::vector<GeneratedInstruction> InstructionGenerator::generate(
   for (int i = 0; i < count; ++i) {
     GeneratedInstruction instruction;
     for (int attempt = 0; attempt <= kRedraws; ++attempt) {
-      Writer writer(semantics_, config_, facts, names, style, deriveSeed(seed, draw++));
+      Writer writer(semantics_, config_, facts, names, style,
+                    deriveSeed(seed, draw++));
       instruction = writer.write();
-      const bool repeated = std::any_of(
-          result.begin(), result.end(),
-          [&](const GeneratedInstruction& r) { return r.text == instruction.text; });
+      const bool repeated = std::any_of(result.begin(), result.end(),
+                                        [&](const GeneratedInstruction& r) {
+                                          return r.text == instruction.text;
+                                        });
       if (style == InstructionStyle::kSpeaker || !repeated) break;
     }
     result.push_back(std::move(instruction));

@@ -48,10 +48,10 @@ enum class LandmarkRole {
 
 /// One landmark as the text mentions it (for grounding checks).
 struct LandmarkMention {
-  int object_id = -1;          ///< sim::SemanticObject::id
+  int object_id = -1;  ///< sim::SemanticObject::id
   LandmarkRole role = LandmarkRole::kPass;
-  std::string phrase;          ///< as written, e.g. "white fridge"
-  Side side = Side::kNone;     ///< the side the text states, if any
+  std::string phrase;       ///< as written, e.g. "white fridge"
+  Side side = Side::kNone;  ///< the side the text states, if any
   /// Index of the path leg (waypoint i to i+1) the mention refers to; for
   /// kTurnAt the waypoint index, for kStop the last waypoint.
   int leg = -1;

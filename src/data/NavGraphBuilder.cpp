@@ -109,8 +109,8 @@ std::vector<Hole> findHoles(const sim::SceneSemantics& semantics,
         const Vec3f origin(area.min().x() + i * kHoleGridStep,
                            room.floor_y + kHoleRayStart,
                            area.min().y() + j * kHoleGridStep);
-        const auto hit = tracer.cast(origin, Vec3f(0, -1, 0),
-                                     kHoleRayStart + 0.5f);
+        const auto hit =
+            tracer.cast(origin, Vec3f(0, -1, 0), kHoleRayStart + 0.5f);
         const bool missing =
             !hit || hit->point.y() < room.floor_y - kFloorTolerance;
         hole[static_cast<size_t>(i * nz + j)] = missing ? 1 : 0;
@@ -200,8 +200,9 @@ class FurnitureMap {
         {c.xz.y() - box.min().y(), Vec2f(c.xz.x(), box.min().y())},
         {box.max().y() - c.xz.y(), Vec2f(c.xz.x(), box.max().y())},
     }};
-    std::stable_sort(exits.begin(), exits.end(),
-                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    std::stable_sort(
+        exits.begin(), exits.end(),
+        [](const auto& a, const auto& b) { return a.first < b.first; });
     for (const auto& [distance, xz] : exits) {
       Candidate moved = c;
       moved.xz = xz;
@@ -321,28 +322,32 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
   for (size_t r = 0; r < semantics.rooms.size(); ++r) {
     const sim::Room& room = semantics.rooms[r];
     std::mt19937_64 rng(deriveSeed(seed, kRoomStream * 1000003ull + r));
-    const Eigen::AlignedBox2f inner = shrink(room.footprint, config.wall_margin);
+    const Eigen::AlignedBox2f inner =
+        shrink(room.footprint, config.wall_margin);
     const Eigen::AlignedBox2f roomy =
         shrink(room.footprint, 0.5f * config.wall_margin);
     std::array<int, 2> count{};
     for (int k = 0; k < 2; ++k)
       count[static_cast<size_t>(k)] =
-          1 + static_cast<int>(std::floor(inner.sizes()[k] / config.node_spacing +
-                                          0.35f));
+          1 + static_cast<int>(
+                  std::floor(inner.sizes()[k] / config.node_spacing + 0.35f));
     for (int i = 0; i < count[0]; ++i) {
       for (int j = 0; j < count[1]; ++j) {
         Vec2f xz;
         const std::array<int, 2> ij = {i, j};
         for (int k = 0; k < 2; ++k) {
           const int n = count[static_cast<size_t>(k)];
-          const float t = n == 1 ? 0.5f
-                                 : static_cast<float>(ij[static_cast<size_t>(k)]) /
-                                       static_cast<float>(n - 1);
-          xz[k] = inner.min()[k] + t * inner.sizes()[k] +
-                  uniformRange(rng, -config.spacing_jitter, config.spacing_jitter);
+          const float t = n == 1
+                              ? 0.5f
+                              : static_cast<float>(ij[static_cast<size_t>(k)]) /
+                                    static_cast<float>(n - 1);
+          xz[k] =
+              inner.min()[k] + t * inner.sizes()[k] +
+              uniformRange(rng, -config.spacing_jitter, config.spacing_jitter);
           xz[k] = std::clamp(xz[k], inner.min()[k], inner.max()[k]);
         }
-        Candidate c{xz, room.floor_y, static_cast<int>(r), NodePlacement::kRoom};
+        Candidate c{xz, room.floor_y, static_cast<int>(r),
+                    NodePlacement::kRoom};
         if (!furniture.settle(c, roomy, rng)) continue;
         if (farFromAccepted(c)) accepted.push_back(c);
       }

@@ -17,9 +17,9 @@ namespace {
 constexpr float kReachSlack = 1e-4f;
 
 double ratio(int64_t numerator, int64_t denominator) {
-  return denominator > 0 ? static_cast<double>(numerator) /
-                               static_cast<double>(denominator)
-                         : 0.0;
+  return denominator > 0
+             ? static_cast<double>(numerator) / static_cast<double>(denominator)
+             : 0.0;
 }
 
 }  // namespace
@@ -46,9 +46,9 @@ NodeTransferResult transferNode(const sim::NavMesh& navmesh, const Vec3f& node,
   // surfaces at its own height: table tops high on the ray, floors low
   const Vec3f halfExtents(config.max_displacement, config.snap_vertical_extent,
                           config.max_displacement);
-  const int samples =
-      static_cast<int>(std::floor(config.cast_distance / config.cast_step +
-                                  1e-4f)) + 1;
+  const int samples = static_cast<int>(std::floor(
+                          config.cast_distance / config.cast_step + 1e-4f)) +
+                      1;
 
   NodeTransferResult best;
   float bestDisplacement = std::numeric_limits<float>::infinity();
@@ -140,9 +140,9 @@ NavigabilityResult checkNavigability(const sim::NavMesh& navmesh,
     }
 
     // follow it from wherever the previous leg ended, as the agent would
-    const int cap = config.leg_base_steps +
-                    static_cast<int>(std::ceil(config.leg_steps_per_meter *
-                                               geodesic));
+    const int cap =
+        config.leg_base_steps +
+        static_cast<int>(std::ceil(config.leg_steps_per_meter * geodesic));
     bool stopped = false;
     for (int step = 0; step <= cap; ++step) {
       const sim::Action action = follower.nextAction(state, target);

@@ -105,16 +105,16 @@ NavigabilityResult checkNavigability(
 
 /// The paper's transfer statistics, summed over nodes and trajectories.
 struct TransferStats {
-  int64_t nodes = 0;             ///< nodes attempted
-  int64_t nodes_valid = 0;       ///< transferred within max_displacement
-  int64_t nodes_adjusted = 0;    ///< valid with displacement > adjusted_threshold
+  int64_t nodes = 0;           ///< nodes attempted
+  int64_t nodes_valid = 0;     ///< transferred within max_displacement
+  int64_t nodes_adjusted = 0;  ///< valid with displacement > adjusted_threshold
   double adjusted_displacement_sum = 0.0;  ///< metres, over adjusted nodes
-  int64_t trajectories = 0;      ///< trajectories checked
+  int64_t trajectories = 0;                ///< trajectories checked
   int64_t navigable = 0;
   int64_t failed_invalid_node = 0;
   int64_t failed_no_path = 0;
   int64_t failed_not_reached = 0;
-  int64_t actions = 0;           ///< ground-truth actions over navigable ones
+  int64_t actions = 0;  ///< ground-truth actions over navigable ones
 
   /// Counts `results` (one graph's nodes).
   void addNodes(const std::vector<NodeTransferResult>& results,

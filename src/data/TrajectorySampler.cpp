@@ -57,8 +57,8 @@ TrajectorySampler::TrajectorySampler(const NavGraph& graph,
         continue;
       // walk the tree back from the goal, giving up once it is too long
       GraphPath path;
-      for (int v = goal; v >= 0 && static_cast<int>(path.size()) <=
-                                       config.max_nodes;
+      for (int v = goal;
+           v >= 0 && static_cast<int>(path.size()) <= config.max_nodes;
            v = previous[static_cast<size_t>(v)])
         path.push_back(v);
       const int nodes = static_cast<int>(path.size());

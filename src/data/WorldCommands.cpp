@@ -1,6 +1,5 @@
 #include "data/WorldCommands.h"
 
-
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -22,7 +21,8 @@ namespace {
 
 WorldConfig loadConfig(const std::filesystem::path& file,
                        const std::vector<std::string>& overrides) {
-  if (!file.empty()) return common::loadConfigFile<WorldConfig>(file, overrides);
+  if (!file.empty())
+    return common::loadConfigFile<WorldConfig>(file, overrides);
   return common::loadConfigText<WorldConfig>("{}", "<defaults>", overrides);
 }
 
@@ -40,7 +40,8 @@ WorldConfig loadWorldConfig(const GenerateCommandOptions& options) {
   return config;
 }
 
-int runGenerateCommand(const GenerateCommandOptions& options, std::ostream& out) {
+int runGenerateCommand(const GenerateCommandOptions& options,
+                       std::ostream& out) {
   VLN_CHECK_ARG(options.threads >= 1,
                 "vlnce-data generate: --threads must be >= 1, got ",
                 options.threads);
@@ -84,9 +85,9 @@ int runTransferCommand(const TransferCommandOptions& options,
       std::min(order.size(), static_cast<size_t>(options.trajectories));
   for (size_t i = 0; i < count; ++i) {
     const float heading = uniformRange(rng, -kPi, kPi);
-    stats.addTrajectory(checkNavigability(navmesh, config.agent, config.transfer,
-                                          transferred,
-                                          sampler.candidate(order[i]), heading));
+    stats.addTrajectory(
+        checkNavigability(navmesh, config.agent, config.transfer, transferred,
+                          sampler.candidate(order[i]), heading));
   }
 
   // report
@@ -95,8 +96,7 @@ int runTransferCommand(const TransferCommandOptions& options,
   } else {
     out << options.graph.string() << " on " << options.scene.string() << ": "
         << graph.numNodes() << " nodes, " << graph.numEdges() << " edges, "
-        << sampler.size() << " R2R-like trajectories, " << count
-        << " checked\n"
+        << sampler.size() << " R2R-like trajectories, " << count << " checked\n"
         << stats.report();
   }
 
@@ -113,7 +113,8 @@ int runTransferCommand(const TransferCommandOptions& options,
         result["rejected"].push_back(node.id);
         continue;
       }
-      result["nodes"][node.id] = {t.waypoint.x(), t.waypoint.y(), t.waypoint.z()};
+      result["nodes"][node.id] = {t.waypoint.x(), t.waypoint.y(),
+                                  t.waypoint.z()};
       result["displacement"][node.id] = t.displacement;
     }
     for (const auto& [a, b] : graph.edges())

@@ -16,12 +16,13 @@ namespace vln::data {
 
 /// `vlnce-data generate`.
 struct GenerateCommandOptions {
-  std::filesystem::path out;     ///< dataset root
-  std::filesystem::path config;  ///< WorldConfig YAML; empty = built-in defaults
+  std::filesystem::path out;  ///< dataset root
+  std::filesystem::path
+      config;  ///< WorldConfig YAML; empty = built-in defaults
   std::filesystem::path scenes_dir = "data/scene_datasets";
-  std::optional<int> houses;     ///< overrides config `houses`
-  std::optional<int64_t> seed;   ///< overrides config `seed`
-  int threads = 1;               ///< houses processed in parallel
+  std::optional<int> houses;    ///< overrides config `houses`
+  std::optional<int64_t> seed;  ///< overrides config `seed`
+  int threads = 1;              ///< houses processed in parallel
   /// "section.key=value" overrides applied after the YAML file.
   std::vector<std::string> overrides;
 };

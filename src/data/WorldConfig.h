@@ -76,11 +76,11 @@ void deterministicShuffle(std::vector<T>& values, std::mt19937_64& rng) {
 
 /// Where the panorama nodes of a house go and which pairs are joined.
 struct NavGraphBuildConfig {
-  float node_spacing = 2.1f;       ///< grid step of nodes inside a room
-  float spacing_jitter = 0.35f;    ///< +- uniform jitter of each grid node
-  float wall_margin = 0.55f;       ///< nodes keep this far from room walls
+  float node_spacing = 2.1f;         ///< grid step of nodes inside a room
+  float spacing_jitter = 0.35f;      ///< +- uniform jitter of each grid node
+  float wall_margin = 0.55f;         ///< nodes keep this far from room walls
   float min_node_separation = 1.1f;  ///< closer nodes are merged away
-  float min_camera_height = 1.2f;  ///< tripod camera height above the floor
+  float min_camera_height = 1.2f;    ///< tripod camera height above the floor
   float max_camera_height = 1.6f;
   float doorway_node_probability = 0.6f;  ///< a doorway gets its own node
   /// Nodes closer than this to furniture are pushed out, to a gap drawn
@@ -91,8 +91,10 @@ struct NavGraphBuildConfig {
   /// Chance that a node over a large flat object (table, counter, bed top)
   /// stays there, as R2R tripods over tables appear in the scans.
   float furniture_node_probability = 0.2f;
-  float flat_object_min_area = 0.7f;    ///< footprint (m^2) of a "large flat" object
-  float flat_object_max_height = 1.15f; ///< its top is at most this above the floor
+  /// Footprint (m^2) of a "large flat" object.
+  float flat_object_min_area = 0.7f;
+  /// Its top is at most this above the floor.
+  float flat_object_max_height = 1.15f;
   /// Chance that a detected floor hole gets a node above it.
   float hole_node_probability = 0.7f;
   float max_edge_length = 3.75f;  ///< horizontal length of the longest edge
@@ -101,21 +103,45 @@ struct NavGraphBuildConfig {
   float edge_drop_probability = 0.1f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("node_spacing", node_spacing, "Grid step of nodes in a room (m)", common::inRange(0.5, 10.0));
-    v.field("spacing_jitter", spacing_jitter, "Uniform jitter of grid nodes (m)", common::inRange(0.0, 2.0));
-    v.field("wall_margin", wall_margin, "Distance of nodes from room walls (m)", common::inRange(0.0, 3.0));
-    v.field("min_node_separation", min_node_separation, "Closer nodes are merged (m)", common::inRange(0.0, 5.0));
-    v.field("min_camera_height", min_camera_height, "Lowest camera height above the floor (m)", common::inRange(0.2, 3.0));
-    v.field("max_camera_height", max_camera_height, "Highest camera height above the floor (m)", common::inRange(0.2, 3.0));
-    v.field("doorway_node_probability", doorway_node_probability, "Chance a doorway gets a node", common::inRange(0.0, 1.0));
-    v.field("object_clearance", object_clearance, "Nodes closer than this to furniture are pushed out (m)", common::inRange(0.0, 2.0));
-    v.field("object_clearance_spread", object_clearance_spread, "Pushed nodes keep a gap up to this much larger (m)", common::inRange(0.0, 2.0));
-    v.field("furniture_node_probability", furniture_node_probability, "Chance a node over a large flat object stays there", common::inRange(0.0, 1.0));
-    v.field("flat_object_min_area", flat_object_min_area, "Footprint of a large flat object (m^2)", common::inRange(0.0, 100.0));
-    v.field("flat_object_max_height", flat_object_max_height, "Top height of a large flat object above the floor (m)", common::inRange(0.1, 3.0));
-    v.field("hole_node_probability", hole_node_probability, "Chance a floor hole gets a node above it", common::inRange(0.0, 1.0));
-    v.field("max_edge_length", max_edge_length, "Longest edge, horizontal (m)", common::inRange(0.5, 20.0));
-    v.field("edge_drop_probability", edge_drop_probability, "Chance a visible pair is left unconnected", common::inRange(0.0, 1.0));
+    v.field("node_spacing", node_spacing, "Grid step of nodes in a room (m)",
+            common::inRange(0.5, 10.0));
+    v.field("spacing_jitter", spacing_jitter,
+            "Uniform jitter of grid nodes (m)", common::inRange(0.0, 2.0));
+    v.field("wall_margin", wall_margin, "Distance of nodes from room walls (m)",
+            common::inRange(0.0, 3.0));
+    v.field("min_node_separation", min_node_separation,
+            "Closer nodes are merged (m)", common::inRange(0.0, 5.0));
+    v.field("min_camera_height", min_camera_height,
+            "Lowest camera height above the floor (m)",
+            common::inRange(0.2, 3.0));
+    v.field("max_camera_height", max_camera_height,
+            "Highest camera height above the floor (m)",
+            common::inRange(0.2, 3.0));
+    v.field("doorway_node_probability", doorway_node_probability,
+            "Chance a doorway gets a node", common::inRange(0.0, 1.0));
+    v.field("object_clearance", object_clearance,
+            "Nodes closer than this to furniture are pushed out (m)",
+            common::inRange(0.0, 2.0));
+    v.field("object_clearance_spread", object_clearance_spread,
+            "Pushed nodes keep a gap up to this much larger (m)",
+            common::inRange(0.0, 2.0));
+    v.field("furniture_node_probability", furniture_node_probability,
+            "Chance a node over a large flat object stays there",
+            common::inRange(0.0, 1.0));
+    v.field("flat_object_min_area", flat_object_min_area,
+            "Footprint of a large flat object (m^2)",
+            common::inRange(0.0, 100.0));
+    v.field("flat_object_max_height", flat_object_max_height,
+            "Top height of a large flat object above the floor (m)",
+            common::inRange(0.1, 3.0));
+    v.field("hole_node_probability", hole_node_probability,
+            "Chance a floor hole gets a node above it",
+            common::inRange(0.0, 1.0));
+    v.field("max_edge_length", max_edge_length, "Longest edge, horizontal (m)",
+            common::inRange(0.5, 20.0));
+    v.field("edge_drop_probability", edge_drop_probability,
+            "Chance a visible pair is left unconnected",
+            common::inRange(0.0, 1.0));
   }
   void validate() const {
     VLN_CHECK_ARG(min_camera_height <= max_camera_height,
@@ -132,14 +158,22 @@ struct NavGraphBuildConfig {
 /// The nav-graph is placed in the house as captured; these changes are then
 /// made to the scene that agents move in.
 struct ReconstructionConfig {
-  float closed_door_probability = 0.035f;  ///< per interior doorway
-  float moved_object_probability = 0.02f;  ///< per nav-graph node: a movable object ends up on it
-  float moved_object_offset = 0.3f;        ///< largest horizontal offset of that object from the node
+  float closed_door_probability = 0.05f;  ///< per interior doorway
+  /// Per nav-graph node: a movable object ends up on it.
+  float moved_object_probability = 0.02f;
+  /// Largest horizontal offset of that object from the node.
+  float moved_object_offset = 0.3f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("closed_door_probability", closed_door_probability, "Chance an interior doorway is closed in the scene", common::inRange(0.0, 1.0));
-    v.field("moved_object_probability", moved_object_probability, "Chance per node that a movable object covers it", common::inRange(0.0, 1.0));
-    v.field("moved_object_offset", moved_object_offset, "Largest offset of a moved object from its node (m)", common::inRange(0.0, 2.0));
+    v.field("closed_door_probability", closed_door_probability,
+            "Chance an interior doorway is closed in the scene",
+            common::inRange(0.0, 1.0));
+    v.field("moved_object_probability", moved_object_probability,
+            "Chance per node that a movable object covers it",
+            common::inRange(0.0, 1.0));
+    v.field("moved_object_offset", moved_object_offset,
+            "Largest offset of a moved object from its node (m)",
+            common::inRange(0.0, 2.0));
   }
   bool operator==(const ReconstructionConfig&) const = default;
 };
@@ -148,16 +182,20 @@ struct ReconstructionConfig {
 /// sampled shortest paths of at least 5 m with 4-6 edges (Anderson et al.
 /// 2018); the VLN-CE paper reports 4-6 nodes on average.
 struct TrajectoryConfig {
-  int min_nodes = 4;          ///< fewest nodes on a path, inclusive
-  int max_nodes = 7;          ///< most nodes on a path, inclusive
-  float min_length = 5.0f;    ///< shortest path length along edges (m)
-  float max_length = 16.0f;   ///< longest path length along edges (m)
+  int min_nodes = 4;         ///< fewest nodes on a path, inclusive
+  int max_nodes = 7;         ///< most nodes on a path, inclusive
+  float min_length = 5.0f;   ///< shortest path length along edges (m)
+  float max_length = 16.0f;  ///< longest path length along edges (m)
 
   void visit(common::ConfigVisitor& v) {
-    v.field("min_nodes", min_nodes, "Fewest nodes per trajectory", common::inRange(2, 100));
-    v.field("max_nodes", max_nodes, "Most nodes per trajectory", common::inRange(2, 100));
-    v.field("min_length", min_length, "Shortest trajectory along its edges (m)", common::inRange(0.0, 1000.0));
-    v.field("max_length", max_length, "Longest trajectory along its edges (m)", common::inRange(0.0, 1000.0));
+    v.field("min_nodes", min_nodes, "Fewest nodes per trajectory",
+            common::inRange(2, 100));
+    v.field("max_nodes", max_nodes, "Most nodes per trajectory",
+            common::inRange(2, 100));
+    v.field("min_length", min_length, "Shortest trajectory along its edges (m)",
+            common::inRange(0.0, 1000.0));
+    v.field("max_length", max_length, "Longest trajectory along its edges (m)",
+            common::inRange(0.0, 1000.0));
   }
   void validate() const {
     VLN_CHECK_ARG(min_nodes <= max_nodes, "TrajectoryConfig: min_nodes (",
@@ -183,46 +221,82 @@ struct TransferConfig {
   /// Islands at least this large (m^2) are floors a ground agent may use;
   /// smaller ones are furniture tops. The largest island always counts.
   float min_floor_island_area = 4.0f;
-  float follower_goal_radius = 0.5f;  ///< waypoint radius of the follower (paper: 0.5 m)
+  /// Waypoint radius of the follower (paper: 0.5 m).
+  float follower_goal_radius = 0.5f;
   /// Step cap of one waypoint-to-waypoint leg: this many actions plus
   /// leg_steps_per_meter per metre of geodesic distance.
   int leg_base_steps = 60;
   float leg_steps_per_meter = 8.0f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("cast_distance", cast_distance, "Length of the downward ray (m)", common::inRange(0.1, 10.0));
-    v.field("cast_step", cast_step, "Spacing of projections along the ray (m)", common::inRange(0.005, 1.0));
-    v.field("max_displacement", max_displacement, "Largest horizontal displacement of a valid node (m)", common::inRange(0.0, 5.0));
-    v.field("snap_vertical_extent", snap_vertical_extent, "Vertical half extent of each projection (m)", common::inRange(0.01, 2.0));
-    v.field("adjusted_threshold", adjusted_threshold, "Displacement counted as an adjustment (m)", common::inRange(0.0, 1.0));
-    v.field("min_floor_island_area", min_floor_island_area, "Smallest navmesh island that is a floor (m^2)", common::inRange(0.0, 1e6));
-    v.field("follower_goal_radius", follower_goal_radius, "Follower waypoint radius (m)", common::inRange(0.01, 10.0));
-    v.field("leg_base_steps", leg_base_steps, "Step cap of one leg: constant part", common::inRange(1, 100000));
-    v.field("leg_steps_per_meter", leg_steps_per_meter, "Step cap of one leg: per metre of geodesic distance", common::inRange(0.0, 1000.0));
+    v.field("cast_distance", cast_distance, "Length of the downward ray (m)",
+            common::inRange(0.1, 10.0));
+    v.field("cast_step", cast_step, "Spacing of projections along the ray (m)",
+            common::inRange(0.005, 1.0));
+    v.field("max_displacement", max_displacement,
+            "Largest horizontal displacement of a valid node (m)",
+            common::inRange(0.0, 5.0));
+    v.field("snap_vertical_extent", snap_vertical_extent,
+            "Vertical half extent of each projection (m)",
+            common::inRange(0.01, 2.0));
+    v.field("adjusted_threshold", adjusted_threshold,
+            "Displacement counted as an adjustment (m)",
+            common::inRange(0.0, 1.0));
+    v.field("min_floor_island_area", min_floor_island_area,
+            "Smallest navmesh island that is a floor (m^2)",
+            common::inRange(0.0, 1e6));
+    v.field("follower_goal_radius", follower_goal_radius,
+            "Follower waypoint radius (m)", common::inRange(0.01, 10.0));
+    v.field("leg_base_steps", leg_base_steps,
+            "Step cap of one leg: constant part", common::inRange(1, 100000));
+    v.field("leg_steps_per_meter", leg_steps_per_meter,
+            "Step cap of one leg: per metre of geodesic distance",
+            common::inRange(0.0, 1000.0));
   }
   bool operator==(const TransferConfig&) const = default;
 };
 
 /// Generated instructions.
 struct InstructionConfig {
-  int per_trajectory = 3;          ///< instructions per trajectory (R2R: 3)
-  int aug_per_trajectory = 1;      ///< speaker instructions per train_aug trajectory
-  float landmark_distance = 2.2f;  ///< objects within this of the path may be named (m)
-  float stop_landmark_distance = 2.0f;  ///< the stop object is within this of the goal (m)
-  float detail = 0.55f;            ///< chance of each optional detail (colour, second landmark)
-  float speaker_wrong_side = 0.15f;    ///< speaker style: chance a side is flipped
-  float speaker_wrong_color = 0.15f;   ///< speaker style: chance a colour is wrong
-  float speaker_drop_landmark = 0.5f;  ///< speaker style: chance a landmark is left out
+  int per_trajectory = 3;  ///< instructions per trajectory (R2R: 3)
+  /// Speaker instructions per train_aug trajectory.
+  int aug_per_trajectory = 1;
+  /// Objects within this of the path may be named (m).
+  float landmark_distance = 2.2f;
+  /// The stop object is within this of the goal (m).
+  float stop_landmark_distance = 2.0f;
+  /// Chance of each optional detail (colour, second landmark).
+  float detail = 0.55f;
+  /// Speaker style: chance a side is flipped.
+  float speaker_wrong_side = 0.15f;
+  /// Speaker style: chance a colour is wrong.
+  float speaker_wrong_color = 0.15f;
+  /// Speaker style: chance a landmark is left out.
+  float speaker_drop_landmark = 0.5f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("per_trajectory", per_trajectory, "Instructions per trajectory", common::inRange(1, 20));
-    v.field("aug_per_trajectory", aug_per_trajectory, "Speaker instructions per train_aug trajectory", common::inRange(1, 20));
-    v.field("landmark_distance", landmark_distance, "Objects within this of the path may be named (m)", common::inRange(0.1, 20.0));
-    v.field("stop_landmark_distance", stop_landmark_distance, "The stop object is within this of the goal (m)", common::inRange(0.1, 20.0));
-    v.field("detail", detail, "Chance of each optional detail", common::inRange(0.0, 1.0));
-    v.field("speaker_wrong_side", speaker_wrong_side, "Speaker style: chance of a flipped side", common::inRange(0.0, 1.0));
-    v.field("speaker_wrong_color", speaker_wrong_color, "Speaker style: chance of a wrong colour", common::inRange(0.0, 1.0));
-    v.field("speaker_drop_landmark", speaker_drop_landmark, "Speaker style: chance a landmark is dropped", common::inRange(0.0, 1.0));
+    v.field("per_trajectory", per_trajectory, "Instructions per trajectory",
+            common::inRange(1, 20));
+    v.field("aug_per_trajectory", aug_per_trajectory,
+            "Speaker instructions per train_aug trajectory",
+            common::inRange(1, 20));
+    v.field("landmark_distance", landmark_distance,
+            "Objects within this of the path may be named (m)",
+            common::inRange(0.1, 20.0));
+    v.field("stop_landmark_distance", stop_landmark_distance,
+            "The stop object is within this of the goal (m)",
+            common::inRange(0.1, 20.0));
+    v.field("detail", detail, "Chance of each optional detail",
+            common::inRange(0.0, 1.0));
+    v.field("speaker_wrong_side", speaker_wrong_side,
+            "Speaker style: chance of a flipped side",
+            common::inRange(0.0, 1.0));
+    v.field("speaker_wrong_color", speaker_wrong_color,
+            "Speaker style: chance of a wrong colour",
+            common::inRange(0.0, 1.0));
+    v.field("speaker_drop_landmark", speaker_drop_landmark,
+            "Speaker style: chance a landmark is dropped",
+            common::inRange(0.0, 1.0));
   }
   bool operator==(const InstructionConfig&) const = default;
 };
@@ -230,22 +304,34 @@ struct InstructionConfig {
 /// How houses and trajectories are divided into R2R's splits. R2R holds
 /// out 11 of 90 scans for val_unseen and 18 for test.
 struct SplitConfig {
-  float val_unseen_fraction = 0.14f;  ///< share of houses held out for val_unseen
-  float test_fraction = 0.14f;        ///< share of houses held out for test
-  int train_per_house = 20;           ///< navigable train trajectories per train house
-  int val_seen_per_house = 2;         ///< new trajectories per train house for val_seen
-  int val_unseen_per_house = 15;      ///< trajectories per val_unseen house
-  int test_per_house = 15;            ///< trajectories per test house
-  int aug_per_house = 60;             ///< train_aug trajectories per train house
+  /// Share of houses held out for val_unseen.
+  float val_unseen_fraction = 0.14f;
+  float test_fraction = 0.14f;  ///< share of houses held out for test
+  int train_per_house = 20;  ///< navigable train trajectories per train house
+  /// New trajectories per train house for val_seen.
+  int val_seen_per_house = 2;
+  int val_unseen_per_house = 15;  ///< trajectories per val_unseen house
+  int test_per_house = 15;        ///< trajectories per test house
+  int aug_per_house = 60;         ///< train_aug trajectories per train house
 
   void visit(common::ConfigVisitor& v) {
-    v.field("val_unseen_fraction", val_unseen_fraction, "Share of houses held out for val_unseen", common::inRange(0.0, 1.0));
-    v.field("test_fraction", test_fraction, "Share of houses held out for test", common::inRange(0.0, 1.0));
-    v.field("train_per_house", train_per_house, "Train trajectories per train house", common::inRange(0, 100000));
-    v.field("val_seen_per_house", val_seen_per_house, "val_seen trajectories per train house", common::inRange(0, 100000));
-    v.field("val_unseen_per_house", val_unseen_per_house, "Trajectories per val_unseen house", common::inRange(0, 100000));
-    v.field("test_per_house", test_per_house, "Trajectories per test house", common::inRange(0, 100000));
-    v.field("aug_per_house", aug_per_house, "train_aug trajectories per train house", common::inRange(0, 100000));
+    v.field("val_unseen_fraction", val_unseen_fraction,
+            "Share of houses held out for val_unseen",
+            common::inRange(0.0, 1.0));
+    v.field("test_fraction", test_fraction, "Share of houses held out for test",
+            common::inRange(0.0, 1.0));
+    v.field("train_per_house", train_per_house,
+            "Train trajectories per train house", common::inRange(0, 100000));
+    v.field("val_seen_per_house", val_seen_per_house,
+            "val_seen trajectories per train house",
+            common::inRange(0, 100000));
+    v.field("val_unseen_per_house", val_unseen_per_house,
+            "Trajectories per val_unseen house", common::inRange(0, 100000));
+    v.field("test_per_house", test_per_house, "Trajectories per test house",
+            common::inRange(0, 100000));
+    v.field("aug_per_house", aug_per_house,
+            "train_aug trajectories per train house",
+            common::inRange(0, 100000));
   }
   void validate() const {
     VLN_CHECK_ARG(val_unseen_fraction + test_fraction < 1.0f,
@@ -258,9 +344,10 @@ struct SplitConfig {
 
 /// The whole world: configs/world/default.yaml.
 struct WorldConfig {
-  int houses = 40;       ///< number of procedural houses
-  int64_t seed = 1;      ///< master seed; every house and stage derives from it
-  std::string scene_prefix = "procedural";  ///< scene ids are <prefix>/<house>/<house>.glb
+  int houses = 40;   ///< number of procedural houses
+  int64_t seed = 1;  ///< master seed; every house and stage derives from it
+  /// Scene ids are <prefix>/<house>/<house>.glb.
+  std::string scene_prefix = "procedural";
   sim::HouseConfig house;
   sim::NavMeshConfig navmesh;
   sim::AgentConfig agent;
@@ -273,14 +360,18 @@ struct WorldConfig {
   GloveFitConfig glove{.dim = 50, .window = 10, .epochs = 15};
 
   void visit(common::ConfigVisitor& v) {
-    v.field("houses", houses, "Number of procedural houses", common::inRange(1, 100000));
+    v.field("houses", houses, "Number of procedural houses",
+            common::inRange(1, 100000));
     v.field("seed", seed, "Master seed of the world");
-    v.field("scene_prefix", scene_prefix, "Scene ids are <prefix>/<house>/<house>.glb");
+    v.field("scene_prefix", scene_prefix,
+            "Scene ids are <prefix>/<house>/<house>.glb");
     v.section("house", house, "Procedural house generation");
-    v.section("navmesh", navmesh, "Navmesh build parameters (written beside each scene)");
+    v.section("navmesh", navmesh,
+              "Navmesh build parameters (written beside each scene)");
     v.section("agent", agent, "Agent actions of the ground-truth follower");
     v.section("nav_graph", nav_graph, "Panorama nodes and edges");
-    v.section("reconstruction", reconstruction, "Differences between the captured house and its scene");
+    v.section("reconstruction", reconstruction,
+              "Differences between the captured house and its scene");
     v.section("trajectories", trajectories, "R2R-like trajectory sampling");
     v.section("transfer", transfer, "Section 3.2 transfer and navigability");
     v.section("instructions", instructions, "Generated instructions");

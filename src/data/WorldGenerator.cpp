@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <array>
 #include <atomic>
@@ -13,7 +14,6 @@
 #include <stdexcept>
 #include <system_error>
 #include <thread>
-#include <unistd.h>
 
 #include "common/Check.h"
 #include "common/Config.h"
@@ -151,7 +151,8 @@ bool duplicateObject(sim::House& house, const sim::SemanticObject& object,
   sim::TriangleMesh& mesh = house.mesh;
   if (mesh.triangle_object.empty()) return false;
   int newId = 0;
-  for (const auto& o : house.semantics.objects) newId = std::max(newId, o.id + 1);
+  for (const auto& o : house.semantics.objects)
+    newId = std::max(newId, o.id + 1);
   const size_t triangles = mesh.triangleCount();
   bool copied = false;
   for (size_t t = 0; t < triangles; ++t) {
@@ -192,7 +193,8 @@ CaptureDifferences applyCaptureDifferences(sim::House& house,
   std::mt19937_64 rng(seed);
 
   // closed doors: a leaf in the opening
-  const float top = std::min(kDoorTop, config.house.wall_height - kDoorTopBelowCeiling);
+  const float top =
+      std::min(kDoorTop, config.house.wall_height - kDoorTopBelowCeiling);
   const std::vector<sim::Doorway> doors = house.semantics.doors;
   for (const sim::Doorway& door : doors) {
     const bool close = bernoulli(rng, rc.closed_door_probability);
@@ -213,7 +215,8 @@ CaptureDifferences applyCaptureDifferences(sim::House& house,
     const Vec3f size = o.bounds.sizes();
     const int room = o.room;
     const float floorY =
-        room >= 0 ? house.semantics.rooms[static_cast<size_t>(room)].floor_y : 0.0f;
+        room >= 0 ? house.semantics.rooms[static_cast<size_t>(room)].floor_y
+                  : 0.0f;
     if (o.bounds.min().y() < floorY + 0.05f && size.y() > 0.3f &&
         size.y() <= kMovableMaxHeight && size.x() * size.z() <= kMovableMaxArea)
       movable.push_back(static_cast<int>(i));
@@ -231,7 +234,8 @@ CaptureDifferences applyCaptureDifferences(sim::House& house,
             uniformIndex(rng, static_cast<int>(choices.size())))])];
     const Vec3f node = built.graph.node(n).position;
     const float angle = uniformRange(rng, -kPi, kPi);
-    const float radius = rc.moved_object_offset * static_cast<float>(std::sqrt(uniform01(rng)));
+    const float radius =
+        rc.moved_object_offset * static_cast<float>(std::sqrt(uniform01(rng)));
     const Vec3f target(node.x() + radius * std::cos(angle), 0.0f,
                        node.z() + radius * std::sin(angle));
     const Vec3f center = object.bounds.center();
@@ -270,8 +274,9 @@ uint64_t fnv1a(const std::string& text) {
 }
 
 uint64_t houseSeed(const WorldConfig& config, int index) {
-  return deriveSeed(deriveSeed(static_cast<uint64_t>(config.seed), kHouseStream),
-                    static_cast<uint64_t>(index));
+  return deriveSeed(
+      deriveSeed(static_cast<uint64_t>(config.seed), kHouseStream),
+      static_cast<uint64_t>(index));
 }
 
 // Split quotas of a house of role `role`, in filling priority order.
@@ -312,9 +317,9 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
   result.moved_objects = differences.moved_objects;
   const fs::path sceneFile = output.scenes_dir / result.scene_id;
   sim::saveScene(sceneFile, house.mesh, house.semantics);
-  const auto scene = sim::Scene::fromMesh(result.name, std::move(house.mesh),
-                                          std::move(house.semantics),
-                                          config.navmesh);
+  const auto scene =
+      sim::Scene::fromMesh(result.name, std::move(house.mesh),
+                           std::move(house.semantics), config.navmesh);
   fs::path navmeshFile = sceneFile;
   navmeshFile += ".navmesh";
   scene->navmesh().save(navmeshFile);
@@ -344,11 +349,12 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
   for (const auto& [name, quota] : splits) wanted += quota;
   const InstructionGenerator instructions(scene->semantics(),
                                           config.instructions);
-  for (const int candidate : sampler.shuffledOrder(deriveSeed(seed, kOrderStream))) {
+  for (const int candidate :
+       sampler.shuffledOrder(deriveSeed(seed, kOrderStream))) {
     if (wanted == 0) break;
     const GraphPath& path = sampler.candidate(candidate);
-    std::mt19937_64 headingRng(
-        deriveSeed(deriveSeed(seed, kHeadingStream), static_cast<uint64_t>(candidate)));
+    std::mt19937_64 headingRng(deriveSeed(deriveSeed(seed, kHeadingStream),
+                                          static_cast<uint64_t>(candidate)));
     const float heading = uniformRange(headingRng, -kPi, kPi);
     NavigabilityResult checked = checkNavigability(
         navmesh, config.agent, config.transfer, transferred, path, heading);
@@ -410,7 +416,8 @@ std::vector<std::string> assignRoles(const WorldConfig& config) {
                 " val_unseen and ", test, " test houses");
   std::vector<int> order(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) order[static_cast<size_t>(i)] = i;
-  std::mt19937_64 rng(deriveSeed(static_cast<uint64_t>(config.seed), kSplitStream));
+  std::mt19937_64 rng(
+      deriveSeed(static_cast<uint64_t>(config.seed), kSplitStream));
   deterministicShuffle(order, rng);
   std::vector<std::string> roles(static_cast<size_t>(n), kTrain);
   for (int k = 0; k < valUnseen + test; ++k)
@@ -425,7 +432,8 @@ std::vector<std::string> assignRoles(const WorldConfig& config) {
 
 // Moves every entry of `staging` into `out`, replacing what was there; the
 // replaced entries go to `trash` first and are removed at the end.
-void publish(const fs::path& staging, const fs::path& out, const fs::path& trash) {
+void publish(const fs::path& staging, const fs::path& out,
+             const fs::path& trash) {
   std::vector<fs::path> entries;
   for (const auto& entry : fs::directory_iterator(staging))
     entries.push_back(entry.path().filename());
@@ -439,8 +447,8 @@ void publish(const fs::path& staging, const fs::path& out, const fs::path& trash
                    (out / name).string(), "': ", ec.message());
     }
     fs::rename(staging / name, out / name, ec);
-    VLN_CHECK_IO(!ec, "generateWorld(): cannot move '", (staging / name).string(),
-                 "' into place: ", ec.message());
+    VLN_CHECK_IO(!ec, "generateWorld(): cannot move '",
+                 (staging / name).string(), "' into place: ", ec.message());
   }
   common::syncDirectory(out);
   std::error_code ignored;
@@ -465,9 +473,9 @@ const std::vector<std::string>& worldSplitNames() {
 }
 
 std::string worldHouseName(const WorldConfig& config, int index) {
-  const uint64_t hash =
-      mixBits(houseSeed(config, index) ^ fnv1a(common::configToYaml(config.house)) ^
-              mixBits(fnv1a(common::configToYaml(config.navmesh))));
+  const uint64_t hash = mixBits(
+      houseSeed(config, index) ^ fnv1a(common::configToYaml(config.house)) ^
+      mixBits(fnv1a(common::configToYaml(config.navmesh))));
   char buffer[64];
   std::snprintf(buffer, sizeof(buffer), "house_%03d_%08llx", index,
                 static_cast<unsigned long long>(hash >> 32));
@@ -480,9 +488,10 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   common::checkConfig([&](common::ConfigVisitor& v) { checked.visit(v); },
                       "generateWorld()");
   config.validate();
-  VLN_CHECK_ARG(output.threads >= 1, "generateWorld(): threads must be >= 1, got ",
-                output.threads);
-  VLN_CHECK_ARG(!output.out.empty(), "generateWorld(): the output directory is empty");
+  VLN_CHECK_ARG(output.threads >= 1,
+                "generateWorld(): threads must be >= 1, got ", output.threads);
+  VLN_CHECK_ARG(!output.out.empty(),
+                "generateWorld(): the output directory is empty");
   const std::vector<std::string> roles = assignRoles(config);
 
   // houses on a pool of threads; results land in house order
@@ -495,8 +504,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   auto worker = [&] {
     for (int i = next++; i < n; i = next++) {
       // errors name the house; their type (bad input or I/O) is kept
-      const std::string where =
-          strCat("generateWorld(): house ", i, " '", worldHouseName(config, i), "': ");
+      const std::string where = strCat("generateWorld(): house ", i, " '",
+                                       worldHouseName(config, i), "': ");
       try {
         houses[static_cast<size_t>(i)] =
             processHouse(config, output, i, roles[static_cast<size_t>(i)]);
@@ -551,7 +560,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
             e.reference_path = t.waypoints;
             truths[split][e.episode_id] = t.ground_truth;
           }
-          if (split == kTrain || split == kTrainAug) trainCorpus.push_back(text);
+          if (split == kTrain || split == kTrainAug)
+            trainCorpus.push_back(text);
           datasets[split].episodes.push_back(std::move(e));
         }
       }
@@ -573,7 +583,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   const Vocabulary vocabulary = Vocabulary::build(trainCorpus);
   for (auto& [split, dataset] : datasets) {
     for (Episode& e : dataset.episodes) {
-      e.instruction.instruction_tokens = vocabulary.encode(e.instruction.instruction_text);
+      e.instruction.instruction_tokens =
+          vocabulary.encode(e.instruction.instruction_text);
       tokens[split] += unpaddedLength(e.instruction.instruction_tokens,
                                       vocabulary.padIndex());
     }
@@ -581,9 +592,11 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   }
   std::vector<std::vector<std::string>> sentences;
   sentences.reserve(trainCorpus.size());
-  for (const std::string& text : trainCorpus) sentences.push_back(tokenize(text));
+  for (const std::string& text : trainCorpus)
+    sentences.push_back(tokenize(text));
   const GloveFitResult glove = fitGlove(sentences, config.glove);
-  const EmbeddingMatrix embeddings = buildEmbeddingMatrix(vocabulary, glove.vectors);
+  const EmbeddingMatrix embeddings =
+      buildEmbeddingMatrix(vocabulary, glove.vectors);
 
   // statistics
   WorldSummary summary;
@@ -602,7 +615,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
     closedDoors += house->closed_doors;
     movedObjects += house->moved_objects;
     candidates += house->candidates;
-    for (const auto& [name, count] : house->placements) placements[name] += count;
+    for (const auto& [name, count] : house->placements)
+      placements[name] += count;
     for (const auto& [name, stats] : house->placementTransfer)
       placementTransfer[name].merge(stats);
     nlohmann::json splits = nlohmann::json::object();
@@ -638,11 +652,11 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   nlohmann::json placementJson = nlohmann::json::object();
   for (const auto& [name, stats] : placementTransfer) {
     const nlohmann::json full = stats.toJson();
-    placementJson[name] = {{"nodes", full["nodes"]},
-                           {"nodes_valid", full["nodes_valid"]},
-                           {"nodes_adjusted", full["nodes_adjusted"]},
-                           {"mean_adjusted_displacement",
-                            full["mean_adjusted_displacement"]}};
+    placementJson[name] = {
+        {"nodes", full["nodes"]},
+        {"nodes_valid", full["nodes_valid"]},
+        {"nodes_adjusted", full["nodes_adjusted"]},
+        {"mean_adjusted_displacement", full["mean_adjusted_displacement"]}};
   }
   summary.stats = {
       {"seed", config.seed},
@@ -664,7 +678,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
       {"vocabulary_size", vocabulary.size()},
       {"glove",
        {{"dim", config.glove.dim},
-        {"final_loss", glove.epoch_loss.empty() ? 0.0 : glove.epoch_loss.back()},
+        {"final_loss",
+         glove.epoch_loss.empty() ? 0.0 : glove.epoch_loss.back()},
         {"cooccurrence_entries", glove.cooccurrence_entries}}},
       {"per_house", perHouse},
       {"config", common::configToYaml(config)},
@@ -687,8 +702,9 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
     }
     writeEmbeddingsJson(staging / "embeddings.json.gz", embeddings);
     for (const auto& house : houses)
-      writeNavGraph(staging / "connectivity" / (house->name + "_connectivity.json"),
-                    house->graph);
+      writeNavGraph(
+          staging / "connectivity" / (house->name + "_connectivity.json"),
+          house->graph);
     common::writeJsonFile(staging / "generation_stats.json", summary.stats, 2);
     publish(staging, output.out, trash);
   } catch (...) {
@@ -699,8 +715,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   if (log != nullptr) {
     *log << "generated " << n << " houses (" << summary.houses["train"].size()
          << " train, " << summary.houses["val_unseen"].size() << " val_unseen, "
-         << summary.houses["test"].size() << " test) into " << output.out.string()
-         << "\n";
+         << summary.houses["test"].size() << " test) into "
+         << output.out.string() << "\n";
     for (const std::string& split : worldSplitNames())
       *log << "  " << split << ": " << summary.episodes[split] << " episodes, "
            << summary.trajectories[split] << " trajectories\n";

@@ -45,7 +45,8 @@ sim::SemanticObject object(int id, const char* category, const char* color,
   return o;
 }
 
-sim::Room room(int id, const char* type, float x0, float z0, float x1, float z1) {
+sim::Room room(int id, const char* type, float x0, float z0, float x1,
+               float z1) {
   sim::Room r;
   r.id = id;
   r.type = type;
@@ -90,7 +91,8 @@ std::vector<Vec3f> bedroomToKitchen() {
 }
 
 std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  for (char& c : s)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
 }
 
@@ -123,13 +125,15 @@ bool passedOnSide(const std::vector<Vec3f>& path, const sim::SemanticObject& o,
   return false;
 }
 
-float distanceToPath(const std::vector<Vec3f>& path, const sim::SemanticObject& o) {
+float distanceToPath(const std::vector<Vec3f>& path,
+                     const sim::SemanticObject& o) {
   float best = 1e9f;
   for (size_t i = 0; i + 1 < path.size(); ++i)
     for (int k = 0; k <= 50; ++k)
-      best = std::min(best, footprintDistance(
-                                o.bounds, path[i] + (static_cast<float>(k) / 50.0f) *
-                                                        (path[i + 1] - path[i])));
+      best = std::min(
+          best, footprintDistance(o.bounds,
+                                  path[i] + (static_cast<float>(k) / 50.0f) *
+                                                (path[i + 1] - path[i])));
   return best;
 }
 
@@ -151,11 +155,13 @@ TEST(InstructionGeneratorTest, LeftTurnSaysLeftRightTurnSaysRight) {
   const std::vector<Vec3f> left = {{0, 0, 0}, {0, 0, -4}, {-4, 0, -4}};
   const std::vector<Vec3f> right = {{0, 0, 0}, {0, 0, -4}, {4, 0, -4}};
   for (uint64_t seed = 0; seed < 30; ++seed) {
-    for (const auto& g : generator.generate(left, 0.0f, InstructionStyle::kHuman, 3, seed)) {
+    for (const auto& g :
+         generator.generate(left, 0.0f, InstructionStyle::kHuman, 3, seed)) {
       EXPECT_TRUE(containsWord(g.text, "left")) << g.text;
       EXPECT_FALSE(containsWord(g.text, "right")) << g.text;
     }
-    for (const auto& g : generator.generate(right, 0.0f, InstructionStyle::kHuman, 3, seed)) {
+    for (const auto& g :
+         generator.generate(right, 0.0f, InstructionStyle::kHuman, 3, seed)) {
       EXPECT_TRUE(containsWord(g.text, "right")) << g.text;
       EXPECT_FALSE(containsWord(g.text, "left")) << g.text;
     }
@@ -169,11 +175,13 @@ TEST(InstructionGeneratorTest, StartFacingAwayTurnsAround) {
   const std::vector<Vec3f> path = {{0, 0, 0}, {0, 0, -4}, {0, 0, -8}};
   // heading pi looks along +Z, away from the path
   for (uint64_t seed = 0; seed < 20; ++seed)
-    for (const auto& g : generator.generate(path, kPi, InstructionStyle::kHuman, 3, seed))
+    for (const auto& g :
+         generator.generate(path, kPi, InstructionStyle::kHuman, 3, seed))
       EXPECT_TRUE(containsWord(g.text, "around")) << g.text;
   // facing the path: no turn is mentioned
   for (uint64_t seed = 0; seed < 20; ++seed)
-    for (const auto& g : generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
+    for (const auto& g :
+         generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
       EXPECT_FALSE(containsWord(g.text, "around")) << g.text;
       EXPECT_FALSE(containsWord(g.text, "left")) << g.text;
     }
@@ -187,7 +195,8 @@ TEST(InstructionGeneratorTest, MentionsAreGrounded) {
   std::map<LandmarkRole, int> roles;
   int sided = 0;
   for (uint64_t seed = 0; seed < 60; ++seed) {
-    for (const auto& g : generator.generate(path, 1.0f, InstructionStyle::kHuman, 3, seed)) {
+    for (const auto& g :
+         generator.generate(path, 1.0f, InstructionStyle::kHuman, 3, seed)) {
       EXPECT_EQ(g.goal_room, 2) << "the goal is in the kitchen";
       const std::string text = lower(g.text);
       for (const LandmarkMention& m : g.landmarks) {
@@ -197,25 +206,33 @@ TEST(InstructionGeneratorTest, MentionsAreGrounded) {
         EXPECT_THAT(text, HasSubstr(m.phrase)) << g.text;
         // a stated colour is the object's own
         const auto space = m.phrase.find(' ');
-        if (space != std::string::npos && m.phrase.substr(space + 1) != "plant" &&
-            m.phrase.substr(space + 1) != "counter" && m.phrase.substr(space + 1) != "lamp") {
+        if (space != std::string::npos &&
+            m.phrase.substr(space + 1) != "plant" &&
+            m.phrase.substr(space + 1) != "counter" &&
+            m.phrase.substr(space + 1) != "lamp") {
           const std::string color = m.phrase.substr(0, space);
-          const bool same = color == o.color || (o.color == "wooden" && color == "wood");
-          EXPECT_TRUE(same) << m.phrase << " for a " << o.color << " " << o.category;
+          const bool same =
+              color == o.color || (o.color == "wooden" && color == "wood");
+          EXPECT_TRUE(same)
+              << m.phrase << " for a " << o.color << " " << o.category;
         }
         switch (m.role) {
           case LandmarkRole::kPass:
           case LandmarkRole::kBetween:
-            EXPECT_TRUE(passedOnSide(path, o, m.side, config.landmark_distance + 0.05f))
+            EXPECT_TRUE(
+                passedOnSide(path, o, m.side, config.landmark_distance + 0.05f))
                 << g.text << " -- " << m.phrase;
             if (m.side != Side::kNone) ++sided;
             break;
           case LandmarkRole::kToward:
-            EXPECT_LE(distanceToPath(path, o), config.landmark_distance + 0.05f);
+            EXPECT_LE(distanceToPath(path, o),
+                      config.landmark_distance + 0.05f);
             break;
           case LandmarkRole::kTurnAt:
             ASSERT_GE(m.leg, 0);
-            EXPECT_LE(footprintDistance(o.bounds, path[static_cast<size_t>(m.leg)]), 1.25f);
+            EXPECT_LE(
+                footprintDistance(o.bounds, path[static_cast<size_t>(m.leg)]),
+                1.25f);
             break;
           case LandmarkRole::kStop:
             EXPECT_LE(footprintDistance(o.bounds, path.back()),
@@ -252,7 +269,9 @@ TEST(InstructionGeneratorTest, MentionsAreGroundedInGeneratedHouses) {
       for (int hop = 0; hop < 2; ++hop) {
         const sim::Doorway* through = nullptr;
         for (const auto& d : s.doors) {
-          const int other = d.room_a == room ? d.room_b : d.room_b == room ? d.room_a : -1;
+          const int other = d.room_a == room   ? d.room_b
+                            : d.room_b == room ? d.room_a
+                                               : -1;
           if (other >= 0 && other != previous) {
             through = &d;
             previous = room;
@@ -265,7 +284,8 @@ TEST(InstructionGeneratorTest, MentionsAreGroundedInGeneratedHouses) {
         path.push_back(center(room));
       }
       if (path.size() < 3) continue;
-      for (const auto& g : generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
+      for (const auto& g :
+           generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
         EXPECT_EQ(g.goal_room, s.roomAt(path.back())) << g.text;
         for (const LandmarkMention& m : g.landmarks) {
           const auto& o = objectById(s, m.object_id);
@@ -274,14 +294,18 @@ TEST(InstructionGeneratorTest, MentionsAreGroundedInGeneratedHouses) {
           switch (m.role) {
             case LandmarkRole::kPass:
             case LandmarkRole::kBetween:
-              EXPECT_TRUE(passedOnSide(path, o, m.side, config.landmark_distance + 0.05f))
+              EXPECT_TRUE(passedOnSide(path, o, m.side,
+                                       config.landmark_distance + 0.05f))
                   << g.text << " -- " << m.phrase;
               break;
             case LandmarkRole::kToward:
-              EXPECT_LE(distanceToPath(path, o), config.landmark_distance + 0.05f);
+              EXPECT_LE(distanceToPath(path, o),
+                        config.landmark_distance + 0.05f);
               break;
             case LandmarkRole::kTurnAt:
-              EXPECT_LE(footprintDistance(o.bounds, path[static_cast<size_t>(m.leg)]), 1.25f);
+              EXPECT_LE(
+                  footprintDistance(o.bounds, path[static_cast<size_t>(m.leg)]),
+                  1.25f);
               break;
             case LandmarkRole::kStop:
               EXPECT_LE(footprintDistance(o.bounds, path.back()),
@@ -301,18 +325,21 @@ TEST(InstructionGeneratorTest, PassedSidesMatchTheGeometry) {
   // the right (+X)
   sim::SceneSemantics s;
   s.rooms = {room(0, "living room", -3, -12, 3, 0)};
-  s.objects = {object(1, "sofa", "blue", 0, {-2.2f, 0, -6.5f}, {-1.0f, 0.8f, -4.5f}),
-               object(2, "tv", "black", 0, {1.2f, 0.5f, -6.0f}, {1.5f, 1.2f, -5.0f})};
+  s.objects = {
+      object(1, "sofa", "blue", 0, {-2.2f, 0, -6.5f}, {-1.0f, 0.8f, -4.5f}),
+      object(2, "tv", "black", 0, {1.2f, 0.5f, -6.0f}, {1.5f, 1.2f, -5.0f})};
   InstructionConfig config;
   config.detail = 1.0f;
   const InstructionGenerator generator(s, config);
   const std::vector<Vec3f> path = {{0, 0, -1}, {0, 0, -5}, {0, 0, -10}};
   int checked = 0;
   for (uint64_t seed = 0; seed < 40; ++seed) {
-    for (const auto& g : generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
+    for (const auto& g :
+         generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
       for (const auto& m : g.landmarks) {
         if (m.role != LandmarkRole::kPass || m.side == Side::kNone) continue;
-        EXPECT_EQ(m.side, m.object_id == 1 ? Side::kLeft : Side::kRight) << g.text;
+        EXPECT_EQ(m.side, m.object_id == 1 ? Side::kLeft : Side::kRight)
+            << g.text;
         const std::string said = m.side == Side::kLeft ? "left" : "right";
         EXPECT_THAT(lower(g.text), HasSubstr(m.phrase));
         EXPECT_TRUE(containsWord(g.text, said)) << g.text;
@@ -328,8 +355,10 @@ TEST(InstructionGeneratorTest, InstructionsOfAPathDifferAndAreDeterministic) {
   const InstructionGenerator generator(semantics, InstructionConfig{});
   const auto path = bedroomToKitchen();
   for (uint64_t seed = 0; seed < 20; ++seed) {
-    const auto a = generator.generate(path, 0.3f, InstructionStyle::kHuman, 3, seed);
-    const auto b = generator.generate(path, 0.3f, InstructionStyle::kHuman, 3, seed);
+    const auto a =
+        generator.generate(path, 0.3f, InstructionStyle::kHuman, 3, seed);
+    const auto b =
+        generator.generate(path, 0.3f, InstructionStyle::kHuman, 3, seed);
     ASSERT_EQ(a.size(), 3u);
     std::set<std::string> texts;
     for (size_t i = 0; i < a.size(); ++i) {
@@ -347,19 +376,23 @@ TEST(InstructionGeneratorTest, HumanLengthIsRoomToRoomLike) {
   const sim::SceneSemantics semantics = threeRooms();
   const InstructionGenerator generator(semantics, InstructionConfig{});
   // five nodes, about 11 m: an R2R-sized path
-  const std::vector<Vec3f> path = {{2.0f, 0.0f, 3.2f}, {5.0f, 0.0f, 2.5f},
-                                   {6.0f, 0.0f, 5.0f}, {5.0f, 0.0f, 7.5f},
+  const std::vector<Vec3f> path = {{2.0f, 0.0f, 3.2f},
+                                   {5.0f, 0.0f, 2.5f},
+                                   {6.0f, 0.0f, 5.0f},
+                                   {5.0f, 0.0f, 7.5f},
                                    {1.5f, 0.0f, 8.6f}};
   double words = 0;
   int n = 0;
   double speakerWords = 0;
   int m = 0;
   for (uint64_t seed = 0; seed < 50; ++seed) {
-    for (const auto& g : generator.generate(path, 2.0f, InstructionStyle::kHuman, 3, seed)) {
+    for (const auto& g :
+         generator.generate(path, 2.0f, InstructionStyle::kHuman, 3, seed)) {
       words += static_cast<double>(tokenize(g.text).size());
       ++n;
     }
-    for (const auto& g : generator.generate(path, 2.0f, InstructionStyle::kSpeaker, 1, seed)) {
+    for (const auto& g :
+         generator.generate(path, 2.0f, InstructionStyle::kSpeaker, 1, seed)) {
       speakerWords += static_cast<double>(tokenize(g.text).size());
       ++m;
     }
@@ -371,7 +404,8 @@ TEST(InstructionGeneratorTest, HumanLengthIsRoomToRoomLike) {
   EXPECT_LT(speakerWords / m, words / n) << "the speaker style is shorter";
 }
 
-TEST(InstructionGeneratorTest, SpeakerStyleIsLowercaseAndItsMistakesAreFlagged) {
+TEST(InstructionGeneratorTest,
+     SpeakerStyleIsLowercaseAndItsMistakesAreFlagged) {
   const sim::SceneSemantics semantics = threeRooms();
   InstructionConfig noisy;
   noisy.speaker_wrong_side = 1.0f;
@@ -381,7 +415,8 @@ TEST(InstructionGeneratorTest, SpeakerStyleIsLowercaseAndItsMistakesAreFlagged) 
   const auto path = bedroomToKitchen();
   int wrong = 0;
   for (uint64_t seed = 0; seed < 30; ++seed) {
-    for (const auto& g : generator.generate(path, 0.0f, InstructionStyle::kSpeaker, 1, seed)) {
+    for (const auto& g :
+         generator.generate(path, 0.0f, InstructionStyle::kSpeaker, 1, seed)) {
       EXPECT_EQ(g.text, lower(g.text));
       EXPECT_THAT(g.text, HasSubstr(" ."));
       for (const auto& m : g.landmarks) {
@@ -402,27 +437,30 @@ TEST(InstructionGeneratorTest, SpeakerStyleIsLowercaseAndItsMistakesAreFlagged) 
   clean.speaker_wrong_color = 0.0f;
   const InstructionGenerator honest(semantics, clean);
   for (uint64_t seed = 0; seed < 30; ++seed)
-    for (const auto& g : honest.generate(path, 0.0f, InstructionStyle::kSpeaker, 1, seed))
+    for (const auto& g :
+         honest.generate(path, 0.0f, InstructionStyle::kSpeaker, 1, seed))
       for (const auto& m : g.landmarks) EXPECT_TRUE(m.truthful) << g.text;
 }
 
 TEST(InstructionGeneratorTest, ShortPathIsRejected) {
   const sim::SceneSemantics semantics = threeRooms();
   const InstructionGenerator generator(semantics, InstructionConfig{});
-  EXPECT_THROW(generator.generate({{0, 0, 0}}, 0.0f, InstructionStyle::kHuman, 1, 0),
-               std::invalid_argument);
+  EXPECT_THROW(
+      generator.generate({{0, 0, 0}}, 0.0f, InstructionStyle::kHuman, 1, 0),
+      std::invalid_argument);
 }
 
 // Every room type, object category and colour the house generator uses,
 // walked through: >= 95% of the tokens must be words of the real R2R
 // vocabulary.
 TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
-  const auto file = test::sharedFixturesPath() /
-                    "r2r_vlnce_v1-3_preprocessed" / "val_seen_sample.json.gz";
+  const auto file = test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" /
+                    "val_seen_sample.json.gz";
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "no fixture " << file;
   const auto json = common::readJsonFile(file);
-  const auto words =
-      json.at("instruction_vocab").at("word_list").get<std::vector<std::string>>();
+  const auto words = json.at("instruction_vocab")
+                         .at("word_list")
+                         .get<std::vector<std::string>>();
   const std::set<std::string> vocabulary(words.begin(), words.end());
 
   // one room per type in a row along -Z, objects of every category and
@@ -434,7 +472,8 @@ TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
   std::vector<Vec3f> path;
   for (size_t r = 0; r < types.size(); ++r) {
     const float z0 = -6.0f * static_cast<float>(r + 1);
-    s.rooms.push_back(room(static_cast<int>(r), types[r].c_str(), -4, z0, 4, z0 + 6));
+    s.rooms.push_back(
+        room(static_cast<int>(r), types[r].c_str(), -4, z0, 4, z0 + 6));
     if (r > 0)
       s.doors.push_back(door(static_cast<int>(r) - 1, static_cast<int>(r),
                              {0.0f, 0.0f, z0 + 6}, Vec3f::UnitZ()));
@@ -442,11 +481,13 @@ TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
   }
   for (size_t c = 0; c < categories.size(); ++c) {
     const size_t r = c % types.size();
-    const float z = -6.0f * static_cast<float>(r + 1) + 1.0f + 0.8f * static_cast<float>(c / types.size());
+    const float z = -6.0f * static_cast<float>(r + 1) + 1.0f +
+                    0.8f * static_cast<float>(c / types.size());
     const float x = c % 2 ? 2.0f : -2.5f;
     s.objects.push_back(object(static_cast<int>(c), categories[c].c_str(),
-                               colors[c % colors.size()].c_str(), static_cast<int>(r),
-                               {x, 0.0f, z}, {x + 0.5f, 0.8f, z + 0.5f}));
+                               colors[c % colors.size()].c_str(),
+                               static_cast<int>(r), {x, 0.0f, z},
+                               {x + 0.5f, 0.8f, z + 0.5f}));
   }
   InstructionConfig config;
   config.detail = 1.0f;
@@ -455,15 +496,19 @@ TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
   int64_t total = 0;
   std::map<std::string, int> unknown;
   for (uint64_t seed = 0; seed < 40; ++seed) {
-    for (const auto style : {InstructionStyle::kHuman, InstructionStyle::kSpeaker}) {
+    for (const auto style :
+         {InstructionStyle::kHuman, InstructionStyle::kSpeaker}) {
       for (size_t start = 0; start + 2 < path.size(); ++start) {
-        const std::vector<Vec3f> sub(path.begin() + static_cast<long>(start),
-                                     path.begin() + static_cast<long>(std::min(path.size(), start + 4)));
+        const std::vector<Vec3f> sub(
+            path.begin() + static_cast<long>(start),
+            path.begin() + static_cast<long>(std::min(path.size(), start + 4)));
         for (const auto& g : generator.generate(sub, 0.5f, style, 3, seed)) {
           for (const auto& token : tokenize(g.text)) {
             ++total;
-            if (vocabulary.count(token)) ++known;
-            else ++unknown[token];
+            if (vocabulary.count(token))
+              ++known;
+            else
+              ++unknown[token];
           }
         }
       }
@@ -471,7 +516,8 @@ TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
   }
   ASSERT_GT(total, 1000);
   std::string missing;
-  for (const auto& [word, count] : unknown) missing += word + "(" + std::to_string(count) + ") ";
+  for (const auto& [word, count] : unknown)
+    missing += word + "(" + std::to_string(count) + ") ";
   EXPECT_GE(static_cast<double>(known) / static_cast<double>(total), 0.95)
       << "out-of-vocabulary tokens: " << missing;
 }

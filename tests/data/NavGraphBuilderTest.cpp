@@ -20,7 +20,8 @@ bool isHex32(const std::string& id) {
 }
 
 Eigen::AlignedBox2f footprint(const Eigen::AlignedBox3f& box) {
-  return {Vec2f(box.min().x(), box.min().z()), Vec2f(box.max().x(), box.max().z())};
+  return {Vec2f(box.min().x(), box.min().z()),
+          Vec2f(box.max().x(), box.max().z())};
 }
 
 struct Built {
@@ -55,7 +56,8 @@ TEST(NavGraphBuilderTest, NodesCoverRoomsAtTripodHeight) {
       EXPECT_GE(p.y() - r.floor_y, config.min_camera_height - 1e-4f);
       EXPECT_LE(p.y() - r.floor_y, config.max_camera_height + 1e-4f);
       const Vec2f xz(p.x(), p.z());
-      if (b.graph.placement[static_cast<size_t>(i)] == NodePlacement::kDoorway) {
+      if (b.graph.placement[static_cast<size_t>(i)] ==
+          NodePlacement::kDoorway) {
         // on a doorway of its room
         bool onDoor = false;
         for (const auto& d : semantics.doors)
@@ -78,12 +80,16 @@ TEST(NavGraphBuilderTest, NodesCoverRoomsAtTripodHeight) {
                                 o.bounds.max().y() > r.floor_y + 0.05f;
           if (!standing) continue;
           const auto grown = Eigen::AlignedBox2f(
-              footprint(o.bounds).min() - Vec2f::Constant(config.object_clearance - 0.01f),
-              footprint(o.bounds).max() + Vec2f::Constant(config.object_clearance - 0.01f));
-          EXPECT_FALSE(grown.contains(xz)) << "node " << i << " in a " << o.category;
+              footprint(o.bounds).min() -
+                  Vec2f::Constant(config.object_clearance - 0.01f),
+              footprint(o.bounds).max() +
+                  Vec2f::Constant(config.object_clearance - 0.01f));
+          EXPECT_FALSE(grown.contains(xz))
+              << "node " << i << " in a " << o.category;
         }
       }
-      if (b.graph.placement[static_cast<size_t>(i)] == NodePlacement::kFurniture) {
+      if (b.graph.placement[static_cast<size_t>(i)] ==
+          NodePlacement::kFurniture) {
         bool over = false;
         for (const auto& o : semantics.objects)
           over = over || footprint(o.bounds).contains(xz);
@@ -92,7 +98,8 @@ TEST(NavGraphBuilderTest, NodesCoverRoomsAtTripodHeight) {
     }
     // every room has a panorama, and no two are closer than the separation
     for (size_t r = 0; r < perRoom.size(); ++r)
-      EXPECT_GT(perRoom[r], 0) << semantics.rooms[r].type << " " << r << ", seed " << seed;
+      EXPECT_GT(perRoom[r], 0)
+          << semantics.rooms[r].type << " " << r << ", seed " << seed;
     for (int a = 0; a < g.numNodes(); ++a)
       for (int b2 = a + 1; b2 < g.numNodes(); ++b2)
         EXPECT_GE(horizontalDistance(g.node(a).position, g.node(b2).position),
@@ -189,7 +196,8 @@ TEST(NavGraphBuilderTest, PlacesANodeOverAFloorHole) {
   EXPECT_EQ(built.holes_found, 1);
   int holes = 0;
   for (int i = 0; i < built.graph.numNodes(); ++i) {
-    if (built.placement[static_cast<size_t>(i)] != NodePlacement::kHole) continue;
+    if (built.placement[static_cast<size_t>(i)] != NodePlacement::kHole)
+      continue;
     ++holes;
     const Vec3f p = built.graph.node(i).position;
     EXPECT_NEAR(p.x(), 2.0f, 0.15f);
@@ -199,7 +207,8 @@ TEST(NavGraphBuilderTest, PlacesANodeOverAFloorHole) {
 
   config.hole_node_probability = 0.0f;
   const BuiltNavGraph none = buildNavGraph(oneRoom(6), tracer, config, 3);
-  for (const NodePlacement p : none.placement) EXPECT_NE(p, NodePlacement::kHole);
+  for (const NodePlacement p : none.placement)
+    EXPECT_NE(p, NodePlacement::kHole);
 }
 
 TEST(NavGraphBuilderTest, NodesOverALargeTableStayOnlyWhenAllowed) {
@@ -212,7 +221,8 @@ TEST(NavGraphBuilderTest, NodesOverALargeTableStayOnlyWhenAllowed) {
   table.category = "table";
   table.color = "wooden";
   table.room = 0;
-  table.bounds = Eigen::AlignedBox3f(Vec3f(2.6f, 0.0f, 2.6f), Vec3f(5.4f, 0.75f, 5.4f));
+  table.bounds =
+      Eigen::AlignedBox3f(Vec3f(2.6f, 0.0f, 2.6f), Vec3f(5.4f, 0.75f, 5.4f));
   semantics.objects.push_back(table);
   const sim::RayTracer tracer(mesh);
   const Eigen::AlignedBox2f top = footprint(table.bounds);
@@ -226,7 +236,8 @@ TEST(NavGraphBuilderTest, NodesOverALargeTableStayOnlyWhenAllowed) {
     const Vec3f p = kept.graph.node(i).position;
     if (top.contains(Vec2f(p.x(), p.z()))) {
       ++over;
-      EXPECT_EQ(kept.placement[static_cast<size_t>(i)], NodePlacement::kFurniture);
+      EXPECT_EQ(kept.placement[static_cast<size_t>(i)],
+                NodePlacement::kFurniture);
     }
   }
   EXPECT_GT(over, 0);
@@ -236,7 +247,8 @@ TEST(NavGraphBuilderTest, NodesOverALargeTableStayOnlyWhenAllowed) {
   for (int i = 0; i < pushed.graph.numNodes(); ++i) {
     const Vec3f p = pushed.graph.node(i).position;
     EXPECT_FALSE(top.contains(Vec2f(p.x(), p.z()))) << "node " << i;
-    EXPECT_NE(pushed.placement[static_cast<size_t>(i)], NodePlacement::kFurniture);
+    EXPECT_NE(pushed.placement[static_cast<size_t>(i)],
+              NodePlacement::kFurniture);
   }
 }
 
@@ -244,7 +256,8 @@ TEST(NavGraphBuilderTest, NoRoomsIsAnError) {
   sim::TriangleMesh mesh;
   addFloor(mesh, 0, 0, 4, 4);
   const sim::RayTracer tracer(mesh);
-  EXPECT_THROW(buildNavGraph(sim::SceneSemantics{}, tracer, {}, 1), std::invalid_argument);
+  EXPECT_THROW(buildNavGraph(sim::SceneSemantics{}, tracer, {}, 1),
+               std::invalid_argument);
 }
 
 }  // namespace

@@ -216,12 +216,13 @@ TEST(NodeTransferTest, DoorwayIsNavigableAndGroundTruthReplays) {
   const GroundTruthPath& gt = r.ground_truth;
   ASSERT_FALSE(gt.actions.empty());
   EXPECT_EQ(gt.actions.back(), sim::Action::kStop);
-  EXPECT_EQ(std::count(gt.actions.begin(), gt.actions.end(), sim::Action::kStop),
-            1);
+  EXPECT_EQ(
+      std::count(gt.actions.begin(), gt.actions.end(), sim::Action::kStop), 1);
   EXPECT_EQ(gt.locations.size(), static_cast<size_t>(gt.forward_steps) + 1);
   EXPECT_EQ(gt.locations.front(), waypoints.front());
   EXPECT_TRUE(std::isfinite(r.geodesic_distance));
-  EXPECT_GT(r.geodesic_distance, (waypoints.back() - waypoints.front()).norm() - 1e-3f);
+  EXPECT_GT(r.geodesic_distance,
+            (waypoints.back() - waypoints.front()).norm() - 1e-3f);
 
   // replaying the actions passes within 0.5 m of every waypoint in order,
   // reproduces every recorded location and ends within 3 m of the goal
@@ -252,9 +253,9 @@ TEST(NodeTransferTest, InvalidNodeFailsTheTrajectory) {
   transferred[0] = {true, *navmesh->snapPoint({1, 0, 1}), 0.0f, 0};
   transferred[1] = {false, Vec3f::Zero(), 0.0f, -1};
   transferred[2] = {true, *navmesh->snapPoint({3, 0, 3}), 0.0f, 0};
-  const auto r = checkNavigability(*navmesh, sim::AgentConfig{},
-                                   defaultTransfer(), transferred, {0, 1, 2},
-                                   0.0f);
+  const auto r =
+      checkNavigability(*navmesh, sim::AgentConfig{}, defaultTransfer(),
+                        transferred, {0, 1, 2}, 0.0f);
   EXPECT_EQ(r.failure, NavigabilityFailure::kInvalidNode);
   EXPECT_EQ(r.failed_index, 1);
   TransferStats stats;

@@ -34,7 +34,8 @@ NavGraph gridGraph() {
     for (int j = 0; j < 5; ++j) {
       if (i + 1 < 5) graph.addEdge(id(i, j), id(i + 1, j));
       if (j + 1 < 5) graph.addEdge(id(i, j), id(i, j + 1));
-      if (i + 1 < 5 && j + 1 < 5 && j == 0) graph.addEdge(id(i, j), id(i + 1, j + 1));
+      if (i + 1 < 5 && j + 1 < 5 && j == 0)
+        graph.addEdge(id(i, j), id(i + 1, j + 1));
     }
   }
   return graph;
@@ -88,13 +89,15 @@ TEST(TrajectorySamplerTest, ShuffleIsADeterministicPermutation) {
   EXPECT_NE(a, c);
   auto sorted = a;
   std::sort(sorted.begin(), sorted.end());
-  for (int i = 0; i < sampler.size(); ++i) EXPECT_EQ(sorted[static_cast<size_t>(i)], i);
+  for (int i = 0; i < sampler.size(); ++i)
+    EXPECT_EQ(sorted[static_cast<size_t>(i)], i);
 
   const auto sample = sampler.sample(5, 7);
   ASSERT_EQ(sample.size(), 5u);
   for (size_t i = 0; i < sample.size(); ++i)
     EXPECT_EQ(sample[i], sampler.candidate(a[i]));
-  EXPECT_EQ(sampler.sample(100000, 7).size(), static_cast<size_t>(sampler.size()));
+  EXPECT_EQ(sampler.sample(100000, 7).size(),
+            static_cast<size_t>(sampler.size()));
 }
 
 TEST(TrajectorySamplerTest, DisconnectedGraphGivesNoCrossingPaths) {

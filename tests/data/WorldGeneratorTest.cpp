@@ -30,9 +30,12 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-const fs::path kTinyConfig = test::sourcePath() / "configs" / "world" / "tiny.yaml";
+const fs::path kTinyConfig =
+    test::sourcePath() / "configs" / "world" / "tiny.yaml";
 
-WorldConfig tinyConfig() { return common::loadConfigFile<WorldConfig>(kTinyConfig); }
+WorldConfig tinyConfig() {
+  return common::loadConfigFile<WorldConfig>(kTinyConfig);
+}
 
 // Relative path -> contents of every regular file under `root`.
 std::map<std::string, std::string> readTree(const fs::path& root) {
@@ -74,10 +77,12 @@ std::string* WorldGeneratorTest::log_ = nullptr;
 
 TEST_F(WorldGeneratorTest, WritesEverySplitInThePublicLayout) {
   for (const std::string& split : worldSplitNames()) {
-    const EpisodeDataset dataset = readEpisodes(splitEpisodesPath(data(), split));
+    const EpisodeDataset dataset =
+        readEpisodes(splitEpisodesPath(data(), split));
     EXPECT_FALSE(dataset.episodes.empty()) << split;
     ASSERT_TRUE(dataset.instruction_vocab.has_value());
-    EXPECT_EQ(static_cast<int>(dataset.episodes.size()), summary_->episodes.at(split));
+    EXPECT_EQ(static_cast<int>(dataset.episodes.size()),
+              summary_->episodes.at(split));
     const bool test = split == "test";
     EXPECT_EQ(fs::exists(splitGroundTruthPath(data(), split)), !test) << split;
     std::set<int> ids;
@@ -121,35 +126,47 @@ TEST_F(WorldGeneratorTest, WritesEverySplitInThePublicLayout) {
     ++graphs;
   }
   EXPECT_EQ(graphs, 3);
-  const EmbeddingMatrix embeddings = readEmbeddingsJson(data() / "embeddings.json.gz");
+  const EmbeddingMatrix embeddings =
+      readEmbeddingsJson(data() / "embeddings.json.gz");
   EXPECT_EQ(embeddings.rows, train.instruction_vocab->size());
   EXPECT_EQ(embeddings.dim, 16);
   EXPECT_THAT(*log_, HasSubstr("paper 98.3%"));
   // no staging left behind
   for (const auto& entry : fs::directory_iterator(data()))
-    EXPECT_THAT(entry.path().filename().string(), ::testing::Not(HasSubstr(".generate-")));
+    EXPECT_THAT(entry.path().filename().string(),
+                ::testing::Not(HasSubstr(".generate-")));
 }
 
 TEST_F(WorldGeneratorTest, SplitsUseTheRightHouses) {
   std::map<std::string, std::set<std::string>> scenesOf;
   for (const std::string& split : worldSplitNames())
-    for (const Episode& e : readEpisodes(splitEpisodesPath(data(), split)).episodes)
+    for (const Episode& e :
+         readEpisodes(splitEpisodesPath(data(), split)).episodes)
       scenesOf[split].insert(sceneScanId(e.scene_id));
   const auto& trainHouses = summary_->houses.at("train");
   const std::set<std::string> train(trainHouses.begin(), trainHouses.end());
   for (const char* seen : {"train", "val_seen", "train_aug"})
-    for (const auto& house : scenesOf[seen]) EXPECT_TRUE(train.count(house)) << seen;
+    for (const auto& house : scenesOf[seen])
+      EXPECT_TRUE(train.count(house)) << seen;
   for (const char* unseen : {"val_unseen", "test"})
-    for (const auto& house : scenesOf[unseen]) EXPECT_FALSE(train.count(house)) << unseen;
-  for (const auto& house : scenesOf["val_unseen"]) EXPECT_FALSE(scenesOf["test"].count(house));
+    for (const auto& house : scenesOf[unseen])
+      EXPECT_FALSE(train.count(house)) << unseen;
+  for (const auto& house : scenesOf["val_unseen"])
+    EXPECT_FALSE(scenesOf["test"].count(house));
 
   // val_seen trajectories are new: no (start, goal) pair of train
   std::set<std::pair<std::vector<float>, std::vector<float>>> trainPairs;
-  auto key = [](const Vec3f& v) { return std::vector<float>{v.x(), v.y(), v.z()}; };
-  for (const Episode& e : readEpisodes(splitEpisodesPath(data(), "train")).episodes)
-    trainPairs.insert({key(e.reference_path.front()), key(e.reference_path.back())});
-  for (const Episode& e : readEpisodes(splitEpisodesPath(data(), "val_seen")).episodes)
-    EXPECT_FALSE(trainPairs.count({key(e.reference_path.front()), key(e.reference_path.back())}));
+  auto key = [](const Vec3f& v) {
+    return std::vector<float>{v.x(), v.y(), v.z()};
+  };
+  for (const Episode& e :
+       readEpisodes(splitEpisodesPath(data(), "train")).episodes)
+    trainPairs.insert(
+        {key(e.reference_path.front()), key(e.reference_path.back())});
+  for (const Episode& e :
+       readEpisodes(splitEpisodesPath(data(), "val_seen")).episodes)
+    EXPECT_FALSE(trainPairs.count(
+        {key(e.reference_path.front()), key(e.reference_path.back())}));
 }
 
 TEST_F(WorldGeneratorTest, VocabularyAndTokensComeFromTheTrainingCorpus) {
@@ -160,13 +177,16 @@ TEST_F(WorldGeneratorTest, VocabularyAndTokensComeFromTheTrainingCorpus) {
   for (const auto* dataset : {&train, &aug}) {
     EXPECT_EQ(*dataset->instruction_vocab, vocab);
     for (const Episode& e : dataset->episodes) {
-      EXPECT_EQ(e.instruction.instruction_tokens, vocab.encode(e.instruction.instruction_text));
-      for (const int t : e.instruction.instruction_tokens) EXPECT_NE(t, vocab.unkIndex());
+      EXPECT_EQ(e.instruction.instruction_tokens,
+                vocab.encode(e.instruction.instruction_text));
+      for (const int t : e.instruction.instruction_tokens)
+        EXPECT_NE(t, vocab.unkIndex());
     }
   }
   // the two styles differ: speaker instructions are lowercase
   for (const Episode& e : aug.episodes)
-    EXPECT_EQ(e.instruction.instruction_text.find_first_of("ABCDEFGHIJKLMNOPQRSTUVWXYZ"),
+    EXPECT_EQ(e.instruction.instruction_text.find_first_of(
+                  "ABCDEFGHIJKLMNOPQRSTUVWXYZ"),
               std::string::npos);
 }
 
@@ -178,7 +198,8 @@ TEST_F(WorldGeneratorTest, GroundTruthReplaysInTheSavedScene) {
   int replayed = 0;
   for (const char* split : {"train", "val_unseen", "train_aug"}) {
     const auto dataset = readEpisodes(splitEpisodesPath(data(), split));
-    const GroundTruth truth = readGroundTruth(splitGroundTruthPath(data(), split));
+    const GroundTruth truth =
+        readGroundTruth(splitGroundTruthPath(data(), split));
     std::map<std::string, std::shared_ptr<const sim::Scene>> loaded;
     for (const Episode& e : dataset.episodes) {
       auto& scene = loaded[e.scene_id];
@@ -202,17 +223,22 @@ TEST_F(WorldGeneratorTest, GroundTruthReplaysInTheSavedScene) {
           ++location;
         }
         while (next < e.reference_path.size() &&
-               navmesh.geodesicDistance(state.position, e.reference_path[next]) <= 0.5f + 1e-3f)
+               navmesh.geodesicDistance(state.position,
+                                        e.reference_path[next]) <= 0.5f + 1e-3f)
           ++next;
       }
       EXPECT_EQ(location, gt.locations.size());
       EXPECT_EQ(next, e.reference_path.size())
-          << split << " episode " << e.episode_id << " missed waypoint " << next;
-      const float toGoal = navmesh.geodesicDistance(state.position, e.goals.front().position);
+          << split << " episode " << e.episode_id << " missed waypoint "
+          << next;
+      const float toGoal =
+          navmesh.geodesicDistance(state.position, e.goals.front().position);
       EXPECT_LE(toGoal, 0.5f + 1e-3f);
       EXPECT_LE(toGoal, e.goals.front().radius);
-      EXPECT_NEAR(*e.geodesic_distance,
-                  navmesh.geodesicDistance(e.start_position, e.goals.front().position), 1e-3f);
+      EXPECT_NEAR(
+          *e.geodesic_distance,
+          navmesh.geodesicDistance(e.start_position, e.goals.front().position),
+          1e-3f);
       ++replayed;
     }
   }
@@ -231,8 +257,9 @@ TEST_F(WorldGeneratorTest, SameSeedGivesByteIdenticalFilesWhateverTheThreads) {
   WorldConfig config = tinyConfig();
   config.seed = 2;
   generateWorld(config, {other.path() / "data", other.path() / "scenes", 2});
-  EXPECT_NE(common::readFile(splitEpisodesPath(data(), "train")),
-            common::readFile(splitEpisodesPath(other.path() / "data", "train")));
+  EXPECT_NE(
+      common::readFile(splitEpisodesPath(data(), "train")),
+      common::readFile(splitEpisodesPath(other.path() / "data", "train")));
 }
 
 TEST_F(WorldGeneratorTest, GeneratedWordsAreRoomToRoomWords) {
@@ -246,8 +273,10 @@ TEST_F(WorldGeneratorTest, GeneratedWordsAreRoomToRoomWords) {
   const std::set<std::string> r2r(words.begin(), words.end());
   int64_t known = 0, total = 0;
   for (const std::string& split : worldSplitNames())
-    for (const Episode& e : readEpisodes(splitEpisodesPath(data(), split)).episodes)
-      for (const std::string& token : tokenize(e.instruction.instruction_text)) {
+    for (const Episode& e :
+         readEpisodes(splitEpisodesPath(data(), split)).episodes)
+      for (const std::string& token :
+           tokenize(e.instruction.instruction_text)) {
         ++total;
         known += r2r.count(token) ? 1 : 0;
       }
@@ -296,14 +325,15 @@ TEST(WorldGeneratorConfigTest, DefaultYamlMirrorsTheCode) {
 
 TEST(WorldGeneratorConfigTest, BadValuesNameTheKey) {
   try {
-    common::loadConfigText<WorldConfig>("trajectories:\n  min_nodes: 9\n  max_nodes: 4\n",
-                                        "world.yaml");
+    common::loadConfigText<WorldConfig>(
+        "trajectories:\n  min_nodes: 9\n  max_nodes: 4\n", "world.yaml");
     FAIL() << "expected an error";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("min_nodes"));
   }
   try {
-    common::loadConfigText<WorldConfig>("transfer:\n  max_displacment: 0.5\n", "world.yaml");
+    common::loadConfigText<WorldConfig>("transfer:\n  max_displacment: 0.5\n",
+                                        "world.yaml");
     FAIL() << "expected an error";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("transfer.max_displacment"));
@@ -340,12 +370,15 @@ TEST(WorldCommandsTest, GenerateThenTransferAGeneratedHouse) {
   ASSERT_EQ(runGenerateCommand(generate, out), 0);
   EXPECT_THAT(out.str(), HasSubstr("nodes transferred"));
 
-  const auto stats = common::readJsonFile(generate.out / "generation_stats.json");
+  const auto stats =
+      common::readJsonFile(generate.out / "generation_stats.json");
   const auto& perHouse = stats.at("per_house");
   const std::string house = perHouse.begin().key();
   TransferCommandOptions transfer;
-  transfer.graph = generate.out / "connectivity" / (house + "_connectivity.json");
-  transfer.scene = generate.scenes_dir / perHouse.at(house).at("scene_id").get<std::string>();
+  transfer.graph =
+      generate.out / "connectivity" / (house + "_connectivity.json");
+  transfer.scene = generate.scenes_dir /
+                   perHouse.at(house).at("scene_id").get<std::string>();
   transfer.out = dir.path() / "transferred.json";
   transfer.trajectories = 40;
   transfer.json = true;
