@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <map>
 #include <queue>
 #include <set>
@@ -641,6 +643,46 @@ TEST(HouseGeneratorTest, GlbExportReimportsIdentically) {
     return out;
   };
   EXPECT_TRUE(keys(loaded.mesh) == keys(house.mesh));
+}
+
+// tests/data_files/meshes/house_small.glb (+ sidecar) is house 7 with three
+// rooms, saved by this test when VLN_WRITE_FIXTURES=1 is set, so that tests
+// of other modules have a real scene file to load. Loading it must give the
+// house the generator makes today.
+TEST(HouseGeneratorTest, FixtureFileIsTheGeneratedHouse) {
+  HouseConfig config;
+  config.min_rooms = config.max_rooms = 3;
+  const House house = generateHouse(7, config, "house_small");
+  const auto file = test::testDataPath() / "meshes" / "house_small.glb";
+  if (const char* write = std::getenv("VLN_WRITE_FIXTURES"); write && std::string(write) == "1")
+    saveScene(file, house.mesh, house.semantics);
+  if (!std::filesystem::exists(file)) GTEST_SKIP() << file << " is missing";
+  const LoadedScene loaded = loadScene(file, MeshLoadConfig{});
+  EXPECT_EQ(loaded.semantics, house.semantics)
+      << "regenerate with VLN_WRITE_FIXTURES=1 if the generator changed on purpose";
+  ASSERT_EQ(loaded.mesh.triangleCount(), house.mesh.triangleCount());
+  std::multiset<std::string> before, after;
+  for (const auto* mesh : {&house.mesh, &loaded.mesh}) {
+    auto& out = mesh == &house.mesh ? before : after;
+    for (size_t t = 0; t < mesh->triangleCount(); ++t) {
+      std::vector<std::string> corners;
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t v = mesh->indices[3 * t + k];
+        const Rgb8& c = mesh->colors[v];
+        corners.push_back(strCat(std::lround(mesh->positions[v].x() * 1e4), ",",
+                                 std::lround(mesh->positions[v].y() * 1e4), ",",
+                                 std::lround(mesh->positions[v].z() * 1e4), ",",
+                                 int{c[0]}, ",", int{c[1]}, ",", int{c[2]}));
+      }
+      std::rotate(corners.begin(), std::min_element(corners.begin(), corners.end()),
+                  corners.end());
+      out.insert(strCat(mesh->triangle_object[t], "/",
+                        mesh->materials[mesh->triangle_material[t]].name, "/", corners[0],
+                        "/", corners[1], "/", corners[2]));
+    }
+  }
+  EXPECT_TRUE(before == after)
+      << "regenerate with VLN_WRITE_FIXTURES=1 if the generator changed on purpose";
 }
 
 }  // namespace
