@@ -18,19 +18,58 @@ namespace vln::eval {
 /// Everything one evaluation produced.
 struct EvaluationResult {
   std::vector<EpisodeResult> episodes;  ///< in the order of the input episodes
-  SplitStats stats;                     ///< means over `episodes`
+  SplitStats stats;                     ///< means over `episodes` with goals
+  /// Whether episodes[i] has metrics (false for episodes without goals,
+  /// e.g. the test split).
+  std::vector<bool> scored;
 };
 
-/// Runs `agent` on every episode (batched over envs.size() environments,
-/// argmax or sampling is the agent's business) until STOP or the step limit,
-/// recording positions, headings and actions, then computes the metrics.
-/// Reference paths come from `groundTruth` locations when given (else the
-/// episode's reference_path). Episodes without goals (test split) are run
-/// and recorded but get no metrics (stats over the others). `progress`, when
-/// set, is called after each finished episode with (done, total).
+/// Watches episodes while they run, e.g. to draw maps or write videos
+/// (EpisodePictures.h). All calls come from the thread that called
+/// evaluateEpisodes(), one episode at a time; `index` is the episode's
+/// position in the input list.
+class EpisodeObserver {
+ public:
+  virtual ~EpisodeObserver() = default;
+  /// True when episode `index` needs a rendered observation after reset and
+  /// after every step even if the agent does not read observations.
+  virtual bool wantsFrames(int index) const = 0;
+  /// Environment `env` of `envs` has just started episode `index`; its
+  /// observation is current when the agent reads observations or
+  /// wantsFrames(index).
+  virtual void episodeStarted(int index, VectorEnv& envs, int env) = 0;
+  /// Environment `env` has taken `action` in episode `index` (observation
+  /// current under the same rule as episodeStarted()).
+  virtual void episodeStepped(int index, VectorEnv& envs, int env,
+                              sim::Action action) = 0;
+  /// Episode `index` ended (STOP or step limit); `result` holds its record
+  /// and, when `scored`, its metrics. The environment still holds the
+  /// episode's scene and final state.
+  virtual void episodeFinished(int index, VectorEnv& envs, int env,
+                               const EpisodeResult& result, bool scored) = 0;
+};
+
+/// Runs `agent` on every episode of `episodes` (the caller caps the list;
+/// batched over envs.size() environments, an environment is refilled with
+/// the next episode as soon as its episode ends; argmax or sampling is the
+/// agent's business) until STOP or task.max_episode_steps, recording
+/// positions, headings and actions, then computes the metrics with the
+/// scene's navmesh geodesic and task.success_distance. Reference paths come
+/// from `groundTruth` locations when given (an episode missing from it is an
+/// error naming the episode), else the episode's reference_path. Episodes
+/// without goals (test split) are run and recorded but get no metrics
+/// (stats over the others; zero episodes give stats with num_episodes 0).
+/// The result does not depend on config.threads. Observations are rendered
+/// only when agent.needsObservations() (or the observer wants frames).
+/// `progress`, when set, is called after each finished episode with (done,
+/// total).
 EvaluationResult evaluateEpisodes(
     Agent& agent, VectorEnv& envs, const std::vector<data::Episode>& episodes,
     const data::GroundTruth* groundTruth, const EvalConfig& config,
-    const std::function<void(int, int)>& progress = {});
+    const std::function<void(int, int)>& progress = {},
+    EpisodeObserver* observer = nullptr);
+
+/// MetricsOptions of `config` (dtw) with `successDistance` metres.
+MetricsOptions metricsOptions(const EvalConfig& config, double successDistance);
 
 }  // namespace vln::eval

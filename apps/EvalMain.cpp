@@ -1,0 +1,92 @@
+// eval: evaluation of checkpoints, TorchScript exports and the no-learning
+// baselines, and the paper's tables (see src/eval/EvalCommands.h).
+#include <CLI/CLI.hpp>
+
+#include <iostream>
+
+#include "common/App.h"
+#include "eval/EvalCommands.h"
+#include "train/Checkpoint.h"
+#include "train/ExperimentConfig.h"
+
+namespace {
+
+// the sections of the run config that evaluation reads
+vln::eval::EvalSettings evalSettings(const vln::train::ExperimentConfig& config) {
+  vln::eval::EvalSettings s;
+  s.sim = config.sim;
+  s.task = config.task;
+  s.dataset = config.dataset;
+  s.model = config.model;
+  s.eval = config.eval;
+  s.torch_threads = config.trainer.torch_threads;
+  s.seed = config.trainer.seed;
+  s.output_dir = config.output.dir;
+  return s;
+}
+
+// checkpoints are this project's training checkpoints (train/Checkpoint.h)
+vln::eval::CheckpointReader checkpointReader() {
+  vln::eval::CheckpointReader reader;
+  reader.list = [](const std::filesystem::path& dir) {
+    return vln::train::listCheckpoints(dir);
+  };
+  reader.index = [](const std::filesystem::path& file) {
+    return vln::train::checkpointIndex(file);
+  };
+  reader.policy = [](const std::filesystem::path& file) {
+    return vln::train::loadCheckpoint(file).policy;
+  };
+  return reader;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return vln::common::runMain("eval", [&] {
+    CLI::App app{"Evaluate VLN-CE checkpoints, exports and baselines; build the paper's tables"};
+    std::filesystem::path config;
+    std::vector<std::string> overrides;
+    std::string logLevel = "info";
+    vln::eval::EvalCommandOptions options;
+    int episodes = 0, maps = 0, videos = 0, index = 0;
+    app.add_option("--config", config, "Run config YAML");
+    app.add_option("--set", overrides, "Override: section.key=value (repeatable)");
+    app.add_option("--checkpoint", options.checkpoint,
+                   "ckpt.<i>.pth, a directory of them, or a TorchScript .pt export");
+    app.add_option("--agent", options.agent, "Evaluate a baseline instead: random or handcrafted");
+    app.add_option("--split", options.splits, "Split to evaluate (repeatable; default eval.splits)");
+    auto* episodesOption =
+        app.add_option("--episodes", episodes, "Episodes per split (default eval.episodes)");
+    app.add_option("--out", options.out, "Output directory (default <output.dir>/eval)");
+    app.add_option("--navgraph", options.navgraph,
+                   "Directory of <scan>_connectivity.json: also score on the nav-graph (Table 3)");
+    auto* mapsOption = app.add_option("--maps", maps, "Top-down maps per split (default eval.map_episodes)");
+    auto* videosOption = app.add_option("--videos", videos, "Videos per split (default eval.video_episodes)");
+    app.add_option("--video-format", options.video_format, "Video container: avi (MJPG) or mp4 (mp4v)");
+    auto* indexOption = app.add_option(
+        "--index", index, "Checkpoint index in file names for an export or a baseline");
+    app.add_option("--log-level", logLevel, "trace, debug, info, warn or error");
+
+    vln::eval::TablesCommandOptions tables;
+    CLI::App* tablesCommand = app.add_subcommand("tables", "Rebuild the paper's Tables 1-3 from result files");
+    tablesCommand->add_option("--runs", tables.runs, "Results directory (one folder per run)")->required();
+    tablesCommand->add_option("--out", tables.out, "Markdown file (LaTeX written beside it)")->required();
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& error) {
+      return app.exit(error);
+    }
+    vln::common::initLogging({}, logLevel);
+    if (tablesCommand->parsed()) return vln::eval::runTablesCommand(tables, std::cout);
+
+    if (config.empty()) throw std::invalid_argument("eval: --config is required");
+    if (*episodesOption) options.episodes = episodes;
+    if (*mapsOption) options.maps = maps;
+    if (*videosOption) options.videos = videos;
+    if (*indexOption) options.index = index;
+    const auto experiment = vln::train::loadExperimentConfig(config, overrides);
+    return vln::eval::runEvalCommand(options, evalSettings(experiment), checkpointReader(),
+                                     std::cout);
+  });
+}

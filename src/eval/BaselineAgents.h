@@ -1,0 +1,67 @@
+#pragma once
+// The no-learning baselines of paper Table 1 (Baselines.h) as evaluation
+// Agents, with their statistics taken from the training split's ground
+// truth as VLN-CE derived them: the random agent's action distribution
+// (Sec. 5.1: 68% forward, 15% left, 15% right, 2% stop) and the
+// hand-crafted agent's forward steps (the mean training path length over the
+// forward step size: 37 steps in the paper).
+
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "data/GroundTruth.h"
+#include "eval/Agent.h"
+#include "eval/Baselines.h"
+
+namespace vln::eval {
+
+/// What the baselines learn from the training split.
+struct BaselineStatistics {
+  /// Frequencies of the ground-truth actions (eval::actionDistribution()).
+  ActionDistribution distribution = kPaperActionDistribution;
+  /// Mean ground-truth path length, metres: the sum of the 3-D distances
+  /// between consecutive `locations` of each path, averaged over paths.
+  double mean_path_length = 0.0;
+  /// round(mean_path_length / forward step size) (handcraftedForwardSteps()).
+  int forward_steps = kPaperHandcraftedForwardSteps;
+  /// Ground-truth paths the statistics were computed from.
+  int num_paths = 0;
+};
+
+/// Statistics of a training ground truth for an agent whose MOVE_FORWARD
+/// covers `forwardStepSize` metres. Throws std::invalid_argument naming
+/// `source` when the ground truth is empty, has no actions, or a path has no
+/// locations.
+BaselineStatistics baselineStatistics(const data::GroundTruth& train,
+                                      double forwardStepSize,
+                                      std::string_view source = "<ground truth>");
+
+/// Runs one BaselineAgent per environment. reset() re-seeds the
+/// environment's agent from (seed, episode id) (Baselines.h), so an
+/// episode's actions do not depend on the environment, the batch or the
+/// thread it runs in. Reads no observations.
+class BaselineAgentAdapter : public Agent {
+ public:
+  /// `name` is "random" or "handcrafted" (makeBaseline()); `numEnvs` >= 1.
+  BaselineAgentAdapter(std::string_view name, const BaselineStatistics& stats,
+                       int numEnvs, uint64_t seed);
+  void reset(int env, const data::Episode& episode) override;
+  std::vector<sim::Action> act(VectorEnv& envs,
+                               std::span<const int> active) override;
+  bool needsObservations() const override { return false; }
+  /// "random" or "handcrafted".
+  const std::string& name() const { return name_; }
+  /// The agent of environment `env` (e.g. to read HandcraftedAgent::turns()).
+  const BaselineAgent& agent(int env) const;
+
+ private:
+  BaselineAgent& agentOf(int env, const char* method);
+  std::string name_;
+  std::vector<std::unique_ptr<BaselineAgent>> agents_;
+  std::vector<bool> started_;
+};
+
+}  // namespace vln::eval

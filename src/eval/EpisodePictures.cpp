@@ -1,0 +1,371 @@
+#include "eval/EpisodePictures.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "common/Check.h"
+
+namespace vln::eval {
+namespace fs = std::filesystem;
+
+namespace {
+
+// caption band below the panels: two lines of text
+constexpr int kCaptionHeight = 44;
+constexpr double kFontScale = 0.45;
+
+cv::Scalar bgr(const sim::Rgb8& c) { return cv::Scalar(c[2], c[1], c[0]); }
+
+// even sizes keep every encoder happy (mp4v needs them)
+int evenCeil(double value) {
+  const int v = std::max(2, static_cast<int>(std::lround(value)));
+  return v + (v % 2);
+}
+
+// an RGB image as a BGR panel of `width` x `height`
+cv::Mat rgbPanel(const uint8_t* rgb, int w, int h, int width, int height) {
+  cv::Mat source(h, w, CV_8UC3, const_cast<uint8_t*>(rgb));
+  cv::Mat converted;
+  cv::cvtColor(source, converted, cv::COLOR_RGB2BGR);
+  cv::Mat out;
+  // nearest keeps small observations crisp when scaled up
+  cv::resize(converted, out, cv::Size(width, height), 0, 0,
+             width >= w ? cv::INTER_NEAREST : cv::INTER_AREA);
+  return out;
+}
+
+// a depth image as grey levels value / scale, clipped to [0, 1]
+cv::Mat depthPanel(const float* depth, int w, int h, float scale, int width,
+                   int height) {
+  cv::Mat grey(h, w, CV_8UC1);
+  for (int i = 0; i < w * h; ++i) {
+    const float v = std::clamp(depth[i] / scale, 0.0f, 1.0f);
+    grey.data[i] = static_cast<uint8_t>(std::lround(v * 255.0f));
+  }
+  cv::Mat scaled, out;
+  cv::resize(grey, scaled, cv::Size(width, height), 0, 0,
+             width >= w ? cv::INTER_NEAREST : cv::INTER_AREA);
+  cv::cvtColor(scaled, out, cv::COLOR_GRAY2BGR);
+  return out;
+}
+
+// the longest prefix of `text` that fits in `width` pixels (with "...")
+std::string fitText(const std::string& text, int width) {
+  int baseline = 0;
+  auto fits = [&](const std::string& s) {
+    return cv::getTextSize(s, cv::FONT_HERSHEY_SIMPLEX, kFontScale, 1, &baseline)
+               .width <= width;
+  };
+  if (fits(text)) return text;
+  size_t lo = 0, hi = text.size();
+  while (lo < hi) {
+    const size_t mid = (lo + hi + 1) / 2;
+    if (fits(text.substr(0, mid) + "...")) {
+      lo = mid;
+    } else {
+      hi = mid - 1;
+    }
+  }
+  return text.substr(0, lo) + "...";
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// maps
+
+std::string mapFileName(const std::string& prefix, const std::string& episodeId) {
+  return prefix + "episode_" + episodeId + "_map.png";
+}
+
+std::string videoFileName(const std::string& prefix, const std::string& episodeId,
+                          const std::string& format) {
+  return prefix + "episode_" + episodeId + "." + format;
+}
+
+sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
+                               const EpisodeRecord& record, bool hasGoal,
+                               float successDistance, float metersPerPixel) {
+  VLN_CHECK_ARG(!record.positions.empty(), "drawEpisodeMap(): episode ",
+                record.episode_id, " has no positions");
+  sim::TopDownMap map(scene, metersPerPixel, record.positions.front().y());
+  // reference under the agent's path, markers on top
+  if (record.reference_path.size() >= 2)
+    map.drawPath(record.reference_path, kReferenceColor, /*thickness=*/3);
+  if (record.positions.size() >= 2)
+    map.drawPath(record.positions, kAgentColor, /*thickness=*/2);
+  if (hasGoal) {
+    map.drawCircle(record.goal, successDistance, kGoalColor, /*thickness=*/1);
+    map.drawPoint(record.goal, kGoalColor, /*radiusPixels=*/5);
+  }
+  map.drawPoint(record.positions.front(), kStartColor, /*radiusPixels=*/5);
+  const float heading = record.headings.empty() ? 0.0f : record.headings.back();
+  map.drawAgent(record.positions.back(), heading, kAgentColor);
+  return map;
+}
+
+// ---------------------------------------------------------------------------
+// videos
+
+struct EpisodeVideo::Impl {
+  fs::path file;
+  fs::path partial;
+  cv::VideoWriter writer;
+  sim::TopDownMap map;
+  std::string instruction;
+  int panelHeight = 0;
+  int rgbWidth = 0, depthWidth = 0, mapWidth = 0;
+  int obsRgbWidth = 0, obsRgbHeight = 0, obsDepthWidth = 0, obsDepthHeight = 0;
+  float depthScale = 1.0f;
+  bool hasPrevious = false;
+  Vec3f previous = Vec3f::Zero();
+  bool closed = false;
+
+  Impl(const sim::Scene& scene, float metersPerPixel, float floorY)
+      : map(scene, metersPerPixel, floorY) {}
+};
+
+EpisodeVideo::EpisodeVideo(const fs::path& file, const PicturesConfig& config,
+                           const sim::Scene& scene, const data::Episode& episode,
+                           const std::vector<Vec3f>& reference, int rgbWidth,
+                           int rgbHeight, int depthWidth, int depthHeight,
+                           float depthScale) {
+  VLN_CHECK_ARG(config.video_format == "avi" || config.video_format == "mp4",
+                "EpisodeVideo: video format must be avi or mp4, got '",
+                config.video_format, "'");
+  VLN_CHECK_ARG(rgbWidth > 0 && rgbHeight > 0 && depthWidth > 0 && depthHeight > 0,
+                "EpisodeVideo: episode ", episode.episode_id,
+                ": observation sizes must be positive, got RGB ", rgbWidth, "x",
+                rgbHeight, ", depth ", depthWidth, "x", depthHeight);
+  VLN_CHECK_ARG(config.video_height >= 16, "EpisodeVideo: video height must be "
+                ">= 16 px, got ", config.video_height);
+  VLN_CHECK_ARG(depthScale > 0.0f, "EpisodeVideo: depth scale must be > 0");
+  impl_ = std::make_unique<Impl>(scene, config.meters_per_pixel,
+                                 episode.start_position.y());
+  Impl& m = *impl_;
+  m.file = file;
+  m.instruction = episode.instruction.instruction_text;
+  m.depthScale = depthScale;
+  m.obsRgbWidth = rgbWidth;
+  m.obsRgbHeight = rgbHeight;
+  m.obsDepthWidth = depthWidth;
+  m.obsDepthHeight = depthHeight;
+
+  // what the agent should do, drawn once; its own path grows frame by frame
+  if (reference.size() >= 2) m.map.drawPath(reference, kReferenceColor, 3);
+  if (!episode.goals.empty()) {
+    m.map.drawCircle(episode.goals.front().position, config.success_distance,
+                     kGoalColor, 1);
+    m.map.drawPoint(episode.goals.front().position, kGoalColor, 5);
+  }
+  m.map.drawPoint(episode.start_position, kStartColor, 5);
+
+  // panel sizes: every panel as high as the video, widths keep aspect
+  m.panelHeight = evenCeil(config.video_height);
+  m.rgbWidth = evenCeil(static_cast<double>(rgbWidth) * m.panelHeight / rgbHeight);
+  m.depthWidth =
+      evenCeil(static_cast<double>(depthWidth) * m.panelHeight / depthHeight);
+  m.mapWidth = evenCeil(static_cast<double>(m.map.width()) * m.panelHeight /
+                        std::max(1, m.map.height()));
+
+  // OpenCV picks the container by extension, so the partial file keeps it
+  std::error_code ec;
+  fs::create_directories(file.parent_path().empty() ? fs::path(".")
+                                                    : file.parent_path(),
+                         ec);
+  m.partial = file;
+  m.partial.replace_filename(file.stem().string() + ".partial" +
+                             file.extension().string());
+  const bool avi = config.video_format == "avi";
+  const int api = avi ? cv::CAP_OPENCV_MJPEG : cv::CAP_FFMPEG;
+  const int fourcc = avi ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G')
+                         : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+  m.writer.open(m.partial.string(), api, fourcc, config.fps,
+                cv::Size(width(), height()));
+  VLN_CHECK_IO(m.writer.isOpened(), "EpisodeVideo: cannot write '",
+               m.partial.string(), "' as ", avi ? "MJPG .avi" : "mp4v .mp4",
+               " (OpenCV VideoWriter failed to open)");
+}
+
+EpisodeVideo::~EpisodeVideo() {
+  // an unfinished video (an exception during evaluation) is not left behind
+  if (impl_ && !impl_->closed) {
+    impl_->writer.release();
+    std::error_code ec;
+    fs::remove(impl_->partial, ec);
+  }
+}
+
+int EpisodeVideo::width() const {
+  return impl_->rgbWidth + impl_->depthWidth + impl_->mapWidth;
+}
+
+int EpisodeVideo::height() const { return impl_->panelHeight + kCaptionHeight; }
+
+void EpisodeVideo::addFrame(const sim::Observation& observation,
+                            const sim::AgentState& pose, int step,
+                            const sim::Action* action, float distanceToGoal) {
+  Impl& m = *impl_;
+  VLN_CHECK_ARG(!m.closed, "EpisodeVideo::addFrame(): '", m.file.string(),
+                "' is already closed");
+  VLN_CHECK_ARG(observation.rgb_width == m.obsRgbWidth &&
+                    observation.rgb_height == m.obsRgbHeight &&
+                    observation.depth_width == m.obsDepthWidth &&
+                    observation.depth_height == m.obsDepthHeight &&
+                    observation.rgb.size() ==
+                        static_cast<size_t>(m.obsRgbWidth) * m.obsRgbHeight * 3 &&
+                    observation.depth.size() ==
+                        static_cast<size_t>(m.obsDepthWidth) * m.obsDepthHeight,
+                "EpisodeVideo::addFrame(): '", m.file.string(),
+                "': observation is RGB ", observation.rgb_width, "x",
+                observation.rgb_height, ", depth ", observation.depth_width, "x",
+                observation.depth_height, " (was the frame rendered?), expected ",
+                m.obsRgbWidth, "x", m.obsRgbHeight, " and ", m.obsDepthWidth,
+                "x", m.obsDepthHeight);
+
+  // the path so far stays on the map; the agent marker only on this frame
+  if (m.hasPrevious && !(m.previous == pose.position))
+    m.map.drawPath({m.previous, pose.position}, kAgentColor, 2);
+  m.previous = pose.position;
+  m.hasPrevious = true;
+  cv::Mat mapRgb(m.map.height(), m.map.width(), CV_8UC3,
+                 const_cast<uint8_t*>(m.map.rgb().data()));
+  cv::Mat mapBgr;
+  cv::cvtColor(mapRgb, mapBgr, cv::COLOR_RGB2BGR);
+  const Eigen::Vector2i at = m.map.toPixel(pose.position);
+  const Vec3f ahead = pose.position + headingToForward(pose.heading) * 0.6f;
+  const Eigen::Vector2i tip = m.map.toPixel(ahead);
+  cv::circle(mapBgr, cv::Point(at.x(), at.y()), 4, bgr(kAgentColor), cv::FILLED);
+  cv::arrowedLine(mapBgr, cv::Point(at.x(), at.y()), cv::Point(tip.x(), tip.y()),
+                  cv::Scalar(0, 0, 0), 2, cv::LINE_AA, 0, 0.4);
+  cv::Mat mapPanel;
+  cv::resize(mapBgr, mapPanel, cv::Size(m.mapWidth, m.panelHeight), 0, 0,
+             cv::INTER_AREA);
+
+  // RGB | depth | map over the caption band
+  cv::Mat frame(height(), width(), CV_8UC3, cv::Scalar(255, 255, 255));
+  rgbPanel(observation.rgb.data(), m.obsRgbWidth, m.obsRgbHeight, m.rgbWidth,
+           m.panelHeight)
+      .copyTo(frame(cv::Rect(0, 0, m.rgbWidth, m.panelHeight)));
+  depthPanel(observation.depth.data(), m.obsDepthWidth, m.obsDepthHeight,
+             m.depthScale, m.depthWidth, m.panelHeight)
+      .copyTo(frame(cv::Rect(m.rgbWidth, 0, m.depthWidth, m.panelHeight)));
+  mapPanel.copyTo(
+      frame(cv::Rect(m.rgbWidth + m.depthWidth, 0, m.mapWidth, m.panelHeight)));
+  std::string status = "step " + std::to_string(step);
+  if (action != nullptr) status += "  " + std::string(sim::actionName(*action));
+  if (distanceToGoal >= 0.0f) {
+    char distance[64];
+    std::snprintf(distance, sizeof(distance), "  distance to goal %.2f m",
+                  static_cast<double>(distanceToGoal));
+    status += distance;
+  }
+  const int textWidth = width() - 8;
+  cv::putText(frame, fitText(m.instruction, textWidth),
+              cv::Point(4, m.panelHeight + 17), cv::FONT_HERSHEY_SIMPLEX,
+              kFontScale, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
+  cv::putText(frame, fitText(status, textWidth), cv::Point(4, m.panelHeight + 37),
+              cv::FONT_HERSHEY_SIMPLEX, kFontScale, cv::Scalar(60, 60, 60), 1,
+              cv::LINE_AA);
+  m.writer.write(frame);
+  ++frames_;
+}
+
+void EpisodeVideo::close() {
+  Impl& m = *impl_;
+  if (m.closed) return;
+  m.writer.release();
+  std::error_code ec;
+  fs::rename(m.partial, m.file, ec);
+  VLN_CHECK_IO(!ec, "EpisodeVideo::close(): cannot rename '", m.partial.string(),
+               "' to '", m.file.string(), "': ", ec.message());
+  m.closed = true;
+}
+
+// ---------------------------------------------------------------------------
+// the observer
+
+EpisodePictures::EpisodePictures(PicturesConfig config)
+    : config_(std::move(config)) {
+  VLN_CHECK_ARG(config_.map_episodes >= 0 && config_.video_episodes >= 0,
+                "EpisodePictures: episode counts must be >= 0, got maps ",
+                config_.map_episodes, ", videos ", config_.video_episodes);
+  VLN_CHECK_ARG(config_.video_format == "avi" || config_.video_format == "mp4",
+                "EpisodePictures: video format must be avi or mp4, got '",
+                config_.video_format, "'");
+}
+
+EpisodePictures::~EpisodePictures() = default;
+
+bool EpisodePictures::wantsFrames(int index) const {
+  return index < config_.video_episodes;
+}
+
+namespace {
+
+// geodesic distance to the episode's goal, -1 when it has none
+float distanceToGoal(const sim::Simulator& simulator, const data::Episode& episode,
+                     const Vec3f& position) {
+  if (episode.goals.empty()) return -1.0f;
+  return simulator.scene().navmesh().geodesicDistance(
+      position, episode.goals.front().position);
+}
+
+}  // namespace
+
+void EpisodePictures::episodeStarted(int index, VectorEnv& envs, int env) {
+  if (!wantsFrames(index)) return;
+  const sim::Simulator& simulator = envs.simulator(env);
+  const data::Episode& episode = envs.episode(env);
+  const sim::Observation& obs = envs.observation(env);
+  const auto& depth = simulator.config().depth;
+  const float scale = depth.normalize_depth ? 1.0f : depth.max_depth;
+  const fs::path file =
+      config_.dir / videoFileName(config_.prefix, std::to_string(episode.episode_id),
+                                  config_.video_format);
+  auto video = std::make_unique<EpisodeVideo>(
+      file, config_, simulator.scene(), episode, episode.reference_path,
+      obs.rgb_width, obs.rgb_height, obs.depth_width, obs.depth_height, scale);
+  const sim::AgentState& pose = simulator.episode().agent;
+  video->addFrame(obs, pose, /*step=*/0, /*action=*/nullptr,
+                  distanceToGoal(simulator, episode, pose.position));
+  videos_[env] = std::move(video);
+}
+
+void EpisodePictures::episodeStepped(int /*index*/, VectorEnv& envs, int env,
+                                     sim::Action action) {
+  auto it = videos_.find(env);
+  if (it == videos_.end()) return;
+  const sim::Simulator& simulator = envs.simulator(env);
+  const sim::EpisodeState& state = simulator.episode();
+  it->second->addFrame(envs.observation(env), state.agent, state.steps, &action,
+                       distanceToGoal(simulator, envs.episode(env),
+                                      state.agent.position));
+}
+
+void EpisodePictures::episodeFinished(int index, VectorEnv& envs, int env,
+                                      const EpisodeResult& result, bool scored) {
+  auto it = videos_.find(env);
+  if (it != videos_.end()) {
+    it->second->close();
+    files_.push_back(config_.dir / videoFileName(config_.prefix,
+                                                 result.record.episode_id,
+                                                 config_.video_format));
+    videos_.erase(it);
+  }
+  if (index >= config_.map_episodes) return;
+  const sim::TopDownMap map =
+      drawEpisodeMap(envs.simulator(env).scene(), result.record, scored,
+                     config_.success_distance, config_.meters_per_pixel);
+  const fs::path file =
+      config_.dir / mapFileName(config_.prefix, result.record.episode_id);
+  map.save(file);
+  files_.push_back(file);
+}
+
+}  // namespace vln::eval

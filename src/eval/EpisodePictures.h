@@ -1,0 +1,132 @@
+#pragma once
+// Pictures of evaluated episodes, like the paper's qualitative figure:
+//  - a top-down map PNG (sim::TopDownMap) with the reference path (blue),
+//    the agent's path (orange), the start (green), the goal (red) and the
+//    3 m success circle around it, and the agent's final pose;
+//  - a video of the episode, one frame after reset and one per action:
+//    egocentric RGB | depth | the top-down map with the path so far, over a
+//    caption band (instruction, step, action, distance to the goal).
+// Videos are MJPG in .avi (OpenCV's built-in encoder, no codec needed) or
+// mp4v in .mp4 (Debian's OpenCV writes it through FFmpeg). Frames go to the
+// encoder as they are captured, so memory stays bounded by the number of
+// videos in progress (at most one per environment); each file is written
+// under a temporary name and renamed when complete.
+
+#include <filesystem>
+#include <memory>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "data/Episode.h"
+#include "eval/Evaluator.h"
+#include "eval/Metrics.h"
+#include "sim/Scene.h"
+#include "sim/Simulator.h"
+#include "sim/TopDownMap.h"
+
+namespace vln::eval {
+
+/// What is drawn and where.
+struct PicturesConfig {
+  /// Output directory (created on demand).
+  std::filesystem::path dir;
+  /// Prefix of every file name, e.g. "ckpt_3_val_seen_".
+  std::string prefix;
+  /// Maps for the episodes at input positions < map_episodes.
+  int map_episodes = 0;
+  /// Videos for the episodes at input positions < video_episodes.
+  int video_episodes = 0;
+  /// "avi" (MJPG) or "mp4" (mp4v).
+  std::string video_format = "avi";
+  /// Height of each video panel, pixels (observations are scaled up or
+  /// down to it; the frame is three panels wide plus the caption band).
+  int video_height = 256;
+  /// Video frame rate (frames per second; one frame per action).
+  double fps = 4.0;
+  /// Map resolution, metres per pixel.
+  float meters_per_pixel = 0.05f;
+  /// Success radius drawn around the goal, metres (VLN-CE: 3 m).
+  float success_distance = 3.0f;
+};
+
+/// Colours of the drawings (RGB).
+inline constexpr sim::Rgb8 kReferenceColor = {30, 100, 220};
+inline constexpr sim::Rgb8 kAgentColor = {245, 130, 20};
+inline constexpr sim::Rgb8 kStartColor = {20, 170, 40};
+inline constexpr sim::Rgb8 kGoalColor = {220, 30, 30};
+
+/// A top-down map of `scene` on the floor of the record's start with the
+/// reference path, the agent path, start, goal and success circle (goal
+/// and circle only when `hasGoal`) and the agent's final pose.
+sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
+                               const EpisodeRecord& record, bool hasGoal,
+                               float successDistance,
+                               float metersPerPixel = 0.05f);
+
+/// File name of episode `episodeId`'s map: "<prefix>episode_<id>_map.png".
+std::string mapFileName(const std::string& prefix, const std::string& episodeId);
+/// File name of its video: "<prefix>episode_<id>.<format>".
+std::string videoFileName(const std::string& prefix, const std::string& episodeId,
+                          const std::string& format);
+
+/// One episode's video being written.
+class EpisodeVideo {
+ public:
+  /// Opens `file` (format from config.video_format) for an episode in
+  /// `scene` whose observations are `rgbWidth` x `rgbHeight` (RGB) and
+  /// `depthWidth` x `depthHeight` (depth); draws the reference path, start,
+  /// goal and success circle (goal only when it has one) on the map. Depth
+  /// values are shown as grey levels of value / `depthScale`. Throws
+  /// std::runtime_error naming the file when the writer cannot open.
+  EpisodeVideo(const std::filesystem::path& file, const PicturesConfig& config,
+               const sim::Scene& scene, const data::Episode& episode,
+               const std::vector<Vec3f>& reference, int rgbWidth, int rgbHeight,
+               int depthWidth, int depthHeight, float depthScale);
+  ~EpisodeVideo();
+  EpisodeVideo(const EpisodeVideo&) = delete;
+  EpisodeVideo& operator=(const EpisodeVideo&) = delete;
+
+  /// Appends a frame: the observation, the agent at `pose` with its path
+  /// extended to it, and a caption ("step k: ACTION", distance to goal when
+  /// `distanceToGoal` >= 0). `action` is the action just taken (none on the
+  /// first frame).
+  void addFrame(const sim::Observation& observation, const sim::AgentState& pose,
+                int step, const sim::Action* action, float distanceToGoal);
+  /// Finishes the file (renamed into place). Further frames are an error.
+  void close();
+  /// Frames written so far.
+  int frames() const { return frames_; }
+  /// Frame size in pixels.
+  int width() const;
+  int height() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  int frames_ = 0;
+};
+
+/// The EpisodeObserver that writes maps and videos during an evaluation.
+class EpisodePictures : public EpisodeObserver {
+ public:
+  explicit EpisodePictures(PicturesConfig config);
+  ~EpisodePictures() override;
+
+  bool wantsFrames(int index) const override;
+  void episodeStarted(int index, VectorEnv& envs, int env) override;
+  void episodeStepped(int index, VectorEnv& envs, int env,
+                      sim::Action action) override;
+  void episodeFinished(int index, VectorEnv& envs, int env,
+                       const EpisodeResult& result, bool scored) override;
+
+  /// Files written so far, in the order they were completed.
+  const std::vector<std::filesystem::path>& files() const { return files_; }
+
+ private:
+  PicturesConfig config_;
+  std::map<int, std::unique_ptr<EpisodeVideo>> videos_;  ///< by environment
+  std::vector<std::filesystem::path> files_;
+};
+
+}  // namespace vln::eval

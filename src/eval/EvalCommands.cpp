@@ -1,0 +1,478 @@
+#include "eval/EvalCommands.h"
+
+#include <spdlog/spdlog.h>
+#include <torch/torch.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <map>
+#include <memory>
+
+#include "common/App.h"
+#include "common/Check.h"
+#include "common/FileIo.h"
+#include "common/Json.h"
+#include "common/Progress.h"
+#include "data/Episode.h"
+#include "data/GroundTruth.h"
+#include "data/NavGraph.h"
+#include "eval/BaselineAgents.h"
+#include "eval/EpisodePictures.h"
+#include "eval/Evaluator.h"
+#include "eval/PolicyAgent.h"
+#include "eval/ScriptedPolicyAgent.h"
+#include "eval/Tables.h"
+#include "eval/VectorEnv.h"
+#include "models/ObservationEncoder.h"
+#include "models/Policy.h"
+
+namespace vln::eval {
+namespace fs = std::filesystem;
+
+namespace {
+
+// ---------------------------------------------------------------------------
+// inputs
+
+// one split's episodes (capped) and its ground truth when the file exists
+struct SplitData {
+  std::string name;
+  std::vector<data::Episode> episodes;
+  std::unique_ptr<data::GroundTruth> groundTruth;
+  bool hasGoals = false;  // any episode can be scored
+};
+
+SplitData loadSplit(const EvalSettings& settings, const std::string& name,
+                    int cap) {
+  SplitData split;
+  split.name = name;
+  const fs::path root = settings.dataset.data_path;
+  split.episodes = data::readEpisodes(data::splitEpisodesPath(root, name)).episodes;
+  if (cap >= 0 && static_cast<int>(split.episodes.size()) > cap)
+    split.episodes.resize(static_cast<size_t>(cap));
+  VLN_CHECK_ARG(!split.episodes.empty(), "eval: split '", name, "' under '",
+                root.string(), "' has no episodes");
+  for (const auto& e : split.episodes)
+    if (!e.goals.empty()) split.hasGoals = true;
+  const fs::path gt = data::splitGroundTruthPath(root, name);
+  if (split.hasGoals && fs::exists(gt))
+    split.groundTruth =
+        std::make_unique<data::GroundTruth>(data::readGroundTruth(gt));
+  return split;
+}
+
+// one thing to evaluate: a checkpoint, an export or a baseline
+struct Candidate {
+  int index = 0;
+  std::string label;       // for logs: the file or the baseline name
+  fs::path checkpoint;     // set for checkpoint files
+  fs::path scripted;       // set for TorchScript exports
+  std::string baseline;    // set for baselines
+};
+
+std::unique_ptr<Agent> policyAgent(const EvalSettings& settings,
+                                   const models::NamedTensors& weights,
+                                   const std::string& source) {
+  // the trainer's construction order under its seed, so that encoders
+  // without weight files get the initialisation the policy was trained with
+  torch::manual_seed(static_cast<uint64_t>(settings.seed));
+  auto policy = models::makePolicy(settings.model);
+  models::ObservationEncoder encoder(settings.model);
+  encoder->loadPretrained();
+  models::loadStateStrict(*policy, weights, source);
+  const torch::Device device = models::modelDevice(settings.model);
+  policy->to(device);
+  encoder->to(device);
+  return std::make_unique<PolicyAgent>(
+      policy, encoder, settings.eval.num_envs, settings.eval.sample_actions,
+      static_cast<uint64_t>(settings.eval.seed),
+      settings.dataset.max_instruction_length);
+}
+
+std::unique_ptr<Agent> makeAgent(const Candidate& candidate,
+                                 const EvalSettings& settings,
+                                 const CheckpointReader& reader,
+                                 const BaselineStatistics* baselineStats) {
+  const EvalConfig& ec = settings.eval;
+  if (!candidate.baseline.empty()) {
+    VLN_ASSERT(baselineStats != nullptr);
+    return std::make_unique<BaselineAgentAdapter>(
+        candidate.baseline, *baselineStats, ec.num_envs,
+        static_cast<uint64_t>(ec.seed));
+  }
+  if (!candidate.scripted.empty())
+    return std::make_unique<ScriptedPolicyAgent>(
+        candidate.scripted, ec.num_envs, ec.sample_actions,
+        static_cast<uint64_t>(ec.seed), settings.dataset.max_instruction_length,
+        settings.model.device);
+  VLN_CHECK_ARG(reader.policy, "eval: no checkpoint reader was given");
+  return policyAgent(settings, reader.policy(candidate.checkpoint),
+                     candidate.checkpoint.string());
+}
+
+// ---------------------------------------------------------------------------
+// one split
+
+// nav-graphs by scan, read on first use
+class NavGraphs {
+ public:
+  explicit NavGraphs(fs::path dir) : dir_(std::move(dir)) {}
+  const data::NavGraph& of(const std::string& sceneId) {
+    const std::string scan = data::sceneScanId(sceneId);
+    auto it = graphs_.find(scan);
+    if (it != graphs_.end()) return it->second;
+    const fs::path file = dir_ / (scan + "_connectivity.json");
+    VLN_CHECK_IO(fs::exists(file), "eval --navgraph: no nav-graph for scene '",
+                 sceneId, "': '", file.string(), "' does not exist");
+    return graphs_.emplace(scan, data::readNavGraph(file)).first->second;
+  }
+
+ private:
+  fs::path dir_;
+  std::map<std::string, data::NavGraph> graphs_;
+};
+
+struct SplitContext {
+  const EvalSettings& settings;
+  const EvalCommandOptions& options;
+  std::shared_ptr<SceneCache> scenes;
+  fs::path outDir;
+  NavGraphs* navgraphs = nullptr;
+};
+
+SplitReport evaluateSplit(Agent& agent, const Candidate& candidate,
+                          const SplitData& split, const SplitContext& ctx) {
+  const EvalSettings& s = ctx.settings;
+  SplitReport report;
+  report.checkpoint = candidate.index;
+  report.split = split.name;
+  report.episodes = static_cast<int>(split.episodes.size());
+
+  // pictures of the first episodes, when asked for
+  PicturesConfig pictures;
+  pictures.dir = ctx.outDir / "pictures";
+  pictures.prefix =
+      "ckpt_" + std::to_string(candidate.index) + "_" + split.name + "_";
+  pictures.map_episodes = ctx.options.maps.value_or(s.eval.map_episodes);
+  pictures.video_episodes = ctx.options.videos.value_or(s.eval.video_episodes);
+  pictures.video_format = ctx.options.video_format;
+  pictures.success_distance = s.task.success_distance;
+  std::unique_ptr<EpisodePictures> observer;
+  if (pictures.map_episodes > 0 || pictures.video_episodes > 0)
+    observer = std::make_unique<EpisodePictures>(pictures);
+
+  // the rollouts
+  VectorEnv envs(s.eval.num_envs, s.sim, s.task, ctx.scenes, s.eval.threads);
+  common::ProgressLine line(
+      "evaluate " + candidate.label + " " + split.name,
+      static_cast<int64_t>(split.episodes.size()), "episodes");
+  common::Stopwatch clock;
+  const EvaluationResult result = evaluateEpisodes(
+      agent, envs, split.episodes, split.groundTruth.get(), s.eval,
+      [&](int, int) { line.advance(); }, observer.get());
+  report.seconds = clock.seconds();
+  for (const auto& e : result.episodes) report.steps += e.record.steps_taken;
+
+  // files: stats over the scored episodes, the per-episode file, the
+  // leaderboard predictions of the unscored ones
+  std::vector<EpisodeRecord> unscored;
+  for (size_t i = 0; i < result.episodes.size(); ++i)
+    if (!result.scored[i]) unscored.push_back(result.episodes[i].record);
+  report.scored = result.stats.num_episodes > 0;
+  report.stats = result.stats;
+  if (report.scored)
+    report.files.push_back(
+        writeStatsFile(ctx.outDir, candidate.index, split.name, result.stats));
+  if (s.eval.save_episodes) {
+    const fs::path file =
+        ctx.outDir / episodesFileName(candidate.index, split.name);
+    writeEpisodesFile(file, result.episodes);
+    report.files.push_back(file);
+  }
+  if (!unscored.empty()) {
+    const fs::path file =
+        ctx.outDir / predictionsFileName(candidate.index, split.name);
+    writeLeaderboardFile(file, unscored);
+    report.files.push_back(file);
+  }
+
+  // the nav-graph comparison (Table 3) of the scored episodes; the R2R
+  // viewpoints are the episode's reference path (ground-truth locations
+  // stop short of the last viewpoint)
+  if (ctx.navgraphs != nullptr && report.scored) {
+    std::vector<GraphEpisodeMetrics> graphMetrics;
+    for (size_t i = 0; i < result.episodes.size(); ++i) {
+      if (!result.scored[i]) continue;
+      const data::Episode& episode = split.episodes[i];
+      const EpisodeRecord& record = result.episodes[i].record;
+      const std::vector<Vec3f>& reference = episode.reference_path.empty()
+                                                ? record.reference_path
+                                                : episode.reference_path;
+      graphMetrics.push_back(scoreContinuousPath(
+          ctx.navgraphs->of(episode.scene_id), record.positions, reference,
+          record.episode_id));
+    }
+    report.graph = aggregateGraph(graphMetrics);
+    report.files.push_back(writeGraphStatsFile(ctx.outDir, candidate.index,
+                                               split.name, *report.graph));
+  }
+  if (observer)
+    for (const auto& file : observer->files()) report.files.push_back(file);
+  return report;
+}
+
+// "TL 7.12 NE 8.01 nDTW 0.412 OS 0.300 SR 0.250 SPL 0.231"
+std::string metricsText(const EpisodeMetrics& m) {
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "TL %.2f NE %.2f nDTW %.3f OS %.3f SR %.3f SPL %.3f",
+                m.path_length, m.distance_to_goal, m.ndtw, m.oracle_success,
+                m.success, m.spl);
+  return text;
+}
+
+std::string graphText(const GraphSplitStats& g) {
+  char text[160];
+  std::snprintf(text, sizeof(text),
+                "TL %.2f NE %.2f OS %.3f SR %.3f SPL %.3f (%d episodes)",
+                g.mean.path_length, g.mean.distance_to_goal,
+                g.mean.oracle_success, g.mean.success, g.mean.spl,
+                g.num_episodes);
+  return text;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------
+// public
+
+std::string predictionsFileName(int checkpoint, std::string_view split) {
+  return "predictions_ckpt_" + std::to_string(checkpoint) + "_" +
+         std::string(split) + ".json";
+}
+
+std::string summaryLine(const SplitReport& report) {
+  std::string line =
+      "ckpt " + std::to_string(report.checkpoint) + " " + report.split + ": ";
+  if (report.skipped)
+    return line + "skipped (already evaluated): " + metricsText(report.stats.mean);
+  char head[200];
+  const double seconds = std::max(report.seconds, 1e-9);
+  std::snprintf(head, sizeof(head),
+                "%d episodes, %lld steps in %.1f s (%.2f episodes/s, %.0f "
+                "steps/s): ",
+                report.episodes, static_cast<long long>(report.steps),
+                report.seconds, report.episodes / seconds,
+                static_cast<double>(report.steps) / seconds);
+  line += head;
+  if (!report.scored) return line + "no goals (leaderboard predictions written)";
+  line += metricsText(report.stats.mean);
+  if (report.graph) line += " | nav-graph " + graphText(*report.graph);
+  return line;
+}
+
+EvalCommandResult runEvaluation(const EvalCommandOptions& options,
+                                const EvalSettings& settings,
+                                const CheckpointReader& reader,
+                                std::ostream& out) {
+  // threads before any model is built
+  common::setBlasThreadsEnv(settings.torch_threads);
+  torch::set_num_threads(settings.torch_threads);
+
+  const fs::path outDir = options.out.empty()
+                              ? fs::path(settings.output_dir) / "eval"
+                              : options.out;
+  std::vector<std::string> splitNames =
+      options.splits.empty() ? settings.eval.splits : options.splits;
+  VLN_CHECK_ARG(!splitNames.empty(), "eval: no split to evaluate (eval.splits "
+                "is empty and no --split was given)");
+  VLN_CHECK_ARG(options.video_format == "avi" || options.video_format == "mp4",
+                "eval: --video-format must be avi or mp4, got '",
+                options.video_format, "'");
+  const int cap = options.episodes.value_or(settings.eval.episodes);
+  VLN_CHECK_ARG(cap == -1 || cap >= 1, "eval: --episodes must be >= 1 (or -1 "
+                "for all), got ", cap);
+
+  // what to evaluate
+  std::vector<Candidate> candidates;
+  bool directoryMode = false;
+  std::unique_ptr<BaselineStatistics> baselineStats;
+  if (!options.agent.empty()) {
+    VLN_CHECK_ARG(options.checkpoint.empty(), "eval: give either --checkpoint "
+                  "or --agent, not both (got --checkpoint '",
+                  options.checkpoint.string(), "' and --agent '", options.agent,
+                  "')");
+    VLN_CHECK_ARG(options.agent == "random" || options.agent == "handcrafted",
+                  "eval: --agent must be random or handcrafted, got '",
+                  options.agent, "'");
+    const fs::path gt = data::splitGroundTruthPath(settings.dataset.data_path,
+                                                   settings.dataset.train_split);
+    VLN_CHECK_IO(fs::exists(gt), "eval --agent ", options.agent,
+                 ": the baseline's statistics need the ground truth of "
+                 "dataset.train_split '", settings.dataset.train_split,
+                 "': '", gt.string(), "' does not exist");
+    baselineStats = std::make_unique<BaselineStatistics>(baselineStatistics(
+        data::readGroundTruth(gt), settings.sim.agent.forward_step_size,
+        gt.string()));
+    out << "baseline " << options.agent << ": " << baselineStats->num_paths
+        << " training paths, mean length " << baselineStats->mean_path_length
+        << " m (" << baselineStats->forward_steps << " forward steps), actions "
+        << "STOP " << baselineStats->distribution[0] << " FORWARD "
+        << baselineStats->distribution[1] << " LEFT "
+        << baselineStats->distribution[2] << " RIGHT "
+        << baselineStats->distribution[3] << "\n";
+    candidates.push_back(
+        {options.index.value_or(0), options.agent, {}, {}, options.agent});
+  } else {
+    VLN_CHECK_ARG(!options.checkpoint.empty(),
+                  "eval: give --checkpoint (a ckpt.<i>.pth file, a directory "
+                  "of them or a .pt export) or --agent");
+    const fs::path& path = options.checkpoint;
+    VLN_CHECK_IO(fs::exists(path), "eval: --checkpoint '", path.string(),
+                 "' does not exist");
+    if (fs::is_directory(path)) {
+      VLN_CHECK_ARG(reader.list && reader.index,
+                    "eval: no checkpoint reader was given");
+      directoryMode = true;
+      const auto files = reader.list(path);
+      VLN_CHECK_IO(!files.empty(), "eval: --checkpoint directory '",
+                   path.string(), "' holds no ckpt.<i>.pth");
+      for (const auto& file : files) {
+        const std::optional<int> index = reader.index(file);
+        VLN_ASSERT(index.has_value());
+        candidates.push_back({*index, file.filename().string(), file, {}, {}});
+      }
+    } else {
+      const std::optional<int> parsed =
+          reader.index ? reader.index(path) : std::nullopt;
+      const int index = options.index.value_or(parsed.value_or(0));
+      if (path.extension() == ".pt") {
+        candidates.push_back({index, path.filename().string(), {}, path, {}});
+      } else {
+        candidates.push_back({index, path.filename().string(), path, {}, {}});
+      }
+    }
+  }
+
+  // the splits, loaded once
+  std::vector<SplitData> splits;
+  for (const auto& name : splitNames) splits.push_back(loadSplit(settings, name, cap));
+
+  std::unique_ptr<NavGraphs> navgraphs;
+  if (!options.navgraph.empty()) {
+    VLN_CHECK_IO(fs::is_directory(options.navgraph), "eval: --navgraph '",
+                 options.navgraph.string(), "' is not a directory");
+    navgraphs = std::make_unique<NavGraphs>(options.navgraph);
+  }
+  const SplitContext ctx{settings, options,
+                         std::make_shared<SceneCache>(settings.sim), outDir,
+                         navgraphs.get()};
+  fs::create_directories(outDir);
+
+  EvalCommandResult result;
+  for (const Candidate& candidate : candidates) {
+    // a directory's checkpoints that were already evaluated are skipped
+    // split by split (the trainer writes the same files into <run>/eval)
+    std::vector<const SplitData*> todo;
+    for (const SplitData& split : splits) {
+      const fs::path done =
+          outDir / (split.hasGoals ? statsFileName(candidate.index, split.name)
+                                   : predictionsFileName(candidate.index, split.name));
+      if (directoryMode && fs::exists(done)) {
+        SplitReport skipped;
+        skipped.checkpoint = candidate.index;
+        skipped.split = split.name;
+        skipped.skipped = true;
+        skipped.scored = split.hasGoals;
+        if (split.hasGoals) skipped.stats = readStatsFile(done);
+        out << summaryLine(skipped) << "\n";
+        result.reports.push_back(std::move(skipped));
+        continue;
+      }
+      todo.push_back(&split);
+    }
+    if (todo.empty()) continue;
+    const std::unique_ptr<Agent> agent =
+        makeAgent(candidate, settings, reader, baselineStats.get());
+    for (const SplitData* split : todo) {
+      SplitReport report = evaluateSplit(*agent, candidate, *split, ctx);
+      out << summaryLine(report) << "\n";
+      out.flush();
+      result.reports.push_back(std::move(report));
+    }
+  }
+
+  // the best checkpoint of a directory by the selection split's SPL, read
+  // back from the stats files so skipped checkpoints count too
+  if (directoryMode) {
+    const std::string& selection = settings.eval.selection_split;
+    for (const Candidate& candidate : candidates) {
+      const fs::path file = outDir / statsFileName(candidate.index, selection);
+      if (!fs::exists(file)) continue;
+      const double spl = readStatsFile(file).mean.spl;
+      if (!result.best_checkpoint || spl > result.best_spl) {
+        result.best_checkpoint = candidate.index;
+        result.best_spl = spl;
+      }
+    }
+    if (result.best_checkpoint) {
+      const Candidate& best = *std::find_if(
+          candidates.begin(), candidates.end(),
+          [&](const Candidate& c) { return c.index == *result.best_checkpoint; });
+      common::writeJsonFile(outDir / "best.json",
+                            {{"checkpoint", best.checkpoint.filename().string()},
+                             {"index", best.index},
+                             {"split", selection},
+                             {"spl", result.best_spl}},
+                            2);
+      char spl[32];
+      std::snprintf(spl, sizeof(spl), "%.4f", result.best_spl);
+      out << "best checkpoint: " << best.checkpoint.filename().string() << " ("
+          << selection << " SPL " << spl << "), written to "
+          << (outDir / "best.json").string() << "\n";
+    } else {
+      out << "best checkpoint: none (no stats for eval.selection_split '"
+          << selection << "'; evaluate that split to select one)\n";
+    }
+  }
+  return result;
+}
+
+int runEvalCommand(const EvalCommandOptions& options,
+                   const EvalSettings& settings, const CheckpointReader& reader,
+                   std::ostream& out) {
+  runEvaluation(options, settings, reader, out);
+  return 0;
+}
+
+int runTablesCommand(const TablesCommandOptions& options, std::ostream& out) {
+  VLN_CHECK_ARG(!options.runs.empty(), "eval tables: --runs is required");
+  VLN_CHECK_ARG(!options.out.empty(), "eval tables: --out is required");
+  const std::vector<BuiltTable> tables = buildTables(options.runs);
+  std::string markdown =
+      "<!-- Generated by `eval tables --runs " + options.runs.string() +
+      "`; numbers marked ours come from the result files they cite. -->\n\n";
+  std::string latex = "% Generated by `eval tables --runs " +
+                      options.runs.string() +
+                      "`; needs booktabs and amssymb.\n\n";
+  for (const auto& table : tables) {
+    markdown += renderMarkdown(table) + "\n";
+    latex += renderLatex(table) + "\n";
+  }
+  fs::path tex = options.out;
+  tex.replace_extension(".tex");
+  VLN_CHECK_ARG(tex != options.out, "eval tables: --out '",
+                options.out.string(),
+                "' must not end in .tex (the LaTeX goes beside the Markdown)");
+  common::writeFileAtomic(options.out, markdown);
+  common::writeFileAtomic(tex, latex);
+  int ours = 0;
+  for (const auto& table : tables)
+    for (const auto& row : table.rows)
+      if (row.ours) ++ours;
+  out << "wrote " << options.out.string() << " and " << tex.string() << " ("
+      << tables.size() << " tables, " << ours << " rows of ours)\n";
+  return 0;
+}
+
+}  // namespace vln::eval

@@ -1,0 +1,194 @@
+#include "eval/ScriptedPolicyAgent.h"
+
+#include <algorithm>
+#include <string>
+
+#include "common/Check.h"
+#include "common/Config.h"
+#include "data/Vocabulary.h"
+#include "eval/Baselines.h"
+#include "eval/ObservationBatch.h"
+#include "eval/PolicyAgent.h"
+
+namespace vln::eval {
+
+struct ScriptedPolicyAgent::EnvState {
+  bool started = false;
+  std::vector<int64_t> tokens;  // real tokens, capped at the max length
+  torch::Tensor hidden;         // [layers, hidden_size]
+  int64_t prevAction = 0;
+  bool first = true;
+  std::mt19937_64 rng;
+};
+
+models::ModelConfig exportedModelConfig(const torch::jit::Module& module,
+                                        const std::filesystem::path& file) {
+  VLN_CHECK_ARG(module.hasattr("model_config"), "ScriptedPolicyAgent: '",
+                file.string(),
+                "' has no 'model_config' attribute (not written by "
+                "models::exportPolicy?)");
+  const c10::IValue value = module.attr("model_config");
+  VLN_CHECK_ARG(value.isString(), "ScriptedPolicyAgent: '", file.string(),
+                "': attribute 'model_config' is not a string");
+  return common::loadConfigText<models::ModelConfig>(
+      value.toStringRef(), file.string() + " model_config");
+}
+
+ScriptedPolicyAgent::ScriptedPolicyAgent(const std::filesystem::path& file,
+                                         int numEnvs, bool sampleActions,
+                                         uint64_t seed,
+                                         int maxInstructionLength,
+                                         const std::string& device)
+    : file_(file),
+      device_(torch::kCPU),
+      sample_(sampleActions),
+      seed_(seed),
+      maxInstructionLength_(maxInstructionLength) {
+  VLN_CHECK_ARG(numEnvs >= 1, "ScriptedPolicyAgent: numEnvs must be >= 1, got ",
+                numEnvs);
+  VLN_CHECK_ARG(maxInstructionLength >= 1,
+                "ScriptedPolicyAgent: dataset.max_instruction_length must be "
+                ">= 1, got ", maxInstructionLength);
+  VLN_CHECK_IO(std::filesystem::is_regular_file(file),
+               "ScriptedPolicyAgent: '", file.string(), "' does not exist");
+  try {
+    device_ = torch::Device(device);
+  } catch (const c10::Error&) {
+    throw std::invalid_argument(strCat("ScriptedPolicyAgent: device '", device,
+                                       "' cannot be parsed"));
+  }
+  try {
+    module_ = torch::jit::load(file.string(), device_);
+  } catch (const c10::Error& error) {
+    throw std::runtime_error(strCat("ScriptedPolicyAgent: '", file.string(),
+                                    "' is not a TorchScript archive: ",
+                                    error.what_without_backtrace()));
+  }
+  module_.eval();
+  config_ = exportedModelConfig(module_, file);
+
+  // the archive must encode images itself; an export without encoders
+  // takes feature maps in forward and cannot run on observations
+  auto hasMethod = [&](const char* name) {
+    return module_.find_method(name).has_value();
+  };
+  VLN_CHECK_ARG(!config_.usesRgb() || hasMethod("encode_rgb"),
+                "ScriptedPolicyAgent: '", file.string(),
+                "' was exported without its RGB encoder (forward takes "
+                "features); export it with the encoders");
+  VLN_CHECK_ARG(!config_.usesDepth() || hasMethod("encode_depth"),
+                "ScriptedPolicyAgent: '", file.string(),
+                "' was exported without its depth encoder (forward takes "
+                "features); export it with the encoders");
+  for (int i = 0; i < numEnvs; ++i)
+    states_.push_back(std::make_unique<EnvState>());
+}
+
+ScriptedPolicyAgent::~ScriptedPolicyAgent() = default;
+
+ScriptedPolicyAgent::EnvState& ScriptedPolicyAgent::stateOf(int env,
+                                                            const char* method) {
+  VLN_CHECK_ARG(env >= 0 && env < static_cast<int>(states_.size()),
+                "ScriptedPolicyAgent::", method, "(): environment ", env,
+                " out of range [0, ", states_.size(), ")");
+  return *states_[static_cast<size_t>(env)];
+}
+
+void ScriptedPolicyAgent::reset(int env, const data::Episode& episode) {
+  EnvState& s = stateOf(env, "reset");
+  // the archive re-encodes the instruction at every call; keep its tokens
+  // (real ones only: the encoder packs by length, so padding is free)
+  s.tokens.clear();
+  if (config_.usesInstruction()) {
+    const auto& source = episode.instruction.instruction_tokens;
+    const int length = std::min(maxInstructionLength_,
+                                data::unpaddedLength(source));
+    VLN_CHECK_ARG(length >= 1, "ScriptedPolicyAgent::reset(): episode ",
+                  episode.episode_id, " has no instruction tokens");
+    for (int j = 0; j < length; ++j)
+      s.tokens.push_back(source[static_cast<size_t>(j)]);
+  }
+  s.hidden = torch::zeros({config_.numRecurrentLayers(), config_.hidden_size},
+                          torch::TensorOptions(device_).dtype(torch::kFloat32));
+  s.prevAction = 0;
+  s.first = true;
+  s.rng.seed(episodeSeed(seed_, std::to_string(episode.episode_id)));
+  s.started = true;
+}
+
+std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
+                                                  std::span<const int> active) {
+  const auto n = static_cast<int64_t>(active.size());
+  if (n == 0) return {};
+  std::vector<EnvState*> states;
+  for (int env : active) {
+    EnvState& s = stateOf(env, "act");
+    VLN_CHECK_ARG(s.started, "ScriptedPolicyAgent::act(): environment ", env,
+                  " was never reset");
+    states.push_back(&s);
+  }
+  torch::NoGradGuard noGrad;
+
+  // raw observations; ablated modalities get a placeholder the archive
+  // ignores
+  const ObservationBatch obs = batchObservations(envs, active, config_);
+  const torch::Tensor placeholder = torch::zeros({n}, torch::TensorOptions(device_));
+  const torch::Tensor rgb = obs.rgb.defined() ? obs.rgb.to(device_) : placeholder;
+  const torch::Tensor depth =
+      obs.depth.defined() ? obs.depth.to(device_) : placeholder;
+
+  // instruction tokens [n, longest] with PAD 0 on the right
+  size_t longest = 1;
+  for (const EnvState* s : states) longest = std::max(longest, s->tokens.size());
+  torch::Tensor tokens =
+      torch::zeros({n, static_cast<int64_t>(longest)}, torch::kInt64);
+  if (!config_.usesInstruction()) tokens.fill_(1);
+  for (int64_t k = 0; k < n; ++k) {
+    const auto& row = states[static_cast<size_t>(k)]->tokens;
+    for (size_t j = 0; j < row.size(); ++j)
+      tokens[k][static_cast<int64_t>(j)] = row[j];
+  }
+
+  std::vector<torch::Tensor> hidden;
+  std::vector<int64_t> prev;
+  std::vector<float> notDone;
+  for (const EnvState* s : states) {
+    hidden.push_back(s->hidden);
+    prev.push_back(s->prevAction);
+    notDone.push_back(s->first ? 0.0f : 1.0f);
+  }
+  const c10::IValue output = module_.forward(
+      {rgb, depth, tokens.to(device_),
+       torch::tensor(prev, torch::kInt64).to(device_),
+       torch::tensor(notDone, torch::kFloat32).to(device_), torch::stack(hidden)});
+  const auto tuple = output.toTuple();
+  VLN_CHECK_ARG(tuple->elements().size() == 3, "ScriptedPolicyAgent: '",
+                file_.string(), "' forward returned ",
+                tuple->elements().size(), " values, expected 3");
+  const torch::Tensor logits =
+      tuple->elements()[0].toTensor().to(torch::kCPU, torch::kFloat64).contiguous();
+  const torch::Tensor newHidden = tuple->elements()[2].toTensor();
+  VLN_CHECK_ARG(logits.dim() == 2 && logits.size(0) == n &&
+                    logits.size(1) == models::kNumActions,
+                "ScriptedPolicyAgent: '", file_.string(),
+                "' forward returned logits ", logits.sizes(), ", expected [",
+                n, ", ", models::kNumActions, "]");
+
+  // the same choice rule as PolicyAgent
+  const double* row = logits.data_ptr<double>();
+  std::vector<sim::Action> actions(static_cast<size_t>(n));
+  for (int64_t k = 0; k < n; ++k) {
+    EnvState& s = *states[static_cast<size_t>(k)];
+    const int chosen = chooseAction(
+        std::span<const double>(row + k * models::kNumActions,
+                                static_cast<size_t>(models::kNumActions)),
+        sample_, s.rng);
+    actions[static_cast<size_t>(k)] = sim::actionFromInt(chosen);
+    s.hidden = newHidden[k];
+    s.prevAction = chosen;
+    s.first = false;
+  }
+  return actions;
+}
+
+}  // namespace vln::eval
