@@ -59,7 +59,7 @@ Vec3f parseVec3(const std::string& text, const char* option) {
   in >> v.x() >> comma1 >> v.y() >> comma2 >> v.z();
   VLN_CHECK_ARG(in && comma1 == ',' && comma2 == ',' && (in >> std::ws).eof() &&
                     v.allFinite(),
-                "vlnce-sim: ", option, " expects x,y,z in metres, got '", text,
+                option, " expects x,y,z in metres, got '", text,
                 "'");
   return v;
 }
@@ -68,7 +68,7 @@ RendererBackend parseBackend(const std::string& name) {
   if (name == "embree") return RendererBackend::kEmbree;
   if (name == "osmesa") return RendererBackend::kOsMesa;
   throw std::invalid_argument(
-      strCat("vlnce-sim: --backend must be embree or osmesa, got '", name, "'"));
+      strCat("--backend must be embree or osmesa, got '", name, "'"));
 }
 
 // Every triangle split into n x n smaller ones on a barycentric grid
@@ -150,7 +150,7 @@ int runRender(const RenderArgs& args) {
   const Vec3f feet = parseVec3(args.position, "--position");
   VLN_CHECK_ARG(args.width >= 1 && args.height >= 1 && args.width <= 8192 &&
                     args.height <= 8192,
-                "vlnce-sim render: --width/--height must be in [1, 8192], got ",
+                "render: --width/--height must be in [1, 8192], got ",
                 args.width, "x", args.height);
   // rendering needs the triangles only: no navmesh build
   const LoadedScene loaded = loadScene(args.scene, MeshLoadConfig{});
@@ -318,15 +318,15 @@ std::string loadAverage() {
 
 int runBench(const BenchArgs& args) {
   VLN_CHECK_ARG(args.scene.empty() != (args.procedural < 0),
-                "vlnce-sim bench: give exactly one of --scene and --procedural");
+                "bench: give exactly one of --scene and --procedural");
   VLN_CHECK_ARG(args.res >= 1 && args.res <= 4096,
-                "vlnce-sim bench: --res must be in [1, 4096], got ", args.res);
-  VLN_CHECK_ARG(args.frames >= 1, "vlnce-sim bench: --frames must be >= 1, got ",
+                "bench: --res must be in [1, 4096], got ", args.res);
+  VLN_CHECK_ARG(args.frames >= 1, "bench: --frames must be >= 1, got ",
                 args.frames);
   VLN_CHECK_ARG(args.threads >= 1 && args.threads <= 256,
-                "vlnce-sim bench: --threads must be in [1, 256], got ", args.threads);
+                "bench: --threads must be in [1, 256], got ", args.threads);
   VLN_CHECK_ARG(args.subdivide >= 1 && args.subdivide <= 64,
-                "vlnce-sim bench: --subdivide must be in [1, 64], got ",
+                "bench: --subdivide must be in [1, 64], got ",
                 args.subdivide);
   const RendererBackend backend = parseBackend(args.backend);
 
