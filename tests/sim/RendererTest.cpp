@@ -363,6 +363,40 @@ TEST_P(RendererBackendTest, RejectsWrongBuffersAndIntrinsics) {
                std::invalid_argument);
 }
 
+TEST_P(RendererBackendTest, OneRendererPerThreadRunsConcurrently) {
+  // the supported multi-threading model: a renderer per thread over one
+  // shared mesh and ray tracer
+  TriangleMesh mesh = testRoom();
+  RayTracer tracer(mesh);
+  const CameraIntrinsics camera{48, 40, 90.0f};
+  std::vector<CameraPose> poses;
+  for (int i = 0; i < 6; ++i)
+    poses.push_back({Vec3f(-1.0f + 0.4f * i, 1.25f, 1.0f), 0.9f * i, -0.1f});
+  auto reference = createRenderer(mesh, tracer, GetParam());
+  std::vector<std::vector<uint8_t>> expected;
+  for (const CameraPose& pose : poses) {
+    expected.emplace_back(48 * 40 * 3);
+    reference->renderRgb(pose, camera, expected.back());
+  }
+  std::vector<std::unique_ptr<Renderer>> renderers;
+  for (int t = 0; t < 2; ++t) renderers.push_back(createRenderer(mesh, tracer, GetParam()));
+  std::vector<int> mismatches(2, 0);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 2; ++t) {
+    threads.emplace_back([&, t] {
+      std::vector<uint8_t> rgb(48 * 40 * 3);
+      for (int round = 0; round < 10; ++round) {
+        for (size_t i = 0; i < poses.size(); ++i) {
+          renderers[static_cast<size_t>(t)]->renderRgb(poses[i], camera, rgb);
+          if (rgb != expected[i]) ++mismatches[static_cast<size_t>(t)];
+        }
+      }
+    });
+  }
+  for (auto& thread : threads) thread.join();
+  EXPECT_EQ(mismatches, (std::vector<int>{0, 0}));
+}
+
 TEST_P(RendererBackendTest, ImageSizeMayChangeBetweenRenders) {
   TriangleMesh mesh = testRoom();
   RayTracer tracer(mesh);
