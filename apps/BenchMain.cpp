@@ -27,6 +27,7 @@
 #include "models/Loss.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
+#include "models/SyntheticBatch.h"
 
 namespace {
 
@@ -85,50 +86,6 @@ struct UpdateArgs {
   int instrLen = 30;
 };
 
-// A teacher-forcing batch shaped like VLN-CE's DAgger batches: episodes of
-// random length (the longest = steps), padded; non-negative features like
-// pooled post-ReLU CNN outputs; mostly-forward expert actions.
-struct UpdateBatch {
-  torch::Tensor tokens;  // [B, L]
-  PolicyInputs inputs;   // [T, B, ...]
-  torch::Tensor actions, weights, valid, progress;  // [T, B]
-};
-
-UpdateBatch makeBatch(const ModelConfig& config, const UpdateArgs& a) {
-  const int64_t T = a.steps, B = a.batch;
-  UpdateBatch u;
-  u.tokens = torch::zeros({B, a.instrLen}, torch::kInt64);
-  torch::Tensor lengths = torch::randint(T / 2, T + 1, {B}, torch::kInt64);
-  lengths[0] = T;
-  for (int64_t b = 0; b < B; ++b) {
-    const int64_t words =
-        b == 0 ? a.instrLen : torch::randint(a.instrLen / 2, a.instrLen + 1, {1})
-                                  .item<int64_t>();
-    u.tokens[b].slice(0, 0, words).random_(1, config.vocab_size);
-  }
-  const FeatureShape r = rgbFeatureShape(config);
-  const FeatureShape d = depthFeatureShape(config);
-  u.inputs.rgb = torch::relu(torch::randn({T, B, r[0], r[1], r[2]}));
-  u.inputs.depth = torch::relu(torch::randn({T, B, d[0], d[1], d[2]}));
-  // forward 70%, turns 25%, STOP at the end
-  const torch::Tensor draw = torch::rand({T, B});
-  u.actions = torch::where(draw < 0.7, torch::ones({T, B}, torch::kInt64),
-                           torch::where(draw < 0.85,
-                                        torch::full({T, B}, 2, torch::kInt64),
-                                        torch::full({T, B}, 3, torch::kInt64)));
-  const torch::Tensor t = torch::arange(T).unsqueeze(1).expand({T, B});
-  u.valid = t < lengths.unsqueeze(0);
-  u.actions = torch::where(t == lengths.unsqueeze(0) - 1,
-                           torch::zeros_like(u.actions), u.actions);
-  u.inputs.prev_actions = torch::cat(
-      {torch::zeros({1, B}, torch::kInt64), u.actions.slice(0, 0, T - 1)});
-  u.inputs.not_done = torch::ones({T, B});
-  u.inputs.not_done[0].zero_();
-  u.weights = inflectionWeights(u.actions, u.valid, /*coef=*/3.2);
-  u.progress = (t.to(torch::kFloat32) + 1) / lengths.unsqueeze(0);
-  return u;
-}
-
 int runUpdate(const UpdateArgs& a, int threads, int warmup, int iters) {
   ModelConfig config;
   config.policy = parsePolicy(a.model);
@@ -141,11 +98,14 @@ int runUpdate(const UpdateArgs& a, int threads, int warmup, int iters) {
   for (const auto& p : policy->parameters())
     if (p.requires_grad()) trainable.push_back(p);
   torch::optim::Adam adam(trainable, torch::optim::AdamOptions(2.5e-4));
-  const UpdateBatch u = makeBatch(config, a);
+  const TeacherForcingBatch u =
+      syntheticBatch(config, a.batch, a.steps, a.instrLen);
 
   double lastLoss = 0;
   auto update = [&] {
-    adam.zero_grad();
+    // gradients set to none, not zero-filled: backward then writes them
+    // instead of adding to zeros
+    for (auto& p : trainable) p.mutable_grad().reset();
     const EncodedInstruction instr = policy->encodeInstruction(u.tokens);
     const PolicyOutputs out = policy->forwardSequence(
         instr, u.inputs, policy->initialHidden(a.batch));

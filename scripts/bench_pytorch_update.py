@@ -249,7 +249,7 @@ def main():
     layers = 2 if args.model == "cma" else 1
 
     def update():
-        optimizer.zero_grad()
+        optimizer.zero_grad(set_to_none=True)
         hidden = torch.zeros(args.batch, layers, HIDDEN)
         logits, progress_hat, _ = net(obs, hidden, prev_actions, masks)
         logits = logits.view(args.steps, args.batch, -1)
