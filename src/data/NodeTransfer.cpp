@@ -1,5 +1,6 @@
 #include "data/NodeTransfer.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -105,6 +106,8 @@ std::string navigabilityFailureName(NavigabilityFailure failure) {
       return "no_path";
     case NavigabilityFailure::kNotReached:
       return "not_reached";
+    case NavigabilityFailure::kDetour:
+      return "detour";
   }
   VLN_ASSERT(false);
   return {};
@@ -137,6 +140,17 @@ NavigabilityResult checkNavigability(const sim::NavMesh& navmesh,
       result.failure = NavigabilityFailure::kNoPath;
       result.failed_index = static_cast<int>(leg);
       return result;
+    }
+
+    // a long way round means the scene blocks the edge (optional check)
+    if (config.max_leg_detour > 0.0f) {
+      const float straight = (target - waypoints[leg]).norm();
+      const float around = navmesh.geodesicDistance(waypoints[leg], target);
+      if (around > config.max_leg_detour * std::max(straight, 1.0f)) {
+        result.failure = NavigabilityFailure::kDetour;
+        result.failed_index = static_cast<int>(leg);
+        return result;
+      }
     }
 
     // follow it from wherever the previous leg ended, as the agent would
@@ -231,6 +245,9 @@ void TransferStats::addTrajectory(const NavigabilityResult& result) {
     case NavigabilityFailure::kNotReached:
       ++failed_not_reached;
       break;
+    case NavigabilityFailure::kDetour:
+      ++failed_detour;
+      break;
   }
 }
 
@@ -244,6 +261,7 @@ void TransferStats::merge(const TransferStats& o) {
   failed_invalid_node += o.failed_invalid_node;
   failed_no_path += o.failed_no_path;
   failed_not_reached += o.failed_not_reached;
+  failed_detour += o.failed_detour;
   actions += o.actions;
 }
 
@@ -276,6 +294,7 @@ nlohmann::json TransferStats::toJson() const {
       {"failed_invalid_node", failed_invalid_node},
       {"failed_no_path", failed_no_path},
       {"failed_not_reached", failed_not_reached},
+      {"failed_detour", failed_detour},
       {"navigable_rate", navigableRate()},
       {"mean_actions", meanActions()},
   };
@@ -291,7 +310,8 @@ std::string TransferStats::report() const {
       "3%%)\n"
       "mean adjusted displacement:   %.3f m   (paper 0.19 m)\n"
       "trajectories navigable:       %lld / %lld = %.1f%%   (paper 77%%)\n"
-      "  failed: invalid node %lld, no path %lld, not reached %lld\n"
+      "  failed: invalid node %lld, no path %lld, not reached %lld, detour "
+      "%lld\n"
       "mean actions per trajectory:  %.2f   (paper 55.88)\n",
       static_cast<long long>(nodes_valid), static_cast<long long>(nodes),
       100.0 * nodeTransferRate(), static_cast<long long>(nodes_adjusted),
@@ -299,7 +319,8 @@ std::string TransferStats::report() const {
       static_cast<long long>(navigable), static_cast<long long>(trajectories),
       100.0 * navigableRate(), static_cast<long long>(failed_invalid_node),
       static_cast<long long>(failed_no_path),
-      static_cast<long long>(failed_not_reached), meanActions());
+      static_cast<long long>(failed_not_reached),
+      static_cast<long long>(failed_detour), meanActions());
   return buffer;
 }
 

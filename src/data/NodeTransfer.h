@@ -66,9 +66,10 @@ enum class NavigabilityFailure {
   kInvalidNode,  ///< a node could not be transferred
   kNoPath,       ///< no navmesh path between two consecutive waypoints
   kNotReached,   ///< the follower did not get within the radius in time
+  kDetour,       ///< a leg's geodesic exceeds max_leg_detour (not in the paper)
 };
 
-/// "none", "invalid_node", "no_path", "not_reached".
+/// "none", "invalid_node", "no_path", "not_reached", "detour".
 std::string navigabilityFailureName(NavigabilityFailure failure);
 
 /// Outcome of the navigability check of one trajectory.
@@ -114,6 +115,7 @@ struct TransferStats {
   int64_t failed_invalid_node = 0;
   int64_t failed_no_path = 0;
   int64_t failed_not_reached = 0;
+  int64_t failed_detour = 0;
   int64_t actions = 0;  ///< ground-truth actions over navigable ones
 
   /// Counts `results` (one graph's nodes).

@@ -158,7 +158,7 @@ struct NavGraphBuildConfig {
 /// The nav-graph is placed in the house as captured; these changes are then
 /// made to the scene that agents move in.
 struct ReconstructionConfig {
-  float closed_door_probability = 0.05f;  ///< per interior doorway
+  float closed_door_probability = 0.04f;  ///< per interior doorway
   /// Per nav-graph node: a movable object ends up on it.
   float moved_object_probability = 0.02f;
   /// Largest horizontal offset of that object from the node.
@@ -227,6 +227,12 @@ struct TransferConfig {
   /// leg_steps_per_meter per metre of geodesic distance.
   int leg_base_steps = 60;
   float leg_steps_per_meter = 8.0f;
+  /// Beyond the paper: a leg whose navmesh geodesic exceeds this multiple
+  /// of its straight length (at least 1 m) fails as a detour. Such legs
+  /// cross a doorway the reconstruction closed, and an instruction saying
+  /// "go through the door" would then supervise a walk through other rooms.
+  /// 0 disables the check, as in the paper.
+  float max_leg_detour = 2.0f;
 
   void visit(common::ConfigVisitor& v) {
     v.field("cast_distance", cast_distance, "Length of the downward ray (m)",
@@ -251,6 +257,10 @@ struct TransferConfig {
             "Step cap of one leg: constant part", common::inRange(1, 100000));
     v.field("leg_steps_per_meter", leg_steps_per_meter,
             "Step cap of one leg: per metre of geodesic distance",
+            common::inRange(0.0, 1000.0));
+    v.field("max_leg_detour", max_leg_detour,
+            "Longest leg geodesic as a multiple of its straight length (0 = "
+            "no limit)",
             common::inRange(0.0, 1000.0));
   }
   bool operator==(const TransferConfig&) const = default;

@@ -4,10 +4,13 @@
 // with no download.
 //
 // Per house (houses are independent and run on a thread pool):
-//   1. generate the house and save it as a scene (.glb, semantics sidecar,
-//      .glb.navmesh) under <scenes_dir>/<scene_prefix>/<house>/;
-//   2. place an R2R-style nav-graph of panoramas (NavGraphBuilder.h);
-//   3. transfer its nodes to the navmesh (NodeTransfer.h, paper Section 3.2);
+//   1. generate the house and place an R2R-style nav-graph of panoramas in
+//      it as captured (NavGraphBuilder.h);
+//   2. make the reconstruction differ as real scans do (doors closed and
+//      objects moved between captures, ReconstructionConfig) and save that
+//      as the scene (.glb, semantics sidecar, .glb.navmesh) under
+//      <scenes_dir>/<scene_prefix>/<house>/;
+//   3. transfer the nodes to its navmesh (NodeTransfer.h, paper Section 3.2);
 //   4. sample R2R-like trajectories on the graph (TrajectorySampler.h), keep
 //      the navigable ones with their ground-truth follower actions, and give
 //      each generated instructions (InstructionGenerator.h).
@@ -22,8 +25,9 @@
 //   <out>/connectivity/<house>_connectivity.json, <out>/generation_stats.json
 //
 // Output is byte-identical for equal configs whatever the thread count.
-// Splits are staged in a temporary directory and renamed into place only
-// after everything succeeded, so a failure never leaves half a dataset.
+// Every output is staged in a temporary directory and renamed into place,
+// one whole split directory at a time, only after everything succeeded: a
+// failure never leaves a half-written split.
 
 #include <cstdint>
 #include <filesystem>

@@ -175,14 +175,14 @@ TEST(NodeTransferTest, StatisticsCountAdjustedNodes) {
 // ---------------------------------------------------------------------------
 
 // Two 4 x 4 rooms side by side along x, split by a wall at x in [4, 4.2]
-// with one opening of `gap` metres centred at z = 2.
-sim::TriangleMesh twoRooms(float gap) {
+// with one opening of `gap` metres centred at z = `at`.
+sim::TriangleMesh twoRooms(float gap, float at = 2.0f) {
   sim::TriangleMesh mesh;
   addFloor(mesh, 0, 0, 8.2f, 4);
-  const float z0 = 2.0f - gap / 2.0f;
-  const float z1 = 2.0f + gap / 2.0f;
-  addBox(mesh, {4.0f, 0.0f, 0.0f}, {4.2f, 2.5f, z0});
-  addBox(mesh, {4.0f, 0.0f, z1}, {4.2f, 2.5f, 4.0f});
+  const float z0 = at - gap / 2.0f;
+  const float z1 = at + gap / 2.0f;
+  if (z0 > 0.0f) addBox(mesh, {4.0f, 0.0f, 0.0f}, {4.2f, 2.5f, z0});
+  if (z1 < 4.0f) addBox(mesh, {4.0f, 0.0f, z1}, {4.2f, 2.5f, 4.0f});
   return mesh;
 }
 
@@ -262,6 +262,33 @@ TEST(NodeTransferTest, InvalidNodeFailsTheTrajectory) {
   stats.addTrajectory(r);
   EXPECT_EQ(stats.failed_invalid_node, 1);
   EXPECT_DOUBLE_EQ(stats.navigableRate(), 0.0);
+}
+
+TEST(NodeTransferTest, LongDetourAroundAWallIsRejectedUnlessDisabled) {
+  // the only opening is at the far end (z = 3.4): a leg straight through
+  // the wall near z = 0.5 is 1.4 m long but about 6.5 m to walk
+  const auto navmesh = buildNavMesh(twoRooms(/*gap=*/1.0f, /*at=*/3.4f));
+  const std::vector<Vec3f> waypoints = {*navmesh->snapPoint({1.5f, 0, 0.5f}),
+                                        *navmesh->snapPoint({3.4f, 0, 0.5f}),
+                                        *navmesh->snapPoint({4.8f, 0, 0.5f})};
+  const float straight = (waypoints[2] - waypoints[1]).norm();
+  const float around = navmesh->geodesicDistance(waypoints[1], waypoints[2]);
+  ASSERT_GT(around, 2.0f * std::max(straight, 1.0f));
+  const auto r = checkNavigability(*navmesh, sim::AgentConfig{},
+                                   defaultTransfer(), waypoints, 0.0f);
+  EXPECT_EQ(r.failure, NavigabilityFailure::kDetour);
+  EXPECT_EQ(r.failed_index, 1);
+  TransferStats stats;
+  stats.addTrajectory(r);
+  EXPECT_EQ(stats.failed_detour, 1);
+
+  // the paper has no such check: with it disabled the walk around counts
+  TransferConfig paper = defaultTransfer();
+  paper.max_leg_detour = 0.0f;
+  const auto walked =
+      checkNavigability(*navmesh, sim::AgentConfig{}, paper, waypoints, 0.0f);
+  EXPECT_TRUE(walked.navigable()) << navigabilityFailureName(walked.failure);
+  EXPECT_GT(0.25f * walked.ground_truth.forward_steps, around - 0.6f);
 }
 
 TEST(NodeTransferTest, StepCapRejectsUnreachableInTime) {
