@@ -28,13 +28,16 @@ void generate(benchmark::State& state, const HouseConfig& config) {
     benchmark::DoNotOptimize(house);
   }
   const double n = static_cast<double>(state.iterations());
-  state.counters["houses/s"] = benchmark::Counter(n, benchmark::Counter::kIsRate);
+  state.counters["houses/s"] =
+      benchmark::Counter(n, benchmark::Counter::kIsRate);
   state.counters["triangles/house"] = triangles / n;
   state.counters["objects/house"] = objects / n;
   state.counters["rooms/house"] = rooms / n;
 }
 
-void BM_GenerateHouse(benchmark::State& state) { generate(state, HouseConfig{}); }
+void BM_GenerateHouse(benchmark::State& state) {
+  generate(state, HouseConfig{});
+}
 BENCHMARK(BM_GenerateHouse)->Unit(benchmark::kMillisecond);
 
 void BM_GenerateHouseUntextured(benchmark::State& state) {
@@ -58,7 +61,8 @@ void BM_SaveHouseGlb(benchmark::State& state) {
   const auto file = std::filesystem::temp_directory_path() /
                     ("vln_house_bench_" + std::to_string(::getpid()) + ".glb");
   for (auto _ : state) saveScene(file, house.mesh, house.semantics);
-  state.counters["MB"] = static_cast<double>(std::filesystem::file_size(file)) / 1e6;
+  state.counters["MB"] =
+      static_cast<double>(std::filesystem::file_size(file)) / 1e6;
   std::filesystem::remove(file);
   std::filesystem::remove(semanticsPath(file));
 }

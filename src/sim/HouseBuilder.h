@@ -70,8 +70,8 @@ uint64_t mix64(uint64_t x);
 /// [z0, z1], centimetres.
 struct RectCm {
   int x0 = 0, z0 = 0, x1 = 0, z1 = 0;
-  int width() const { return x1 - x0; }   ///< extent along x
-  int depth() const { return z1 - z0; }   ///< extent along z
+  int width() const { return x1 - x0; }  ///< extent along x
+  int depth() const { return z1 - z0; }  ///< extent along z
   int64_t area() const { return int64_t{width()} * depth(); }
 };
 
@@ -240,6 +240,88 @@ void buildStructure(const FloorPlan& plan, const HouseStyle& style,
 // ===========================================================================
 // furniture
 // ===========================================================================
+
+/// A furniture model in its own frame: x across its front, centred (x in
+/// [-width/2, width/2]); z from its back (0, against a wall) to its front
+/// (depth); y up from the floor; metres. Parts stay inside that footprint so
+/// placement tests on it are exact.
+struct Model {
+  std::string category;
+  std::string color;
+  float width = 0.0f;
+  float depth = 0.0f;
+  std::vector<Part> parts;
+  bool hung = false;  ///< mounted on a wall above the floor
+};
+
+/// Builds furniture models with random sizes and colours from `rng`;
+/// heights are capped at `maxHeight` (below the ceiling).
+class ModelBuilder {
+ public:
+  ModelBuilder(Rng& rng, float maxHeight) : rng_(rng), maxHeight_(maxHeight) {}
+
+  /// One of `names`, uniformly.
+  std::string chooseColor(const std::vector<const char*>& names);
+  /// Surface of parts in colour `color`: wood grain for "wooden".
+  static Surface finishOf(const std::string& color, Surface otherwise);
+
+  // Each returns a model named by its category and colour (see
+  // houseObjectCategories() and houseColorNames()).
+  Model bed();         ///< frame, headboard, mattress, duvet, pillows
+  Model nightstand();  ///< box with a drawer
+  Model wardrobe();    ///< tall two-door cupboard
+  Model dresser();     ///< chest of three drawers
+  Model sofa(
+      bool armchair);  ///< base, back, arms, cushions; one seat if armchair
+  /// Top on four legs; `category` "table" or "coffee table".
+  Model table(const char* category, float wLo, float wHi, float dLo, float dHi,
+              float h, std::vector<const char*> colors);
+  Model chair(const std::string& color);  ///< seat, back, four legs
+  Model tv();                             ///< screen on a stand cabinet
+  Model plant();     ///< pot with a bush, a cone tree or a tall crown
+  Model lamp();      ///< floor lamp: base, pole, shade
+  Model bookcase();  ///< tall open shelves full of books
+  Model shelf();     ///< low open shelves
+  Model desk();      ///< top, drawer pedestal, maybe a monitor
+  Model cabinet();   ///< low cupboard with doors
+  /// Kitchen base cabinet of width `w` with a worktop.
+  Model counter(const std::string& color, const std::string& topName, float w);
+  /// Free-standing kitchen counter, large enough to stand nodes on.
+  Model island(const std::string& color, const std::string& topName);
+  /// Kitchen sink in a counter, or a bathroom basin (pedestal or vanity).
+  Model sink(bool kitchen, const std::string& color,
+             const std::string& topName);
+  Model stove();          ///< cooker with burners and an oven door
+  Model fridge();         ///< tall fridge-freezer
+  Model toilet();         ///< tank, bowl, seat
+  Model bathtub();        ///< hollow tub
+  Model washer();         ///< washing machine with a round door
+  Model rug(bool small);  ///< bordered rug (a bath mat if small)
+  Model picture();        ///< framed canvas hung at eye height
+  Model mirror();         ///< framed glass hung on a wall
+  /// A closed window: frame, sky-tinted glass, a cross bar and a sill. It
+  /// never opens the wall, so the house stays sealed.
+  Model window(float wallHeight);
+  Model piano();  ///< upright piano with keys
+
+ private:
+  Model start(const char* category, std::vector<const char*> colors);
+  float height(float h) const;  // capped below the ceiling
+  void box(Model& m, float x0, float y0, float z0, float x1, float y1, float z1,
+           const Rgb8& color, Surface surface);
+  void shape(Model& m, Shape s, float x0, float y0, float z0, float x1,
+             float y1, float z1, const Rgb8& color,
+             Surface surface = Surface::kPlain);
+  // a row of books (or boxes) standing on a board at height y
+  void books(Model& m, float x0, float x1, float y, float maxH, float d);
+  // base cabinet, plinth and worktop shared by counters and kitchen sinks
+  void counterBody(Model& m, const std::string& color,
+                   const std::string& topName, float w, float d, float h,
+                   bool doors);
+
+  Rng& rng_;
+  float maxHeight_;
+};
 
 /// A placed furniture landmark: its semantic record and world-frame parts.
 struct PlacedObject {

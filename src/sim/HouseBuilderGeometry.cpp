@@ -46,21 +46,42 @@ std::array<float, 2> unitCircle(int k, int n) {
   static const float cos16[4] = {1.0f, c22, c45, s22},
                      sin16[4] = {0.0f, s22, c45, c22};
   switch (n) {
-    case 4: perQuadrant = 1; cosTable = cos4; sinTable = sin4; break;
-    case 8: perQuadrant = 2; cosTable = cos8; sinTable = sin8; break;
-    case 12: perQuadrant = 3; cosTable = cos12; sinTable = sin12; break;
-    case 16: perQuadrant = 4; cosTable = cos16; sinTable = sin16; break;
-    default: assertFailed("unitCircle: n is 4, 8, 12 or 16", __FILE__, __LINE__);
+    case 4:
+      perQuadrant = 1;
+      cosTable = cos4;
+      sinTable = sin4;
+      break;
+    case 8:
+      perQuadrant = 2;
+      cosTable = cos8;
+      sinTable = sin8;
+      break;
+    case 12:
+      perQuadrant = 3;
+      cosTable = cos12;
+      sinTable = sin12;
+      break;
+    case 16:
+      perQuadrant = 4;
+      cosTable = cos16;
+      sinTable = sin16;
+      break;
+    default:
+      assertFailed("unitCircle: n is 4, 8, 12 or 16", __FILE__, __LINE__);
   }
   const int j = ((k % n) + n) % n;
   const int quadrant = j / perQuadrant;
   const float c = cosTable[j % perQuadrant];
   const float s = sinTable[j % perQuadrant];
   switch (quadrant) {
-    case 0: return {c, s};
-    case 1: return {-s, c};
-    case 2: return {-c, -s};
-    default: return {s, -c};
+    case 0:
+      return {c, s};
+    case 1:
+      return {-s, c};
+    case 2:
+      return {-c, -s};
+    default:
+      return {s, -c};
   }
 }
 
@@ -90,7 +111,9 @@ uint8_t toByte(float value) {
 }
 
 // furniture darkens towards the floor (contact shadow), fully lit from 35 cm
-float contactShade(float y) { return 0.72f + 0.28f * std::min(1.0f, std::max(0.0f, y) / 0.35f); }
+float contactShade(float y) {
+  return 0.72f + 0.28f * std::min(1.0f, std::max(0.0f, y) / 0.35f);
+}
 
 }  // namespace
 
@@ -120,7 +143,8 @@ uint32_t MeshBuilder::vertex(const Vec3f& p, const Vec3f& normal,
   return static_cast<uint32_t>(mesh_.positions.size() - 1);
 }
 
-void MeshBuilder::triangle(uint32_t a, uint32_t b, uint32_t c, Surface surface) {
+void MeshBuilder::triangle(uint32_t a, uint32_t b, uint32_t c,
+                           Surface surface) {
   mesh_.indices.insert(mesh_.indices.end(), {a, b, c});
   mesh_.triangle_material.push_back(static_cast<int32_t>(surface));
   mesh_.triangle_object.push_back(object_);
@@ -138,9 +162,15 @@ void MeshBuilder::quad(const std::array<Vec3f, 4>& corners, const Vec3f& normal,
 
 void MeshBuilder::part(const Part& part, unsigned skipFaces) {
   switch (part.shape) {
-    case Shape::kBox: box(part, skipFaces); break;
-    case Shape::kSphere: sphere(part); break;
-    default: revolve(part); break;
+    case Shape::kBox:
+      box(part, skipFaces);
+      break;
+    case Shape::kSphere:
+      sphere(part);
+      break;
+    default:
+      revolve(part);
+      break;
   }
 }
 
@@ -180,8 +210,9 @@ void MeshBuilder::revolve(const Part& part) {
   const int u = (axis + 1) % 3, v = (axis + 2) % 3;
   const Vec3f center = 0.5f * (lo + hi);
   const float ru = 0.5f * (hi[u] - lo[u]), rv = 0.5f * (hi[v] - lo[v]);
-  const int n = std::max(ru, rv) > 0.12f ? 16 : (std::max(ru, rv) > 0.04f ? 12 : 8);
-  const float topScale = part.shape == Shape::kConeY     ? 0.0f
+  const int n =
+      std::max(ru, rv) > 0.12f ? 16 : (std::max(ru, rv) > 0.04f ? 12 : 8);
+  const float topScale = part.shape == Shape::kConeY      ? 0.0f
                          : part.shape == Shape::kFrustumY ? 0.5f
                                                           : 1.0f;
   Vec3f axisDir = Vec3f::Zero();
@@ -217,7 +248,8 @@ void MeshBuilder::revolve(const Part& part) {
     const Vec3f normal = radial(k);
     const Vec3f pb = ringPoint(k, 1.0f, lo[axis]);
     const Vec3f pt = ringPoint(k, topScale, hi[axis]);
-    bottom[k] = vertex(pb, normal, part.color, part.surface, contactShade(pb.y()));
+    bottom[k] =
+        vertex(pb, normal, part.color, part.surface, contactShade(pb.y()));
     top[k] = vertex(pt, normal, part.color, part.surface, contactShade(pt.y()));
   }
   for (int k = 0; k < n; ++k) {
@@ -230,11 +262,13 @@ void MeshBuilder::revolve(const Part& part) {
     Vec3f c = center;
     c[axis] = at;
     const Vec3f normal = sign * axisDir;
-    const uint32_t mid = vertex(c, normal, part.color, part.surface, contactShade(c.y()));
+    const uint32_t mid =
+        vertex(c, normal, part.color, part.surface, contactShade(c.y()));
     std::vector<uint32_t> ring(n);
     for (int k = 0; k < n; ++k) {
       const Vec3f p = ringPoint(k, scale, at);
-      ring[k] = vertex(p, normal, part.color, part.surface, contactShade(p.y()));
+      ring[k] =
+          vertex(p, normal, part.color, part.surface, contactShade(p.y()));
     }
     for (int k = 0; k < n; ++k) {
       const int k1 = (k + 1) % n;
@@ -297,8 +331,8 @@ void MeshBuilder::sphere(const Part& part) {
 
 namespace {
 
-constexpr float kSkirting = 0.08f;   // skirting board height, metres
-constexpr float kAoBand = 0.3f;      // width of corner darkening, metres
+constexpr float kSkirting = 0.08f;  // skirting board height, metres
+constexpr float kAoBand = 0.3f;     // width of corner darkening, metres
 constexpr float kCornerShade = 0.84f;
 
 float cm(int value) { return static_cast<float>(value) / 100.0f; }
@@ -308,16 +342,17 @@ bool near(float a, float b) { return std::abs(a - b) < 1e-3f; }
 // Whether the point (x, z) in centimetres lies strictly inside some room.
 bool insideHouse(const FloorPlan& plan, int x, int z) {
   for (const PlanRoom& room : plan.rooms)
-    if (x > room.cell.x0 && x < room.cell.x1 && z > room.cell.z0 && z < room.cell.z1)
+    if (x > room.cell.x0 && x < room.cell.x1 && z > room.cell.z0 &&
+        z < room.cell.z1)
       return true;
   return false;
 }
 
 // One side of a room's interior, as seen from inside the room.
 struct WallSide {
-  int axis = 2;         // axis of the face normal: 0 (x) or 2 (z)
-  int sign = 1;         // the normal points into the room
-  float plane = 0.0f;   // face position along `axis`
+  int axis = 2;                // axis of the face normal: 0 (x) or 2 (z)
+  int sign = 1;                // the normal points into the room
+  float plane = 0.0f;          // face position along `axis`
   float lo = 0.0f, hi = 0.0f;  // extent along the wall
   std::vector<std::array<float, 2>> openings;  // door spans along the wall
 };
@@ -326,7 +361,8 @@ class StructureBuilder {
  public:
   StructureBuilder(const FloorPlan& plan, const HouseStyle& style,
                    const HouseConfig& config,
-                   const std::vector<Eigen::AlignedBox2f>& holes, MeshBuilder& out)
+                   const std::vector<Eigen::AlignedBox2f>& holes,
+                   MeshBuilder& out)
       : plan_(plan),
         style_(style),
         holes_(holes),
@@ -408,11 +444,11 @@ class StructureBuilder {
     const std::vector<float> alongCuts{side.lo + kAoBand, side.hi - kAoBand};
     const std::vector<float> heightCuts{height_ - kAoBand, kSkirting + kAoBand};
     if (side.axis == 2) {
-      out_.grid(Vec3f(a, y0, side.plane), Vec3f(b, y1, side.plane), 2, side.sign,
-                alongCuts, heightCuts, color, surface, shade);
+      out_.grid(Vec3f(a, y0, side.plane), Vec3f(b, y1, side.plane), 2,
+                side.sign, alongCuts, heightCuts, color, surface, shade);
     } else {
-      out_.grid(Vec3f(side.plane, y0, a), Vec3f(side.plane, y1, b), 0, side.sign,
-                heightCuts, alongCuts, color, surface, shade);
+      out_.grid(Vec3f(side.plane, y0, a), Vec3f(side.plane, y1, b), 0,
+                side.sign, heightCuts, alongCuts, color, surface, shade);
     }
   }
 
@@ -432,7 +468,8 @@ class StructureBuilder {
     auto solid = [&](float a, float b) {
       if (b - a < 1e-4f) return;
       wallRect(side, a, b, 0.0f, kSkirting, style.trim, Surface::kPlain, shade);
-      wallRect(side, a, b, kSkirting, top, style.wall, style.wall_surface, shade);
+      wallRect(side, a, b, kSkirting, top, style.wall, style.wall_surface,
+               shade);
     };
     float cursor = lo;
     for (const auto& opening : side.openings) {
@@ -474,10 +511,11 @@ class StructureBuilder {
     }
   }
 
-  // ---- exterior shell and wall tops ------------------------------------------
-  // For every stretch of a room edge with no room across it: an outward face
-  // half a wall thickness out, and the wall's top. Ends are extended at
-  // convex corners and shortened at concave ones so the shell closes.
+  // ---- exterior shell and wall tops
+  // ------------------------------------------ For every stretch of a room edge
+  // with no room across it: an outward face half a wall thickness out, and the
+  // wall's top. Ends are extended at convex corners and shortened at concave
+  // ones so the shell closes.
   void exterior() {
     out_.setTint({1.0f, 1.0f, 1.0f});
     const float h = 0.5f * t_;
@@ -487,13 +525,20 @@ class StructureBuilder {
       // top of this room's half of each wall (a ring inside the cell)
       const float x0 = cm(c.x0), x1 = cm(c.x1), z0 = cm(c.z0), z1 = cm(c.z1);
       const Rgb8 top = style_.exterior;
-      out_.grid(Vec3f(x0, height_, z0), Vec3f(x1, height_, z0 + h), 1, 1, {}, {}, top, Surface::kPlain, flat);
-      out_.grid(Vec3f(x0, height_, z1 - h), Vec3f(x1, height_, z1), 1, 1, {}, {}, top, Surface::kPlain, flat);
-      out_.grid(Vec3f(x0, height_, z0 + h), Vec3f(x0 + h, height_, z1 - h), 1, 1, {}, {}, top, Surface::kPlain, flat);
-      out_.grid(Vec3f(x1 - h, height_, z0 + h), Vec3f(x1, height_, z1 - h), 1, 1, {}, {}, top, Surface::kPlain, flat);
+      out_.grid(Vec3f(x0, height_, z0), Vec3f(x1, height_, z0 + h), 1, 1, {},
+                {}, top, Surface::kPlain, flat);
+      out_.grid(Vec3f(x0, height_, z1 - h), Vec3f(x1, height_, z1), 1, 1, {},
+                {}, top, Surface::kPlain, flat);
+      out_.grid(Vec3f(x0, height_, z0 + h), Vec3f(x0 + h, height_, z1 - h), 1,
+                1, {}, {}, top, Surface::kPlain, flat);
+      out_.grid(Vec3f(x1 - h, height_, z0 + h), Vec3f(x1, height_, z1 - h), 1,
+                1, {}, {}, top, Surface::kPlain, flat);
 
       // edges: (along_x, line, lo, hi, outward sign)
-      struct Edge { bool alongX; int line, lo, hi, out; };
+      struct Edge {
+        bool alongX;
+        int line, lo, hi, out;
+      };
       const Edge edges[4] = {{true, c.z0, c.x0, c.x1, -1},
                              {true, c.z1, c.x0, c.x1, +1},
                              {false, c.x0, c.z0, c.z1, -1},
@@ -521,7 +566,8 @@ class StructureBuilder {
   }
 
   // +h at a convex end, -h at a concave one, 0 where the outline goes on
-  float endExtension(bool alongX, int line, int end, int direction, int out) const {
+  float endExtension(bool alongX, int line, int end, int direction,
+                     int out) const {
     const int beyond = end + direction;
     const bool outsideSide = alongX ? insideHouse(plan_, beyond, line + out)
                                     : insideHouse(plan_, line + out, beyond);

@@ -100,8 +100,8 @@ int Rng::weighted(const std::vector<float>& weights) {
 
 namespace {
 
-constexpr int kSnapCm = 10;            // room walls on a 10 cm grid
-constexpr int kHallwayMinCm = 120;     // hallway widths, centre to centre
+constexpr int kSnapCm = 10;         // room walls on a 10 cm grid
+constexpr int kHallwayMinCm = 120;  // hallway widths, centre to centre
 constexpr int kHallwayMaxCm = 170;
 constexpr int kMaxAttempts = 60;
 
@@ -164,11 +164,10 @@ class Planner {
       placeDoors(plan);
       return plan;
     }
-    throw std::invalid_argument(
-        strCat("HouseConfig: no floor plan with ", rooms, " rooms of sides ",
-               config_.min_room_size, "..", config_.max_room_size,
-               " m found in ", kMaxAttempts,
-               " attempts; widen the room size range"));
+    throw std::invalid_argument(strCat(
+        "HouseConfig: no floor plan with ", rooms, " rooms of sides ",
+        config_.min_room_size, "..", config_.max_room_size, " m found in ",
+        kMaxAttempts, " attempts; widen the room size range"));
   }
 
  private:
@@ -226,15 +225,16 @@ class Planner {
       for (size_t i = 0; i < cells.size(); ++i) {
         const int longSide = std::max(cells[i].width(), cells[i].depth());
         if (longSide < 2 * minSide_) continue;
-        if (best < 0 || cells[i].area() > cells[best].area()) best = static_cast<int>(i);
+        if (best < 0 || cells[i].area() > cells[best].area())
+          best = static_cast<int>(i);
       }
       if (best < 0) return {};
       const RectCm cell = cells[best];
       // split across the long side; near-square cells pick either way
       bool cutX = cell.width() >= cell.depth();
       const int shortSide = std::min(cell.width(), cell.depth());
-      if (shortSide >= 2 * minSide_ &&
-          cell.width() * 4 < cell.depth() * 5 && cell.depth() * 4 < cell.width() * 5)
+      if (shortSide >= 2 * minSide_ && cell.width() * 4 < cell.depth() * 5 &&
+          cell.depth() * 4 < cell.width() * 5)
         cutX = rng_.chance(0.5f);
       const int span = cutX ? cell.width() : cell.depth();
       const int origin = cutX ? cell.x0 : cell.z0;
@@ -269,18 +269,22 @@ class Planner {
     const int south = sideRooms - blockRooms - north;
     if (south < 1) return {};
     // side strips: depths within the room size range
-    const int depthN = snap(rng_.uniform(static_cast<float>(minSide_),
-                                         std::min(maxSide_, minSide_ + 200) + 0.0f));
-    const int depthS = snap(rng_.uniform(static_cast<float>(minSide_),
-                                         std::min(maxSide_, minSide_ + 200) + 0.0f));
+    const int depthN =
+        snap(rng_.uniform(static_cast<float>(minSide_),
+                          std::min(maxSide_, minSide_ + 200) + 0.0f));
+    const int depthS =
+        snap(rng_.uniform(static_cast<float>(minSide_),
+                          std::min(maxSide_, minSide_ + 200) + 0.0f));
     // length: enough for the busier side's rooms
-    const int perRoom = snap(rng_.uniform(static_cast<float>(minSide_) * 1.1f,
-                                          0.5f * static_cast<float>(minSide_ + maxSide_)));
+    const int perRoom =
+        snap(rng_.uniform(static_cast<float>(minSide_) * 1.1f,
+                          0.5f * static_cast<float>(minSide_ + maxSide_)));
     const int length = perRoom * std::max(north, south);
     const int x0 = -snap(length / 2.0f);
     const int z0 = -snap((depthN + hall + depthS) / 2.0f);
     std::vector<PlanRoom> out;
-    out.push_back({"hallway", {x0, z0 + depthN, x0 + length, z0 + depthN + hall}});
+    out.push_back(
+        {"hallway", {x0, z0 + depthN, x0 + length, z0 + depthN + hall}});
     auto strip = [&](RectCm rect, int rooms) {
       // split only across x so each piece keeps the hallway edge
       std::vector<int> cuts{rect.x0};
@@ -298,7 +302,8 @@ class Planner {
         out.push_back({"", {cuts[i], rect.z0, cuts[i + 1], rect.z1}});
     };
     strip({x0, z0, x0 + length, z0 + depthN}, north);
-    strip({x0, z0 + depthN + hall, x0 + length, z0 + depthN + hall + depthS}, south);
+    strip({x0, z0 + depthN + hall, x0 + length, z0 + depthN + hall + depthS},
+          south);
     if (blockRooms > 0) {
       // an open block across the hallway's east end
       const int blockWidth = snap(rng_.uniform(static_cast<float>(minSide_),
@@ -421,10 +426,13 @@ class Planner {
       const char* type;
       float chance;
     };
-    const Extra pool[] = {{"dining room", 0.8f}, {"office", 0.7f},
-                          {"laundry room", 0.45f}, {"closet", 0.4f},
+    const Extra pool[] = {{"dining room", 0.8f},
+                          {"office", 0.7f},
+                          {"laundry room", 0.45f},
+                          {"closet", 0.4f},
                           {"bathroom", bathrooms == 1 ? 0.4f : 0.0f},
-                          {"hallway", 0.3f}, {"office", 0.2f}};
+                          {"hallway", 0.3f},
+                          {"office", 0.2f}};
     for (const Extra& extra : pool) {
       if (extras <= 0 || order.empty()) break;
       if (!rng_.chance(extra.chance)) continue;
@@ -476,7 +484,8 @@ class Planner {
       if (p == "hallway") score += 0.6f;
       if (c == "bathroom" && (p == "hallway" || p == "bedroom")) score += 1.0f;
       if (c == "closet" && (p == "bedroom" || p == "hallway")) score += 1.0f;
-      if (c == "laundry room" && (p == "kitchen" || p == "hallway")) score += 1.0f;
+      if (c == "laundry room" && (p == "kitchen" || p == "hallway"))
+        score += 1.0f;
       if ((p == "kitchen" && c == "dining room") ||
           (p == "dining room" && c == "kitchen") ||
           (p == "living room" && (c == "dining room" || c == "kitchen")))
@@ -495,7 +504,8 @@ class Planner {
         for (int p = 0; p < n; ++p) {
           if (!inTree[p] || (pass == 0 && isLeafType(rooms[p].type))) continue;
           for (int c = 0; c < n; ++c) {
-            if (inTree[c] || !canHaveDoor(rooms[p].cell, rooms[c].cell)) continue;
+            if (inTree[c] || !canHaveDoor(rooms[p].cell, rooms[c].cell))
+              continue;
             const float score = affinity(p, c) + rng_.uniform();
             if (score > bestScore) {
               bestScore = score;
@@ -520,7 +530,8 @@ class Planner {
             isLeafType(rooms[a].type) || isLeafType(rooms[b].type) ||
             !canHaveDoor(rooms[a].cell, rooms[b].cell))
           continue;
-        const bool hall = rooms[a].type == "hallway" || rooms[b].type == "hallway";
+        const bool hall =
+            rooms[a].type == "hallway" || rooms[b].type == "hallway";
         if (!rng_.chance(hall ? 0.5f : 0.25f)) continue;
         addDoor(plan, a, b);
         joined.insert({a, b});
@@ -568,7 +579,8 @@ Doorway toDoorway(const PlanDoor& door) {
   out.room_b = door.room_b;
   const float line = static_cast<float>(door.line_cm) / 100.0f;
   const float center = static_cast<float>(door.center_cm) / 100.0f;
-  out.center = door.along_x ? Vec3f(center, 0.0f, line) : Vec3f(line, 0.0f, center);
+  out.center =
+      door.along_x ? Vec3f(center, 0.0f, line) : Vec3f(line, 0.0f, center);
   out.width = static_cast<float>(door.width_cm) / 100.0f;
   out.normal = door.along_x ? Vec3f::UnitZ() : Vec3f::UnitX();
   return out;

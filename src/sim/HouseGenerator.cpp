@@ -55,12 +55,12 @@ const std::vector<std::string>& houseRoomTypes() {
 
 const std::vector<std::string>& houseObjectCategories() {
   static const std::vector<std::string> categories = {
-      "bed",     "nightstand", "wardrobe",       "dresser",  "sofa",
-      "armchair", "coffee table", "table",       "chair",    "tv",
-      "plant",   "lamp",       "bookcase",       "shelf",    "desk",
-      "cabinet", "counter",    "kitchen island", "stove",    "fridge",
-      "sink",    "toilet",     "bathtub",        "washing machine",
-      "rug",     "picture",    "mirror",         "piano",    "window"};
+      "bed",      "nightstand",   "wardrobe",       "dresser",         "sofa",
+      "armchair", "coffee table", "table",          "chair",           "tv",
+      "plant",    "lamp",         "bookcase",       "shelf",           "desk",
+      "cabinet",  "counter",      "kitchen island", "stove",           "fridge",
+      "sink",     "toilet",       "bathtub",        "washing machine", "rug",
+      "picture",  "mirror",       "piano",          "window"};
   return categories;
 }
 
@@ -76,7 +76,8 @@ const std::vector<std::string>& houseColorNames() {
 Rgb8 house::namedColor(const std::string& name) {
   for (const NamedColor& c : namedColors())
     if (name == c.name) return c.rgb;
-  assertFailed(("namedColor: unknown colour " + name).c_str(), __FILE__, __LINE__);
+  assertFailed(("namedColor: unknown colour " + name).c_str(), __FILE__,
+               __LINE__);
 }
 
 Eigen::AlignedBox2f doorwayClearZone(const Doorway& door) {
@@ -122,8 +123,8 @@ House generateHouse(uint64_t seed, const HouseConfig& config,
     material.name = house::surfaceName(surface);
     if (textured && surface != house::Surface::kPlain) {
       material.texture = static_cast<int>(mesh.textures.size());
-      mesh.textures.push_back(
-          house::makeSurfaceTexture(surface, textureRng, config.texture_detail));
+      mesh.textures.push_back(house::makeSurfaceTexture(surface, textureRng,
+                                                        config.texture_detail));
     }
     mesh.materials.push_back(std::move(material));
   }
@@ -141,7 +142,8 @@ House generateHouse(uint64_t seed, const HouseConfig& config,
     }
     // bounds from the vertices themselves, so they match the mesh exactly
     Eigen::AlignedBox3f bounds;
-    for (size_t v = first; v < mesh.positions.size(); ++v) bounds.extend(mesh.positions[v]);
+    for (size_t v = first; v < mesh.positions.size(); ++v)
+      bounds.extend(mesh.positions[v]);
     object.semantic.bounds = bounds;
   }
 

@@ -1,10 +1,10 @@
 #include "sim/MeshIo.h"
 
-#include <assimp/Importer.hpp>
 #include <assimp/config.h>
 #include <assimp/material.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
+#include <assimp/Importer.hpp>
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -41,18 +41,21 @@ constexpr std::string_view kStructureNode = "structure";
 
 std::string lowerExtension(const fs::path& file) {
   std::string ext = file.extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) {
+    return static_cast<char>(std::tolower(c));
+  });
   return ext;
 }
 
 // "object_<id>" -> id; anything else (including "object_12a") -> nullopt
 std::optional<int> parseObjectName(std::string_view name) {
-  if (name.substr(0, kObjectPrefix.size()) != kObjectPrefix) return std::nullopt;
+  if (name.substr(0, kObjectPrefix.size()) != kObjectPrefix)
+    return std::nullopt;
   std::string_view digits = name.substr(kObjectPrefix.size());
   if (digits.empty()) return std::nullopt;
   int id = 0;
-  auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), id);
+  auto [end, ec] =
+      std::from_chars(digits.data(), digits.data() + digits.size(), id);
   if (ec != std::errc() || end != digits.data() + digits.size() || id < 0)
     return std::nullopt;
   return id;
@@ -107,7 +110,8 @@ using TriangleGroups = std::map<int, std::map<int, std::vector<uint32_t>>>;
 TriangleGroups groupTriangles(const TriangleMesh& mesh) {
   TriangleGroups groups;
   for (uint32_t t = 0; t < mesh.triangleCount(); ++t) {
-    const int object = mesh.triangle_object.empty() ? -1 : mesh.triangle_object[t];
+    const int object =
+        mesh.triangle_object.empty() ? -1 : mesh.triangle_object[t];
     const int material =
         mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
     groups[object < 0 ? -1 : object][material < 0 ? -1 : material].push_back(t);
@@ -128,7 +132,8 @@ void keepUsedMaterials(TriangleMesh& mesh,
   std::vector<int> newMaterial(mesh.materials.size(), -1);
   std::vector<Material> materials;
   auto visit = [&](uint32_t t) {
-    const int m = mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
+    const int m =
+        mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
     if (m >= 0 && newMaterial[m] < 0) {
       newMaterial[m] = static_cast<int>(materials.size());
       materials.push_back(mesh.materials[m]);
@@ -175,9 +180,8 @@ class GlbBuffer {
   // appends raw bytes as a new bufferView (4-byte aligned); returns its index
   int addView(const void* data, size_t bytes, std::optional<int> target) {
     while (bin_.size() % 4 != 0) bin_.push_back('\0');
-    json view = {{"buffer", 0},
-                 {"byteOffset", bin_.size()},
-                 {"byteLength", bytes}};
+    json view = {
+        {"buffer", 0}, {"byteOffset", bin_.size()}, {"byteLength", bytes}};
     if (target) view["target"] = *target;
     bin_.append(static_cast<const char*>(data), bytes);
     views_.push_back(std::move(view));
@@ -301,9 +305,10 @@ void writeGlb(const fs::path& file, const TriangleMesh& input) {
                 {"metallicFactor", 0.0f},
                 {"roughnessFactor", 1.0f}};
     if (m.texture >= 0) pbr["baseColorTexture"] = {{"index", m.texture}};
-    materials.push_back({{"name", m.name},
-                         {"pbrMetallicRoughness", std::move(pbr)},
-                         {"extensions", {{"KHR_materials_unlit", json::object()}}}});
+    materials.push_back(
+        {{"name", m.name},
+         {"pbrMetallicRoughness", std::move(pbr)},
+         {"extensions", {{"KHR_materials_unlit", json::object()}}}});
   }
 
   // textures: PNG images embedded through bufferViews
@@ -414,8 +419,8 @@ void writeObj(const fs::path& file, const TriangleMesh& mesh) {
     VLN_CHECK_ARG(name != AI_DEFAULT_MATERIAL_NAME, "saveScene(): ", file,
                   ": material name '", name,
                   "' is reserved for triangles without a material");
-    VLN_CHECK_ARG(usedMaterialNames.insert(name).second, "saveScene(): ",
-                  file, ": two materials are both named '", name, "'");
+    VLN_CHECK_ARG(usedMaterialNames.insert(name).second, "saveScene(): ", file,
+                  ": two materials are both named '", name, "'");
     materialNames.push_back(std::move(name));
   }
   std::set<std::string> usedTextureFiles;
@@ -427,8 +432,9 @@ void writeObj(const fs::path& file, const TriangleMesh& mesh) {
                   "'");
     textureFiles.push_back(std::move(name));
   }
-  std::string mtl = "# vlnce-cpp material library (unlit: colour = Kd x "
-                    "vertex colour x map_Kd)\n";
+  std::string mtl =
+      "# vlnce-cpp material library (unlit: colour = Kd x "
+      "vertex colour x map_Kd)\n";
   for (size_t i = 0; i < mesh.materials.size(); ++i) {
     const Material& m = mesh.materials[i];
     mtl += strCat("newmtl ", materialNames[i], "\n");
@@ -559,7 +565,8 @@ class SceneImporter {
 
     cv::Mat bgr;
     std::string name;
-    if (auto [embedded, index] = scene_.GetEmbeddedTextureAndIndex(path.c_str());
+    if (auto [embedded, index] =
+            scene_.GetEmbeddedTextureAndIndex(path.c_str());
         embedded != nullptr) {
       name = embedded->mFilename.length > 0
                  ? std::string(embedded->mFilename.C_Str())
@@ -585,8 +592,9 @@ class SceneImporter {
                    materialName, "' uses texture ", image,
                    " which does not exist");
       bgr = cv::imread(image.string(), cv::IMREAD_COLOR);
-      VLN_CHECK_IO(!bgr.empty(), "loadScene(): ", file_, ": cannot decode texture ",
-                   image, " of material '", materialName, "'");
+      VLN_CHECK_IO(!bgr.empty(), "loadScene(): ", file_,
+                   ": cannot decode texture ", image, " of material '",
+                   materialName, "'");
       name = image.stem().string();
       // undo the scene-stem prefix that saveScene() adds (see textureFileName)
       const std::string prefix = file_.stem().string() + "_";
@@ -665,10 +673,10 @@ class SceneImporter {
       const Vec2f uv = hasUvs ? Vec2f(source.mTextureCoords[0][v].x,
                                       source.mTextureCoords[0][v].y)
                               : Vec2f::Zero();
-      const VertexKey key{{floatBits(position.x()), floatBits(position.y()),
-                           floatBits(position.z()), floatBits(uv.x()),
-                           floatBits(uv.y())},
-                          color};
+      const VertexKey key{
+          {floatBits(position.x()), floatBits(position.y()),
+           floatBits(position.z()), floatBits(uv.x()), floatBits(uv.y())},
+          color};
       auto [it, inserted] =
           seen.emplace(key, static_cast<uint32_t>(mesh_.positions.size()));
       if (inserted) {
@@ -683,16 +691,17 @@ class SceneImporter {
       const aiFace& face = source.mFaces[f];
       if (face.mNumIndices != 3) continue;  // stray points and lines
       for (int k = 0; k < 3; ++k)
-        VLN_CHECK_ARG(face.mIndices[k] < source.mNumVertices, "loadScene(): ",
-                      file_, ": mesh '", source.mName.C_Str(), "' face ", f,
-                      " refers to vertex ", face.mIndices[k], " of ",
-                      source.mNumVertices);
+        VLN_CHECK_ARG(face.mIndices[k] < source.mNumVertices,
+                      "loadScene(): ", file_, ": mesh '", source.mName.C_Str(),
+                      "' face ", f, " refers to vertex ", face.mIndices[k],
+                      " of ", source.mNumVertices);
       // a corner repeated (by index or position) leaves no area
       const aiVector3D& a = source.mVertices[face.mIndices[0]];
       const aiVector3D& b = source.mVertices[face.mIndices[1]];
       const aiVector3D& c = source.mVertices[face.mIndices[2]];
       if (a == b || b == c || a == c) continue;
-      for (int k = 0; k < 3; ++k) mesh_.indices.push_back(vertex(face.mIndices[k]));
+      for (int k = 0; k < 3; ++k)
+        mesh_.indices.push_back(vertex(face.mIndices[k]));
       mesh_.triangle_material.push_back(material);
       mesh_.triangle_object.push_back(object);
       anyColors_ = anyColors_ || hasColors;
@@ -737,7 +746,8 @@ json vecJson(const Vec3f& v) { return {v.x(), v.y(), v.z()}; }
 template <int N>
 Eigen::Matrix<float, N, 1> readVec(const json& object, std::string_view key,
                                    const std::string& context) {
-  const auto values = common::requireField<std::vector<float>>(object, key, context);
+  const auto values =
+      common::requireField<std::vector<float>>(object, key, context);
   VLN_CHECK_ARG(values.size() == N, context, ": field '", key, "' needs ", N,
                 " numbers, got ", values.size());
   Eigen::Matrix<float, N, 1> v;
@@ -814,8 +824,8 @@ SceneSemantics loadSemantics(const fs::path& file) {
     door.room_b = common::requireField<int>(doors[i], "room_b", context);
     door.center = readVec<3>(doors[i], "center", context);
     door.width = common::requireField<float>(doors[i], "width", context);
-    VLN_CHECK_ARG(door.width > 0.0f, context, ": field 'width' must be > 0, got ",
-                  door.width);
+    VLN_CHECK_ARG(door.width > 0.0f, context,
+                  ": field 'width' must be > 0, got ", door.width);
     door.normal = readVec<3>(doors[i], "normal", context);
     semantics.doors.push_back(door);
   }
@@ -832,7 +842,8 @@ SceneSemantics loadSemantics(const fs::path& file) {
                   ": field 'id' repeats id ", object.id);
     object.category =
         common::requireField<std::string>(objects[i], "category", context);
-    object.color = common::requireField<std::string>(objects[i], "color", context);
+    object.color =
+        common::requireField<std::string>(objects[i], "color", context);
     object.room = common::requireField<int>(objects[i], "room", context);
     object.bounds = readBox<3>(objects[i], "bounds", context);
     semantics.objects.push_back(std::move(object));
@@ -841,16 +852,20 @@ SceneSemantics loadSemantics(const fs::path& file) {
   // room references must resolve
   std::set<int> roomIds;
   for (const Room& room : semantics.rooms) roomIds.insert(room.id);
-  auto checkRoom = [&](int room, const std::string& context, std::string_view field) {
+  auto checkRoom = [&](int room, const std::string& context,
+                       std::string_view field) {
     VLN_CHECK_ARG(room == -1 || roomIds.count(room) > 0, context, ": field '",
                   field, "' names room ", room, " which is not in 'rooms'");
   };
   for (size_t i = 0; i < semantics.doors.size(); ++i) {
-    checkRoom(semantics.doors[i].room_a, strCat(source, ": doors[", i, "]"), "room_a");
-    checkRoom(semantics.doors[i].room_b, strCat(source, ": doors[", i, "]"), "room_b");
+    checkRoom(semantics.doors[i].room_a, strCat(source, ": doors[", i, "]"),
+              "room_a");
+    checkRoom(semantics.doors[i].room_b, strCat(source, ": doors[", i, "]"),
+              "room_b");
   }
   for (size_t i = 0; i < semantics.objects.size(); ++i)
-    checkRoom(semantics.objects[i].room, strCat(source, ": objects[", i, "]"), "room");
+    checkRoom(semantics.objects[i].room, strCat(source, ": objects[", i, "]"),
+              "room");
   return semantics;
 }
 

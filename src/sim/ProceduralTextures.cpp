@@ -28,28 +28,45 @@ float surfacePeriod(Surface surface) {
   // metres covered by one texture repeat (plank, tile and stripe sizes of
   // ordinary interiors: 20 cm planks, 30 cm tiles, 6 cm stripes)
   switch (surface) {
-    case Surface::kWoodFloor: return 1.6f;
-    case Surface::kTiles: return 0.6f;
-    case Surface::kCarpet: return 0.5f;
-    case Surface::kWallpaper: return 0.5f;
-    case Surface::kPlaster: return 1.2f;
-    case Surface::kWood: return 0.6f;
-    case Surface::kFabric: return 0.25f;
-    default: return 1.0f;
+    case Surface::kWoodFloor:
+      return 1.6f;
+    case Surface::kTiles:
+      return 0.6f;
+    case Surface::kCarpet:
+      return 0.5f;
+    case Surface::kWallpaper:
+      return 0.5f;
+    case Surface::kPlaster:
+      return 1.2f;
+    case Surface::kWood:
+      return 0.6f;
+    case Surface::kFabric:
+      return 0.25f;
+    default:
+      return 1.0f;
   }
 }
 
 const char* surfaceName(Surface surface) {
   switch (surface) {
-    case Surface::kPlain: return "plain";
-    case Surface::kWoodFloor: return "wood_floor";
-    case Surface::kTiles: return "tiles";
-    case Surface::kCarpet: return "carpet";
-    case Surface::kWallpaper: return "wallpaper";
-    case Surface::kPlaster: return "plaster";
-    case Surface::kWood: return "wood";
-    case Surface::kFabric: return "fabric";
-    default: return "unknown";
+    case Surface::kPlain:
+      return "plain";
+    case Surface::kWoodFloor:
+      return "wood_floor";
+    case Surface::kTiles:
+      return "tiles";
+    case Surface::kCarpet:
+      return "carpet";
+    case Surface::kWallpaper:
+      return "wallpaper";
+    case Surface::kPlaster:
+      return "plaster";
+    case Surface::kWood:
+      return "wood";
+    case Surface::kFabric:
+      return "fabric";
+    default:
+      return "unknown";
   }
 }
 
@@ -68,18 +85,20 @@ const std::vector<Rgb8> kWallPaints = {
     {236, 233, 224}, {224, 212, 186}, {208, 208, 202}, {192, 210, 224},
     {202, 220, 192}, {238, 228, 176}, {232, 204, 198}, {216, 198, 164},
     {210, 202, 224}, {198, 228, 212}, {222, 176, 146}, {160, 178, 196}};
-const std::vector<Rgb8> kBathroomPaints = {
-    {240, 240, 236}, {200, 222, 232}, {214, 232, 220}, {232, 228, 214},
-    {190, 204, 214}};
-const std::vector<Rgb8> kWoodFloors = {
-    {200, 160, 112}, {124, 88, 58}, {184, 134, 84}, {154, 144, 134},
-    {218, 186, 142}, {150, 100, 64}};
-const std::vector<Rgb8> kTileFloors = {
-    {232, 232, 228}, {172, 172, 170}, {212, 198, 172}, {178, 100, 74},
-    {142, 162, 178}, {96, 96, 100}};
-const std::vector<Rgb8> kCarpets = {
-    {192, 178, 152}, {142, 142, 142}, {94, 112, 142}, {112, 132, 102},
-    {172, 124, 124}, {120, 100, 84}};
+const std::vector<Rgb8> kBathroomPaints = {{240, 240, 236},
+                                           {200, 222, 232},
+                                           {214, 232, 220},
+                                           {232, 228, 214},
+                                           {190, 204, 214}};
+const std::vector<Rgb8> kWoodFloors = {{200, 160, 112}, {124, 88, 58},
+                                       {184, 134, 84},  {154, 144, 134},
+                                       {218, 186, 142}, {150, 100, 64}};
+const std::vector<Rgb8> kTileFloors = {{232, 232, 228}, {172, 172, 170},
+                                       {212, 198, 172}, {178, 100, 74},
+                                       {142, 162, 178}, {96, 96, 100}};
+const std::vector<Rgb8> kCarpets = {{192, 178, 152}, {142, 142, 142},
+                                    {94, 112, 142},  {112, 132, 102},
+                                    {172, 124, 124}, {120, 100, 84}};
 const std::vector<Rgb8> kCeilings = {
     {242, 242, 238}, {236, 234, 226}, {246, 244, 240}};
 const std::vector<Rgb8> kTrims = {
@@ -111,11 +130,14 @@ HouseStyle chooseStyle(Rng& rng, const FloorPlan& plan) {
     // walls: paint, wallpaper in living spaces, tiles in wet rooms
     style.wall = pick(rng, wet ? kBathroomPaints : kWallPaints);
     if (wet)
-      style.wall_surface = rng.chance(0.7f) ? Surface::kTiles : Surface::kPlaster;
+      style.wall_surface =
+          rng.chance(0.7f) ? Surface::kTiles : Surface::kPlaster;
     else if (kitchen)
-      style.wall_surface = rng.chance(0.3f) ? Surface::kTiles : Surface::kPlaster;
+      style.wall_surface =
+          rng.chance(0.3f) ? Surface::kTiles : Surface::kPlaster;
     else
-      style.wall_surface = rng.chance(0.3f) ? Surface::kWallpaper : Surface::kPlaster;
+      style.wall_surface =
+          rng.chance(0.3f) ? Surface::kWallpaper : Surface::kPlaster;
 
     // floors by room type: (wood, tiles, carpet) weights
     std::vector<float> weights{0.6f, 0.2f, 0.2f};
@@ -154,8 +176,9 @@ namespace {
 
 // hash of a lattice point to [0, 1)
 float latticeValue(int x, int y, uint64_t seed) {
-  const uint64_t h = mix64(seed ^ (static_cast<uint64_t>(static_cast<uint32_t>(x)) << 32) ^
-                           static_cast<uint32_t>(y));
+  const uint64_t h =
+      mix64(seed ^ (static_cast<uint64_t>(static_cast<uint32_t>(x)) << 32) ^
+            static_cast<uint32_t>(y));
   return static_cast<float>(h >> 40) * (1.0f / 16777216.0f);
 }
 
@@ -179,7 +202,8 @@ float valueNoise(float x, float y, int period, uint64_t seed) {
 
 class Canvas {
  public:
-  Canvas(int size, float detail) : size_(size), detail_(detail), value_(size * size, 1.0f) {}
+  Canvas(int size, float detail)
+      : size_(size), detail_(detail), value_(size * size, 1.0f) {}
   int size() const { return size_; }
   float& at(int x, int y) { return value_[static_cast<size_t>(y) * size_ + x]; }
 
@@ -191,9 +215,12 @@ class Canvas {
     texture.height = size_;
     texture.rgb.resize(static_cast<size_t>(size_) * size_ * 3);
     for (size_t i = 0; i < value_.size(); ++i) {
-      const float v = 1.0f - detail_ * (1.0f - std::clamp(value_[i], 0.0f, 1.0f));
-      const auto byte = static_cast<uint8_t>(std::clamp(v * 255.0f + 0.5f, 0.0f, 255.0f));
-      texture.rgb[3 * i] = texture.rgb[3 * i + 1] = texture.rgb[3 * i + 2] = byte;
+      const float v =
+          1.0f - detail_ * (1.0f - std::clamp(value_[i], 0.0f, 1.0f));
+      const auto byte =
+          static_cast<uint8_t>(std::clamp(v * 255.0f + 0.5f, 0.0f, 255.0f));
+      texture.rgb[3 * i] = texture.rgb[3 * i + 1] = texture.rgb[3 * i + 2] =
+          byte;
     }
     return texture;
   }
@@ -215,7 +242,8 @@ Texture woodFloor(Rng& rng, float detail) {
     const int joints = rng.intIn(1, 2);
     std::vector<int> cuts;
     const int first = rng.intIn(0, c.size() - 1);
-    for (int j = 0; j < joints; ++j) cuts.push_back((first + j * c.size() / joints) % c.size());
+    for (int j = 0; j < joints; ++j)
+      cuts.push_back((first + j * c.size() / joints) % c.size());
     std::sort(cuts.begin(), cuts.end());
     std::vector<float> tone(cuts.size());
     for (float& t : tone) t = rng.uniform(0.8f, 1.0f);
@@ -248,9 +276,10 @@ Texture tiles(Rng& rng, float detail) {
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x) {
       const bool line = x % 32 < 2 || y % 32 < 2;
-      c.at(x, y) = line ? grout
-                        : tone[y / 32][x / 32] +
-                              0.05f * (valueNoise(x / 8.0f, y / 8.0f, 8, seed) - 0.5f);
+      c.at(x, y) =
+          line ? grout
+               : tone[y / 32][x / 32] +
+                     0.05f * (valueNoise(x / 8.0f, y / 8.0f, 8, seed) - 0.5f);
     }
   return c.finish(surfaceName(Surface::kTiles));
 }
@@ -261,7 +290,8 @@ Texture carpet(Rng& rng, float detail) {
   const uint64_t seed = (uint64_t{rng.next()} << 32) | rng.next();
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x)
-      c.at(x, y) = 0.9f + 0.08f * (valueNoise(x / 16.0f, y / 16.0f, 4, seed) - 0.5f) +
+      c.at(x, y) = 0.9f +
+                   0.08f * (valueNoise(x / 16.0f, y / 16.0f, 4, seed) - 0.5f) +
                    0.08f * (latticeValue(x, y, seed + 1) - 0.5f);
   return c.finish(surfaceName(Surface::kCarpet));
 }
@@ -288,8 +318,9 @@ Texture plaster(Rng& rng, float detail) {
   const uint64_t seed = (uint64_t{rng.next()} << 32) | rng.next();
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x)
-      c.at(x, y) = 0.96f + 0.035f * (valueNoise(x / 16.0f, y / 16.0f, 4, seed) - 0.5f) +
-                   0.015f * (valueNoise(x / 4.0f, y / 4.0f, 16, seed + 7) - 0.5f);
+      c.at(x, y) =
+          0.96f + 0.035f * (valueNoise(x / 16.0f, y / 16.0f, 4, seed) - 0.5f) +
+          0.015f * (valueNoise(x / 4.0f, y / 4.0f, 16, seed + 7) - 0.5f);
   return c.finish(surfaceName(Surface::kPlaster));
 }
 
@@ -315,7 +346,8 @@ Texture fabric(Rng& rng, float detail) {
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x) {
       const bool over = ((x / 2) + (y / 2)) % 2 == 0;
-      c.at(x, y) = (over ? 1.0f : 0.9f) + 0.04f * (latticeValue(x, y, seed) - 0.5f);
+      c.at(x, y) =
+          (over ? 1.0f : 0.9f) + 0.04f * (latticeValue(x, y, seed) - 0.5f);
     }
   return c.finish(surfaceName(Surface::kFabric));
 }
@@ -324,16 +356,25 @@ Texture fabric(Rng& rng, float detail) {
 
 Texture makeSurfaceTexture(Surface surface, Rng& rng, float detail) {
   switch (surface) {
-    case Surface::kWoodFloor: return woodFloor(rng, detail);
-    case Surface::kTiles: return tiles(rng, detail);
-    case Surface::kCarpet: return carpet(rng, detail);
-    case Surface::kWallpaper: return wallpaper(rng, detail);
-    case Surface::kPlaster: return plaster(rng, detail);
-    case Surface::kWood: return wood(rng, detail);
-    case Surface::kFabric: return fabric(rng, detail);
-    default: break;
+    case Surface::kWoodFloor:
+      return woodFloor(rng, detail);
+    case Surface::kTiles:
+      return tiles(rng, detail);
+    case Surface::kCarpet:
+      return carpet(rng, detail);
+    case Surface::kWallpaper:
+      return wallpaper(rng, detail);
+    case Surface::kPlaster:
+      return plaster(rng, detail);
+    case Surface::kWood:
+      return wood(rng, detail);
+    case Surface::kFabric:
+      return fabric(rng, detail);
+    default:
+      break;
   }
-  assertFailed("makeSurfaceTexture: the plain surface has no texture", __FILE__, __LINE__);
+  assertFailed("makeSurfaceTexture: the plain surface has no texture", __FILE__,
+               __LINE__);
 }
 
 }  // namespace vln::sim::house

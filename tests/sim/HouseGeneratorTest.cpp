@@ -35,11 +35,13 @@ const std::vector<House>& houses() {
   return all;
 }
 
-bool strictlyOverlap(const Eigen::AlignedBox2f& a, const Eigen::AlignedBox2f& b) {
+bool strictlyOverlap(const Eigen::AlignedBox2f& a,
+                     const Eigen::AlignedBox2f& b) {
   return (a.min().array() < b.max().array()).all() &&
          (b.min().array() < a.max().array()).all();
 }
-bool strictlyOverlap(const Eigen::AlignedBox3f& a, const Eigen::AlignedBox3f& b) {
+bool strictlyOverlap(const Eigen::AlignedBox3f& a,
+                     const Eigen::AlignedBox3f& b) {
   return (a.min().array() < b.max().array()).all() &&
          (b.min().array() < a.max().array()).all();
 }
@@ -77,7 +79,8 @@ uint64_t fingerprint(const House& house) {
     f.add(r.footprint.min().data(), sizeof(float) * 2);
     f.add(r.footprint.max().data(), sizeof(float) * 2);
   }
-  for (const Doorway& d : house.semantics.doors) f.add(d.center.data(), sizeof(float) * 3);
+  for (const Doorway& d : house.semantics.doors)
+    f.add(d.center.data(), sizeof(float) * 3);
   for (const SemanticObject& o : house.semantics.objects) {
     f.addString(o.category);
     f.addString(o.color);
@@ -197,8 +200,8 @@ TEST(HouseGeneratorTest, EveryRoomIsReachableThroughDoorways) {
         }
     }
     for (size_t r = 0; r < rooms.size(); ++r)
-      EXPECT_TRUE(seen[r]) << house.name << ": room " << r << " (" << rooms[r].type
-                           << ") has no path of doorways";
+      EXPECT_TRUE(seen[r]) << house.name << ": room " << r << " ("
+                           << rooms[r].type << ") has no path of doorways";
   }
 }
 
@@ -217,14 +220,16 @@ TEST(HouseGeneratorTest, DoorwaysSitInTheWallBetweenTheirRooms) {
       const Vec2f along(-door.normal.z(), door.normal.x());
       for (float s : {-0.5f, 0.5f}) {
         const Vec2f end = c + s * door.width * along;
-        const Eigen::AlignedBox2f pad(end - Vec2f(1e-4f, 1e-4f), end + Vec2f(1e-4f, 1e-4f));
+        const Eigen::AlignedBox2f pad(end - Vec2f(1e-4f, 1e-4f),
+                                      end + Vec2f(1e-4f, 1e-4f));
         EXPECT_TRUE(a.footprint.intersects(pad)) << house.name;
         EXPECT_TRUE(b.footprint.intersects(pad)) << house.name;
       }
       // half a metre to either side along the normal lands in the two rooms
       const Vec3f inA = door.center + 0.5f * door.normal;
       const Vec3f inB = door.center - 0.5f * door.normal;
-      const std::set<int> sides{house.semantics.roomAt(inA), house.semantics.roomAt(inB)};
+      const std::set<int> sides{house.semantics.roomAt(inA),
+                                house.semantics.roomAt(inB)};
       EXPECT_EQ(sides, (std::set<int>{door.room_a, door.room_b})) << house.name;
     }
   }
@@ -270,7 +275,8 @@ TEST(HouseGeneratorTest, ObjectsStayInsideTheirRoomAndOutOfTheWay) {
       ASSERT_LT(o.room, static_cast<int>(house.semantics.rooms.size()));
       const Eigen::AlignedBox2f fp = footprint(o.bounds);
       EXPECT_TRUE(house.semantics.rooms[o.room].footprint.contains(fp))
-          << house.name << ": " << o.category << " " << o.id << " leaves its room";
+          << house.name << ": " << o.category << " " << o.id
+          << " leaves its room";
       EXPECT_GE(o.bounds.min().y(), 0.0f);
       EXPECT_LE(o.bounds.max().y(), HouseConfig{}.wall_height);
       for (const Doorway& door : house.semantics.doors)
@@ -288,11 +294,12 @@ TEST(HouseGeneratorTest, ObjectsStayInsideTheirRoomAndOutOfTheWay) {
 TEST(HouseGeneratorTest, LandmarksBelongToTheirRooms) {
   // category -> the only room type it appears in
   const std::map<std::string, std::string> home = {
-      {"bed", "bedroom"},     {"toilet", "bathroom"}, {"bathtub", "bathroom"},
-      {"stove", "kitchen"},   {"fridge", "kitchen"},  {"kitchen island", "kitchen"},
-      {"tv", "living room"},  {"piano", "living room"}};
-  std::map<std::string, int> required = {{"bed", 0}, {"toilet", 0}, {"stove", 0},
-                                         {"fridge", 0}, {"sofa", 0}};
+      {"bed", "bedroom"},      {"toilet", "bathroom"},
+      {"bathtub", "bathroom"}, {"stove", "kitchen"},
+      {"fridge", "kitchen"},   {"kitchen island", "kitchen"},
+      {"tv", "living room"},   {"piano", "living room"}};
+  std::map<std::string, int> required = {
+      {"bed", 0}, {"toilet", 0}, {"stove", 0}, {"fridge", 0}, {"sofa", 0}};
   for (const House& house : houses()) {
     for (const SemanticObject& o : house.semantics.objects) {
       auto it = home.find(o.category);
@@ -311,7 +318,8 @@ TEST(HouseGeneratorTest, SomeTablesAreLargeEnoughToStandNodesOn) {
   int large = 0;
   for (const House& house : houses())
     for (const SemanticObject& o : house.semantics.objects) {
-      const bool flatTop = o.category == "table" || o.category == "kitchen island" ||
+      const bool flatTop = o.category == "table" ||
+                           o.category == "kitchen island" ||
                            o.category == "counter";
       const Vec3f size = o.bounds.sizes();
       if (flatTop && size.x() * size.z() >= 1.0f && size.y() >= 0.7f) ++large;
@@ -340,7 +348,8 @@ TEST(HouseGeneratorTest, MeshValidatesAndMatchesTheSemantics) {
       if (id < 0) continue;
       ASSERT_LT(id, static_cast<int>(objects.size()))
           << house.name << ": triangle " << t << " names unknown object " << id;
-      for (int k = 0; k < 3; ++k) triangleBounds[id].extend(mesh.positions[mesh.indices[3 * t + k]]);
+      for (int k = 0; k < 3; ++k)
+        triangleBounds[id].extend(mesh.positions[mesh.indices[3 * t + k]]);
     }
     for (size_t i = 0; i < objects.size(); ++i) {
       ASSERT_FALSE(triangleBounds[i].isEmpty())
@@ -367,14 +376,18 @@ TEST(HouseGeneratorTest, ChromaticColourNamesMatchWhatTheAgentSees) {
     const float mx = rgb.maxCoeff(), mn = rgb.minCoeff();
     if (mx <= 0.0f || (mx - mn) / mx < 0.2f) return "";  // white, grey, black
     float h;
-    if (mx == rgb.x()) h = (rgb.y() - rgb.z()) / (mx - mn);
-    else if (mx == rgb.y()) h = (rgb.z() - rgb.x()) / (mx - mn) + 2.0f;
-    else h = (rgb.x() - rgb.y()) / (mx - mn) + 4.0f;
+    if (mx == rgb.x())
+      h = (rgb.y() - rgb.z()) / (mx - mn);
+    else if (mx == rgb.y())
+      h = (rgb.z() - rgb.x()) / (mx - mn) + 2.0f;
+    else
+      h = (rgb.x() - rgb.y()) / (mx - mn) + 4.0f;
     if (h < 0.0f) h += 6.0f;
     std::string best;
     float bestDistance = 1e9f;
     for (const auto& [name, center] : centers) {
-      const float d = std::min(std::abs(h - center), 6.0f - std::abs(h - center));
+      const float d =
+          std::min(std::abs(h - center), 6.0f - std::abs(h - center));
       if (d < bestDistance) {
         bestDistance = d;
         best = name;
@@ -401,8 +414,10 @@ TEST(HouseGeneratorTest, ChromaticColourNamesMatchWhatTheAgentSees) {
           for (int j = 0; j < 9; ++j) {
             const Vec3f target =
                 o.bounds.min() + o.bounds.sizes().cwiseProduct(
-                                     Vec3f((i + 0.5f) / 9.0f, (j + 0.5f) / 9.0f, (i * 7 + j) % 9 / 9.0f + 0.05f));
-            const auto hit = tracer.cast(eye, (target - eye).normalized(), 2 * radius);
+                                     Vec3f((i + 0.5f) / 9.0f, (j + 0.5f) / 9.0f,
+                                           (i * 7 + j) % 9 / 9.0f + 0.05f));
+            const auto hit =
+                tracer.cast(eye, (target - eye).normalized(), 2 * radius);
             if (!hit || hit->object != o.id) continue;
             Vec3f rgb = Vec3f::Zero();
             for (int k = 0; k < 3; ++k) {
@@ -416,9 +431,9 @@ TEST(HouseGeneratorTest, ChromaticColourNamesMatchWhatTheAgentSees) {
       }
       if (votes.empty()) continue;  // boxed in: nothing to see from outside
       ++checked;
-      const auto best = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
-        return a.second < b.second;
-      });
+      const auto best = std::max_element(
+          votes.begin(), votes.end(),
+          [](const auto& a, const auto& b) { return a.second < b.second; });
       if (best->first == o.color)
         ++matched;
       else
@@ -427,8 +442,10 @@ TEST(HouseGeneratorTest, ChromaticColourNamesMatchWhatTheAgentSees) {
   }
   ASSERT_GT(checked, 50);
   std::string report;
-  for (const auto& [what, count] : misses) report += strCat(what, " x", count, "; ");
-  EXPECT_GE(matched, checked * 95 / 100) << matched << " of " << checked << ": " << report;
+  for (const auto& [what, count] : misses)
+    report += strCat(what, " x", count, "; ");
+  EXPECT_GE(matched, checked * 95 / 100)
+      << matched << " of " << checked << ": " << report;
 }
 
 // ---------------------------------------------------------------------------
@@ -462,8 +479,10 @@ TEST(HouseGeneratorTest, HousesVaryAcrossSeeds) {
     return std::find(list.begin(), list.end(), s) != list.end();
   };
   for (const std::string& t : types) EXPECT_TRUE(in(houseRoomTypes(), t)) << t;
-  for (const std::string& c : categories) EXPECT_TRUE(in(houseObjectCategories(), c)) << c;
-  for (const std::string& c : colors) EXPECT_TRUE(in(houseColorNames(), c)) << c;
+  for (const std::string& c : categories)
+    EXPECT_TRUE(in(houseObjectCategories(), c)) << c;
+  for (const std::string& c : colors)
+    EXPECT_TRUE(in(houseColorNames(), c)) << c;
 }
 
 TEST(HouseGeneratorTest, VocabulariesAreFixed) {
@@ -489,11 +508,12 @@ TEST(HouseGeneratorTest, WallsAreClosedSoDepthNeverSeesTheSky) {
     for (const Room& room : house.semantics.rooms) {
       // inside the walls' inner faces
       const float inset = 0.5f * config.wall_thickness + 0.05f;
-      const Eigen::AlignedBox2f inner(room.footprint.min() + Vec2f::Constant(inset),
-                                      room.footprint.max() - Vec2f::Constant(inset));
+      const Eigen::AlignedBox2f inner(
+          room.footprint.min() + Vec2f::Constant(inset),
+          room.footprint.max() - Vec2f::Constant(inset));
       for (int p = 0; p < 5; ++p) {
-        const Vec2f at = inner.min() + inner.sizes().cwiseProduct(
-                                           Vec2f(0.1f + 0.2f * p, 0.9f - 0.2f * p));
+        const Vec2f at = inner.min() + inner.sizes().cwiseProduct(Vec2f(
+                                           0.1f + 0.2f * p, 0.9f - 0.2f * p));
         const Vec3f origin(at.x(), 0.3f + 0.45f * p, at.y());
         // directions on a latitude-longitude sphere, poles included
         for (int lat = 0; lat <= 8; ++lat) {
@@ -527,8 +547,9 @@ bool floorAt(const TriangleMesh& mesh, float x, float z) {
     auto cross = [](const Vec3f& p, const Vec3f& q, float px, float pz) {
       return (q.x() - p.x()) * (pz - p.z()) - (q.z() - p.z()) * (px - p.x());
     };
-    const float d1 = cross(a, b, x, z), d2 = cross(b, c, x, z), d3 = cross(c, a, x, z);
-    const bool neg = d1 < 0 || d2 < 0 || d3 < 0, pos = d1 > 0 || d2 > 0 || d3 > 0;
+    const float d1 = cross(a, b, x, z), d2 = cross(b, c, x, z),
+                d3 = cross(c, a, x, z);
+    const bool neg = d1 < 0 || d2 < 0 || d3<0, pos = d1> 0 || d2 > 0 || d3 > 0;
     if (!(neg && pos)) return true;
   }
   return false;
@@ -555,7 +576,8 @@ TEST(HouseGeneratorTest, FloorHolesAreOpenAndAwayFromDoorsAndFurniture) {
     for (const SemanticObject& o : house.semantics.objects)
       EXPECT_FALSE(strictlyOverlap(hole, footprint(o.bounds))) << house.name;
     // the floor around the hole is intact
-    EXPECT_TRUE(floorAt(house.mesh, hole.min().x() - 0.05f, c.y())) << house.name;
+    EXPECT_TRUE(floorAt(house.mesh, hole.min().x() - 0.05f, c.y()))
+        << house.name;
   }
   EXPECT_GE(withHole, 6);
 
@@ -575,7 +597,8 @@ TEST(HouseGeneratorTest, NavmeshConnectsEveryDoorwayAndReachesFurniture) {
     // half a metre into each room in front of each doorway
     std::vector<Vec3f> points;
     for (const Doorway& door : house.semantics.doors)
-      for (float s : {-0.5f, 0.5f}) points.push_back(door.center + s * door.normal);
+      for (float s : {-0.5f, 0.5f})
+        points.push_back(door.center + s * door.normal);
     const int main = navmesh->islandIndex(points.front());
     ASSERT_GE(main, 0) << house.name;
     for (const Vec3f& p : points)
@@ -586,13 +609,16 @@ TEST(HouseGeneratorTest, NavmeshConnectsEveryDoorwayAndReachesFurniture) {
       if (o.bounds.min().y() > 0.8f) continue;  // hung on a wall
       bool near = false;
       const Eigen::AlignedBox2f fp = footprint(o.bounds);
-      for (float x = fp.min().x() - 0.7f; x <= fp.max().x() + 0.7f && !near; x += 0.1f)
-        for (float z = fp.min().y() - 0.7f; z <= fp.max().y() + 0.7f && !near; z += 0.1f) {
+      for (float x = fp.min().x() - 0.7f; x <= fp.max().x() + 0.7f && !near;
+           x += 0.1f)
+        for (float z = fp.min().y() - 0.7f; z <= fp.max().y() + 0.7f && !near;
+             z += 0.1f) {
           const Vec3f p(x, 0.0f, z);
-          near = navmesh->isNavigable(p, 0.2f) && navmesh->islandIndex(p) == main;
+          near =
+              navmesh->isNavigable(p, 0.2f) && navmesh->islandIndex(p) == main;
         }
-      EXPECT_TRUE(near) << house.name << ": nowhere to stand next to " << o.category
-                        << " " << o.id;
+      EXPECT_TRUE(near) << house.name << ": nowhere to stand next to "
+                        << o.category << " " << o.id;
     }
   }
 }
@@ -611,7 +637,9 @@ TEST(HouseGeneratorTest, GlbExportReimportsIdentically) {
   auto collect = [](const TriangleMesh& m, auto& out) {
     for (int32_t i : m.triangle_material) {
       const Material& material = m.materials[i];
-      out[material.name] = {material, material.texture >= 0 ? m.textures[material.texture] : Texture{}};
+      out[material.name] = {material, material.texture >= 0
+                                          ? m.textures[material.texture]
+                                          : Texture{}};
       out[material.name].first.texture = 0;
     }
   };
@@ -633,11 +661,14 @@ TEST(HouseGeneratorTest, GlbExportReimportsIdentically) {
                       std::llround(m.positions[v].z() * 1e4),
                       (int64_t{c[0]} << 16) | (c[1] << 8) | c[2]};
       }
-      std::rotate(corners.begin(), std::min_element(corners.begin(), corners.end()),
+      std::rotate(corners.begin(),
+                  std::min_element(corners.begin(), corners.end()),
                   corners.end());
       for (int k = 0; k < 3; ++k)
         for (int j = 0; j < 4; ++j) key[4 * k + j] = corners[k][j];
-      out[strCat(m.triangle_object[t], "/", m.materials[m.triangle_material[t]].name)].push_back(key);
+      out[strCat(m.triangle_object[t], "/",
+                 m.materials[m.triangle_material[t]].name)]
+          .push_back(key);
     }
     for (auto& [group, list] : out) std::sort(list.begin(), list.end());
     return out;
@@ -654,12 +685,14 @@ TEST(HouseGeneratorTest, FixtureFileIsTheGeneratedHouse) {
   config.min_rooms = config.max_rooms = 3;
   const House house = generateHouse(7, config, "house_small");
   const auto file = test::testDataPath() / "meshes" / "house_small.glb";
-  if (const char* write = std::getenv("VLN_WRITE_FIXTURES"); write && std::string(write) == "1")
+  if (const char* write = std::getenv("VLN_WRITE_FIXTURES");
+      write && std::string(write) == "1")
     saveScene(file, house.mesh, house.semantics);
   if (!std::filesystem::exists(file)) GTEST_SKIP() << file << " is missing";
   const LoadedScene loaded = loadScene(file, MeshLoadConfig{});
   EXPECT_EQ(loaded.semantics, house.semantics)
-      << "regenerate with VLN_WRITE_FIXTURES=1 if the generator changed on purpose";
+      << "regenerate with VLN_WRITE_FIXTURES=1 if the generator changed on "
+         "purpose";
   ASSERT_EQ(loaded.mesh.triangleCount(), house.mesh.triangleCount());
   std::multiset<std::string> before, after;
   for (const auto* mesh : {&house.mesh, &loaded.mesh}) {
@@ -674,15 +707,16 @@ TEST(HouseGeneratorTest, FixtureFileIsTheGeneratedHouse) {
                                  std::lround(mesh->positions[v].z() * 1e4), ",",
                                  int{c[0]}, ",", int{c[1]}, ",", int{c[2]}));
       }
-      std::rotate(corners.begin(), std::min_element(corners.begin(), corners.end()),
+      std::rotate(corners.begin(),
+                  std::min_element(corners.begin(), corners.end()),
                   corners.end());
       out.insert(strCat(mesh->triangle_object[t], "/",
-                        mesh->materials[mesh->triangle_material[t]].name, "/", corners[0],
-                        "/", corners[1], "/", corners[2]));
+                        mesh->materials[mesh->triangle_material[t]].name, "/",
+                        corners[0], "/", corners[1], "/", corners[2]));
     }
   }
-  EXPECT_TRUE(before == after)
-      << "regenerate with VLN_WRITE_FIXTURES=1 if the generator changed on purpose";
+  EXPECT_TRUE(before == after) << "regenerate with VLN_WRITE_FIXTURES=1 if the "
+                                  "generator changed on purpose";
 }
 
 }  // namespace

@@ -57,19 +57,21 @@ std::vector<FlatTriangle> flatten(const TriangleMesh& mesh) {
       if (!mesh.uvs.empty()) c.uv = {mesh.uvs[v].x(), mesh.uvs[v].y()};
     }
     // start each triangle at its smallest corner, keeping the winding
-    const auto first = std::min_element(
-        tri.corners.begin(), tri.corners.end(),
-        [](const Corner& a, const Corner& b) { return a.position < b.position; });
+    const auto first = std::min_element(tri.corners.begin(), tri.corners.end(),
+                                        [](const Corner& a, const Corner& b) {
+                                          return a.position < b.position;
+                                        });
     std::rotate(tri.corners.begin(), first, tri.corners.end());
     if (!mesh.triangle_object.empty()) tri.object = mesh.triangle_object[t];
-    const int m = mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
+    const int m =
+        mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
     if (m >= 0) {
       const Material& material = mesh.materials[m];
-      tri.material = strCat(material.name, "|", material.base_color[0], ",",
-                            material.base_color[1], ",", material.base_color[2],
-                            "|", material.texture < 0
-                                     ? std::string("-")
-                                     : mesh.textures[material.texture].name);
+      tri.material =
+          strCat(material.name, "|", material.base_color[0], ",",
+                 material.base_color[1], ",", material.base_color[2], "|",
+                 material.texture < 0 ? std::string("-")
+                                      : mesh.textures[material.texture].name);
     }
     out.push_back(tri);
   }
@@ -77,7 +79,8 @@ std::vector<FlatTriangle> flatten(const TriangleMesh& mesh) {
   return out;
 }
 
-void expectSameTriangles(const TriangleMesh& expected, const TriangleMesh& actual) {
+void expectSameTriangles(const TriangleMesh& expected,
+                         const TriangleMesh& actual) {
   const auto a = flatten(expected);
   const auto b = flatten(actual);
   ASSERT_EQ(a.size(), b.size());
@@ -86,7 +89,8 @@ void expectSameTriangles(const TriangleMesh& expected, const TriangleMesh& actua
     EXPECT_EQ(a[i].material, b[i].material) << "triangle " << i;
     for (int k = 0; k < 3; ++k) {
       for (int d = 0; d < 3; ++d)
-        EXPECT_NEAR(a[i].corners[k].position[d], b[i].corners[k].position[d], 1e-5)
+        EXPECT_NEAR(a[i].corners[k].position[d], b[i].corners[k].position[d],
+                    1e-5)
             << "triangle " << i << " corner " << k;
       EXPECT_EQ(a[i].corners[k].color, b[i].corners[k].color)
           << "triangle " << i << " corner " << k;
@@ -121,14 +125,16 @@ TriangleMesh featureMesh() {
                   int object) {
     const auto base = static_cast<uint32_t>(mesh.positions.size());
     const Vec3f corners[4] = {a, b, c, d};
-    const Vec2f uvs[4] = {{0.0f, 0.0f}, {1.5f, 0.0f}, {1.5f, 0.75f}, {0.0f, 0.75f}};
+    const Vec2f uvs[4] = {
+        {0.0f, 0.0f}, {1.5f, 0.0f}, {1.5f, 0.75f}, {0.0f, 0.75f}};
     for (int i = 0; i < 4; ++i) {
       mesh.positions.push_back(corners[i]);
-      mesh.colors.push_back({color[0], static_cast<uint8_t>(color[1] + 10 * i),
-                             color[2]});
+      mesh.colors.push_back(
+          {color[0], static_cast<uint8_t>(color[1] + 10 * i), color[2]});
       mesh.uvs.push_back(uvs[i]);
     }
-    for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(base + i);
+    for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u})
+      mesh.indices.push_back(base + i);
     for (int i = 0; i < 2; ++i) {
       mesh.triangle_material.push_back(material);
       mesh.triangle_object.push_back(object);
@@ -170,7 +176,8 @@ SceneSemantics featureSemantics() {
   object.id = 12;
   object.category = "rug";
   object.color = "orange";
-  object.bounds = Eigen::AlignedBox3f(Vec3f(2, 0, 2), Vec3f(3.25f, 0.125f, 3.5f));
+  object.bounds =
+      Eigen::AlignedBox3f(Vec3f(2, 0, 2), Vec3f(3.25f, 0.125f, 3.5f));
   s.objects.push_back(object);
   return s;
 }
@@ -183,7 +190,8 @@ void expectThrowWith(F body, std::initializer_list<std::string> parts) {
     body();
     ADD_FAILURE() << "expected an exception";
   } catch (const E& e) {
-    for (const std::string& part : parts) EXPECT_THAT(e.what(), HasSubstr(part));
+    for (const std::string& part : parts)
+      EXPECT_THAT(e.what(), HasSubstr(part));
   } catch (const std::exception& e) {
     ADD_FAILURE() << "wrong exception type: " << e.what();
   }
@@ -234,8 +242,8 @@ TEST(MeshIoTest, LoadsObjUnitCube) {
 
 TEST(MeshIoTest, ZUpFilesAreRotatedAndScaled) {
   test::TempDir dir;
-  const auto file = test::writeText(dir / "tri.obj",
-                                    "v 1 2 3\nv 4 5 6\nv 7 8 10\nf 1 2 3\n");
+  const auto file =
+      test::writeText(dir / "tri.obj", "v 1 2 3\nv 4 5 6\nv 7 8 10\nf 1 2 3\n");
   MeshLoadConfig config;
   config.up_axis = UpAxis::kZ;
   config.scale = 0.5f;
@@ -245,13 +253,15 @@ TEST(MeshIoTest, ZUpFilesAreRotatedAndScaled) {
   const std::vector<Vec3f> expected = {
       {0.5f, 1.5f, -1.0f}, {2.0f, 3.0f, -2.5f}, {3.5f, 5.0f, -4.0f}};
   for (int k = 0; k < 3; ++k)
-    EXPECT_TRUE(scene.mesh.positions[scene.mesh.indices[k]].isApprox(expected[k]))
+    EXPECT_TRUE(
+        scene.mesh.positions[scene.mesh.indices[k]].isApprox(expected[k]))
         << "corner " << k;
 
   config.up_axis = UpAxis::kY;
   config.scale = 2.0f;
   const LoadedScene yUp = loadScene(file, config);
-  EXPECT_TRUE(yUp.mesh.positions[yUp.mesh.indices[2]].isApprox(Vec3f(14, 16, 20)));
+  EXPECT_TRUE(
+      yUp.mesh.positions[yUp.mesh.indices[2]].isApprox(Vec3f(14, 16, 20)));
 }
 
 TEST(MeshIoTest, LoadsPlyLShapedFloorWithVertexColours) {
@@ -327,8 +337,8 @@ std::string base64(const std::string& bytes) {
   std::string out;
   size_t i = 0;
   for (; i + 2 < bytes.size(); i += 3) {
-    const uint32_t n = (uint8_t(bytes[i]) << 16) | (uint8_t(bytes[i + 1]) << 8) |
-                       uint8_t(bytes[i + 2]);
+    const uint32_t n = (uint8_t(bytes[i]) << 16) |
+                       (uint8_t(bytes[i + 1]) << 8) | uint8_t(bytes[i + 2]);
     for (int s = 18; s >= 0; s -= 6) out.push_back(kAlphabet[(n >> s) & 63]);
   }
   if (i < bytes.size()) {
@@ -345,7 +355,8 @@ std::string base64(const std::string& bytes) {
 TEST(MeshIoTest, AppliesNodeTransformsAndObjectNames) {
   const float positions[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
   const uint32_t indices[3] = {0, 1, 2};
-  std::string buffer(reinterpret_cast<const char*>(positions), sizeof(positions));
+  std::string buffer(reinterpret_cast<const char*>(positions),
+                     sizeof(positions));
   buffer.append(reinterpret_cast<const char*>(indices), sizeof(indices));
   const std::string gltf = R"({
   "asset": {"version": "2.0"},
@@ -578,8 +589,7 @@ TEST(MeshIoTest, NanCoordinatesAreRejected) {
       "property list uchar int vertex_indices\nend_header\n"
       "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n");
   expectThrowWith<std::invalid_argument>(
-      [&] { loadScene(file, MeshLoadConfig{}); },
-      {"nan.ply", "non-finite"});
+      [&] { loadScene(file, MeshLoadConfig{}); }, {"nan.ply", "non-finite"});
 }
 
 TEST(MeshIoTest, SidecarWithAMissingFieldNamesFileAndField) {
@@ -591,7 +601,8 @@ TEST(MeshIoTest, SidecarWithAMissingFieldNamesFileAndField) {
   test::writeText(semanticsPath(file), root.dump());
   expectThrowWith<std::invalid_argument>(
       [&] { loadScene(file, MeshLoadConfig{}); },
-      {"scene.glb.semantics.json", "objects[1]", "field 'category' is missing"});
+      {"scene.glb.semantics.json", "objects[1]",
+       "field 'category' is missing"});
 }
 
 TEST(MeshIoTest, SidecarWithAnUnknownRoomIsRejected) {
