@@ -44,4 +44,12 @@ target_precompile_headers(vln_torch_pch PRIVATE <torch/torch.h>)
 
 function(vln_use_torch_pch target)
   target_precompile_headers(${target} REUSE_FROM vln_torch_pch)
+  get_target_property(type ${target} TYPE)
+  if(type STREQUAL "EXECUTABLE")
+    # The shared PCH is compiled -fPIC (it belongs to a static library);
+    # gcc refuses it in translation units compiled -fPIE, which CMake uses for
+    # executables. -fPIC objects link into a PIE executable just as well.
+    set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE OFF)
+    target_compile_options(${target} PRIVATE -fPIC)
+  endif()
 endfunction()
