@@ -299,9 +299,9 @@ class ModelBuilder {
   Model rug(bool small);  ///< bordered rug (a bath mat if small)
   Model picture();        ///< framed canvas hung at eye height
   Model mirror();         ///< framed glass hung on a wall
-  /// A closed window: frame, sky-tinted glass, a cross bar and a sill. It
-  /// never opens the wall, so the house stays sealed.
-  Model window(float wallHeight);
+  /// A closed window with a `color` frame: sky-tinted glass, a cross bar
+  /// and a sill. It never opens the wall, so the house stays sealed.
+  Model window(float wallHeight, const std::string& color);
   Model piano();  ///< upright piano with keys
 
  private:

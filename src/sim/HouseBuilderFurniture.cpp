@@ -137,11 +137,13 @@ float cmToM(int value) { return static_cast<float>(value) / 100.0f; }
 class RoomFurnisher {
  public:
   RoomFurnisher(Rng& rng, const FloorPlan& plan, int room,
-                const HouseConfig& config, std::vector<PlacedObject>& objects)
+                const HouseConfig& config, const std::string& windowColor,
+                std::vector<PlacedObject>& objects)
       : rng_(rng),
         plan_(plan),
         room_(room),
         config_(config),
+        windowColor_(windowColor),
         objects_(objects),
         models_(rng, config.wall_height - 0.1f) {
     const RectCm& cell = plan.rooms[room].cell;
@@ -431,10 +433,10 @@ class RoomFurnisher {
   // Windows go on outside walls only.
   void windows(int count) {
     for (int i = 0; i < count; ++i)
-      wallGroup(single(models_.window(config_.wall_height)), std::nullopt,
-                std::nullopt, std::nullopt, [this](int side, float a, float b) {
-                  return exterior(side, a, b);
-                });
+      wallGroup(
+          single(models_.window(config_.wall_height, windowColor_)),
+          std::nullopt, std::nullopt, std::nullopt,
+          [this](int side, float a, float b) { return exterior(side, a, b); });
   }
 
   // Whether the wall on `side` of this room faces the outside over the
@@ -705,6 +707,7 @@ class RoomFurnisher {
   const FloorPlan& plan_;
   int room_;
   const HouseConfig& config_;
+  const std::string& windowColor_;  // one window style per house
   std::vector<PlacedObject>& objects_;
   ModelBuilder models_;
   Box2 interior_;
@@ -729,11 +732,18 @@ std::vector<PlacedObject> furnish(Rng& rng, const FloorPlan& plan,
                                   const HouseConfig& config,
                                   std::vector<Eigen::AlignedBox2f>& holes) {
   std::vector<PlacedObject> objects;
+  // one window style for the whole house, as builders do
+  Rng windowRng = rng.fork(0x57494E);
+  const std::vector<std::string> frames = {"white", "white", "black", "wooden",
+                                           "grey"};
+  const std::string windowColor =
+      frames[windowRng.intIn(0, static_cast<int>(frames.size()) - 1)];
   for (size_t r = 0; r < plan.rooms.size(); ++r) {
     // each room draws from its own stream: changing one room's recipe
     // leaves the others unchanged
     Rng roomRng = rng.fork(r);
-    RoomFurnisher(roomRng, plan, static_cast<int>(r), config, objects)
+    RoomFurnisher(roomRng, plan, static_cast<int>(r), config, windowColor,
+                  objects)
         .furnish(plan.rooms[r].type);
   }
 
@@ -747,7 +757,7 @@ std::vector<PlacedObject> furnish(Rng& rng, const FloorPlan& plan,
     const float sz = std::round(holeRng.uniform(0.5f, 1.0f) * 20.0f) / 20.0f;
     for (int r : rooms) {
       Box2 hole;
-      if (RoomFurnisher(holeRng, plan, r, config, objects)
+      if (RoomFurnisher(holeRng, plan, r, config, windowColor, objects)
               .cutHole(sx, sz, hole)) {
         holes.push_back(hole);
         break;

@@ -610,8 +610,10 @@ Model ModelBuilder::mirror() {
   return m;
 }
 
-Model ModelBuilder::window(float wallHeight) {
-  Model m = start("window", {"white", "white", "black", "wooden", "grey"});
+Model ModelBuilder::window(float wallHeight, const std::string& color) {
+  Model m;
+  m.category = "window";
+  m.color = color;
   m.hung = true;
   const float w = rng_.uniform(0.8f, 1.5f);
   const float y0 = rng_.uniform(0.9f, 1.0f);
