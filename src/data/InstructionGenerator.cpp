@@ -50,18 +50,23 @@ enum class TurnKind {
   kSlightRight,
   kLeft,
   kRight,
+  kSharpLeft,
+  kSharpRight,
   kAround
 };
 
 // Thresholds in degrees, from how R2R annotators describe turns: below 25
-// they say nothing, up to 60 "slightly", beyond 140 "turn around".
+// they say nothing, up to 60 "slightly", up to 125 plain "left", up to 165
+// "sharp left" (the doubling back after a doorway), beyond that "turn
+// around".
 TurnKind classifyTurn(float radians) {
   const float degrees = radToDeg(wrapAngle(radians));
   const float a = std::abs(degrees);
+  const bool left = degrees > 0;
   if (a < 25.0f) return TurnKind::kStraight;
-  if (a < 60.0f)
-    return degrees > 0 ? TurnKind::kSlightLeft : TurnKind::kSlightRight;
-  if (a < 140.0f) return degrees > 0 ? TurnKind::kLeft : TurnKind::kRight;
+  if (a < 60.0f) return left ? TurnKind::kSlightLeft : TurnKind::kSlightRight;
+  if (a < 125.0f) return left ? TurnKind::kLeft : TurnKind::kRight;
+  if (a < 165.0f) return left ? TurnKind::kSharpLeft : TurnKind::kSharpRight;
   return TurnKind::kAround;
 }
 
@@ -490,6 +495,21 @@ class Writer {
             return strCat("turn slightly to the ", side);
           default:
             return strCat("turn slightly ", side);
+        }
+      }
+      case TurnKind::kSharpLeft:
+      case TurnKind::kSharpRight: {
+        const char* side = kind == TurnKind::kSharpLeft ? "left" : "right";
+        if (!human_) return strCat("turn ", side);
+        switch (uniformIndex(rng_, 4)) {
+          case 0:
+            return strCat("make a sharp ", side);
+          case 1:
+            return strCat("turn sharply ", side);
+          case 2:
+            return strCat("take a sharp ", side);
+          default:
+            return strCat("turn sharp ", side);
         }
       }
       case TurnKind::kAround:

@@ -168,6 +168,27 @@ TEST(InstructionGeneratorTest, LeftTurnSaysLeftRightTurnSaysRight) {
   }
 }
 
+TEST(InstructionGeneratorTest, DoublingBackIsASharpTurn) {
+  sim::SceneSemantics empty;
+  empty.rooms = {room(0, "office", -10, -10, 10, 10)};
+  const InstructionGenerator generator(empty, InstructionConfig{});
+  // along -Z, then back towards +Z and -X: a 150 degree left turn
+  const float back = degToRad(150.0f);
+  const Vec3f corner(0, 0, -4);
+  const std::vector<Vec3f> path = {
+      {0, 0, 0}, corner, corner + 4.0f * headingToForward(back)};
+  for (uint64_t seed = 0; seed < 20; ++seed) {
+    for (const auto& g :
+         generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
+      EXPECT_TRUE(containsWord(g.text, "sharp") ||
+                  containsWord(g.text, "sharply"))
+          << g.text;
+      EXPECT_TRUE(containsWord(g.text, "left")) << g.text;
+      EXPECT_FALSE(containsWord(g.text, "around")) << g.text;
+    }
+  }
+}
+
 TEST(InstructionGeneratorTest, StartFacingAwayTurnsAround) {
   sim::SceneSemantics empty;
   empty.rooms = {room(0, "office", -10, -10, 10, 10)};
