@@ -494,7 +494,9 @@ class BoundsChecker final : public ConfigVisitor {
     check(key, v, b);
   }
   void field(std::string_view key, float& v, std::string_view, Bounds b) override {
-    check(key, v, b);
+    // a float holding a bound like 0.02 is slightly below the double 0.02:
+    // compare in float precision, as the value was stored
+    check(key, v, {static_cast<float>(b.min), static_cast<float>(b.max)});
   }
   void field(std::string_view, std::string&, std::string_view) override {}
   void field(std::string_view, std::vector<std::string>&, std::string_view) override {}

@@ -123,6 +123,14 @@ TEST(ConfigTest, CheckConfigCatchesValuesSetInCode) {
   c.batch = 0;
   EXPECT_THAT([&] { checkConfig([&](ConfigVisitor& v) { c.visit(v); }, "code"); },
               ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("key 'batch'")));
+  // float fields at their bounds pass although 0.02f < 0.02
+  struct FloatConfig {
+    float thickness = 0.02f;
+    void visit(ConfigVisitor& v) { v.field("thickness", thickness, "t", inRange(0.02, 0.5)); }
+  } f;
+  EXPECT_NO_THROW(checkConfig([&](ConfigVisitor& v) { f.visit(v); }, "code"));
+  f.thickness = 0.0199f;
+  EXPECT_THROW(checkConfig([&](ConfigVisitor& v) { f.visit(v); }, "code"), std::invalid_argument);
   auto keys = configKeys([&](ConfigVisitor& v) { c.visit(v); });
   EXPECT_EQ(keys.back(), "trainer.mode");
 }
