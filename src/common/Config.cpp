@@ -496,7 +496,11 @@ class BoundsChecker final : public ConfigVisitor {
   void field(std::string_view key, float& v, std::string_view, Bounds b) override {
     // a float holding a bound like 0.02 is slightly below the double 0.02:
     // compare in float precision, as the value was stored
-    check(key, v, {static_cast<float>(b.min), static_cast<float>(b.max)});
+    const float lo = static_cast<float>(b.min);
+    const float hi = static_cast<float>(b.max);
+    VLN_CHECK_ARG(std::isfinite(v) && v >= lo && v <= hi, source_, ": key '",
+                  joinPath(path_, key), "': value ", v, " is outside ",
+                  boundsText(b));
   }
   void field(std::string_view, std::string&, std::string_view) override {}
   void field(std::string_view, std::vector<std::string>&, std::string_view) override {}
