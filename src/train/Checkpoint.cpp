@@ -6,6 +6,7 @@
 
 #include "common/Check.h"
 #include "common/FileIo.h"
+#include "common/Json.h"
 
 namespace vln::train {
 namespace {
@@ -72,7 +73,7 @@ std::string serializeCheckpoint(const Checkpoint& checkpoint) {
   torch::serialize::OutputArchive policy;
   for (size_t i = 0; i < checkpoint.policy.size(); ++i) {
     names.push_back(checkpoint.policy[i].first);
-    policy.write("t" + std::to_string(i),
+    policy.write(strCat("t", i),
                  checkpoint.policy[i].second.detach().to(torch::kCPU).contiguous(), true);
   }
   archive.write("policy_names", c10::IValue(names.dump()));
@@ -102,7 +103,7 @@ Checkpoint deserializeCheckpoint(std::string_view bytes, const std::string& sour
     checkpoint.config_yaml = value.toStringRef();
     archive.read("progress", value);
     checkpoint.progress =
-        progressFromJson(nlohmann::json::parse(value.toStringRef()), source + " progress");
+        progressFromJson(nlohmann::json::parse(value.toStringRef()), strCat(source, " progress"));
     torch::Tensor t;
     archive.read("optimizer_state", t, true);
     checkpoint.optimizer_state = tensorBytes(t);
@@ -114,17 +115,18 @@ Checkpoint deserializeCheckpoint(std::string_view bytes, const std::string& sour
     archive.read("policy", policy);
     for (size_t i = 0; i < names.size(); ++i) {
       torch::Tensor tensor;
-      policy.read("t" + std::to_string(i), tensor, true);
+      policy.read(strCat("t", i), tensor, true);
       checkpoint.policy.emplace_back(names[i].get<std::string>(), tensor);
     }
   } catch (const c10::Error& error) {
-    throw std::runtime_error("loadCheckpoint(): '" + source +
-                             "' is truncated or not a checkpoint: " + error.what_without_backtrace());
+    throw std::runtime_error(strCat("loadCheckpoint(): '", source,
+                                    "' is truncated or not a checkpoint: ",
+                                    error.what_without_backtrace()));
   } catch (const nlohmann::json::exception& error) {
-    throw std::runtime_error("loadCheckpoint(): '" + source + "' has corrupt metadata: " +
-                             error.what());
+    throw std::runtime_error(
+        strCat("loadCheckpoint(): '", source, "' has corrupt metadata: ", error.what()));
   } catch (const std::invalid_argument& error) {
-    throw std::runtime_error(std::string("loadCheckpoint(): ") + error.what());
+    throw std::runtime_error(strCat("loadCheckpoint(): ", error.what()));
   }
   return checkpoint;
 }
@@ -134,9 +136,9 @@ void saveCheckpoint(const std::filesystem::path& file, const Checkpoint& checkpo
   try {
     common::writeFileAtomic(file, bytes);
   } catch (const std::exception& error) {
-    throw std::runtime_error("saveCheckpoint(): cannot write checkpoint '" + file.string() +
-                             "' (" + std::to_string(bytes.size()) +
-                             " bytes; the previous file is intact): " + error.what());
+    throw std::runtime_error(strCat("saveCheckpoint(): cannot write checkpoint '", file.string(),
+                                    "' (", bytes.size(),
+                                    " bytes; the previous file is intact): ", error.what()));
   }
 }
 
@@ -198,8 +200,9 @@ void loadOptimizerState(torch::optim::Optimizer& optimizer, std::string_view byt
     archive.load_from(bytes.data(), bytes.size());
     optimizer.load(archive);
   } catch (const c10::Error& error) {
-    throw std::runtime_error("loadOptimizerState(): the optimizer state of '" + source +
-                             "' does not fit this policy: " + error.what_without_backtrace());
+    throw std::runtime_error(strCat("loadOptimizerState(): the optimizer state of '", source,
+                                    "' does not fit this policy: ",
+                                    error.what_without_backtrace()));
   }
 }
 

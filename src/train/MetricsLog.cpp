@@ -1,5 +1,6 @@
 #include "train/MetricsLog.h"
 
+#include <cerrno>
 #include <chrono>
 #include <cstring>
 

@@ -1,6 +1,7 @@
 #include "train/RunDirectory.h"
 
 #include <algorithm>
+#include <charconv>
 #include <map>
 #include <sstream>
 
@@ -28,7 +29,7 @@ class FlattenVisitor : public common::ConfigVisitor {
     add(key, number(v));
   }
   void field(std::string_view key, float& v, std::string_view, common::Bounds) override {
-    add(key, number(static_cast<double>(v)));
+    add(key, number(v));
   }
   void field(std::string_view key, std::string& v, std::string_view) override {
     add(key, "'" + v + "'");
@@ -60,11 +61,12 @@ class FlattenVisitor : public common::ConfigVisitor {
   void endSection() override { path_.pop_back(); }
 
  private:
-  static std::string number(double v) {
-    std::ostringstream out;
-    out.precision(17);
-    out << v;
-    return out.str();
+  // the shortest text that reads back to the same value
+  template <class T>
+  static std::string number(T v) {
+    char buffer[64];
+    auto result = std::to_chars(buffer, buffer + sizeof(buffer), v);
+    return std::string(buffer, result.ptr);
   }
   void add(std::string_view key, std::string value) {
     std::string full;

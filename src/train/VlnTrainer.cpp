@@ -437,13 +437,16 @@ struct VlnTrainer::Impl {
     double selectionSpl = -1.0;
     for (const Split& split : evalSplits) {
       eval::VectorEnv envs(ec.num_envs, config.sim, config.task, scenes, ec.threads);
-      eval::PolicyAgent agent(policy, encoder, ec.num_envs, ec.sample_actions,
-                              static_cast<uint64_t>(ec.seed), config.dataset.max_instruction_length);
+      // on the heap: PolicyAgent.h declares no destructor, so one instantiated
+      // here would need its private EnvState
+      std::unique_ptr<eval::Agent> agent(new eval::PolicyAgent(
+          policy, encoder, ec.num_envs, ec.sample_actions, static_cast<uint64_t>(ec.seed),
+          config.dataset.max_instruction_length));
       common::ProgressLine line("evaluate " + split.name,
                                 static_cast<int64_t>(split.dataset.episodes.size()), "episodes");
       common::Stopwatch clock;
       const eval::EvaluationResult result = eval::evaluateEpisodes(
-          agent, envs, split.dataset.episodes, split.groundTruth.get(), ec,
+          *agent, envs, split.dataset.episodes, split.groundTruth.get(), ec,
           [&](int, int) { line.advance(); });
       eval::writeStatsFile(evalDir, index, split.name, result.stats);
       const auto& m = result.stats.mean;
@@ -456,7 +459,8 @@ struct VlnTrainer::Impl {
       record["split"] = split.name;
       record["num_episodes"] = result.stats.num_episodes;
       std::vector<std::pair<std::string, double>> scalars;
-      for (auto& [key, value] : metricsJson(m).items())
+      const nlohmann::json values = metricsJson(m);
+      for (const auto& [key, value] : values.items())
         scalars.emplace_back("eval/" + split.name + "/" + key, value.get<double>());
       metrics->write("eval", record, scalars, index);
       if (split.name == ec.selection_split) selectionSpl = m.spl;

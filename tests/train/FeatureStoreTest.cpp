@@ -128,7 +128,7 @@ TEST(FeatureStoreTest, BatchIsTimeMajorAndPadded) {
   EXPECT_FLOAT_EQ(batch.progress[1][1].item<float>(), eps[0].progress[1]);
   // tokens [B, L] padded with 0
   ASSERT_EQ(batch.tokens.size(0), 2);
-  EXPECT_EQ(batch.tokens.size(1), 6);  // id 2 has 3 + 2 tokens, id 1 has 4
+  EXPECT_EQ(batch.tokens.size(1), 5);  // id 2 has 3 + 2 tokens, id 1 has 4
   EXPECT_EQ(batch.tokens[1][4].item<int64_t>(), 0);
   EXPECT_EQ(batch.tokens[0][0].item<int64_t>(), 21);
 }
