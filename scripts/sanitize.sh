@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# Builds everything with AddressSanitizer + UndefinedBehaviorSanitizer
+# (VLN_SANITIZE=ON, gcc) into build-asan/ and runs the ctest suite there with
+# every sanitizer report fatal.
+#
+#   scripts/sanitize.sh                  # whole suite
+#   scripts/sanitize.sh -L 'common|sim'  # extra arguments go to ctest
+#   scripts/sanitize.sh -LE slow         # everything but the slow tests
+#
+# Suppressions (tests/reliability/sanitizers/*.supp) are narrow and each one
+# says why; LibTorch, OpenBLAS and Mesa are not instrumented, which is fine.
+# Prints the build and test wall-clock times at the end.
+#
+# Environment: VLN_JOBS (build and ctest parallelism, default 2),
+# VLN_ASAN_BUILD_DIR (default build-asan).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+build=${VLN_ASAN_BUILD_DIR:-build-asan}
+jobs=${VLN_JOBS:-2}
+supp=$root/tests/reliability/sanitizers
+
+scripts/setup.sh >/dev/null 2>&1 || true  # packages only matter here; build below
+start=$(date +%s)
+if [[ ! -f $build/CMakeCache.txt ]]; then
+  # -g1: line tables for the reports at a fraction of -g's compile cost
+  cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
+    -DCMAKE_CXX_FLAGS=-g1 -DCMAKE_C_FLAGS=-g1 -DVLN_SANITIZE=ON -DVLN_WERROR=ON \
+    -DVLN_BUILD_BENCH=OFF
+fi
+export CCACHE_SLOPPINESS=pch_defines,time_macros,include_file_mtime,include_file_ctime
+cmake --build "$build" -j "$jobs"
+built=$(date +%s)
+
+# halt on the first report; LibTorch's and OpenBLAS's threads keep a few
+# allocations alive at exit, listed (narrowly) in lsan.supp
+export ASAN_OPTIONS="halt_on_error=1:abort_on_error=1:detect_leaks=1:detect_odr_violation=1:strict_string_checks=1:check_initialization_order=1:detect_stack_use_after_return=0"
+export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=$supp/ubsan.supp"
+# sanitized code is 2-5x slower: give ctest's per-test timeout room
+set +e
+(cd "$build" && ctest --output-on-failure -j "$jobs" --timeout 2400 "$@")
+rc=$?
+set -e
+done_at=$(date +%s)
+echo "sanitize: build $((built - start)) s, tests $((done_at - built)) s, ctest exit $rc"
+exit $rc
