@@ -249,8 +249,13 @@ bool cpuHasAvx512() {
 // Everything up to the matching pop_options is compiled for AVX-512F + FMA
 // (lambdas included, which a function attribute would not cover) and only
 // called after cpuHasAvx512().
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx512f,fma"))), \
+                             apply_to = function)
+#else
 #pragma GCC push_options
 #pragma GCC target("avx512f,fma")
+#endif
 
 // GCC 12's unmasked forms of several intrinsics start from an "undefined"
 // register and trip -Wuninitialized; the all-lanes zero-masked forms are the
@@ -414,7 +419,11 @@ void setupPacketAvx512(const float* columnX, const float* rowY,
   _mm512_store_si512(valid, _mm512_maskz_mov_epi32(inside, _mm512_set1_epi32(-1)));
 }
 
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
 #pragma GCC pop_options
+#endif
 
 // ---------------------------------------------------------------------------
 // EmbreeRenderer
