@@ -19,6 +19,7 @@
 
 #include "TrainTestWorld.h"
 #include "common/Json.h"
+#include "data/Episode.h"
 #include "eval/Metrics.h"
 #include "train/Checkpoint.h"
 #include "train/FeatureStore.h"
