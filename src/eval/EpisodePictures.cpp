@@ -16,15 +16,17 @@ namespace fs = std::filesystem;
 namespace {
 
 // caption band below the panels: two lines of text
-constexpr int kCaptionHeight = 44;
+constexpr int kCaptionHeight = 48;
 constexpr double kFontScale = 0.45;
 
 cv::Scalar bgr(const sim::Rgb8& c) { return cv::Scalar(c[2], c[1], c[0]); }
 
-// even sizes keep every encoder happy (mp4v needs them)
-int evenCeil(double value) {
-  const int v = std::max(2, static_cast<int>(std::lround(value)));
-  return v + (v % 2);
+// sizes in multiples of 8 pixels (whole JPEG blocks; OpenCV 4.6's own MJPEG
+// encoder writes corrupt frames 102 px wide but not 104 px wide, and mp4v
+// needs even sizes)
+int ceil8(double value) {
+  const int v = std::max(8, static_cast<int>(std::lround(value)));
+  return (v + 7) / 8 * 8;
 }
 
 // an RGB image as a BGR panel of `width` x `height`
@@ -100,7 +102,7 @@ sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
   if (record.positions.size() >= 2)
     map.drawPath(record.positions, kAgentColor, /*thickness=*/2);
   if (hasGoal) {
-    map.drawCircle(record.goal, successDistance, kGoalColor, /*thickness=*/1);
+    map.drawCircle(record.goal, successDistance, kGoalColor, /*thickness=*/2);
     map.drawPoint(record.goal, kGoalColor, /*radiusPixels=*/5);
   }
   map.drawPoint(record.positions.front(), kStartColor, /*radiusPixels=*/5);
@@ -160,17 +162,17 @@ EpisodeVideo::EpisodeVideo(const fs::path& file, const PicturesConfig& config,
   if (reference.size() >= 2) m.map.drawPath(reference, kReferenceColor, 3);
   if (!episode.goals.empty()) {
     m.map.drawCircle(episode.goals.front().position, config.success_distance,
-                     kGoalColor, 1);
+                     kGoalColor, 2);
     m.map.drawPoint(episode.goals.front().position, kGoalColor, 5);
   }
   m.map.drawPoint(episode.start_position, kStartColor, 5);
 
   // panel sizes: every panel as high as the video, widths keep aspect
-  m.panelHeight = evenCeil(config.video_height);
-  m.rgbWidth = evenCeil(static_cast<double>(rgbWidth) * m.panelHeight / rgbHeight);
+  m.panelHeight = ceil8(config.video_height);
+  m.rgbWidth = ceil8(static_cast<double>(rgbWidth) * m.panelHeight / rgbHeight);
   m.depthWidth =
-      evenCeil(static_cast<double>(depthWidth) * m.panelHeight / depthHeight);
-  m.mapWidth = evenCeil(static_cast<double>(m.map.width()) * m.panelHeight /
+      ceil8(static_cast<double>(depthWidth) * m.panelHeight / depthHeight);
+  m.mapWidth = ceil8(static_cast<double>(m.map.width()) * m.panelHeight /
                         std::max(1, m.map.height()));
 
   // OpenCV picks the container by extension, so the partial file keeps it
@@ -181,12 +183,18 @@ EpisodeVideo::EpisodeVideo(const fs::path& file, const PicturesConfig& config,
   m.partial = file;
   m.partial.replace_filename(file.stem().string() + ".partial" +
                              file.extension().string());
+  // FFmpeg (libavcodec, a dependency of Debian's libopencv-videoio) encodes
+  // both formats; OpenCV's own MJPEG encoder is only the fallback because
+  // OpenCV 4.6's writes some frames as corrupt JPEG ("error dc" when
+  // decoding) depending on their content
   const bool avi = config.video_format == "avi";
-  const int api = avi ? cv::CAP_OPENCV_MJPEG : cv::CAP_FFMPEG;
   const int fourcc = avi ? cv::VideoWriter::fourcc('M', 'J', 'P', 'G')
                          : cv::VideoWriter::fourcc('m', 'p', '4', 'v');
-  m.writer.open(m.partial.string(), api, fourcc, config.fps,
-                cv::Size(width(), height()));
+  const cv::Size size(width(), height());
+  m.writer.open(m.partial.string(), cv::CAP_FFMPEG, fourcc, config.fps, size);
+  if (!m.writer.isOpened() && avi)
+    m.writer.open(m.partial.string(), cv::CAP_OPENCV_MJPEG, fourcc, config.fps,
+                  size);
   VLN_CHECK_IO(m.writer.isOpened(), "EpisodeVideo: cannot write '",
                m.partial.string(), "' as ", avi ? "MJPG .avi" : "mp4v .mp4",
                " (OpenCV VideoWriter failed to open)");
@@ -285,6 +293,31 @@ void EpisodeVideo::close() {
   VLN_CHECK_IO(!ec, "EpisodeVideo::close(): cannot rename '", m.partial.string(),
                "' to '", m.file.string(), "': ", ec.message());
   m.closed = true;
+}
+
+VideoSummary summarizeVideo(const fs::path& file) {
+  VLN_CHECK_IO(fs::is_regular_file(file), "summarizeVideo(): '", file.string(),
+               "' does not exist");
+  cv::VideoCapture capture(file.string());
+  VLN_CHECK_IO(capture.isOpened(), "summarizeVideo(): OpenCV cannot open '",
+               file.string(), "'");
+  VideoSummary summary;
+  cv::Mat frame, grey;
+  while (capture.read(frame)) {
+    cv::cvtColor(frame, grey, cv::COLOR_BGR2GRAY);
+    cv::Scalar mean, stddev;
+    cv::meanStdDev(grey, mean, stddev);
+    if (summary.frames == 0) {
+      summary.width = frame.cols;
+      summary.height = frame.rows;
+      summary.first_frame_stddev = stddev[0];
+    }
+    summary.frame_means.push_back(mean[0]);
+    ++summary.frames;
+  }
+  VLN_CHECK_IO(summary.frames > 0, "summarizeVideo(): '", file.string(),
+               "' holds no decodable frame");
+  return summary;
 }
 
 // ---------------------------------------------------------------------------

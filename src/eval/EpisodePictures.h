@@ -6,8 +6,9 @@
 //  - a video of the episode, one frame after reset and one per action:
 //    egocentric RGB | depth | the top-down map with the path so far, over a
 //    caption band (instruction, step, action, distance to the goal).
-// Videos are MJPG in .avi (OpenCV's built-in encoder, no codec needed) or
-// mp4v in .mp4 (Debian's OpenCV writes it through FFmpeg). Frames go to the
+// Videos are MJPG in .avi or mp4v in .mp4, both written through OpenCV's
+// FFmpeg backend (Debian's libopencv-videoio links libavcodec, so no extra
+// codec is needed); OpenCV's built-in MJPEG encoder is the .avi fallback. Frames go to the
 // encoder as they are captured, so memory stays bounded by the number of
 // videos in progress (at most one per environment); each file is written
 // under a temporary name and renamed when complete.
@@ -39,8 +40,9 @@ struct PicturesConfig {
   int video_episodes = 0;
   /// "avi" (MJPG) or "mp4" (mp4v).
   std::string video_format = "avi";
-  /// Height of each video panel, pixels (observations are scaled up or
-  /// down to it; the frame is three panels wide plus the caption band).
+  /// Height of each video panel, pixels, rounded up to a multiple of 8
+  /// (observations are scaled to it; the frame is three panels side by
+  /// side over a 48 px caption band, every size a multiple of 8).
   int video_height = 256;
   /// Video frame rate (frames per second; one frame per action).
   double fps = 4.0;
@@ -106,6 +108,22 @@ class EpisodeVideo {
   std::unique_ptr<Impl> impl_;
   int frames_ = 0;
 };
+
+/// What a written video holds (decoded back with OpenCV), for checks and
+/// reports.
+struct VideoSummary {
+  int frames = 0;
+  int width = 0;
+  int height = 0;
+  /// Mean grey level (0-255) of each frame.
+  std::vector<double> frame_means;
+  /// Standard deviation of the grey levels of the first frame.
+  double first_frame_stddev = 0.0;
+};
+
+/// Decodes `file` (.avi or .mp4) frame by frame. Throws std::runtime_error
+/// naming the file when it cannot be opened or holds no frame.
+VideoSummary summarizeVideo(const std::filesystem::path& file);
 
 /// The EpisodeObserver that writes maps and videos during an evaluation.
 class EpisodePictures : public EpisodeObserver {
