@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <ctime>
 #include <functional>
 #include <numeric>
 #include <string>
@@ -35,12 +36,14 @@ using namespace vln;
 using namespace vln::models;
 
 struct Timing {
-  double median = 0, min = 0, mean = 0;
+  double median = 0, min = 0, mean = 0;  ///< wall clock, ms
+  double cpuMean = 0;  ///< process CPU time (all threads) per run, ms
 };
 
 // runs `body` warmup + iters times and summarises the timed iterations (ms)
 Timing timeIt(int warmup, int iters, const std::function<void()>& body) {
   for (int i = 0; i < warmup; ++i) body();
+  const std::clock_t cpuStart = std::clock();
   std::vector<double> ms;
   for (int i = 0; i < iters; ++i) {
     const auto start = std::chrono::steady_clock::now();
@@ -56,14 +59,18 @@ Timing timeIt(int warmup, int iters, const std::function<void()>& body) {
   t.median = n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
   t.min = sorted.front();
   t.mean = std::accumulate(ms.begin(), ms.end(), 0.0) / static_cast<double>(n);
+  t.cpuMean = 1000.0 * static_cast<double>(std::clock() - cpuStart) /
+              CLOCKS_PER_SEC / static_cast<double>(n);
   return t;
 }
 
 PolicyType parsePolicy(const std::string& name) {
   if (name == "cma") return PolicyType::kCma;
   if (name == "seq2seq") return PolicyType::kSeq2Seq;
-  throw std::invalid_argument("vlnce-bench: --model must be cma or seq2seq, "
-                              "got '" + name + "'");
+  throw std::invalid_argument(
+      "--model must be cma or seq2seq, "
+      "got '" +
+      name + "'");
 }
 
 EncoderType parseEncoder(const std::string& name) {
@@ -71,8 +78,7 @@ EncoderType parseEncoder(const std::string& name) {
   if (name == "resnet18") return EncoderType::kResNet18;
   if (name == "small_cnn") return EncoderType::kSmallCnn;
   throw std::invalid_argument(
-      "vlnce-bench: --encoder must be resnet50, resnet18 or small_cnn, got '" +
-      name + "'");
+      "--encoder must be resnet50, resnet18 or small_cnn, got '" + name + "'");
 }
 
 // ===========================================================================
@@ -119,10 +125,10 @@ int runUpdate(const UpdateArgs& a, int threads, int warmup, int iters) {
   const Timing t = timeIt(warmup, iters, update);
   std::printf(
       "update %s batch=%d steps=%d instr_len=%d threads=%d: median %.1f "
-      "ms/update (min %.1f, mean %.1f, %d runs after %d warm-up; last loss "
-      "%.4f)\n",
+      "ms/update (min %.1f, mean %.1f, CPU %.1f ms/update; %d runs after %d "
+      "warm-up; last loss %.4f)\n",
       a.model.c_str(), a.batch, a.steps, a.instrLen, threads, t.median, t.min,
-      t.mean, iters, warmup, lastLoss);
+      t.mean, t.cpuMean, iters, warmup, lastLoss);
   return 0;
 }
 
@@ -161,11 +167,10 @@ int runAct(const std::string& model, int batch, int instrLen, int threads,
 // encode
 // ===========================================================================
 
-int runEncode(const std::string& encoder, const std::string& modality,
-              int size, int batch, int threads, int warmup, int iters) {
+int runEncode(const std::string& encoder, const std::string& modality, int size,
+              int batch, int threads, int warmup, int iters) {
   VLN_CHECK_ARG(modality == "rgb" || modality == "depth",
-                "vlnce-bench: --modality must be rgb or depth, got '",
-                modality, "'");
+                "--modality must be rgb or depth, got '", modality, "'");
   ModelConfig config;
   config.rgb_encoder = config.depth_encoder = parseEncoder(encoder);
   config.rgb_height = config.rgb_width = size;
@@ -255,7 +260,8 @@ int main(int argc, char** argv) {
     vln::common::setBlasThreadsEnv(threads);
     torch::set_num_threads(threads);
     if (*up) return runUpdate(update, threads, warmup, iters);
-    if (*act) return runAct(actModel, actBatch, actInstr, threads, warmup, iters);
+    if (*act)
+      return runAct(actModel, actBatch, actInstr, threads, warmup, iters);
     return runEncode(encoder, modality, size, encBatch, threads, warmup, iters);
   });
 }

@@ -267,16 +267,19 @@ def main():
     for _ in range(args.warmup):
         update()
     times = []
+    cpu_start = time.process_time()
     for _ in range(args.iters):
         start = time.perf_counter()
         loss = update()
         times.append(1000.0 * (time.perf_counter() - start))
+    cpu = 1000.0 * (time.process_time() - cpu_start) / args.iters
     print(f"pytorch update {args.model} batch={args.batch} "
           f"steps={args.steps} instr_len={args.instr_len} "
           f"threads={args.threads}: median {statistics.median(times):.1f} "
           f"ms/update (min {min(times):.1f}, mean "
-          f"{statistics.mean(times):.1f}, {args.iters} runs after "
-          f"{args.warmup} warm-up; last loss {loss:.4f})")
+          f"{statistics.mean(times):.1f}, CPU {cpu:.1f} ms/update; "
+          f"{args.iters} runs after {args.warmup} warm-up; last loss "
+          f"{loss:.4f})")
 
 
 if __name__ == "__main__":

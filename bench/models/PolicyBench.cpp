@@ -29,9 +29,9 @@ struct Setup {
     batch = syntheticBatch(config, kBatch, kSteps, kInstrLen);
   }
   torch::Tensor loss() {
-    const PolicyOutputs out = policy->forwardSequence(
-        policy->encodeInstruction(batch.tokens), batch.inputs,
-        policy->initialHidden(kBatch));
+    const PolicyOutputs out =
+        policy->forwardSequence(policy->encodeInstruction(batch.tokens),
+                                batch.inputs, policy->initialHidden(kBatch));
     return weightedActionLoss(out.logits, batch.actions, batch.weights) +
            progressLoss(out.progress, batch.progress, batch.valid);
   }

@@ -26,8 +26,8 @@ CmaPolicyImpl::CmaPolicyImpl(const ModelConfig& config)
   if (config_.usesRgb()) {
     const int64_t channels = rgbShape_[0];
     const int64_t positions = rgbShape_[1] * rgbShape_[2];
-    rgb_spatial_embedding = register_module(
-        "rgb_spatial_embedding", nn::Embedding(positions, posDim));
+    rgb_spatial_embedding = register_module("rgb_spatial_embedding",
+                                            nn::Embedding(positions, posDim));
     rgb_linear = register_module(
         "rgb_linear",
         nn::Linear(channels + posDim, config_.rgb_projection_size));
@@ -40,11 +40,11 @@ CmaPolicyImpl::CmaPolicyImpl(const ModelConfig& config)
   if (config_.usesDepth()) {
     const int64_t channels = depthShape_[0];
     const int64_t positions = depthShape_[1] * depthShape_[2];
-    depth_spatial_embedding = register_module(
-        "depth_spatial_embedding", nn::Embedding(positions, posDim));
-    depth_linear = register_module(
-        "depth_linear", nn::Linear((channels + posDim) * positions,
-                                   config_.depth_projection_size));
+    depth_spatial_embedding = register_module("depth_spatial_embedding",
+                                              nn::Embedding(positions, posDim));
+    depth_linear = register_module("depth_linear",
+                                   nn::Linear((channels + posDim) * positions,
+                                              config_.depth_projection_size));
     depth_kv = register_module(
         "depth_kv",
         nn::Linear(channels + posDim, half + config_.depth_projection_size));
@@ -69,12 +69,11 @@ CmaPolicyImpl::CmaPolicyImpl(const ModelConfig& config)
     visual_query = register_parameter(
         "visual_query", torch::empty({half}).uniform_(-bound, bound));
   }
-  second_state_compress = register_module(
-      "second_state_compress", nn::Linear(compressIn, hidden));
+  second_state_compress =
+      register_module("second_state_compress", nn::Linear(compressIn, hidden));
   second_state_encoder =
       register_module("second_state_encoder", MaskedGru(hidden, hidden));
-  action_head =
-      register_module("action_head", nn::Linear(hidden, kNumActions));
+  action_head = register_module("action_head", nn::Linear(hidden, kNumActions));
   if (config_.progress_monitor)
     progress_monitor =
         register_module("progress_monitor", nn::Linear(hidden, 1));
@@ -111,7 +110,7 @@ torch::Tensor CmaPolicyImpl::attendVisual(const torch::Tensor& q,
 
   // sum_i a_i (W_v x_i + b_v) = W_v (sum_i a_i x_i) + b_v since sum a_i = 1
   const torch::Tensor attendedFeats =
-      torch::bmm(feats, alpha.unsqueeze(2)).squeeze(2);  // [N, C]
+      torch::bmm(feats, alpha.unsqueeze(2)).squeeze(2);     // [N, C]
   const torch::Tensor attendedPos = alpha.matmul(pos.t());  // [N, E]
   return torch::linear(attendedFeats, wv.slice(1, 0, channels), bv) +
          attendedPos.matmul(wv.slice(1, channels).t());
@@ -155,9 +154,8 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
     gru1Parts.push_back(depthIn.view({steps, batch, -1}));
   }
   gru1Parts.push_back(prev);
-  auto [state, lastState] =
-      state_encoder(torch::cat(gru1Parts, /*dim=*/-1), hidden.select(1, 0),
-                    inputs.not_done);
+  auto [state, lastState] = state_encoder(torch::cat(gru1Parts, /*dim=*/-1),
+                                          hidden.select(1, 0), inputs.not_done);
 
   // attention over the instruction, queried by every GRU1 state at once
   std::vector<torch::Tensor> compressParts{state};
@@ -184,17 +182,16 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
     visualQuery = visual_query.unsqueeze(0).expand({n, visual_query.size(0)});
   }
   if (config_.usesRgb())
-    compressParts.push_back(
-        attendVisual(visualQuery, rgbFeats, rgbPos, rgb_kv)
-            .view({steps, batch, -1}));
+    compressParts.push_back(attendVisual(visualQuery, rgbFeats, rgbPos, rgb_kv)
+                                .view({steps, batch, -1}));
   if (config_.usesDepth())
     compressParts.push_back(
         attendVisual(visualQuery, depthFeats, depthPos, depth_kv)
             .view({steps, batch, -1}));
   compressParts.push_back(prev);
 
-  const torch::Tensor x = torch::relu(
-      second_state_compress(torch::cat(compressParts, /*dim=*/-1)));
+  const torch::Tensor x =
+      torch::relu(second_state_compress(torch::cat(compressParts, /*dim=*/-1)));
   auto [actionState, lastAction] =
       second_state_encoder(x, hidden.select(1, 1), inputs.not_done);
 

@@ -75,7 +75,8 @@ class ScriptWriter {
   // writes one line; "{f32}" and "{i64}" become dtype numbers, because
   // source compiled from C++ has no Python resolver for torch.float32
   void line(int indent, std::string text) {
-    replaceAll(text, "{f32}", std::to_string(static_cast<int>(torch::kFloat32)));
+    replaceAll(text, "{f32}",
+               std::to_string(static_cast<int>(torch::kFloat32)));
     replaceAll(text, "{i64}", std::to_string(static_cast<int>(torch::kInt64)));
     code_ << std::string(static_cast<size_t>(indent) * 4, ' ') << text << '\n';
   }
@@ -158,8 +159,8 @@ void emitModule(ScriptWriter& w, nn::Module& module, const std::string& prefix,
     emitModule(w, *tv->conv1, prefix + ".conv1", var, indent);
     emitModule(w, *tv->bn1, prefix + ".bn1", var, indent);
     w.line(indent, var + " = torch.relu(" + var + ")");
-    w.line(indent, var + " = torch.max_pool2d(" + var +
-                       ", [3, 3], [2, 2], [1, 1])");
+    w.line(indent,
+           var + " = torch.max_pool2d(" + var + ", [3, 3], [2, 2], [1, 1])");
     for (const char* layer : {"layer1", "layer2", "layer3", "layer4"})
       emitModule(w, *tv->named_children()[layer], prefix + "." + layer, var,
                  indent);
@@ -173,8 +174,8 @@ void emitModule(ScriptWriter& w, nn::Module& module, const std::string& prefix,
     w.line(indent, var + " = torch.relu(" + var + " + " + identity + ")");
   } else if (auto* dd = dynamic_cast<DdppoResNetImpl*>(&module)) {
     emitModule(w, *dd->conv1, prefix + ".conv1", var, indent);
-    w.line(indent, var + " = torch.max_pool2d(" + var +
-                       ", [3, 3], [2, 2], [1, 1])");
+    w.line(indent,
+           var + " = torch.max_pool2d(" + var + ", [3, 3], [2, 2], [1, 1])");
     for (const char* layer : {"layer1", "layer2", "layer3", "layer4"})
       emitModule(w, *dd->named_children()[layer], prefix + "." + layer, var,
                  indent);
@@ -232,8 +233,8 @@ void emitInstructionEncoder(ScriptWriter& w, const ModelConfig& config) {
          "Tensor, Tensor]:");
   w.line(1, "mask = tokens != 0");
   w.line(1, "m = mask.to({f32}).unsqueeze(2)");
-  w.line(1, "x = torch.embedding(" + w.ref(p + "embedding.weight") +
-                ", tokens)");
+  w.line(1,
+         "x = torch.embedding(" + w.ref(p + "embedding.weight") + ", tokens)");
   w.line(1, "length = tokens.size(1)");
   auto direction = [&](const std::string& suffix, bool reverse,
                        const std::string& list) {
@@ -299,8 +300,7 @@ void emitHeads(ScriptWriter& w, const std::string& state) {
   w.line(1, "logits = " + linear(w, "policy.action_head", state));
   if (w.has("policy.progress_monitor.weight")) {
     w.line(1, "progress = torch.tanh(" +
-                  linear(w, "policy.progress_monitor", state) +
-                  ").squeeze(1)");
+                  linear(w, "policy.progress_monitor", state) + ").squeeze(1)");
   } else {
     w.line(1,
            "progress = torch.zeros([n], dtype={f32}, "
@@ -320,11 +320,10 @@ void emitSeq2Seq(ScriptWriter& w, const ModelConfig& config) {
                          "depth_features.to({f32}).flatten(1)") +
                   "))");
   if (config.usesRgb())
-    w.line(1,
-           "parts.append(torch.relu(" +
-               linear(w, "policy.rgb_linear",
-                      "rgb_features.to({f32}).flatten(2).mean(2)") +
-               "))");
+    w.line(1, "parts.append(torch.relu(" +
+                  linear(w, "policy.rgb_linear",
+                         "rgb_features.to({f32}).flatten(2).mean(2)") +
+                  "))");
   if (config.seq2seq_prev_action) w.line(1, "parts.append(prev)");
   w.line(1, "h = " + gruStep(w, "policy.state_encoder", "torch.cat(parts, 1)",
                              "hidden[:, 0]"));
@@ -354,9 +353,8 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
     w.line(1, "alpha = torch.softmax(scores * " + scaleText + ", 1)");
     w.line(1, "att_f = torch.bmm(feats, alpha.unsqueeze(2)).squeeze(2)");
     w.line(1, "att_p = torch.matmul(alpha, pos.t())");
-    w.line(1,
-           "return torch.linear(att_f, wv[:, :channels], b[" + half +
-               ":]) + torch.matmul(att_p, wv[:, channels:].t())");
+    w.line(1, "return torch.linear(att_f, wv[:, :channels], b[" + half +
+                  ":]) + torch.matmul(att_p, wv[:, channels:].t())");
     w.line(0, "");
   }
 
@@ -367,14 +365,13 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
     const std::string c = std::to_string(s[0]);
     const std::string positions = std::to_string(s[1] * s[2]);
     const std::string wt = w.ref("policy.rgb_linear.weight");
-    w.line(1, "rgb_feats = rgb_features.to({f32}).reshape([n, " + c +
-                  ", " + positions + "])");
+    w.line(1, "rgb_feats = rgb_features.to({f32}).reshape([n, " + c + ", " +
+                  positions + "])");
     w.line(1, "rgb_pos = " + w.ref("policy.rgb_spatial_embedding.weight") +
                   ".view([" + posDim + ", " + positions + "])");
     w.line(1, "gru1_in.append(torch.relu(torch.linear(rgb_feats.mean(2), " +
                   wt + "[:, :" + c + "], " + w.ref("policy.rgb_linear.bias") +
-                  " + torch.mv(" + wt + "[:, " + c +
-                  ":], rgb_pos.mean(1)))))");
+                  " + torch.mv(" + wt + "[:, " + c + ":], rgb_pos.mean(1)))))");
   }
   if (config.usesDepth()) {
     const FeatureShape s = depthFeatureShape(config);
@@ -382,15 +379,15 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
     const std::string positions = std::to_string(s[1] * s[2]);
     const std::string split = std::to_string(s[0] * s[1] * s[2]);
     const std::string wt = w.ref("policy.depth_linear.weight");
-    w.line(1, "depth_feats = depth_features.to({f32}).reshape([n, " +
-                  c + ", " + positions + "])");
-    w.line(1, "depth_pos = " +
-                  w.ref("policy.depth_spatial_embedding.weight") + ".view([" +
-                  posDim + ", " + positions + "])");
-    w.line(1, "gru1_in.append(torch.relu(torch.linear(depth_feats.reshape([n, " +
-                  split + "]), " + wt + "[:, :" + split + "], " +
-                  w.ref("policy.depth_linear.bias") + " + torch.mv(" + wt +
-                  "[:, " + split + ":], depth_pos.flatten()))))");
+    w.line(1, "depth_feats = depth_features.to({f32}).reshape([n, " + c + ", " +
+                  positions + "])");
+    w.line(1, "depth_pos = " + w.ref("policy.depth_spatial_embedding.weight") +
+                  ".view([" + posDim + ", " + positions + "])");
+    w.line(1,
+           "gru1_in.append(torch.relu(torch.linear(depth_feats.reshape([n, " +
+               split + "]), " + wt + "[:, :" + split + "], " +
+               w.ref("policy.depth_linear.bias") + " + torch.mv(" + wt +
+               "[:, " + split + ":], depth_pos.flatten()))))");
   }
   w.line(1, "gru1_in.append(prev)");
   w.line(1, "h1 = " + gruStep(w, "policy.state_encoder",
@@ -411,8 +408,8 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
     w.line(1, "compress_in.append(text)");
     w.line(1, "vq = " + linear(w, "policy.text_q", "text"));
   } else if (config.usesRgb() || config.usesDepth()) {
-    w.line(1, "vq = " + w.ref("policy.visual_query") + ".unsqueeze(0).expand([n, " +
-                  half + "])");
+    w.line(1, "vq = " + w.ref("policy.visual_query") +
+                  ".unsqueeze(0).expand([n, " + half + "])");
   }
   if (config.usesRgb())
     w.line(1, "compress_in.append(self.attend(vq, rgb_feats, rgb_pos, " +
@@ -429,8 +426,8 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
                 linear(w, "policy.second_state_compress",
                        "torch.cat(compress_in, 1)") +
                 ")");
-  w.line(1, "h2 = " + gruStep(w, "policy.second_state_encoder", "x",
-                              "hidden[:, 1]"));
+  w.line(1, "h2 = " +
+                gruStep(w, "policy.second_state_encoder", "x", "hidden[:, 1]"));
   emitHeads(w, "h2");
   w.line(1, "return logits, progress, torch.stack([h1, h2], 1)");
   w.line(0, "");
@@ -492,8 +489,7 @@ torch::jit::Module buildExportModule(PolicyImpl& policy,
   }
 
   // forward: raw observations when the encoders are included
-  const std::string outputs =
-      " -> Tuple[Tensor, Tensor, Tensor]:";
+  const std::string outputs = " -> Tuple[Tensor, Tensor, Tensor]:";
   if (encoder != nullptr) {
     w.line(0,
            "def forward(self, rgb: Tensor, depth: Tensor, instruction: "

@@ -15,10 +15,10 @@ InstructionEncoderImpl::InstructionEncoderImpl(const ModelConfig& config)
               .padding_idx(0)));
   embedding->weight.set_requires_grad(config.fine_tune_embeddings);
   lstm = register_module(
-      "lstm", torch::nn::LSTM(torch::nn::LSTMOptions(
-                                  config.embedding_dim,
-                                  config.instruction_hidden_size)
-                                  .bidirectional(bidirectional_)));
+      "lstm",
+      torch::nn::LSTM(torch::nn::LSTMOptions(config.embedding_dim,
+                                             config.instruction_hidden_size)
+                          .bidirectional(bidirectional_)));
 }
 
 torch::Tensor InstructionEncoderImpl::lengths(
@@ -56,9 +56,8 @@ InstructionStates InstructionEncoderImpl::forward(const torch::Tensor& tokens) {
       embedded, lens, /*batch_first=*/true, /*enforce_sorted=*/false);
   auto [output, state] = lstm->forward_with_packed_input(packed);
   InstructionStates out;
-  out.states =
-      std::get<0>(torch::nn::utils::rnn::pad_packed_sequence(
-          output, /*batch_first=*/true));
+  out.states = std::get<0>(
+      torch::nn::utils::rnn::pad_packed_sequence(output, /*batch_first=*/true));
   const int64_t maxLen = out.states.size(1);
   out.mask = (torch::arange(maxLen).unsqueeze(0) < lens.unsqueeze(1))
                  .to(tokens.device());

@@ -29,10 +29,9 @@ torch::Tensor weightedActionLoss(const torch::Tensor& logits,
   // padded steps may hold any action id; their weight is zero
   const torch::Tensor safeActions =
       torch::where(weights > 0, actions, torch::zeros_like(actions));
-  const torch::Tensor ce =
-      -torch::log_softmax(logits, /*dim=*/-1)
-           .gather(-1, safeActions.unsqueeze(-1))
-           .squeeze(-1);  // [T, B]
+  const torch::Tensor ce = -torch::log_softmax(logits, /*dim=*/-1)
+                                .gather(-1, safeActions.unsqueeze(-1))
+                                .squeeze(-1);  // [T, B]
   const torch::Tensor perEpisode =
       (weights * ce).sum(0) / weights.sum(0).clamp_min(1e-12);
   return perEpisode.mean();
@@ -41,11 +40,11 @@ torch::Tensor weightedActionLoss(const torch::Tensor& logits,
 torch::Tensor progressLoss(const torch::Tensor& progress,
                            const torch::Tensor& target,
                            const torch::Tensor& valid) {
-  TORCH_CHECK(progress.sizes() == target.sizes() &&
-                  valid.sizes() == target.sizes(),
-              "progressLoss(): expected progress, target and valid of one "
-              "shape, got ",
-              progress.sizes(), ", ", target.sizes(), ", ", valid.sizes());
+  TORCH_CHECK(
+      progress.sizes() == target.sizes() && valid.sizes() == target.sizes(),
+      "progressLoss(): expected progress, target and valid of one "
+      "shape, got ",
+      progress.sizes(), ", ", target.sizes(), ", ", valid.sizes());
   const torch::Tensor mask = valid.to(progress.scalar_type());
   return ((progress - target).square() * mask).sum() /
          mask.sum().clamp_min(1.0);

@@ -103,8 +103,7 @@ struct GruRecurrence : public torch::autograd::Function<GruRecurrence> {
       dh = torch::addmm(dh * z, dght, whh) * mask[t];
     }
     const Tensor dghFlat = dgh.view({steps * batch, 3 * hidden});
-    const Tensor dwhh =
-        dghFlat.t().mm(hprev.view({steps * batch, hidden}));
+    const Tensor dwhh = dghFlat.t().mm(hprev.view({steps * batch, hidden}));
     const Tensor dbhh = dghFlat.sum(0);
     return {dgi, dh, dwhh, dbhh, Tensor()};
   }

@@ -95,9 +95,10 @@ struct ModelConfig {
   std::string device = "cpu";
 
   void visit(common::ConfigVisitor& v) {
-    v.enumeration("policy", policy,
-                  {{"seq2seq", PolicyType::kSeq2Seq}, {"cma", PolicyType::kCma}},
-                  "Agent architecture (paper Section 4)");
+    v.enumeration(
+        "policy", policy,
+        {{"seq2seq", PolicyType::kSeq2Seq}, {"cma", PolicyType::kCma}},
+        "Agent architecture (paper Section 4)");
     const std::initializer_list<std::pair<const char*, EncoderType>> encoders =
         {{"resnet50", EncoderType::kResNet50},
          {"resnet18", EncoderType::kResNet18},
@@ -130,8 +131,8 @@ struct ModelConfig {
             "Previous-action embedding width", common::atLeast(1));
     v.field("seq2seq_prev_action", seq2seq_prev_action,
             "Seq2Seq also receives the previous action");
-    v.field("rgb_projection_size", rgb_projection_size,
-            "RGB projection width", common::atLeast(1));
+    v.field("rgb_projection_size", rgb_projection_size, "RGB projection width",
+            common::atLeast(1));
     v.field("depth_projection_size", depth_projection_size,
             "Depth projection width", common::atLeast(1));
     v.field("spatial_embedding_dim", spatial_embedding_dim,
@@ -168,9 +169,7 @@ struct ModelConfig {
                                       : instruction_hidden_size;
   }
   /// Number of stacked recurrent states: 1 (Seq2Seq) or 2 (CMA).
-  int numRecurrentLayers() const {
-    return policy == PolicyType::kCma ? 2 : 1;
-  }
+  int numRecurrentLayers() const { return policy == PolicyType::kCma ? 2 : 1; }
 };
 
 /// Shape [C, h, w] of the RGB encoder's output for `config`'s RGB image size:

@@ -96,7 +96,8 @@ torch::Tensor DepthEncoderImpl::forward(const torch::Tensor& depth) {
   const torch::Tensor images =
       flattenImages(depth, 1, "DepthEncoder::forward()");
   const torch::Tensor x = images.permute({0, 3, 1, 2});
-  const torch::Tensor features = resnet ? resnet->forward(x) : small->forward(x);
+  const torch::Tensor features =
+      resnet ? resnet->forward(x) : small->forward(x);
   return unflattenFeatures(features, depth);
 }
 
@@ -123,8 +124,8 @@ ObservationEncoderImpl::ObservationEncoderImpl(const ModelConfig& config)
   train(true);
 }
 
-VisualFeatures ObservationEncoderImpl::forward(const torch::Tensor& rgbImages,
-                                               const torch::Tensor& depthImages) {
+VisualFeatures ObservationEncoderImpl::forward(
+    const torch::Tensor& rgbImages, const torch::Tensor& depthImages) {
   VisualFeatures out;
   if (rgb) {
     TORCH_CHECK(rgbImages.defined(),

@@ -36,11 +36,11 @@ PolicyOutputs PolicyImpl::step(const EncodedInstruction& instruction,
   auto once = [](const torch::Tensor& t) {
     return t.defined() ? t.unsqueeze(0) : t;
   };
-  PolicyOutputs out = forwardSequence(
-      instruction,
-      {once(inputs.rgb), once(inputs.depth), once(inputs.prev_actions),
-       once(inputs.not_done)},
-      hidden);
+  PolicyOutputs out =
+      forwardSequence(instruction,
+                      {once(inputs.rgb), once(inputs.depth),
+                       once(inputs.prev_actions), once(inputs.not_done)},
+                      hidden);
   out.logits = out.logits.squeeze(0);
   if (out.progress.defined()) out.progress = out.progress.squeeze(0);
   return out;
@@ -48,8 +48,9 @@ PolicyOutputs PolicyImpl::step(const EncodedInstruction& instruction,
 
 torch::Tensor PolicyImpl::initialHidden(int64_t batch) const {
   torch::Tensor any = parameters().front();
-  return torch::zeros({batch, config_.numRecurrentLayers(), config_.hidden_size},
-                      any.options().requires_grad(false));
+  return torch::zeros(
+      {batch, config_.numRecurrentLayers(), config_.hidden_size},
+      any.options().requires_grad(false));
 }
 
 void PolicyImpl::setWordEmbeddings(const torch::Tensor& matrix) {
@@ -66,8 +67,8 @@ std::pair<int64_t, int64_t> PolicyImpl::checkInputs(
   const int64_t batch = inputs.not_done.size(1);
   TORCH_CHECK(inputs.prev_actions.defined() &&
                   inputs.prev_actions.sizes() == inputs.not_done.sizes(),
-              "Policy::forwardSequence(): expected prev_actions [", steps,
-              ", ", batch, "]");
+              "Policy::forwardSequence(): expected prev_actions [", steps, ", ",
+              batch, "]");
   auto checkFeatures = [&](const torch::Tensor& f, const FeatureShape& shape,
                            const char* name) {
     TORCH_CHECK(f.defined() && f.dim() == 5 && f.size(0) == steps &&
@@ -75,25 +76,23 @@ std::pair<int64_t, int64_t> PolicyImpl::checkInputs(
                     f.size(3) == shape[1] && f.size(4) == shape[2],
                 "Policy::forwardSequence(): expected ", name, " features [",
                 steps, ", ", batch, ", ", shape[0], ", ", shape[1], ", ",
-                shape[2], "], got ", f.defined() ? f.sizes()
-                                                 : torch::IntArrayRef{});
+                shape[2], "], got ",
+                f.defined() ? f.sizes() : torch::IntArrayRef{});
   };
   if (config_.usesRgb()) checkFeatures(inputs.rgb, rgbShape_, "rgb");
   if (config_.usesDepth()) checkFeatures(inputs.depth, depthShape_, "depth");
-  TORCH_CHECK(hidden.defined() && hidden.dim() == 3 &&
-                  hidden.size(0) == batch &&
-                  hidden.size(1) == config_.numRecurrentLayers() &&
-                  hidden.size(2) == config_.hidden_size,
-              "Policy::forwardSequence(): expected hidden [", batch, ", ",
-              config_.numRecurrentLayers(), ", ", config_.hidden_size,
-              "], got ", hidden.defined() ? hidden.sizes()
-                                          : torch::IntArrayRef{});
+  TORCH_CHECK(
+      hidden.defined() && hidden.dim() == 3 && hidden.size(0) == batch &&
+          hidden.size(1) == config_.numRecurrentLayers() &&
+          hidden.size(2) == config_.hidden_size,
+      "Policy::forwardSequence(): expected hidden [", batch, ", ",
+      config_.numRecurrentLayers(), ", ", config_.hidden_size, "], got ",
+      hidden.defined() ? hidden.sizes() : torch::IntArrayRef{});
   return {steps, batch};
 }
 
 torch::Tensor PolicyImpl::prevActionIndex(const PolicyInputs& inputs) {
-  return ((inputs.prev_actions + 1) * (inputs.not_done != 0))
-      .to(torch::kInt64);
+  return ((inputs.prev_actions + 1) * (inputs.not_done != 0)).to(torch::kInt64);
 }
 
 void PolicyImpl::initHeads(torch::nn::Linear& action,

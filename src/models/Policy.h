@@ -104,8 +104,7 @@ class PolicyImpl : public torch::nn::Module {
   /// Initialises an action head (orthogonal, gain 0.01, zero bias; habitat's
   /// CategoricalNet) and a progress head (Kaiming normal for tanh, zero
   /// bias; VLN-CE).
-  static void initHeads(torch::nn::Linear& action,
-                        torch::nn::Linear* progress);
+  static void initHeads(torch::nn::Linear& action, torch::nn::Linear* progress);
 
   ModelConfig config_;
   FeatureShape rgbShape_{};

@@ -20,7 +20,8 @@ nn::Conv2d conv(int64_t in, int64_t out, int64_t kernel, int64_t stride,
 // blocks per stage: torchvision and habitat use the same counts
 std::array<int64_t, 4> stageBlocks(int layers) {
   VLN_CHECK_ARG(layers == 18 || layers == 50,
-                "ResNet: only ResNet-18 and ResNet-50 exist here, got ", layers);
+                "ResNet: only ResNet-18 and ResNet-50 exist here, got ",
+                layers);
   if (layers == 18) return {2, 2, 2, 2};
   return {3, 4, 6, 3};
 }
@@ -125,13 +126,12 @@ DdppoBlockImpl::DdppoBlockImpl(int64_t inplanes, int64_t planes,
   // match the DD-PPO checkpoint's parameter names
   if (bottleneck) {
     convs = register_module(
-        "convs",
-        nn::Sequential(conv(inplanes, planes, 1, 1, 0),
-                       nn::GroupNorm(ngroups, planes), nn::ReLU(),
-                       conv(planes, planes, 3, stride, 1),
-                       nn::GroupNorm(ngroups, planes), nn::ReLU(),
-                       conv(planes, planes * 4, 1, 1, 0),
-                       nn::GroupNorm(ngroups, planes * 4)));
+        "convs", nn::Sequential(conv(inplanes, planes, 1, 1, 0),
+                                nn::GroupNorm(ngroups, planes), nn::ReLU(),
+                                conv(planes, planes, 3, stride, 1),
+                                nn::GroupNorm(ngroups, planes), nn::ReLU(),
+                                conv(planes, planes * 4, 1, 1, 0),
+                                nn::GroupNorm(ngroups, planes * 4)));
   } else {
     convs = register_module(
         "convs", nn::Sequential(conv(inplanes, planes, 3, stride, 1),
@@ -202,8 +202,8 @@ DdppoResNetEncoderImpl::DdppoResNetEncoderImpl(int layers, int64_t basePlanes,
       "backbone",
       DdppoResNet(layers, /*inChannels=*/1, basePlanes, basePlanes / 2));
   // ResNetEncoder aims at 2048 values after compression, whatever the size
-  const int64_t channels = std::llround(
-      2048.0 / static_cast<double>(finalSpatial * finalSpatial));
+  const int64_t channels =
+      std::llround(2048.0 / static_cast<double>(finalSpatial * finalSpatial));
   compression = register_module(
       "compression",
       nn::Sequential(conv(backbone->outputChannels(), channels, 3, 1, 1),
@@ -221,11 +221,10 @@ torch::Tensor DdppoResNetEncoderImpl::forward(const torch::Tensor& x) {
 
 SmallCnnImpl::SmallCnnImpl(int64_t inChannels, int64_t outChannels) {
   cnn = register_module(
-      "cnn", nn::Sequential(conv(inChannels, 32, 3, 2, 1, /*bias=*/true),
-                            nn::ReLU(), conv(32, 64, 3, 2, 1, /*bias=*/true),
-                            nn::ReLU(),
-                            conv(64, outChannels, 3, 2, 1, /*bias=*/true),
-                            nn::ReLU()));
+      "cnn", nn::Sequential(
+                 conv(inChannels, 32, 3, 2, 1, /*bias=*/true), nn::ReLU(),
+                 conv(32, 64, 3, 2, 1, /*bias=*/true), nn::ReLU(),
+                 conv(64, outChannels, 3, 2, 1, /*bias=*/true), nn::ReLU()));
 }
 
 torch::Tensor SmallCnnImpl::forward(const torch::Tensor& x) {

@@ -31,8 +31,8 @@ Seq2SeqPolicyImpl::Seq2SeqPolicyImpl(const ModelConfig& config)
                              config_.prev_action_embedding_dim));
     inputSize += config_.prev_action_embedding_dim;
   }
-  state_encoder = register_module(
-      "state_encoder", MaskedGru(inputSize, config_.hidden_size));
+  state_encoder = register_module("state_encoder",
+                                  MaskedGru(inputSize, config_.hidden_size));
   action_head = register_module(
       "action_head", torch::nn::Linear(config_.hidden_size, kNumActions));
   if (config_.progress_monitor)

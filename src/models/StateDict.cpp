@@ -71,8 +71,7 @@ void loadStateStrict(torch::nn::Module& module, const NamedTensors& tensors,
     auto it = given.find(name);
     if (it == given.end()) {
       missing.push_back(name + " " + shapeString(target));
-    } else if (!it->second.defined() ||
-               it->second.sizes() != target.sizes()) {
+    } else if (!it->second.defined() || it->second.sizes() != target.sizes()) {
       mismatched.push_back(name + " expected " + shapeString(target) +
                            ", got " +
                            (it->second.defined() ? shapeString(it->second)
@@ -110,7 +109,8 @@ void loadStateStrict(torch::nn::Module& module, const NamedTensors& tensors,
 NamedTensors stripPrefix(const NamedTensors& tensors, std::string_view prefix) {
   NamedTensors out;
   for (const auto& [name, tensor] : tensors)
-    if (name.size() > prefix.size() && name.compare(0, prefix.size(), prefix) == 0)
+    if (name.size() > prefix.size() &&
+        name.compare(0, prefix.size(), prefix) == 0)
       out.emplace_back(name.substr(prefix.size()), tensor);
   return out;
 }

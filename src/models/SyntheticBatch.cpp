@@ -42,10 +42,10 @@ TeacherForcingBatch syntheticBatch(const ModelConfig& config, int64_t batch,
 
   // MOVE_FORWARD 70%, TURN_LEFT 15%, TURN_RIGHT 15%, STOP on the last step
   const torch::Tensor draw = torch::rand({T, B}, gen);
-  u.actions = torch::where(draw < 0.7, torch::ones({T, B}, torch::kInt64),
-                           torch::where(draw < 0.85,
-                                        torch::full({T, B}, 2, torch::kInt64),
-                                        torch::full({T, B}, 3, torch::kInt64)));
+  u.actions = torch::where(
+      draw < 0.7, torch::ones({T, B}, torch::kInt64),
+      torch::where(draw < 0.85, torch::full({T, B}, 2, torch::kInt64),
+                   torch::full({T, B}, 3, torch::kInt64)));
   const torch::Tensor t = torch::arange(T).unsqueeze(1).expand({T, B});
   u.valid = t < lengths.unsqueeze(0);
   u.actions = torch::where(t == lengths.unsqueeze(0) - 1,

@@ -15,8 +15,8 @@ using test::randomInputs;
 using test::randomTokens;
 using test::tinyConfig;
 
-torch::Tensor gruLoop(MaskedGruImpl& m, const torch::Tensor& x,
-                      torch::Tensor h, const torch::Tensor& notDone) {
+torch::Tensor gruLoop(MaskedGruImpl& m, const torch::Tensor& x, torch::Tensor h,
+                      const torch::Tensor& notDone) {
   std::vector<torch::Tensor> out;
   for (int64_t t = 0; t < x.size(0); ++t) {
     const auto& w = m.gru->all_weights();  // w_ih, w_hh, b_ih, b_hh
@@ -68,11 +68,12 @@ TEST(CmaPolicyTest, MatchesDirectTranscriptionOfVlnCe) {
   auto withPositions = [&](const torch::Tensor& f, torch::nn::Embedding& e) {
     const torch::Tensor flat = f.reshape({n, f.size(2), -1});
     const int64_t positions = flat.size(2);
-    const torch::Tensor pos = e->weight.view({1, -1, positions})
-                                  .expand({n, -1, positions});
+    const torch::Tensor pos =
+        e->weight.view({1, -1, positions}).expand({n, -1, positions});
     return torch::cat({flat, pos}, 1);  // [N, C + E, P]
   };
-  const torch::Tensor rgb = withPositions(in.rgb, policy->rgb_spatial_embedding);
+  const torch::Tensor rgb =
+      withPositions(in.rgb, policy->rgb_spatial_embedding);
   const torch::Tensor depth =
       withPositions(in.depth, policy->depth_spatial_embedding);
   const torch::Tensor prev = policy->prev_action_embedding(
@@ -88,8 +89,8 @@ TEST(CmaPolicyTest, MatchesDirectTranscriptionOfVlnCe) {
   const torch::Tensor textK =
       torch::einsum("oc,ncl->nol", {policy->text_k->weight, instrStates}) +
       policy->text_k->bias.view({1, -1, 1});
-  const torch::Tensor text = attn(policy->state_q(state), textK, instrStates,
-                                  padMask, scale);
+  const torch::Tensor text =
+      attn(policy->state_q(state), textK, instrStates, padMask, scale);
   auto kv = [&](torch::nn::Linear& layer, const torch::Tensor& x) {
     return torch::einsum("oc,ncp->nop", {layer->weight, x}) +
            layer->bias.view({1, -1, 1});
@@ -99,8 +100,8 @@ TEST(CmaPolicyTest, MatchesDirectTranscriptionOfVlnCe) {
   const torch::Tensor textQ = policy->text_q(text);
   const torch::Tensor rgbAtt =
       attn(textQ, rgbKv.slice(1, 0, half), rgbKv.slice(1, half), {}, scale);
-  const torch::Tensor depthAtt = attn(textQ, depthKv.slice(1, 0, half),
-                                      depthKv.slice(1, half), {}, scale);
+  const torch::Tensor depthAtt =
+      attn(textQ, depthKv.slice(1, 0, half), depthKv.slice(1, half), {}, scale);
   const torch::Tensor x = torch::relu(policy->second_state_compress(
       torch::cat({state, text, rgbAtt, depthAtt, prev}, 1)));
   const torch::Tensor action =
@@ -112,8 +113,8 @@ TEST(CmaPolicyTest, MatchesDirectTranscriptionOfVlnCe) {
 
   EXPECT_TRUE(torch::allclose(fast.logits, logits, 1e-9, 1e-11));
   EXPECT_TRUE(torch::allclose(fast.progress, progress, 1e-9, 1e-11));
-  EXPECT_TRUE(torch::allclose(fast.hidden.select(1, 1), action[steps - 1],
-                              1e-9, 1e-11));
+  EXPECT_TRUE(torch::allclose(fast.hidden.select(1, 1), action[steps - 1], 1e-9,
+                              1e-11));
 }
 
 TEST(CmaPolicyTest, WithoutInstructionVisualQueryIsLearnedConstant) {

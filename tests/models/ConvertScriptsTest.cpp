@@ -19,7 +19,7 @@ bool havePythonTorch() {
 }
 
 std::string python(const std::filesystem::path& script,
-                    const std::string& args) {
+                   const std::string& args) {
   std::string log;
   const int status = vln::test::runCommand(
       "/usr/bin/python3 " + script.string() + " " + args, &log);
@@ -55,10 +55,9 @@ torch.save({"state_dict": state, "config": config}, sys.argv[2])
 )PY");
   python(dir / "make.py",
          (dir / "tensors.pt").string() + " " + (dir / "ddppo.pth").string());
-  const std::string log =
-      python(vln::test::sourcePath() / "scripts" / "convert_ddppo_depth.py",
-             (dir / "ddppo.pth").string() + " --out " +
-                 (dir / "depth.pt").string());
+  const std::string log = python(
+      vln::test::sourcePath() / "scripts" / "convert_ddppo_depth.py",
+      (dir / "ddppo.pth").string() + " --out " + (dir / "depth.pt").string());
   EXPECT_NE(log.find("base width 8"), std::string::npos) << log;
 
   torch::manual_seed(22);
@@ -97,19 +96,20 @@ torch.save(tensors, sys.argv[2])
 )PY");
   python(dir / "make.py",
          (dir / "tensors.pt").string() + " " + (dir / "resnet18.pth").string());
-  python(vln::test::sourcePath() / "scripts" /
-             "convert_torchvision_resnet50.py",
-         "--arch resnet18 --state-dict " + (dir / "resnet18.pth").string() +
-             " --out " + (dir / "rgb.pt").string());
+  python(
+      vln::test::sourcePath() / "scripts" / "convert_torchvision_resnet50.py",
+      "--arch resnet18 --state-dict " + (dir / "resnet18.pth").string() +
+          " --out " + (dir / "rgb.pt").string());
 
   torch::manual_seed(24);
   c.rgb_weights = (dir / "rgb.pt").string();
   ObservationEncoder loaded(c);
   loaded->loadPretrained();
   torch::NoGradGuard g;
-  const torch::Tensor rgb = torch::randint(0, 256, {2, 32, 32, 3}, torch::kUInt8);
-  EXPECT_TRUE(torch::equal(source->forward(rgb, {}).rgb,
-                           loaded->forward(rgb, {}).rgb));
+  const torch::Tensor rgb =
+      torch::randint(0, 256, {2, 32, 32, 3}, torch::kUInt8);
+  EXPECT_TRUE(
+      torch::equal(source->forward(rgb, {}).rgb, loaded->forward(rgb, {}).rgb));
 }
 
 }  // namespace

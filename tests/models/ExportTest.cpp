@@ -51,8 +51,8 @@ Outputs runCpp(PolicyImpl& policy, ObservationEncoderImpl& encoder,
   torch::Tensor h = policy.initialHidden(2);
   for (const auto& s : data) {
     const VisualFeatures f = encoder.forward(s.rgb, s.depth);
-    const auto o = policy.step(instr, {f.rgb, f.depth, s.prevAction, s.notDone},
-                               h);
+    const auto o =
+        policy.step(instr, {f.rgb, f.depth, s.prevAction, s.notDone}, h);
     out.logits.push_back(o.logits);
     out.progress.push_back(o.progress.defined() ? o.progress
                                                 : torch::zeros({2}));
@@ -165,15 +165,15 @@ TEST(ExportTest, FeatureEntryPointMatchesPolicy) {
   const auto expected =
       policy->step(policy->encodeInstruction(tokens), test::stepOf(in, 0), h);
   for (const char* method : {"forward", "step_features"}) {
-    const auto out = m.get_method(method)({in.rgb[0], in.depth[0], tokens,
-                                           in.prev_actions[0], in.not_done[0],
-                                           h})
-                         .toTuple();
-    EXPECT_TRUE(torch::allclose(out->elements()[0].toTensor(),
-                                expected.logits, 1e-4, 1e-5))
+    const auto out =
+        m.get_method(method)({in.rgb[0], in.depth[0], tokens,
+                              in.prev_actions[0], in.not_done[0], h})
+            .toTuple();
+    EXPECT_TRUE(torch::allclose(out->elements()[0].toTensor(), expected.logits,
+                                1e-4, 1e-5))
         << method;
-    EXPECT_TRUE(torch::allclose(out->elements()[2].toTensor(),
-                                expected.hidden, 1e-4, 1e-5))
+    EXPECT_TRUE(torch::allclose(out->elements()[2].toTensor(), expected.hidden,
+                                1e-4, 1e-5))
         << method;
   }
 }
@@ -243,18 +243,18 @@ for i in range(1, len(sys.argv), 3):
 )PY";
   vln::test::writeText(dir / "run.py", script);
   std::string log;
-  ASSERT_EQ(vln::test::runCommand(
-                "/usr/bin/python3 " + (dir / "run.py").string() + " " + args,
-                &log),
-            0)
+  ASSERT_EQ(
+      vln::test::runCommand(
+          "/usr/bin/python3 " + (dir / "run.py").string() + " " + args, &log),
+      0)
       << log;
 
   size_t k = 0;
   for (PolicyType p : {PolicyType::kSeq2Seq, PolicyType::kCma}) {
     SCOPED_TRACE(policyName(p));
     std::map<std::string, torch::Tensor> py;
-    for (auto& [name, t] : readTensorFile(
-             dir / (std::string(policyName(p)) + "_outputs.pt")))
+    for (auto& [name, t] :
+         readTensorFile(dir / (std::string(policyName(p)) + "_outputs.pt")))
       py[name] = t;
     const PolicyOutputs& e = expected[k++];
     EXPECT_TRUE(torch::allclose(py.at("logits"), e.logits, 1e-4, 1e-5));

@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "ModelTestUtil.h"
+#include "common/Json.h"
+#include "support/TestPaths.h"
 
 namespace vln::models {
 namespace {
@@ -71,7 +73,9 @@ TEST(InstructionEncoderTest, BadTokensAreRejectedWithTheReason) {
                 enc->forward(torch::tensor({{3, 1}, {0, 0}}, torch::kInt64));
               }),
               HasSubstr("an instruction has no tokens (row 1)"));
-  EXPECT_THAT(errorOf([&] { enc->forward(torch::ones({2, 3})); }),
+  EXPECT_THAT(errorOf([&] {
+                enc->forward(torch::ones({2, 3}));
+              }),
               HasSubstr("expected int64 tokens [B, L]"));
 }
 
@@ -83,11 +87,51 @@ TEST(InstructionEncoderTest, WordEmbeddingsLoadAndFreeze) {
   glove[0].zero_();
   frozen->setWordEmbeddings(glove);
   EXPECT_TRUE(torch::equal(frozen->embedding->weight, glove));
-  EXPECT_THAT(errorOf([&] { frozen->setWordEmbeddings(torch::zeros({23, 5})); }),
+  EXPECT_THAT(errorOf([&] {
+                frozen->setWordEmbeddings(torch::zeros({23, 5}));
+              }),
               HasSubstr("expected a [23, 6] matrix"));
   c.fine_tune_embeddings = true;
   InstructionEncoder tuned(c);
   EXPECT_TRUE(tuned->embedding->weight.requires_grad());
+}
+
+TEST(InstructionEncoderTest, RealGloveAndR2rTokensAtPaperSize) {
+  const auto dir =
+      vln::test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed";
+  if (!std::filesystem::exists(dir / "embeddings.json.gz") ||
+      !std::filesystem::exists(dir / "val_seen_sample.json.gz"))
+    GTEST_SKIP() << "R2R_VLNCE fixtures absent";
+  // embeddings.json.gz: [vocab][50] floats, PAD row 0 all zeros
+  const auto glove = common::readJsonFile(dir / "embeddings.json.gz");
+  std::vector<float> values;
+  for (const auto& row : glove)
+    for (const auto& x : row) values.push_back(x.get<float>());
+  const int64_t vocab = static_cast<int64_t>(glove.size());
+  const torch::Tensor matrix =
+      torch::from_blob(values.data(), {vocab, 50}).clone();
+  ModelConfig c;  // paper sizes: the file must fit them
+  ASSERT_EQ(vocab, c.vocab_size);
+  InstructionEncoder enc(c);
+  enc->setWordEmbeddings(matrix);
+
+  // episodes store tokens padded with PAD to 200
+  const auto data = common::readJsonFile(dir / "val_seen_sample.json.gz");
+  std::vector<int64_t> ids;
+  for (const auto& t :
+       data.at("episodes").at(0).at("instruction").at("instruction_tokens"))
+    ids.push_back(t.get<int64_t>());
+  const torch::Tensor padded =
+      torch::tensor(ids, torch::kInt64).unsqueeze(0);  // [1, 200]
+  const int64_t len = enc->lengths(padded)[0].item<int64_t>();
+  ASSERT_GT(len, 0);
+  ASSERT_LT(len, padded.size(1));
+  torch::NoGradGuard g;
+  const auto full = enc->forward(padded);
+  const auto trimmed = enc->forward(padded.slice(1, 0, len));
+  EXPECT_EQ(full.states.size(1), len);
+  EXPECT_TRUE(torch::allclose(full.states, trimmed.states, 1e-6, 1e-7));
+  EXPECT_EQ(full.states.size(2), 2 * c.instruction_hidden_size);
 }
 
 }  // namespace

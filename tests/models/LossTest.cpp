@@ -10,15 +10,13 @@ namespace {
 TEST(LossTest, InflectionWeightsMarkChangesAndPadding) {
   // columns: [F F L L STOP], [F L F pad pad]
   const torch::Tensor actions =
-      torch::tensor({1, 1, 1, 2, 2, 1, 2, 0, 0, 0}, torch::kInt64)
-          .view({5, 2});
+      torch::tensor({1, 1, 1, 2, 2, 1, 2, 0, 0, 0}, torch::kInt64).view({5, 2});
   const torch::Tensor valid =
       torch::tensor({1, 1, 1, 1, 1, 1, 1, 0, 1, 0}, torch::kBool).view({5, 2});
   const torch::Tensor w = inflectionWeights(actions, valid, 3.2);
-  const torch::Tensor expected =
-      torch::tensor({3.2f, 3.2f, 1.0f, 3.2f, 3.2f, 3.2f, 1.0f, 0.0f, 3.2f,
-                     0.0f})
-          .view({5, 2});
+  const torch::Tensor expected = torch::tensor({3.2f, 3.2f, 1.0f, 3.2f, 3.2f,
+                                                3.2f, 1.0f, 0.0f, 3.2f, 0.0f})
+                                     .view({5, 2});
   EXPECT_TRUE(torch::allclose(w, expected));
 }
 

@@ -11,9 +11,7 @@ using ::testing::HasSubstr;
 // the config as the `model:` section of a larger file
 struct Root {
   ModelConfig model;
-  void visit(common::ConfigVisitor& v) {
-    v.section("model", model, "Model");
-  }
+  void visit(common::ConfigVisitor& v) { v.section("model", model, "Model"); }
   void validate() const { model.validate(); }
 };
 
@@ -58,7 +56,8 @@ TEST(ModelConfigTest, YamlRoundTripAndStrictEnums) {
   EXPECT_EQ(back.model, r.model);
 
   EXPECT_THAT(errorOf([] {
-                common::loadConfigText<Root>("model:\n  policy: rcm\n", "m.yaml");
+                common::loadConfigText<Root>("model:\n  policy: rcm\n",
+                                             "m.yaml");
               }),
               HasSubstr("expected one of {seq2seq, cma}, got 'rcm'"));
   EXPECT_THAT(errorOf([] {
@@ -78,19 +77,18 @@ TEST(ModelConfigTest, ValidateNamesFieldAndValue) {
                     "  no_instruction: true\n");
               }),
               HasSubstr("the policy has no input"));
-  EXPECT_THAT(errorOf([] {
-                common::loadConfigText<Root>("model:\n  device: gpu0\n");
-              }),
-              HasSubstr("model.device must be cpu, cuda or cuda:N, got 'gpu0'"));
+  EXPECT_THAT(
+      errorOf([] { common::loadConfigText<Root>("model:\n  device: gpu0\n"); }),
+      HasSubstr("model.device must be cpu, cuda or cuda:N, got 'gpu0'"));
   EXPECT_THAT(errorOf([] {
                 common::loadConfigText<Root>("model:\n  hidden_size: 33\n");
               }),
               HasSubstr("model.hidden_size must be even"));
-  EXPECT_THAT(errorOf([] {
-                common::loadConfigText<Root>(
-                    "model:\n  depth_resnet_base_planes: 5\n");
-              }),
-              HasSubstr("depth_resnet_base_planes must be even"));
+  EXPECT_THAT(
+      errorOf([] {
+        common::loadConfigText<Root>("model:\n  depth_resnet_base_planes: 5\n");
+      }),
+      HasSubstr("depth_resnet_base_planes must be even"));
   // small depth images are fine for the small CNN or without depth
   EXPECT_NO_THROW(common::loadConfigText<Root>(
       "model:\n  depth_height: 32\n  depth_encoder: small_cnn\n"));

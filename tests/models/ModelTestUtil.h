@@ -35,9 +35,8 @@ inline ModelConfig tinyConfig(PolicyType policy) {
 /// Random token rows with the given lengths, PAD (0) after each, [B, width].
 inline torch::Tensor randomTokens(const std::vector<int64_t>& lengths,
                                   int64_t width, int64_t vocab) {
-  torch::Tensor tokens =
-      torch::zeros({static_cast<int64_t>(lengths.size()), width},
-                   torch::kInt64);
+  torch::Tensor tokens = torch::zeros(
+      {static_cast<int64_t>(lengths.size()), width}, torch::kInt64);
   for (size_t b = 0; b < lengths.size(); ++b)
     tokens[static_cast<int64_t>(b)]
         .slice(0, 0, lengths[b])
@@ -56,8 +55,8 @@ inline PolicyInputs randomInputs(
   PolicyInputs in;
   in.rgb = torch::rand({steps, batch, r[0], r[1], r[2]}, dtype);
   in.depth = torch::rand({steps, batch, d[0], d[1], d[2]}, dtype);
-  in.prev_actions = torch::randint(0, kNumActions, {steps, batch},
-                                   torch::kInt64);
+  in.prev_actions =
+      torch::randint(0, kNumActions, {steps, batch}, torch::kInt64);
   in.not_done = torch::ones({steps, batch}, dtype);
   in.not_done[0].zero_();
   for (const auto& [t, b] : resets) in.not_done[t][b] = 0;

@@ -32,8 +32,8 @@ TEST(ObservationEncoderTest, FeatureShapesMatchTheReportedShapes) {
   torch::NoGradGuard g;
   ModelConfig c = tinyConfig(PolicyType::kCma);
   ObservationEncoder small(c);
-  const auto f = small->forward(randomRgb({3, 2}, 32, 32),
-                                randomDepth({3, 2}, 32, 32));
+  const auto f =
+      small->forward(randomRgb({3, 2}, 32, 32), randomDepth({3, 2}, 32, 32));
   const FeatureShape r = rgbFeatureShape(c), d = depthFeatureShape(c);
   EXPECT_EQ(sizesOf(f.rgb), (Shape{3, 2, r[0], r[1], r[2]}));
   EXPECT_EQ(sizesOf(f.depth), (Shape{3, 2, d[0], d[1], d[2]}));
@@ -89,8 +89,8 @@ TEST(ObservationEncoderTest, RgbNormalisationUsesImageNetStatistics) {
   const torch::Tensor stdev = torch::tensor({0.229f, 0.224f, 0.225f});
   const torch::Tensor expectedInput =
       (x - mean.view({1, 3, 1, 1})) / stdev.view({1, 3, 1, 1});
-  const torch::Tensor expected = torch::adaptive_avg_pool2d(
-      enc->resnet->forward(expectedInput), {4, 4});
+  const torch::Tensor expected =
+      torch::adaptive_avg_pool2d(enc->resnet->forward(expectedInput), {4, 4});
   EXPECT_TRUE(torch::allclose(enc->forward(img), expected, 1e-4, 1e-5));
   EXPECT_LT(expectedInput.abs().max().item<float>(), 0.01f);
 }

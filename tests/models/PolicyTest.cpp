@@ -58,8 +58,8 @@ TEST_P(PolicyTest, StepModeEqualsSequenceModeWithResetsMidBatch) {
   const PolicyInputs in = randomInputs(c, steps, batch, {{3, 1}, {5, 2}});
   const torch::Tensor tokens = randomTokens({5, 3, 8}, 8, 23);
   // a non-zero initial state makes the t = 0 reset observable
-  const torch::Tensor h0 = torch::randn(
-      {batch, c.numRecurrentLayers(), c.hidden_size});
+  const torch::Tensor h0 =
+      torch::randn({batch, c.numRecurrentLayers(), c.hidden_size});
 
   const auto instr = policy->encodeInstruction(tokens);
   const auto seq = policy->forwardSequence(instr, in, h0);
@@ -141,16 +141,16 @@ TEST_P(PolicyTest, AblatedInputsDoNotInfluenceOutputs) {
     auto policy = makePolicy(c);
     const torch::Tensor tokens = randomTokens({5, 5}, 5, 23);
     const PolicyInputs in = randomInputs(c, 3, 2);
-    const auto base = policy->forwardSequence(
-        policy->encodeInstruction(tokens), in, policy->initialHidden(2));
+    const auto base = policy->forwardSequence(policy->encodeInstruction(tokens),
+                                              in, policy->initialHidden(2));
     PolicyInputs perturbed = in;
     torch::Tensor otherTokens = tokens;
     if (c.no_rgb) perturbed.rgb = torch::rand_like(in.rgb) * 10;
     if (c.no_depth) perturbed.depth = torch::rand_like(in.depth) * 10;
     if (c.no_instruction) otherTokens = randomTokens({2, 7}, 7, 23);
-    const auto out = policy->forwardSequence(
-        policy->encodeInstruction(otherTokens), perturbed,
-        policy->initialHidden(2));
+    const auto out =
+        policy->forwardSequence(policy->encodeInstruction(otherTokens),
+                                perturbed, policy->initialHidden(2));
     EXPECT_TRUE(torch::equal(out.logits, base.logits)) << "ablation " << which;
     // removed, not zeroed: nothing of that branch is left in the network
     for (const auto& [name, tensor] : namedState(*policy)) {
@@ -192,8 +192,8 @@ TEST_P(PolicyTest, GradientsMatchFiniteDifferences) {
   const torch::Tensor probe = torch::randn({4, 2, kNumActions}, torch::kDouble);
   const torch::Tensor probeP = torch::randn({4, 2}, torch::kDouble);
   auto loss = [&] {
-    const auto out = policy->forwardSequence(policy->encodeInstruction(tokens),
-                                             in, h0);
+    const auto out =
+        policy->forwardSequence(policy->encodeInstruction(tokens), in, h0);
     return (out.logits * probe).sum() + (out.progress * probeP).sum();
   };
   policy->zero_grad();
@@ -237,8 +237,8 @@ TEST_P(PolicyTest, SaveLoadRoundTripReproducesOutputs) {
   const torch::Tensor tokens = randomTokens({4, 2}, 4, 23);
   const PolicyInputs in = randomInputs(c, 3, 2);
   auto run = [&](PolicyImpl& p) {
-    return p.forwardSequence(p.encodeInstruction(tokens), in,
-                             p.initialHidden(2))
+    return p
+        .forwardSequence(p.encodeInstruction(tokens), in, p.initialHidden(2))
         .logits;
   };
   ASSERT_FALSE(torch::allclose(run(*a), run(*b)));
@@ -256,8 +256,8 @@ TEST_P(PolicyTest, FrozenEmbeddingsGetNoGradient) {
   EXPECT_TRUE(torch::equal(emb, glove));
   EXPECT_FALSE(emb.requires_grad());
   c.fine_tune_embeddings = true;
-  EXPECT_TRUE(makePolicy(c)->instruction_encoder->embedding->weight
-                  .requires_grad());
+  EXPECT_TRUE(
+      makePolicy(c)->instruction_encoder->embedding->weight.requires_grad());
 }
 
 TEST_P(PolicyTest, BadShapesAreNamed) {
@@ -298,9 +298,9 @@ TEST(PolicyFactoryTest, PaperSizesGiveVlnCeParameterCounts) {
     return n;
   };
   const int64_t lstm = 4 * 128 * (50 + 128) + 8 * 128;
-  const int64_t s2sExpected =
-      lstm + (2048 * 256 + 256) + (2048 * 128 + 128) +
-      (3 * 512 * (512 + 512) + 6 * 512) + (512 * 4 + 4) + (512 + 1);
+  const int64_t s2sExpected = lstm + (2048 * 256 + 256) + (2048 * 128 + 128) +
+                              (3 * 512 * (512 + 512) + 6 * 512) +
+                              (512 * 4 + 4) + (512 + 1);
   EXPECT_EQ(count(*makePolicy(s2s)), s2sExpected);
   const int64_t cmaExpected =
       2 * lstm + 16 * 64 + 16 * 64 + (2112 * 256 + 256) +

@@ -17,9 +17,9 @@ using ::testing::Not;
 struct NetImpl : torch::nn::Module {
   NetImpl() {
     fc = register_module("fc", torch::nn::Linear(3, 2));
-    seq = register_module("seq", torch::nn::Sequential(
-                                     torch::nn::Conv2d(1, 2, 3),
-                                     torch::nn::BatchNorm2d(2)));
+    seq = register_module("seq",
+                          torch::nn::Sequential(torch::nn::Conv2d(1, 2, 3),
+                                                torch::nn::BatchNorm2d(2)));
   }
   torch::nn::Linear fc{nullptr};
   torch::nn::Sequential seq{nullptr};
@@ -39,11 +39,10 @@ TEST(StateDictTest, NamedStateHasParametersThenBuffersWithDottedNames) {
   Net net;
   std::vector<std::string> names;
   for (const auto& [name, t] : namedState(*net)) names.push_back(name);
-  EXPECT_THAT(names,
-              ::testing::ElementsAre(
-                  "fc.weight", "fc.bias", "seq.0.weight", "seq.0.bias",
-                  "seq.1.weight", "seq.1.bias", "seq.1.running_mean",
-                  "seq.1.running_var", "seq.1.num_batches_tracked"));
+  EXPECT_THAT(names, ::testing::ElementsAre(
+                         "fc.weight", "fc.bias", "seq.0.weight", "seq.0.bias",
+                         "seq.1.weight", "seq.1.bias", "seq.1.running_mean",
+                         "seq.1.running_var", "seq.1.num_batches_tracked"));
 }
 
 TEST(StateDictTest, FileRoundTripRestoresEveryTensor) {
