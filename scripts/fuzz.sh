@@ -106,12 +106,14 @@ f=$(first 'val_seen.json.gz') && [[ -n $f ]] && seed_from fuzz_episodes "$f" wor
 f=$(first 'val_seen_gt.json.gz') && [[ -n $f ]] && seed_from fuzz_ground_truth "$f" world_gt.json
 f=$(first 'embeddings.json.gz') && [[ -n $f ]] && seed_from fuzz_embeddings_json "$f" world_embeddings.json
 f=$(first '*.navmesh') && [[ -n $f ]] && seed_from fuzz_navmesh "$f" world.navmesh
-f=$(first '*navgraph*.json*') && [[ -n $f ]] && seed_from fuzz_navgraph "$f" world_graph.json
+f=$(first '*_connectivity.json') && [[ -n $f ]] && seed_from fuzz_navgraph "$f" world_graph.json
 f=$(first '*glove*.txt*') && [[ -n $f ]] &&
   { printf '\000'; gzip -dcf "$f"; } >"$seeds/fuzz_glove_text/world_glove.txt"
 
 # --- run ---------------------------------------------------------------------
 export ASAN_OPTIONS=detect_leaks=1:allocator_may_return_null=0
+# narrow, documented: leaks inside Debian's assimp on malformed meshes
+export LSAN_OPTIONS=suppressions=$root/fuzz/lsan.supp:print_suppressions=0
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 summary=()
 failed=0

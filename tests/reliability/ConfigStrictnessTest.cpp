@@ -54,7 +54,7 @@ void load(Kind kind, std::string_view text, const std::string& source,
     data::WorldConfig config;
     common::readConfig(text, source, baseDir, {},
                        [&](common::ConfigVisitor& v) { config.visit(v); });
-    if constexpr (requires { config.validate(); }) config.validate();
+    config.validate();
   } else {
     train::ExperimentConfig config;
     common::readConfig(text, source, baseDir, {},

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <cstring>
 
 #include "ReliabilityWorld.h"
 #include "common/Json.h"

@@ -19,6 +19,9 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <cerrno>
+#include <cstring>
+#include <iostream>
 #include <functional>
 #include <sstream>
 
