@@ -122,7 +122,10 @@ inline data::NavGraph referenceNavGraph(const EvalTestWorld& w) {
   auto nodeOf = [&](const Vec3f& p) {
     for (int i = 0; i < graph.numNodes(); ++i)
       if ((graph.node(i).position - p).norm() < 0.3f) return graph.node(i).id;
-    const std::string id = "n" + std::to_string(graph.numNodes());
+    // appended rather than "n" + to_string(): GCC 12 at -O3 warns falsely
+    // (stringop-overflow) about the operator+ form
+    std::string id = "n";
+    id += std::to_string(graph.numNodes());
     graph.addNode(id, p);
     return id;
   };

@@ -1,0 +1,368 @@
+// The eval command's functions on a dataset written from the test house:
+// a checkpoint, a directory of checkpoints (skipping and best selection), a
+// TorchScript export, the baselines, the test split's leaderboard file, the
+// nav-graph comparison, error reports, and the tables subcommand. Training
+// checkpoints live in train (above eval), so this test reads "checkpoints"
+// that are plain tensor files through its own CheckpointReader; the real
+// binary is exercised in tests/train/EvalBinaryTest.cpp.
+
+#include "eval/EvalCommands.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <regex>
+#include <sstream>
+
+#include "EvalTestPolicy.h"
+#include "EvalTestWorld.h"
+#include "common/FileIo.h"
+#include "common/Json.h"
+#include "data/NavGraph.h"
+#include "eval/BaselineAgents.h"
+#include "eval/EpisodePictures.h"
+#include "eval/Evaluator.h"
+#include "eval/PolicyAgent.h"
+#include "eval/Tables.h"
+#include "models/Export.h"
+#include "models/StateDict.h"
+
+namespace vln::eval {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using test::evalTestWorld;
+
+constexpr int kSeed = 13;  // a policy seed whose argmax actions vary
+
+std::string checkpointName(int i) { return "ckpt." + std::to_string(i) + ".pth"; }
+
+// "checkpoints" are tensor files named ckpt.<i>.pth
+CheckpointReader tensorFileReader() {
+  CheckpointReader r;
+  r.index = [](const fs::path& file) -> std::optional<int> {
+    std::smatch m;
+    const std::string name = file.filename().string();
+    if (std::regex_match(name, m, std::regex(R"(ckpt\.(\d+)\.pth)"))) return std::stoi(m[1]);
+    return std::nullopt;
+  };
+  r.list = [index = r.index](const fs::path& dir) {
+    std::vector<std::pair<int, fs::path>> found;
+    for (const auto& e : fs::directory_iterator(dir))
+      if (auto i = index(e.path())) found.emplace_back(*i, e.path());
+    std::sort(found.begin(), found.end());
+    std::vector<fs::path> files;
+    for (auto& f : found) files.push_back(f.second);
+    return files;
+  };
+  r.policy = [](const fs::path& file) { return models::readTensorFile(file); };
+  return r;
+}
+
+class EvalCommandsTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto& w = evalTestWorld();
+    test::writeDataset(w, dir_ / "data");
+    settings_.sim = w.sim;
+    settings_.task = w.task;
+    settings_.dataset.data_path = (dir_ / "data").string();
+    settings_.model = test::tinyModel(models::PolicyType::kCma);
+    settings_.eval.num_envs = 2;
+    settings_.eval.threads = 2;
+    settings_.eval.map_episodes = 0;
+    settings_.torch_threads = 1;
+    settings_.seed = kSeed;
+    settings_.output_dir = (dir_ / "run").string();
+    // the trainer's construction under trainer.seed: the policy, then the
+    // encoders, whose random weights the evaluation rebuilds
+    model_ = test::tinyAgentModel(models::PolicyType::kCma, kSeed);
+  }
+
+  // a checkpoint: the policy with its action head scaled by `gain`
+  fs::path writeCheckpoint(const fs::path& file, double gain) {
+    auto copy = models::makePolicy(settings_.model);
+    models::loadStateStrict(*copy, models::namedState(*model_.policy));
+    torch::NoGradGuard noGrad;
+    for (auto& p : copy->named_parameters())
+      if (p.key() == "action_head.bias") p.value().mul_(gain);
+    models::writeTensorFile(file, models::namedState(*copy));
+    return file;
+  }
+
+  // what evaluateEpisodes gives for the in-memory model on a split
+  SplitStats direct(const std::string& split) {
+    const auto& w = evalTestWorld();
+    const auto root = dir_ / "data";
+    const auto episodes = data::readEpisodes(data::splitEpisodesPath(root, split)).episodes;
+    const auto gt = data::readGroundTruth(data::splitGroundTruthPath(root, split));
+    PolicyAgent agent(model_.policy, model_.encoder, 2, false, 0, 200);
+    VectorEnv envs(2, w.sim, w.task, std::make_shared<SceneCache>(w.sim), 1);
+    return evaluateEpisodes(agent, envs, episodes, &gt, settings_.eval).stats;
+  }
+
+  EvalCommandResult run(const EvalCommandOptions& options, std::string* printed = nullptr) {
+    std::ostringstream out;
+    EvalCommandResult r = runEvaluation(options, settings_, tensorFileReader(), out);
+    if (printed) *printed = out.str();
+    return r;
+  }
+
+  vln::test::TempDir dir_;
+  EvalSettings settings_;
+  test::TinyAgentModel model_;
+};
+
+TEST_F(EvalCommandsTest, OneCheckpointWritesStatsEpisodesAndSummaries) {
+  const fs::path ckpt = writeCheckpoint(dir_ / "ckpt.4.pth", 1.0);
+  EvalCommandOptions options;
+  options.checkpoint = ckpt;
+  std::string printed;
+  const EvalCommandResult r = run(options, &printed);
+
+  // default output directory <output.dir>/eval, as the trainer's
+  const fs::path out = dir_ / "run" / "eval";
+  ASSERT_EQ(r.reports.size(), 2u);
+  for (const std::string split : {"val_seen", "val_unseen"}) {
+    SCOPED_TRACE(split);
+    const SplitStats stats = readStatsFile(out / statsFileName(4, split));
+    // exactly what the in-memory policy scores
+    EXPECT_EQ(stats, direct(split));
+    EXPECT_EQ(stats.num_episodes, 5);
+    const auto episodes = readEpisodesFile(out / episodesFileName(4, split));
+    ASSERT_EQ(episodes.size(), 5u);
+    EXPECT_GT(episodes[0].record.steps_taken, 0);
+    EXPECT_THAT(printed, HasSubstr("ckpt 4 " + split + ": 5 episodes, "));
+  }
+  EXPECT_FALSE(fs::exists(out / "best.json"));  // only directories pick a best
+  EXPECT_THAT(printed, ::testing::MatchesRegex(
+                           "(.*\n)?ckpt 4 val_seen: 5 episodes, [0-9]+ steps in [0-9.]+ s "
+                           "\\([0-9.]+ episodes/s, [0-9]+ steps/s\\): TL [0-9.]+ NE [0-9.]+ "
+                           "nDTW [0-9.]+ OS [0-9.]+ SR [0-9.]+ SPL [0-9.]+\n(.*\n)*"));
+}
+
+TEST_F(EvalCommandsTest, DirectorySkipsEvaluatedCheckpointsAndPicksTheBest) {
+  const fs::path ckpts = dir_ / "checkpoints";
+  for (int i : {1, 2, 3}) writeCheckpoint(ckpts / checkpointName(i), 1.0 + 0.5 * i);
+  const fs::path out = dir_ / "out";
+  // checkpoints 1 and 3 were evaluated before (by the trainer, say)
+  SplitStats seen1, unseen1, seen3, unseen3;
+  seen1.num_episodes = unseen1.num_episodes = seen3.num_episodes = unseen3.num_episodes = 5;
+  unseen1.mean.spl = 0.25;
+  unseen3.mean.spl = 0.5;
+  seen3.mean.spl = 0.9;
+  writeStatsFile(out, 1, "val_seen", seen1);
+  writeStatsFile(out, 1, "val_unseen", unseen1);
+  writeStatsFile(out, 3, "val_seen", seen3);
+  writeStatsFile(out, 3, "val_unseen", unseen3);
+
+  EvalCommandOptions options;
+  options.checkpoint = ckpts;
+  options.out = out;
+  std::string printed;
+  const EvalCommandResult r = run(options, &printed);
+  ASSERT_EQ(r.reports.size(), 6u);
+  for (const auto& report : r.reports)
+    EXPECT_EQ(report.skipped, report.checkpoint != 2) << report.checkpoint << " " << report.split;
+  EXPECT_THAT(printed, HasSubstr("ckpt 3 val_unseen: skipped (already evaluated): "));
+  EXPECT_TRUE(fs::exists(out / statsFileName(2, "val_seen")));
+  // the best by val_unseen SPL (the selection split), not val_seen
+  const double spl2 = readStatsFile(out / statsFileName(2, "val_unseen")).mean.spl;
+  const int best = spl2 > 0.5 ? 2 : 3;
+  ASSERT_TRUE(r.best_checkpoint.has_value());
+  EXPECT_EQ(*r.best_checkpoint, best);
+  const auto json = common::readJsonFile(out / "best.json");
+  EXPECT_EQ(json["index"], best);
+  EXPECT_EQ(json["checkpoint"], checkpointName(best));
+  EXPECT_EQ(json["split"], "val_unseen");
+  EXPECT_THAT(printed, HasSubstr("best checkpoint: " + checkpointName(best)));
+
+  // everything evaluated: a second run evaluates nothing
+  const EvalCommandResult again = run(options);
+  for (const auto& report : again.reports) EXPECT_TRUE(report.skipped);
+  EXPECT_EQ(again.best_checkpoint, r.best_checkpoint);
+}
+
+TEST_F(EvalCommandsTest, TorchScriptExportScoresLikeTheCheckpoint) {
+  const fs::path ckpt = writeCheckpoint(dir_ / "ckpt.0.pth", 1.0);
+  models::exportPolicy(*model_.policy, model_.encoder.ptr().get(), dir_ / "policy.pt");
+  EvalCommandOptions options;
+  options.checkpoint = ckpt;
+  options.out = dir_ / "a";
+  options.splits = {"val_unseen"};
+  run(options);
+  options.checkpoint = dir_ / "policy.pt";
+  options.out = dir_ / "b";
+  options.index = 7;
+  run(options);
+  EXPECT_EQ(readStatsFile(dir_ / "b" / statsFileName(7, "val_unseen")),
+            readStatsFile(dir_ / "a" / statsFileName(0, "val_unseen")));
+}
+
+TEST_F(EvalCommandsTest, BaselinesUseTheTrainingGroundTruth) {
+  const auto& w = evalTestWorld();
+  const BaselineStatistics expected = baselineStatistics(w.groundTruth, 0.25);
+  for (const std::string agent : {"random", "handcrafted"}) {
+    SCOPED_TRACE(agent);
+    EvalCommandOptions options;
+    options.agent = agent;
+    options.out = dir_ / agent;
+    options.splits = {"val_seen"};
+    std::string printed;
+    run(options, &printed);
+    EXPECT_THAT(printed, HasSubstr("(" + std::to_string(expected.forward_steps) + " forward steps)"));
+    const auto episodes = readEpisodesFile(dir_ / agent / episodesFileName(0, "val_seen"));
+    ASSERT_EQ(episodes.size(), 5u);
+    if (agent == "handcrafted") {
+      // turns, then the mean training path length in forward steps, STOP
+      for (const auto& e : episodes) {
+        int forward = 0;
+        for (int a : e.record.actions) forward += a == 1;
+        EXPECT_EQ(forward, expected.forward_steps);
+        EXPECT_EQ(e.record.actions.back(), 0);
+      }
+    }
+    EXPECT_TRUE(fs::exists(dir_ / agent / statsFileName(0, "val_seen")));
+  }
+  // without the training ground truth there are no statistics
+  fs::remove(data::splitGroundTruthPath(dir_ / "data", "train"));
+  EvalCommandOptions options;
+  options.agent = "random";
+  EXPECT_THAT([&] { run(options); },
+              ::testing::Throws<std::runtime_error>(::testing::Property(
+                  &std::exception::what, HasSubstr("need the ground truth of dataset.train_split"))));
+}
+
+TEST_F(EvalCommandsTest, TestSplitWritesLeaderboardPredictions) {
+  const fs::path ckpt = writeCheckpoint(dir_ / "ckpt.2.pth", 1.0);
+  EvalCommandOptions options;
+  options.checkpoint = ckpt;
+  options.out = dir_ / "out";
+  options.splits = {"test"};
+  options.episodes = 3;
+  std::string printed;
+  const EvalCommandResult r = run(options, &printed);
+  ASSERT_EQ(r.reports.size(), 1u);
+  EXPECT_FALSE(r.reports[0].scored);
+  EXPECT_FALSE(fs::exists(dir_ / "out" / statsFileName(2, "test")));
+  const auto predictions = readLeaderboardFile(dir_ / "out" / predictionsFileName(2, "test"));
+  ASSERT_EQ(predictions.size(), 3u);  // --episodes 3
+  const auto episodes = readEpisodesFile(dir_ / "out" / episodesFileName(2, "test"));
+  for (const auto& [id, steps] : predictions) {
+    const auto it = std::find_if(episodes.begin(), episodes.end(),
+                                 [&](const EpisodeResult& e) { return e.record.episode_id == id; });
+    ASSERT_NE(it, episodes.end());
+    EXPECT_EQ(steps.size(), it->record.positions.size());
+    EXPECT_EQ(steps.back().stop, it->record.called_stop);
+  }
+  EXPECT_THAT(printed, HasSubstr("ckpt 2 test: 3 episodes"));
+  EXPECT_THAT(printed, HasSubstr("no goals (leaderboard predictions written)"));
+}
+
+TEST_F(EvalCommandsTest, NavGraphComparisonAndPictures) {
+  const fs::path ckpt = writeCheckpoint(dir_ / "ckpt.5.pth", 1.0);
+  EvalCommandOptions options;
+  options.checkpoint = ckpt;
+  options.out = dir_ / "out";
+  options.splits = {"val_seen"};
+  options.navgraph = dir_ / "data" / "connectivity";
+  options.maps = 2;
+  options.videos = 1;
+  std::string printed;
+  const EvalCommandResult r = run(options, &printed);
+  const GraphSplitStats g = readGraphStatsFile(dir_ / "out" / graphStatsFileName(5, "val_seen"));
+  EXPECT_EQ(g.num_episodes, 5);
+  ASSERT_TRUE(r.reports[0].graph.has_value());
+  EXPECT_EQ(*r.reports[0].graph, g);
+  // recomputed from the per-episode file with the same graph
+  const data::NavGraph graph = data::readNavGraph(options.navgraph / "h5_connectivity.json");
+  const auto episodes = readEpisodesFile(dir_ / "out" / episodesFileName(5, "val_seen"));
+  const auto& w = evalTestWorld();
+  std::vector<GraphEpisodeMetrics> metrics;
+  for (size_t i = 0; i < episodes.size(); ++i)
+    metrics.push_back(scoreContinuousPath(graph, episodes[i].record.positions,
+                                          w.episodes[i].reference_path,
+                                          episodes[i].record.episode_id));
+  EXPECT_EQ(aggregateGraph(metrics), g);
+  EXPECT_THAT(printed, HasSubstr("| nav-graph TL "));
+  const fs::path pictures = dir_ / "out" / "pictures";
+  EXPECT_TRUE(fs::exists(pictures / mapFileName("ckpt_5_val_seen_", episodes[1].record.episode_id)));
+  EXPECT_FALSE(fs::exists(pictures / mapFileName("ckpt_5_val_seen_", episodes[2].record.episode_id)));
+  EXPECT_EQ(summarizeVideo(pictures / videoFileName("ckpt_5_val_seen_", episodes[0].record.episode_id, "avi"))
+                .frames,
+            episodes[0].record.steps_taken + 1);
+}
+
+TEST_F(EvalCommandsTest, BadInputIsNamed) {
+  auto expectError = [&](const EvalCommandOptions& options, const std::string& what) {
+    try {
+      run(options);
+      ADD_FAILURE() << "no error, expected: " << what;
+    } catch (const std::exception& e) {
+      EXPECT_THAT(e.what(), HasSubstr(what));
+    }
+  };
+  EvalCommandOptions both;
+  both.agent = "random";
+  both.checkpoint = dir_ / "x.pth";
+  expectError(both, "give either --checkpoint or --agent");
+  EvalCommandOptions none;
+  expectError(none, "give --checkpoint");
+  EvalCommandOptions missing;
+  missing.checkpoint = dir_ / "nope.pth";
+  expectError(missing, "nope.pth' does not exist");
+  EvalCommandOptions empty;
+  fs::create_directories(dir_ / "empty");
+  empty.checkpoint = dir_ / "empty";
+  expectError(empty, "holds no ckpt.<i>.pth");
+  EvalCommandOptions split;
+  split.checkpoint = writeCheckpoint(dir_ / "ckpt.1.pth", 1.0);
+  split.splits = {"val_nowhere"};
+  expectError(split, "val_nowhere");
+  EvalCommandOptions greedy;
+  greedy.agent = "greedy";
+  expectError(greedy, "--agent must be random or handcrafted, got 'greedy'");
+
+  // a checkpoint of another architecture: every mismatched tensor listed
+  models::ModelConfig wide = settings_.model;
+  wide.hidden_size = 12;
+  models::writeTensorFile(dir_ / "ckpt.9.pth", models::namedState(*models::makePolicy(wide)));
+  EvalCommandOptions mismatch;
+  mismatch.checkpoint = dir_ / "ckpt.9.pth";
+  try {
+    run(mismatch);
+    ADD_FAILURE() << "no error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("ckpt.9.pth"));
+    EXPECT_THAT(e.what(), HasSubstr("action_head.weight"));
+    EXPECT_THAT(e.what(), HasSubstr("second_state_encoder"));
+  }
+}
+
+TEST(EvalTablesCommandTest, WritesMarkdownAndLatexFromResultFiles) {
+  vln::test::TempDir dir;
+  TablesCommandOptions options;
+  options.runs = vln::test::testDataPath() / "eval" / "results";
+  options.out = dir / "docs" / "results.md";
+  std::ostringstream out;
+  EXPECT_EQ(runTablesCommand(options, out), 0);
+  const std::string md = common::readFile(dir / "docs" / "results.md");
+  const std::string tex = common::readFile(dir / "docs" / "results.tex");
+  EXPECT_THAT(out.str(), HasSubstr("results.md and "));
+  EXPECT_THAT(md, HasSubstr("eval tables --runs"));
+  // every table, the fixture runs cited, the same content in LaTeX
+  for (const auto& table : buildTables(options.runs)) {
+    EXPECT_THAT(md, HasSubstr(renderMarkdown(table)));
+    EXPECT_THAT(tex, HasSubstr(renderLatex(table)));
+  }
+  EXPECT_THAT(md, HasSubstr("configs/baseline_random.yaml"));
+  options.out = dir / "results.tex";
+  EXPECT_THROW(runTablesCommand(options, out), std::invalid_argument);
+  options.runs = dir / "nowhere";
+  options.out = dir / "x.md";
+  EXPECT_THROW(runTablesCommand(options, out), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace vln::eval
