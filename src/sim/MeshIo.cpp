@@ -16,6 +16,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <map>
 #include <optional>
 #include <set>
@@ -895,9 +896,40 @@ void saveSemantics(const fs::path& file, const SceneSemantics& semantics) {
       /*indent=*/1);
 }
 
+namespace {
+
+// Debian's assimp 5.2 loops forever in its PLY reader when the header has
+// no end_header line (a truncated file; found by fuzzing): such files are
+// refused before assimp sees them. PLY is recognised by extension or by
+// its "ply" magic, as assimp does.
+void checkPlyHeader(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::string line;
+  bool first = true;
+  size_t bytes = 0;
+  constexpr size_t kMaxHeaderBytes = 1 << 20;
+  while (bytes < kMaxHeaderBytes && std::getline(in, line)) {
+    bytes += line.size() + 1;
+    const size_t start = line.find_first_not_of(" \t");
+    const std::string_view token =
+        start == std::string::npos ? std::string_view()
+                                   : std::string_view(line).substr(start);
+    if (first && !token.starts_with("ply") && lowerExtension(file) != ".ply")
+      return;  // not a PLY file
+    first = false;
+    if (token.starts_with("end_header")) return;
+  }
+  throw std::invalid_argument(strCat(
+      "loadScene(): ", file, " is a PLY file whose header has no end_header "
+      "line (truncated?)"));
+}
+
+}  // namespace
+
 LoadedScene loadScene(const fs::path& file, const MeshLoadConfig& config) {
   VLN_CHECK_IO(fs::is_regular_file(file), "loadScene(): scene file ", file,
                " does not exist");
+  checkPlyHeader(file);
   Assimp::Importer importer;
   // Only triangulation and the uv flip are left to assimp: points, lines and
   // degenerate triangles are dropped while copying (assimp's own filters
