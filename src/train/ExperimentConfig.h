@@ -13,6 +13,7 @@
 #include "data/DatasetConfig.h"
 #include "eval/EvalConfig.h"
 #include "models/ModelConfig.h"
+#include "sim/HouseGenerator.h"
 #include "sim/SimConfig.h"
 
 namespace vln::train {
@@ -156,6 +157,20 @@ struct PretrainConfig {
   /// Where the trained encoder weights go (a TorchScript tensor file that
   /// model.rgb_weights / model.depth_weights can point at).
   std::string encoder_out;
+  /// Generation parameters of the pretraining houses.
+  sim::HouseConfig house;
+  /// Adam learning rate of both pretraining tasks.
+  double lr = 1e-3;
+  /// Point-goal episodes / semantic images per update.
+  int batch_size = 16;
+  /// Hidden size of the point-goal policy's GRU (DD-PPO: 512).
+  int hidden_size = 128;
+  /// Semantic task: an object is "in view" when it covers at least this
+  /// fraction of the image's pixels.
+  float min_object_fraction = 0.02f;
+  /// Point-goal task: the aggregated DAgger frames may hold at most this
+  /// much memory (depth is kept as uint16), GiB.
+  double max_memory_gib = 4.0;
 
   void visit(common::ConfigVisitor& v) {
     v.field("train_houses", train_houses, "Pretraining houses", common::inRange(1, 100000));
@@ -174,6 +189,15 @@ struct PretrainConfig {
     v.field("max_goal_distance", max_goal_distance, "Farthest goal (geodesic m)",
             common::inRange(0.1, 1000.0));
     v.field("encoder_out", encoder_out, "Output file of the trained encoder weights");
+    v.section("house", house, "Pretraining house generation");
+    v.field("lr", lr, "Adam learning rate", common::inRange(0.0, 1.0));
+    v.field("batch_size", batch_size, "Episodes (point-goal) or images (semantic) per update",
+            common::inRange(1, 100000));
+    v.field("hidden_size", hidden_size, "Point-goal policy GRU size", common::inRange(1, 65536));
+    v.field("min_object_fraction", min_object_fraction,
+            "Smallest image fraction of an object labelled in view", common::inRange(0.0, 1.0));
+    v.field("max_memory_gib", max_memory_gib, "Memory bound of the aggregated point-goal frames (GiB)",
+            common::inRange(0.001, 1e6));
   }
   bool operator==(const PretrainConfig&) const = default;
 };

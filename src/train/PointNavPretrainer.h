@@ -1,0 +1,175 @@
+#pragma once
+// Depth encoder pretraining by point-goal navigation (trainer.task =
+// depth_pointnav), the stand-in for DD-PPO's point-goal agent whose ResNet
+// VLN-CE freezes (paper Section 4).
+//
+// The task is DD-PPO's: the agent sees depth only plus the goal in polar
+// coordinates relative to itself at every step (pointgoal_with_gps_compass),
+// and succeeds by calling STOP within pretrain.success_distance (geodesic)
+// of the goal. Episodes start at a uniformly random point of a house's main
+// navmesh island with a random heading; the goal is another point of that
+// island at a geodesic distance in [pretrain.min_goal_distance,
+// pretrain.max_goal_distance].
+//
+// The policy (PointNavPolicy) is small and recurrent: depth CNN
+// (model.depth_encoder, trained here) -> linear + ReLU projection
+// (model.depth_projection_size), a linear goal embedding (32, as DD-PPO),
+// a previous-action embedding (32, as DD-PPO), a GRU (pretrain.hidden_size)
+// and an action head. It imitates the geodesic follower
+// (sim::ShortestPathFollower with goal radius pretrain.success_distance,
+// so the follower STOPs inside the success radius) with DAgger as the VLN
+// trainer does it: iteration n (of pretrain.iterations) runs
+// pretrain.samples new training episodes taking the follower's action with
+// probability beta = trainer.dagger_beta^n and the policy's argmax
+// otherwise, always recording the follower's action as the label, then
+// trains pretrain.epochs_per_iteration epochs over everything aggregated
+// so far with the inflection-weighted cross-entropy (models/Loss.h,
+// coefficient trainer.inflection_weight; <= 0: the inverse inflection
+// frequency of iteration 0's labels). Depth frames are kept as uint16
+// (1/65535 of the depth range), bounded by pretrain.max_memory_gib.
+//
+// Reference: a blind control (the same network without the depth input)
+// is trained on the very same batches, so the gap between the two measures
+// what the depth encoder contributes. Held-out results (pretrain.
+// eval_samples episodes in the held-out houses) are reported for the
+// policy, the blind control, a random agent (uniform among MOVE_FORWARD,
+// TURN_LEFT and TURN_RIGHT, STOP once the goal sensor reads within the
+// success radius: habitat's RandomAgent) and the follower (upper bound).
+//
+// Reads: pretrain.*, trainer.seed, trainer.torch_threads, trainer.num_envs
+// (episodes stepped together), trainer.env_threads (rendering threads),
+// trainer.dagger_beta, trainer.inflection_weight, trainer.grad_clip,
+// trainer.max_nonfinite_updates, trainer.log_every_updates, task.
+// max_episode_steps, sim.* (depth camera, agent, navmesh, renderer),
+// model.depth_* and output.tensorboard.
+
+#include <torch/torch.h>
+
+#include <array>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <utility>
+#include <vector>
+
+#include "models/MaskedGru.h"
+#include "models/ObservationEncoder.h"
+#include "sim/Agent.h"
+#include "sim/Scene.h"
+#include "train/ExperimentConfig.h"
+
+namespace vln::train {
+
+/// Width of the goal observation.
+inline constexpr int64_t kPointGoalDims = 3;
+
+/// DD-PPO's pointgoal_with_gps_compass as its policy embeds it:
+/// [rho, cos(phi), sin(phi)] with rho the horizontal Euclidean distance from
+/// the agent to the goal (metres) and phi the direction of the goal relative
+/// to the agent's heading (radians; 0 straight ahead, positive to the left,
+/// i.e. counter-clockwise seen from above, as headings are).
+std::array<float, 3> pointGoalObservation(const sim::AgentState& agent,
+                                          const Vec3f& goal);
+
+/// One point-goal episode.
+struct PointGoalEpisode {
+  int house = -1;              ///< index into the scene list it was drawn from
+  sim::AgentState start;       ///< on the navmesh, world frame
+  Vec3f goal = Vec3f::Zero();  ///< on the navmesh, world frame
+  float geodesic_distance = 0.0f;  ///< start to goal, metres
+};
+
+/// `count` episodes over `scenes`: house uniform, start uniform on the
+/// house's main island (island 0) with a uniform heading, goal uniform on
+/// the same island at a geodesic distance in [minDistance, maxDistance].
+/// Deterministic by `seed`. Throws std::invalid_argument naming the scene
+/// when 1000 draws find no such goal (the range does not fit the house).
+std::vector<PointGoalEpisode> samplePointGoalEpisodes(
+    const std::vector<std::shared_ptr<const sim::Scene>>& scenes, int count,
+    float minDistance, float maxDistance, uint64_t seed);
+
+/// Inputs of PointNavPolicy, time-major over T steps of B episodes; only
+/// the N real (unpadded) steps carry a depth frame.
+struct PointNavInputs {
+  torch::Tensor depth;        ///< [N, H, W, 1] float in the sensor's range;
+                              ///< undefined for a blind policy
+  torch::Tensor frame_index;  ///< [N] int64: t * B + b of each frame
+  torch::Tensor goal;         ///< [T, B, 3] float, pointGoalObservation()
+  torch::Tensor prev_actions; ///< [T, B] int64, the action before this step
+                              ///< (any value where not_done = 0)
+  torch::Tensor not_done;     ///< [T, B] float 0/1, 0 at an episode's start
+};
+
+/// The point-goal policy (see the file comment).
+class PointNavPolicyImpl : public torch::nn::Module {
+ public:
+  /// The depth CNN is model.depth_encoder at model.depth_width x
+  /// depth_height; `useDepth` = false builds the blind control.
+  PointNavPolicyImpl(const models::ModelConfig& model, int64_t hiddenSize,
+                     bool useDepth);
+
+  /// inputs over [T, B], hidden [B, hidden_size] before step 0 (reset
+  /// where not_done is 0) -> (logits [T, B, 4], hidden after step T-1).
+  std::pair<torch::Tensor, torch::Tensor> forward(const PointNavInputs& inputs,
+                                                  const torch::Tensor& hidden);
+
+  /// Zeros [batch, hidden_size].
+  torch::Tensor initialHidden(int64_t batch) const;
+  bool usesDepth() const { return !depth.is_empty(); }
+
+  models::DepthEncoder depth{nullptr};  ///< undefined for the blind control
+  torch::nn::Linear depth_fc{nullptr};
+  torch::nn::Linear goal_embedding{nullptr};
+  torch::nn::Embedding prev_action_embedding{nullptr};
+  models::MaskedGru gru{nullptr};
+  torch::nn::Linear action{nullptr};
+
+ private:
+  int64_t hiddenSize_;
+};
+TORCH_MODULE(PointNavPolicy);
+
+/// Held-out point-goal results of one agent (means over episodes).
+struct PointNavMetrics {
+  int64_t episodes = 0;
+  double success = 0.0;           ///< STOP within success_distance (geodesic)
+  double spl = 0.0;               ///< success * d0 / max(d0, path length)
+  double distance_to_goal = 0.0;  ///< final geodesic distance, metres
+  double path_length = 0.0;       ///< metres walked
+  double steps = 0.0;             ///< actions taken
+};
+
+/// What a run produced.
+struct PointNavResult {
+  PointNavMetrics policy;  ///< depth policy, greedy
+  PointNavMetrics blind;   ///< no-depth control, greedy
+  PointNavMetrics random;  ///< habitat's RandomAgent
+  PointNavMetrics oracle;  ///< the follower
+  double initial_loss = 0.0;     ///< action loss of the untrained policy
+                                 ///< on its first batch
+  double final_loss = 0.0;       ///< mean action loss of the last epoch
+  double blind_final_loss = 0.0; ///< the same for the blind control
+  double inflection_coef = 0.0;
+  int64_t frames = 0;            ///< aggregated training frames
+  double memory_gib = 0.0;       ///< bytes of the aggregated frames
+  double seconds = 0.0;          ///< wall clock of the whole run
+  std::filesystem::path encoder_file;
+};
+
+/// Runs the whole task in `runDir` (metrics.jsonl, tb/,
+/// pretrain_metrics.json, the encoder file, pointnav_policy.pt with the
+/// whole policy).
+class PointNavPretrainer {
+ public:
+  /// Checks the config (validatePretrainConfig()) and generates the houses.
+  PointNavPretrainer(const ExperimentConfig& config,
+                     std::filesystem::path runDir);
+  ~PointNavPretrainer();
+  PointNavResult run();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vln::train

@@ -1,0 +1,124 @@
+#include "train/PretrainTasks.h"
+
+#include <spdlog/spdlog.h>
+#include <torch/torch.h>
+
+#include <exception>
+
+#include "common/Check.h"
+#include "common/Progress.h"
+#include "common/ThreadPool.h"
+#include "sim/HouseGenerator.h"
+#include "train/PointNavPretrainer.h"
+#include "train/SemanticPretrainer.h"
+
+namespace vln::train {
+namespace fs = std::filesystem;
+
+PretrainHouses generatePretrainHouses(const ExperimentConfig& config,
+                                      int threads) {
+  const PretrainConfig& p = config.pretrain;
+  const int total = p.train_houses + p.heldout_houses;
+  std::vector<std::shared_ptr<const sim::Scene>> scenes(
+      static_cast<size_t>(total));
+  common::ProgressLine line("pretraining houses", total, "houses");
+  std::mutex lineMutex;
+  // every house is its own seed, so the thread that builds it does not
+  // change it
+  common::ThreadPool pool(threads);
+  pool.parallelFor(static_cast<size_t>(total), [&](size_t i) {
+    const uint64_t seed = static_cast<uint64_t>(p.house_seed) + i;
+    try {
+      sim::House house = sim::generateHouse(seed, p.house);
+      scenes[i] = sim::Scene::fromMesh(house.name, std::move(house.mesh),
+                                       std::move(house.semantics),
+                                       config.sim.navmesh);
+    } catch (const std::exception& e) {
+      throw std::invalid_argument(strCat(
+          "pretraining: house seed ", seed, " (pretrain.house_seed ",
+          p.house_seed, " + ", i, ") cannot be built: ", e.what()));
+    }
+    VLN_CHECK_ARG(scenes[i]->navmesh().islandCount() > 0,
+                  "pretraining: house seed ", seed, " has no navigable space");
+    std::lock_guard<std::mutex> lock(lineMutex);
+    line.advance();
+  });
+  PretrainHouses houses;
+  houses.train.assign(scenes.begin(), scenes.begin() + p.train_houses);
+  houses.heldout.assign(scenes.begin() + p.train_houses, scenes.end());
+  return houses;
+}
+
+void validatePretrainConfig(const ExperimentConfig& config) {
+  const PretrainConfig& p = config.pretrain;
+  const std::string& task = config.trainer.task;
+  VLN_CHECK_ARG(task == "depth_pointnav" || task == "rgb_semantic",
+                "pretraining: trainer.task must be depth_pointnav or "
+                "rgb_semantic, got '",
+                task, "'");
+  try {
+    p.house.validate();
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(strCat("pretraining: pretrain.house: ",
+                                       e.what()));
+  }
+  if (task == "depth_pointnav") {
+    VLN_CHECK_ARG(!config.model.no_depth,
+                  "pretraining: trainer.task depth_pointnav trains the depth "
+                  "encoder, but model.no_depth is true");
+    VLN_CHECK_ARG(p.min_goal_distance < p.max_goal_distance,
+                  "pretraining: pretrain.min_goal_distance (",
+                  p.min_goal_distance,
+                  ") must be below pretrain.max_goal_distance (",
+                  p.max_goal_distance, ")");
+    // a goal inside the success radius at the start is no episode at all
+    VLN_CHECK_ARG(p.min_goal_distance > p.success_distance,
+                  "pretraining: pretrain.min_goal_distance (",
+                  p.min_goal_distance,
+                  ") must exceed pretrain.success_distance (",
+                  p.success_distance, ")");
+    VLN_CHECK_ARG(config.model.depth_width == config.sim.depth.camera.width &&
+                      config.model.depth_height ==
+                          config.sim.depth.camera.height,
+                  "pretraining: model.depth_width x depth_height (",
+                  config.model.depth_width, "x", config.model.depth_height,
+                  ") must equal sim.depth.width x height (",
+                  config.sim.depth.camera.width, "x",
+                  config.sim.depth.camera.height, ")");
+  } else {
+    VLN_CHECK_ARG(!config.model.no_rgb,
+                  "pretraining: trainer.task rgb_semantic trains the RGB "
+                  "encoder, but model.no_rgb is true");
+    VLN_CHECK_ARG(config.model.rgb_width == config.sim.rgb.width &&
+                      config.model.rgb_height == config.sim.rgb.height,
+                  "pretraining: model.rgb_width x rgb_height (",
+                  config.model.rgb_width, "x", config.model.rgb_height,
+                  ") must equal sim.rgb.width x height (",
+                  config.sim.rgb.width, "x", config.sim.rgb.height, ")");
+    VLN_CHECK_ARG(p.min_object_fraction > 0.0f,
+                  "pretraining: pretrain.min_object_fraction must be "
+                  "positive (a single stray pixel is no object in view), got ",
+                  p.min_object_fraction);
+  }
+}
+
+fs::path encoderOutputPath(const ExperimentConfig& config,
+                           const fs::path& runDir,
+                           const std::string& defaultName) {
+  if (!config.pretrain.encoder_out.empty()) return config.pretrain.encoder_out;
+  return runDir / defaultName;
+}
+
+void runDepthPointNavPretraining(const ExperimentConfig& config,
+                                 const fs::path& runDir) {
+  PointNavPretrainer pretrainer(config, runDir);
+  pretrainer.run();
+}
+
+void runRgbSemanticPretraining(const ExperimentConfig& config,
+                               const fs::path& runDir) {
+  SemanticPretrainer pretrainer(config, runDir);
+  pretrainer.run();
+}
+
+}  // namespace vln::train
