@@ -259,7 +259,9 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
       stats.steps += e.length();
       stats.oracle_steps += s.oracleSteps;
       stats.cut_at_limit += !state.called_stop;
-      if (!usePolicy && groundTruth) {
+      // the ground truth is the train split's; augmentation episodes may
+      // reuse its episode ids
+      if (!usePolicy && groundTruth && s.source == 0) {
         auto it = groundTruth->find(e.key.episode_id);
         if (it != groundTruth->end()) {
           const auto& gt = it->second.actions;

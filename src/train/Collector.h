@@ -104,8 +104,9 @@ class Collector {
 
   /// Runs the missing slots of `round` and appends each finished episode
   /// to `store` (one transaction each). `policy` is needed when
-  /// round.beta < 1 (eval mode, no grad). `groundTruth`, when given and
-  /// beta == 1, is compared with the oracle's actions. `progress` is called
+  /// round.beta < 1 (eval mode, no grad). `groundTruth` (of the source-0
+  /// split), when given and beta == 1, is compared with the oracle's
+  /// actions of the source-0 slots. `progress` is called
   /// after every stored episode with (stored so far in this round, slots in
   /// the round).
   CollectionStats collect(const CollectionRound& round, FeatureStore& store,

@@ -515,9 +515,14 @@ struct VlnTrainer::Impl {
 
   // --- training ---------------------------------------------------------------
 
-  void trainOneEpoch(int epochSeedIndex, int iteration) {
+  // epoch `epoch` of DAgger iteration `iteration` (0 for teacher forcing);
+  // the batch order is a function of (seed, iteration, epoch) only
+  void trainOneEpoch(int epoch, int iteration) {
     const EpochResult r = learner->trainEpoch(
-        *store, static_cast<uint64_t>(config.trainer.seed), epochSeedIndex,
+        *store,
+        data::deriveSeed(static_cast<uint64_t>(config.trainer.seed),
+                         static_cast<uint64_t>(iteration)),
+        epoch,
         [&](const UpdateResult& u) {
           if (u.skipped) {
             metrics->write("nonfinite", {{"update", learner->updates()}, {"loss", u.loss}}, {},
@@ -588,7 +593,7 @@ struct VlnTrainer::Impl {
     for (int n = progress.dagger_iteration; n < config.trainer.dagger_iterations; ++n) {
       if (progress.epoch == 0) collect(n);
       for (int e = progress.epoch; e < epochsPerIteration; ++e) {
-        trainOneEpoch(n * 100000 + e, n);
+        trainOneEpoch(e, n);
         const bool last = e + 1 == epochsPerIteration;
         progress.dagger_iteration = last ? n + 1 : n;
         progress.epoch = last ? 0 : e + 1;

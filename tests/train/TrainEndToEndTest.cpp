@@ -60,9 +60,11 @@ class TrainEndToEndTest : public ::testing::Test {
     if (!fs::exists(bin("train"))) GTEST_SKIP() << "build the train binary first";
     world_ = &test::tinyWorld();
   }
-  fs::path writeConfig(const std::string& trainer, const std::string& policy = "cma") {
-    return vln::test::writeText(dir_ / "config.yaml",
-                                test::tinyRunConfig(*world_, dir_ / "run", trainer, policy));
+  // `output` is appended to the last section (output:)
+  fs::path writeConfig(const std::string& trainer, const std::string& policy = "cma",
+                       const std::string& output = "") {
+    return vln::test::writeText(
+        dir_ / "config.yaml", test::tinyRunConfig(*world_, dir_ / "run", trainer, policy) + output);
   }
   const test::TinyWorld* world_ = nullptr;
   vln::test::TempDir dir_;
@@ -70,7 +72,8 @@ class TrainEndToEndTest : public ::testing::Test {
 
 TEST_F(TrainEndToEndTest, TeacherForcingRunProducesEverything) {
   const fs::path config = writeConfig(
-      "  epochs: 2\n  use_aug: true\n  inflection_weight: 0\n  keep_checkpoints: 1\n", "seq2seq");
+      "  epochs: 2\n  use_aug: true\n  inflection_weight: 0\n", "seq2seq",
+      "  keep_checkpoints: 1\n");
   std::string output;
   ASSERT_EQ(vln::test::runCommand(trainCommand(config, "--dry-run"), &output), 0) << output;
   EXPECT_THAT(output, HasSubstr("epochs: 2"));
