@@ -924,6 +924,29 @@ void checkPlyHeader(const fs::path& file) {
       "line (truncated?)"));
 }
 
+// Debian's assimp 5.2 aborts in aiProcess_Triangulate (an ai_assert) on a
+// mesh whose primitive types call for triangulation while no face has more
+// than three corners, e.g. a PLY face list with a garbage count (found by
+// fuzzing): such meshes are refused before post-processing.
+void checkPrimitiveTypes(const aiScene& scene, const fs::path& file) {
+  for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
+    const aiMesh& mesh = *scene.mMeshes[m];
+    bool polygon = false, allTriangles = true;
+    for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
+      polygon |= mesh.mFaces[f].mNumIndices > 3;
+      allTriangles &= mesh.mFaces[f].mNumIndices == 3;
+    }
+    // the condition under which assimp's TriangulateProcess runs
+    const bool triangulates =
+        mesh.mPrimitiveTypes == 0
+            ? !allTriangles
+            : (mesh.mPrimitiveTypes & aiPrimitiveType_POLYGON) != 0;
+    VLN_CHECK_ARG(!triangulates || polygon, "loadScene(): ", file, " mesh ", m,
+                  " has faces that contradict its primitive types (a corrupt "
+                  "face list)");
+  }
+}
+
 }  // namespace
 
 LoadedScene loadScene(const fs::path& file, const MeshLoadConfig& config) {
@@ -935,8 +958,12 @@ LoadedScene loadScene(const fs::path& file, const MeshLoadConfig& config) {
   // degenerate triangles are dropped while copying (assimp's own filters
   // would turn a file without faces into a read error instead of "no
   // triangles"). FlipUVs: our uvs put v = 0 on the first image row (glTF).
-  const aiScene* scene = importer.ReadFile(
-      file.string(), aiProcess_Triangulate | aiProcess_FlipUVs);
+  // Post-processing runs separately, after checkPrimitiveTypes().
+  const aiScene* scene = importer.ReadFile(file.string(), 0);
+  VLN_CHECK_IO(scene != nullptr, "loadScene(): assimp cannot read ", file, ": ",
+               importer.GetErrorString());
+  checkPrimitiveTypes(*scene, file);
+  scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_FlipUVs);
   VLN_CHECK_IO(scene != nullptr, "loadScene(): assimp cannot read ", file, ": ",
                importer.GetErrorString());
   VLN_CHECK_ARG(scene->mRootNode != nullptr && scene->mNumMeshes > 0,
