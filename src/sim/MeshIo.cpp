@@ -917,7 +917,10 @@ void checkPlyHeader(const fs::path& file) {
     if (first && !token.starts_with("ply") && lowerExtension(file) != ".ply")
       return;  // not a PLY file
     first = false;
-    if (token.starts_with("end_header")) return;
+    // assimp's token rule: the keyword, then a blank or the line end
+    if (token.starts_with("end_header") &&
+        (token.size() == 10 || std::isspace(static_cast<unsigned char>(token[10]))))
+      return;
   }
   throw std::invalid_argument(strCat(
       "loadScene(): ", file, " is a PLY file whose header has no end_header "
