@@ -898,29 +898,50 @@ void saveSemantics(const fs::path& file, const SceneSemantics& semantics) {
 
 namespace {
 
-// Debian's assimp 5.2 loops forever in its PLY reader when the header has
-// no end_header line (a truncated file; found by fuzzing): such files are
-// refused before assimp sees them. PLY is recognised by extension or by
-// its "ply" magic, as assimp does.
+// Debian's assimp 5.2 PLY reader misbehaves on two kinds of broken header
+// (both found by fuzzing): without an end_header line it loops forever,
+// and with a vertex element lacking x, y or z it corrupts the heap. Such
+// files are refused before assimp sees them. PLY is recognised by
+// extension or by its "ply" magic, as assimp does.
 void checkPlyHeader(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
   std::string line;
   bool first = true;
   size_t bytes = 0;
   constexpr size_t kMaxHeaderBytes = 1 << 20;
+  std::string element;                  // the element being declared
+  std::set<std::string> vertexProperties;
+  bool hasVertexElement = false;
   while (bytes < kMaxHeaderBytes && std::getline(in, line)) {
     bytes += line.size() + 1;
-    const size_t start = line.find_first_not_of(" \t");
-    const std::string_view token =
-        start == std::string::npos ? std::string_view()
-                                   : std::string_view(line).substr(start);
-    if (first && !token.starts_with("ply") && lowerExtension(file) != ".ply")
+    std::vector<std::string> words;
+    for (size_t i = 0; i < line.size();) {
+      while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+      size_t j = i;
+      while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+      if (j > i) words.push_back(line.substr(i, j - i));
+      i = j;
+    }
+    if (first && (words.empty() || !words[0].starts_with("ply")) &&
+        lowerExtension(file) != ".ply")
       return;  // not a PLY file
     first = false;
+    if (words.empty()) continue;
     // assimp's token rule: the keyword, then a blank or the line end
-    if (token.starts_with("end_header") &&
-        (token.size() == 10 || std::isspace(static_cast<unsigned char>(token[10]))))
+    if (words[0] == "end_header") {
+      VLN_CHECK_ARG(!hasVertexElement || (vertexProperties.count("x") &&
+                                          vertexProperties.count("y") &&
+                                          vertexProperties.count("z")),
+                    "loadScene(): ", file,
+                    " is a PLY file whose vertex element lacks x, y or z");
       return;
+    }
+    if (words[0] == "element") {
+      element = words.size() > 1 ? words[1] : "";
+      hasVertexElement |= element == "vertex";
+    } else if (words[0] == "property" && element == "vertex") {
+      vertexProperties.insert(words.back());
+    }
   }
   throw std::invalid_argument(strCat(
       "loadScene(): ", file, " is a PLY file whose header has no end_header "
