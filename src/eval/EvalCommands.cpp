@@ -16,6 +16,8 @@
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
+#include "data/NodeTransfer.h"
+#include "data/WorldConfig.h"
 #include "eval/BaselineAgents.h"
 #include "eval/EpisodePictures.h"
 #include "eval/Evaluator.h"
@@ -113,23 +115,30 @@ std::unique_ptr<Agent> makeAgent(const Candidate& candidate,
 // ---------------------------------------------------------------------------
 // one split
 
-// nav-graphs by scan, read on first use
+// nav-graphs by scan, read on first use, with their floor copies
 class NavGraphs {
  public:
+  struct Entry {
+    data::NavGraph graph;
+    data::NavGraph floor;
+  };
   explicit NavGraphs(fs::path dir) : dir_(std::move(dir)) {}
-  const data::NavGraph& of(const std::string& sceneId) {
+  const Entry& of(const std::string& sceneId, SceneCache& scenes) {
     const std::string scan = data::sceneScanId(sceneId);
     auto it = graphs_.find(scan);
     if (it != graphs_.end()) return it->second;
     const fs::path file = dir_ / (scan + "_connectivity.json");
     VLN_CHECK_IO(fs::exists(file), "eval --navgraph: no nav-graph for scene '",
                  sceneId, "': '", file.string(), "' does not exist");
-    return graphs_.emplace(scan, data::readNavGraph(file)).first->second;
+    Entry entry;
+    entry.graph = data::readNavGraph(file);
+    entry.floor = floorNavGraph(entry.graph, scenes.get(sceneId)->navmesh());
+    return graphs_.emplace(scan, std::move(entry)).first->second;
   }
 
  private:
   fs::path dir_;
-  std::map<std::string, data::NavGraph> graphs_;
+  std::map<std::string, Entry> graphs_;
 };
 
 struct SplitContext {
@@ -197,8 +206,8 @@ SplitReport evaluateSplit(Agent& agent, const Candidate& candidate,
   }
 
   // the nav-graph comparison (Table 3) of the scored episodes; the R2R
-  // viewpoints are the episode's reference path (ground-truth locations
-  // stop short of the last viewpoint)
+  // viewpoints on the floor are the episode's reference path (ground-truth
+  // locations stop short of the last viewpoint)
   if (ctx.navgraphs != nullptr && report.scored) {
     std::vector<GraphEpisodeMetrics> graphMetrics;
     for (size_t i = 0; i < result.episodes.size(); ++i) {
@@ -208,9 +217,11 @@ SplitReport evaluateSplit(Agent& agent, const Candidate& candidate,
       const std::vector<Vec3f>& reference = episode.reference_path.empty()
                                                 ? record.reference_path
                                                 : episode.reference_path;
-      graphMetrics.push_back(scoreContinuousPath(
-          ctx.navgraphs->of(episode.scene_id), record.positions, reference,
-          record.episode_id));
+      const NavGraphs::Entry& graphs =
+          ctx.navgraphs->of(episode.scene_id, *ctx.scenes);
+      graphMetrics.push_back(scoreOnNavGraph(graphs.graph, graphs.floor,
+                                             record.positions, reference,
+                                             record.episode_id));
     }
     report.graph = aggregateGraph(graphMetrics);
     report.files.push_back(writeGraphStatsFile(ctx.outDir, candidate.index,
@@ -245,6 +256,35 @@ std::string graphText(const GraphSplitStats& g) {
 
 // ---------------------------------------------------------------------------
 // public
+
+data::NavGraph floorNavGraph(const data::NavGraph& graph,
+                             const sim::NavMesh& navmesh) {
+  const std::vector<data::NodeTransferResult> transferred =
+      data::transferGraph(graph, navmesh, data::TransferConfig{});
+  data::NavGraph floor;
+  for (int i = 0; i < graph.numNodes(); ++i) {
+    const auto& t = transferred[static_cast<size_t>(i)];
+    floor.addNode(graph.node(i).id, t.valid ? t.waypoint : graph.node(i).position);
+  }
+  for (const auto& [a, b] : graph.edges())
+    floor.addEdge(graph.node(a).id, graph.node(b).id);
+  return floor;
+}
+
+GraphEpisodeMetrics scoreOnNavGraph(const data::NavGraph& graph,
+                                    const data::NavGraph& floorGraph,
+                                    std::span<const Vec3f> positions,
+                                    std::span<const Vec3f> referencePath,
+                                    std::string_view episodeId) {
+  VLN_CHECK_ARG(graph.numNodes() == floorGraph.numNodes(),
+                "scoreOnNavGraph(): episode ", episodeId, ": the floor graph has ",
+                floorGraph.numNodes(), " nodes, the graph ", graph.numNodes());
+  // matching on the floor, where the agent and the reference path are
+  const EpisodeNodes nodes = episodeNodes(floorGraph, referencePath, episodeId);
+  const std::vector<int> path = snapPathToGraph(floorGraph, nodes.start, positions);
+  // scoring on the viewpoints themselves (node indices are shared)
+  return scoreGraphPath(graph, path, nodes.goal);
+}
 
 std::string predictionsFileName(int checkpoint, std::string_view split) {
   return "predictions_ckpt_" + std::to_string(checkpoint) + "_" +

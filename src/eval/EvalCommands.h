@@ -18,7 +18,8 @@
 //                                        (eval.save_episodes)
 //   predictions_ckpt_<i>_<split>.json    R2R leaderboard trajectories, for
 //                                        episodes without goals (test split)
-//   navgraph_stats_ckpt_<i>_<split>.json with a nav-graph directory (Table 3)
+//   navgraph_stats_ckpt_<i>_<split>.json with a nav-graph directory (Table 3;
+//                                        see scoreOnNavGraph())
 //   pictures/ckpt_<i>_<split>_episode_<id>_map.png and .avi/.mp4
 //                                        (eval.map_episodes / video_episodes)
 // and stdout one summary line per split.
@@ -33,16 +34,19 @@
 #include <functional>
 #include <optional>
 #include <ostream>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "data/DatasetConfig.h"
+#include "data/NavGraph.h"
 #include "eval/EvalConfig.h"
 #include "eval/Metrics.h"
 #include "eval/NavGraphEval.h"
 #include "models/ModelConfig.h"
 #include "models/StateDict.h"
+#include "sim/NavMesh.h"
 #include "sim/SimConfig.h"
 
 namespace vln::eval {
@@ -145,6 +149,26 @@ std::string predictionsFileName(int checkpoint, std::string_view split);
 
 /// The summary line of one split ("ckpt 3 val_seen: 20 episodes ...").
 std::string summaryLine(const SplitReport& report);
+
+/// A copy of `graph` (same ids, order and edges) whose nodes are moved to
+/// their Section 3.2 waypoints on `navmesh` (data::transferGraph() with the
+/// paper's TransferConfig); nodes that do not transfer keep their position.
+/// Connectivity files hold R2R viewpoints at camera height (1.2-1.6 m above
+/// the floor), while agent positions and R2R_VLNCE reference paths are on
+/// the floor, so the agent's path is matched against this copy.
+data::NavGraph floorNavGraph(const data::NavGraph& graph,
+                             const sim::NavMesh& navmesh);
+
+/// The supplement's conversion of one continuous episode: start and goal
+/// nodes from the reference path and the agent's path snapped node by node,
+/// both on `floorGraph` (floorNavGraph() of `graph`), then scored with R2R's
+/// eval.py on `graph` itself (the viewpoints' own geometry, as the VLN
+/// leaderboard scores them).
+GraphEpisodeMetrics scoreOnNavGraph(const data::NavGraph& graph,
+                                    const data::NavGraph& floorGraph,
+                                    std::span<const Vec3f> positions,
+                                    std::span<const Vec3f> referencePath,
+                                    std::string_view episodeId);
 
 /// Options of `eval tables`.
 struct TablesCommandOptions {

@@ -1,0 +1,231 @@
+// The `eval` binary end to end on the tiny procedural world (the world
+// generator's output, shared with the trainer tests): a training checkpoint,
+// a directory of them with skipping and best.json, a TorchScript export, the
+// baselines, the nav-graph comparison, pictures, the tables subcommand and
+// error reports; and, when the train binary is built, that re-evaluating a
+// trained run's checkpoint reproduces the trainer's own validation numbers.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <torch/torch.h>
+
+#include "TrainTestWorld.h"
+#include "common/Json.h"
+#include "eval/EvalCommands.h"
+#include "eval/Metrics.h"
+#include "eval/NavGraphEval.h"
+#include "models/Export.h"
+#include "models/ObservationEncoder.h"
+#include "models/Policy.h"
+#include "models/StateDict.h"
+#include "train/Checkpoint.h"
+#include "train/ExperimentConfig.h"
+
+namespace vln::train {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+std::string bin(const std::string& name) {
+  return (vln::test::binaryPath() / "bin" / name).string();
+}
+
+class EvalBinaryTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (!fs::exists(bin("eval"))) GTEST_SKIP() << "build the eval binary first";
+    world_ = &test::tinyWorld();
+    configFile_ = vln::test::writeText(
+        dir_ / "config.yaml", test::tinyRunConfig(*world_, dir_ / "run", "  epochs: 1\n"));
+    config_ = loadExperimentConfig(configFile_);
+  }
+
+  // a policy checkpoint as the trainer writes it; the encoders come from
+  // the trainer's seeded initialisation (no weight files in the config)
+  fs::path writeCheckpoint(const fs::path& dir, int index, double actionGain) {
+    torch::manual_seed(static_cast<uint64_t>(config_.trainer.seed));
+    auto policy = models::makePolicy(config_.model);
+    torch::NoGradGuard noGrad;
+    for (auto& p : policy->named_parameters())
+      if (p.key() == "action_head.weight") p.value().mul_(actionGain);
+    Checkpoint ckpt;
+    ckpt.config_yaml = experimentConfigYaml(config_);
+    ckpt.policy = models::namedState(*policy);
+    ckpt.progress.checkpoint_index = index;
+    const fs::path file = dir / checkpointFileName(index);
+    saveCheckpoint(file, ckpt);
+    return file;
+  }
+
+  int eval(const std::string& args, std::string* output) {
+    return vln::test::runCommand(bin("eval") + " --log-level warn " + args + " 2>&1", output);
+  }
+
+  const test::TinyWorld* world_ = nullptr;
+  vln::test::TempDir dir_;
+  fs::path configFile_;
+  ExperimentConfig config_;
+};
+
+TEST_F(EvalBinaryTest, CheckpointDirectoryWithSkippingAndBest) {
+  const fs::path ckpts = dir_ / "run" / "checkpoints";
+  writeCheckpoint(ckpts, 0, 1.0);
+  writeCheckpoint(ckpts, 1, 50.0);
+  std::string output;
+  ASSERT_EQ(eval("--config " + configFile_.string() + " --checkpoint " +
+                     (ckpts / "ckpt.0.pth").string() + " --episodes 2",
+                 &output),
+            0)
+      << output;
+  // default output <output.dir>/eval, both eval.splits
+  const fs::path out = dir_ / "run" / "eval";
+  EXPECT_EQ(eval::readStatsFile(out / eval::statsFileName(0, "val_seen")).num_episodes, 2);
+  EXPECT_EQ(eval::readStatsFile(out / eval::statsFileName(0, "val_unseen")).num_episodes, 2);
+  EXPECT_THAT(output, HasSubstr("ckpt 0 val_seen: 2 episodes"));
+
+  // the directory: checkpoint 0 is skipped, 1 evaluated, the best picked
+  ASSERT_EQ(eval("--config " + configFile_.string() + " --checkpoint " + ckpts.string() +
+                     " --episodes 2",
+                 &output),
+            0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("ckpt 0 val_seen: skipped (already evaluated)"));
+  EXPECT_THAT(output, HasSubstr("ckpt 1 val_unseen: 2 episodes"));
+  const auto best = common::readJsonFile(out / "best.json");
+  const double spl0 = eval::readStatsFile(out / eval::statsFileName(0, "val_unseen")).mean.spl;
+  const double spl1 = eval::readStatsFile(out / eval::statsFileName(1, "val_unseen")).mean.spl;
+  EXPECT_EQ(best["index"], spl1 > spl0 ? 1 : 0);
+  EXPECT_DOUBLE_EQ(best["spl"].get<double>(), std::max(spl0, spl1));
+  EXPECT_THAT(output, HasSubstr("best checkpoint: ckpt."));
+}
+
+TEST_F(EvalBinaryTest, TorchScriptExportMatchesItsCheckpoint) {
+  const fs::path ckpt = writeCheckpoint(dir_ / "ckpts", 3, 20.0);
+  // the export of the same policy with the encoders the evaluation rebuilds
+  torch::manual_seed(static_cast<uint64_t>(config_.trainer.seed));
+  auto policy = models::makePolicy(config_.model);
+  models::ObservationEncoder encoder(config_.model);
+  models::loadStateStrict(*policy, loadCheckpoint(ckpt).policy, ckpt.string());
+  models::exportPolicy(*policy, encoder.ptr().get(), dir_ / "policy.pt");
+
+  std::string output;
+  const std::string common = "--config " + configFile_.string() + " --split val_unseen --episodes 3";
+  ASSERT_EQ(eval(common + " --checkpoint " + ckpt.string() + " --out " + (dir_ / "a").string(),
+                 &output),
+            0)
+      << output;
+  ASSERT_EQ(eval(common + " --checkpoint " + (dir_ / "policy.pt").string() + " --index 3 --out " +
+                     (dir_ / "b").string(),
+                 &output),
+            0)
+      << output;
+  EXPECT_EQ(eval::readStatsFile(dir_ / "b" / eval::statsFileName(3, "val_unseen")),
+            eval::readStatsFile(dir_ / "a" / eval::statsFileName(3, "val_unseen")));
+  const auto a = eval::readEpisodesFile(dir_ / "a" / eval::episodesFileName(3, "val_unseen"));
+  const auto b = eval::readEpisodesFile(dir_ / "b" / eval::episodesFileName(3, "val_unseen"));
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].record.actions, b[i].record.actions);
+}
+
+TEST_F(EvalBinaryTest, BaselinesNavGraphPicturesAndTables) {
+  std::string output;
+  const fs::path out = dir_ / "handcrafted";
+  ASSERT_EQ(eval("--config " + configFile_.string() + " --agent handcrafted --split val_seen" +
+                     " --navgraph " + (world_->data / "connectivity").string() +
+                     " --maps 1 --videos 1 --video-format mp4 --out " + out.string(),
+                 &output),
+            0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("baseline handcrafted: "));
+  EXPECT_THAT(output, HasSubstr("| nav-graph TL "));
+  const auto stats = eval::readStatsFile(out / eval::statsFileName(0, "val_seen"));
+  const auto graph = eval::readGraphStatsFile(out / eval::graphStatsFileName(0, "val_seen"));
+  EXPECT_EQ(graph.num_episodes, stats.num_episodes);
+  EXPECT_GT(stats.num_episodes, 0);
+  size_t pictures = 0;
+  for (const auto& e : fs::directory_iterator(out / "pictures")) {
+    const std::string ext = e.path().extension().string();
+    EXPECT_TRUE(ext == ".png" || ext == ".mp4") << e.path();
+    ++pictures;
+  }
+  EXPECT_EQ(pictures, 2u);
+
+  ASSERT_EQ(eval("--config " + configFile_.string() + " --agent random --split val_unseen --out " +
+                     (dir_ / "random").string(),
+                 &output),
+            0)
+      << output;
+  EXPECT_TRUE(fs::exists(dir_ / "random" / eval::statsFileName(0, "val_unseen")));
+
+  ASSERT_EQ(vln::test::runCommand(bin("eval") + " tables --runs " +
+                                      (vln::test::testDataPath() / "eval" / "results").string() +
+                                      " --out " + (dir_ / "docs" / "results.md").string() + " 2>&1",
+                                  &output),
+            0)
+      << output;
+  EXPECT_TRUE(fs::exists(dir_ / "docs" / "results.md"));
+  EXPECT_TRUE(fs::exists(dir_ / "docs" / "results.tex"));
+}
+
+TEST_F(EvalBinaryTest, ErrorsAreReported) {
+  std::string output;
+  EXPECT_EQ(eval("--checkpoint x.pth", &output), 1);
+  EXPECT_THAT(output, HasSubstr("eval: error: eval: --config is required"));
+
+  // a checkpoint of another architecture: every mismatched tensor listed
+  ExperimentConfig other = config_;
+  other.model.hidden_size = 24;
+  auto policy = models::makePolicy(other.model);
+  Checkpoint ckpt;
+  ckpt.config_yaml = experimentConfigYaml(other);
+  ckpt.policy = models::namedState(*policy);
+  saveCheckpoint(dir_ / "ckpt.5.pth", ckpt);
+  EXPECT_EQ(eval("--config " + configFile_.string() + " --checkpoint " +
+                     (dir_ / "ckpt.5.pth").string(),
+                 &output),
+            1);
+  EXPECT_THAT(output, HasSubstr("ckpt.5.pth"));
+  EXPECT_THAT(output, HasSubstr("action_head.weight"));
+
+  vln::test::writeText(dir_ / "broken.pth", "not a checkpoint");
+  EXPECT_EQ(eval("--config " + configFile_.string() + " --checkpoint " +
+                     (dir_ / "broken.pth").string(),
+                 &output),
+            1);
+  EXPECT_THAT(output, HasSubstr("broken.pth"));
+  EXPECT_EQ(eval("--config " + configFile_.string() + " --set eval.num_envs=0 --agent random",
+                 &output),
+            1);
+  EXPECT_THAT(output, HasSubstr("eval.num_envs"));
+}
+
+// A short training run evaluates its checkpoints during training; the
+// binary, re-evaluating the same checkpoint, must get the same numbers.
+TEST_F(EvalBinaryTest, ReproducesTheTrainersValidation) {
+  if (!fs::exists(bin("train"))) GTEST_SKIP() << "build the train binary first";
+  std::string output;
+  ASSERT_EQ(vln::test::runCommand(bin("train") + " --config " + configFile_.string() + " 2>&1",
+                                  &output),
+            0)
+      << output;
+  const fs::path run = dir_ / "run";
+  const auto checkpoints = listCheckpoints(run / "checkpoints");
+  ASSERT_FALSE(checkpoints.empty()) << output;
+  const int index = *checkpointIndex(checkpoints.back());
+  const fs::path trainerStats = run / "eval" / eval::statsFileName(index, "val_unseen");
+  ASSERT_TRUE(fs::exists(trainerStats)) << output;
+  ASSERT_EQ(eval("--config " + configFile_.string() + " --checkpoint " +
+                     checkpoints.back().string() + " --split val_unseen --episodes " +
+                     std::to_string(config_.eval.train_eval_episodes) + " --out " +
+                     (dir_ / "again").string(),
+                 &output),
+            0)
+      << output;
+  EXPECT_EQ(eval::readStatsFile(dir_ / "again" / eval::statsFileName(index, "val_unseen")),
+            eval::readStatsFile(trainerStats));
+}
+
+}  // namespace
+}  // namespace vln::train
