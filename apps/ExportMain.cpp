@@ -11,7 +11,8 @@ int main(int argc, char** argv) {
   return vln::common::runMain("vlnce-export", [&] {
     CLI::App app{"Export a checkpoint (policy + encoders) as TorchScript"};
     vln::train::ExportOptions options;
-    app.add_option("--checkpoint", options.checkpoint, "ckpt.<i>.pth")->required();
+    app.add_option("--checkpoint", options.checkpoint, "ckpt.<i>.pth")
+        ->required();
     app.add_option("--config", options.config,
                    "Run config (default: the config stored in the checkpoint)");
     app.add_option("--out", options.out, "Output TorchScript file")->required();

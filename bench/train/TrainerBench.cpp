@@ -25,7 +25,8 @@ using namespace vln;
 double peakRssMiB() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is KiB on Linux
+  return static_cast<double>(usage.ru_maxrss) /
+         1024.0;  // ru_maxrss is KiB on Linux
 }
 
 train::ExperimentConfig smallConfig(int vocab, int dim) {
@@ -69,10 +70,13 @@ train::StoredEpisode syntheticEpisode(const train::StoreLayout& l, int id) {
   const int T = 56;
   e.tokens.assign(30, 5);
   e.rgb = torch::rand({T, l.rgb_shape[0], l.rgb_shape[1], l.rgb_shape[2]});
-  e.depth = torch::rand({T, l.depth_shape[0], l.depth_shape[1], l.depth_shape[2]});
+  e.depth =
+      torch::rand({T, l.depth_shape[0], l.depth_shape[1], l.depth_shape[2]});
   for (int t = 0; t < T; ++t) {
-    e.oracle_actions.push_back(static_cast<uint8_t>(t == T - 1 ? 0 : 1 + t % 3));
-    e.prev_actions.push_back(static_cast<uint8_t>(t == 0 ? 0 : 1 + (t - 1) % 3));
+    e.oracle_actions.push_back(
+        static_cast<uint8_t>(t == T - 1 ? 0 : 1 + t % 3));
+    e.prev_actions.push_back(
+        static_cast<uint8_t>(t == 0 ? 0 : 1 + (t - 1) % 3));
     e.progress.push_back(static_cast<float>(t) / T);
   }
   return e;
@@ -87,7 +91,8 @@ void BM_TeacherForcingEpoch(benchmark::State& state) {
   int64_t steps = 0, updates = 0;
   {
     train::FeatureStore store(dir, layoutOf(c), 4.0);
-    for (int i = 0; i < episodes; ++i) store.append(syntheticEpisode(store.layout(), i));
+    for (int i = 0; i < episodes; ++i)
+      store.append(syntheticEpisode(store.layout(), i));
     auto policy = models::makePolicy(c.model);
     train::ImitationLearner learner(policy, c);
     int epoch = 0;
@@ -99,11 +104,17 @@ void BM_TeacherForcingEpoch(benchmark::State& state) {
     state.counters["bytes_per_step"] = store.bytesPerStep();
   }
   fs::remove_all(dir);
-  state.counters["updates_per_s"] = benchmark::Counter(static_cast<double>(updates), benchmark::Counter::kIsRate);
-  state.counters["steps_per_s"] = benchmark::Counter(static_cast<double>(steps), benchmark::Counter::kIsRate);
+  state.counters["updates_per_s"] = benchmark::Counter(
+      static_cast<double>(updates), benchmark::Counter::kIsRate);
+  state.counters["steps_per_s"] = benchmark::Counter(
+      static_cast<double>(steps), benchmark::Counter::kIsRate);
   state.counters["peak_rss_MiB"] = peakRssMiB();
 }
-BENCHMARK(BM_TeacherForcingEpoch)->Args({100, 1})->Args({100, 2})->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_TeacherForcingEpoch)
+    ->Args({100, 1})
+    ->Args({100, 2})
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
 
 const fs::path& benchWorld() {
   static const fs::path root = [] {
@@ -138,12 +149,14 @@ const fs::path& benchWorld() {
 void BM_DaggerCollection(benchmark::State& state) {
   torch::set_num_threads(1);
   const fs::path root = benchWorld();
-  const auto embeddings = data::readEmbeddingsJson(root / "data" / "embeddings.json.gz");
+  const auto embeddings =
+      data::readEmbeddingsJson(root / "data" / "embeddings.json.gz");
   auto c = smallConfig(embeddings.rows, embeddings.dim);
   c.sim.scenes_dir = (root / "scenes").string();
   c.trainer.num_envs = static_cast<int>(state.range(0));
   c.trainer.env_threads = 2;
-  const auto train = data::readEpisodes(data::splitEpisodesPath(root / "data", "train"));
+  const auto train =
+      data::readEpisodes(data::splitEpisodesPath(root / "data", "train"));
   auto policy = models::makePolicy(c.model);
   models::ObservationEncoder encoder(c.model);
   auto scenes = std::make_shared<eval::SceneCache>(c.sim);
@@ -158,7 +171,8 @@ void BM_DaggerCollection(benchmark::State& state) {
   double seconds = 0.0, bytesPerStep = 0.0;
   int iteration = 0;
   for (auto _ : state) {
-    const fs::path dir = fs::temp_directory_path() / "vlnce_trainer_bench_collect";
+    const fs::path dir =
+        fs::temp_directory_path() / "vlnce_trainer_bench_collect";
     fs::remove_all(dir);
     train::FeatureStore store(dir, layoutOf(c), 4.0);
     round.iteration = iteration++;
@@ -168,12 +182,17 @@ void BM_DaggerCollection(benchmark::State& state) {
     seconds += stats.seconds;
     bytesPerStep = store.bytesPerStep();
   }
-  state.counters["episodes_per_min"] = 60.0 * static_cast<double>(episodes) / seconds;
+  state.counters["episodes_per_min"] =
+      60.0 * static_cast<double>(episodes) / seconds;
   state.counters["frames_per_s"] = static_cast<double>(steps) / seconds;
   state.counters["bytes_per_step"] = bytesPerStep;
   state.counters["peak_rss_MiB"] = peakRssMiB();
 }
-BENCHMARK(BM_DaggerCollection)->Arg(4)->Arg(8)->Unit(benchmark::kSecond)->Iterations(1);
+BENCHMARK(BM_DaggerCollection)
+    ->Arg(4)
+    ->Arg(8)
+    ->Unit(benchmark::kSecond)
+    ->Iterations(1);
 
 void BM_StoreAppend(benchmark::State& state) {
   const auto c = smallConfig(100, 50);
@@ -183,8 +202,8 @@ void BM_StoreAppend(benchmark::State& state) {
   const auto episode = syntheticEpisode(store.layout(), 0);
   for (auto _ : state) store.append(episode);
   state.counters["bytes_per_step"] = store.bytesPerStep();
-  state.counters["episodes_per_s"] =
-      benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+  state.counters["episodes_per_s"] = benchmark::Counter(
+      static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
   fs::remove_all(dir);
 }
 BENCHMARK(BM_StoreAppend)->Iterations(200);

@@ -16,14 +16,16 @@ constexpr int64_t kVersion = 1;
 
 // opaque bytes travel as uint8 tensors: archive strings are pickled text
 torch::Tensor bytesTensor(const std::string& bytes) {
-  torch::Tensor t = torch::empty({static_cast<int64_t>(bytes.size())}, torch::kUInt8);
+  torch::Tensor t =
+      torch::empty({static_cast<int64_t>(bytes.size())}, torch::kUInt8);
   if (!bytes.empty()) std::memcpy(t.data_ptr(), bytes.data(), bytes.size());
   return t;
 }
 
 std::string tensorBytes(const torch::Tensor& t) {
   const torch::Tensor c = t.to(torch::kUInt8).contiguous();
-  return std::string(static_cast<const char*>(c.data_ptr()), static_cast<size_t>(c.numel()));
+  return std::string(static_cast<const char*>(c.data_ptr()),
+                     static_cast<size_t>(c.numel()));
 }
 
 nlohmann::json progressToJson(const TrainingProgress& p) {
@@ -38,13 +40,15 @@ nlohmann::json progressToJson(const TrainingProgress& p) {
           {"extra", p.extra}};
 }
 
-TrainingProgress progressFromJson(const nlohmann::json& j, const std::string& source) {
+TrainingProgress progressFromJson(const nlohmann::json& j,
+                                  const std::string& source) {
   TrainingProgress p;
   p.checkpoint_index = common::requireField<int>(j, "checkpoint_index", source);
   p.dagger_iteration = common::requireField<int>(j, "dagger_iteration", source);
   p.epoch = common::requireField<int>(j, "epoch", source);
   p.updates = common::requireField<int64_t>(j, "updates", source);
-  p.episodes_collected = common::requireField<int64_t>(j, "episodes_collected", source);
+  p.episodes_collected =
+      common::requireField<int64_t>(j, "episodes_collected", source);
   p.stage = common::requireField<std::string>(j, "stage", source);
   p.best_spl = common::requireField<double>(j, "best_spl", source);
   p.best_checkpoint = common::requireField<int>(j, "best_checkpoint", source);
@@ -64,8 +68,10 @@ std::string serializeCheckpoint(const Checkpoint& checkpoint) {
   archive.write("format", c10::IValue(std::string(kFormat)));
   archive.write("version", c10::IValue(kVersion));
   archive.write("config_yaml", c10::IValue(checkpoint.config_yaml));
-  archive.write("progress", c10::IValue(progressToJson(checkpoint.progress).dump()));
-  archive.write("optimizer_state", bytesTensor(checkpoint.optimizer_state), true);
+  archive.write("progress",
+                c10::IValue(progressToJson(checkpoint.progress).dump()));
+  archive.write("optimizer_state", bytesTensor(checkpoint.optimizer_state),
+                true);
   archive.write("rng_state", bytesTensor(checkpoint.rng_state), true);
   // tensor names may contain dots, which archive keys may not: names go in
   // a list and tensors under their position
@@ -73,8 +79,10 @@ std::string serializeCheckpoint(const Checkpoint& checkpoint) {
   torch::serialize::OutputArchive policy;
   for (size_t i = 0; i < checkpoint.policy.size(); ++i) {
     names.push_back(checkpoint.policy[i].first);
-    policy.write(strCat("t", i),
-                 checkpoint.policy[i].second.detach().to(torch::kCPU).contiguous(), true);
+    policy.write(
+        strCat("t", i),
+        checkpoint.policy[i].second.detach().to(torch::kCPU).contiguous(),
+        true);
   }
   archive.write("policy_names", c10::IValue(names.dump()));
   archive.write("policy", policy);
@@ -86,7 +94,8 @@ std::string serializeCheckpoint(const Checkpoint& checkpoint) {
   return bytes;
 }
 
-Checkpoint deserializeCheckpoint(std::string_view bytes, const std::string& source) {
+Checkpoint deserializeCheckpoint(std::string_view bytes,
+                                 const std::string& source) {
   Checkpoint checkpoint;
   try {
     torch::serialize::InputArchive archive;
@@ -94,16 +103,18 @@ Checkpoint deserializeCheckpoint(std::string_view bytes, const std::string& sour
     c10::IValue value;
     VLN_CHECK_IO(archive.try_read("format", value) && value.isString() &&
                      value.toStringRef() == kFormat,
-                 "loadCheckpoint(): '", source, "' is not a vlnce-cpp checkpoint");
+                 "loadCheckpoint(): '", source,
+                 "' is not a vlnce-cpp checkpoint");
     archive.read("version", value);
-    VLN_CHECK_IO(value.isInt() && value.toInt() == kVersion, "loadCheckpoint(): '", source,
-                 "' has checkpoint version ", value.isInt() ? value.toInt() : -1,
-                 ", expected ", kVersion);
+    VLN_CHECK_IO(value.isInt() && value.toInt() == kVersion,
+                 "loadCheckpoint(): '", source, "' has checkpoint version ",
+                 value.isInt() ? value.toInt() : -1, ", expected ", kVersion);
     archive.read("config_yaml", value);
     checkpoint.config_yaml = value.toStringRef();
     archive.read("progress", value);
     checkpoint.progress =
-        progressFromJson(nlohmann::json::parse(value.toStringRef()), strCat(source, " progress"));
+        progressFromJson(nlohmann::json::parse(value.toStringRef()),
+                         strCat(source, " progress"));
     torch::Tensor t;
     archive.read("optimizer_state", t, true);
     checkpoint.optimizer_state = tensorBytes(t);
@@ -123,28 +134,29 @@ Checkpoint deserializeCheckpoint(std::string_view bytes, const std::string& sour
                                     "' is truncated or not a checkpoint: ",
                                     error.what_without_backtrace()));
   } catch (const nlohmann::json::exception& error) {
-    throw std::runtime_error(
-        strCat("loadCheckpoint(): '", source, "' has corrupt metadata: ", error.what()));
+    throw std::runtime_error(strCat("loadCheckpoint(): '", source,
+                                    "' has corrupt metadata: ", error.what()));
   } catch (const std::invalid_argument& error) {
     throw std::runtime_error(strCat("loadCheckpoint(): ", error.what()));
   }
   return checkpoint;
 }
 
-void saveCheckpoint(const std::filesystem::path& file, const Checkpoint& checkpoint) {
+void saveCheckpoint(const std::filesystem::path& file,
+                    const Checkpoint& checkpoint) {
   const std::string bytes = serializeCheckpoint(checkpoint);
   try {
     common::writeFileAtomic(file, bytes);
   } catch (const std::exception& error) {
-    throw std::runtime_error(strCat("saveCheckpoint(): cannot write checkpoint '", file.string(),
-                                    "' (", bytes.size(),
-                                    " bytes; the previous file is intact): ", error.what()));
+    throw std::runtime_error(strCat(
+        "saveCheckpoint(): cannot write checkpoint '", file.string(), "' (",
+        bytes.size(), " bytes; the previous file is intact): ", error.what()));
   }
 }
 
 Checkpoint loadCheckpoint(const std::filesystem::path& file) {
-  VLN_CHECK_IO(std::filesystem::is_regular_file(file), "loadCheckpoint(): '", file.string(),
-               "' does not exist");
+  VLN_CHECK_IO(std::filesystem::is_regular_file(file), "loadCheckpoint(): '",
+               file.string(), "' does not exist");
   const std::string bytes = common::readFile(file);
   return deserializeCheckpoint(bytes, file.string());
 }
@@ -153,24 +165,27 @@ std::optional<int> checkpointIndex(const std::filesystem::path& file) {
   const std::string name = file.filename().string();
   constexpr std::string_view prefix = "ckpt.";
   constexpr std::string_view suffix = ".pth";
-  if (name.size() <= prefix.size() + suffix.size() || !name.starts_with(prefix) ||
-      !name.ends_with(suffix))
+  if (name.size() <= prefix.size() + suffix.size() ||
+      !name.starts_with(prefix) || !name.ends_with(suffix))
     return std::nullopt;
   const std::string_view digits(name.data() + prefix.size(),
                                 name.size() - prefix.size() - suffix.size());
   int index = -1;
-  auto [end, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), index);
+  auto [end, ec] =
+      std::from_chars(digits.data(), digits.data() + digits.size(), index);
   if (ec != std::errc() || end != digits.data() + digits.size() || index < 0)
     return std::nullopt;
   return index;
 }
 
-std::vector<std::filesystem::path> listCheckpoints(const std::filesystem::path& dir) {
+std::vector<std::filesystem::path> listCheckpoints(
+    const std::filesystem::path& dir) {
   std::vector<std::pair<int, std::filesystem::path>> found;
   std::error_code ec;
   if (!std::filesystem::is_directory(dir, ec)) return {};
   for (const auto& entry : std::filesystem::directory_iterator(dir))
-    if (auto index = checkpointIndex(entry.path()); index && entry.is_regular_file())
+    if (auto index = checkpointIndex(entry.path());
+        index && entry.is_regular_file())
       found.emplace_back(*index, entry.path());
   std::sort(found.begin(), found.end());
   std::vector<std::filesystem::path> files;
@@ -193,16 +208,16 @@ std::string serializeOptimizer(const torch::optim::Optimizer& optimizer) {
   return bytes;
 }
 
-void loadOptimizerState(torch::optim::Optimizer& optimizer, std::string_view bytes,
-                        const std::string& source) {
+void loadOptimizerState(torch::optim::Optimizer& optimizer,
+                        std::string_view bytes, const std::string& source) {
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(bytes.data(), bytes.size());
     optimizer.load(archive);
   } catch (const c10::Error& error) {
-    throw std::runtime_error(strCat("loadOptimizerState(): the optimizer state of '", source,
-                                    "' does not fit this policy: ",
-                                    error.what_without_backtrace()));
+    throw std::runtime_error(
+        strCat("loadOptimizerState(): the optimizer state of '", source,
+               "' does not fit this policy: ", error.what_without_backtrace()));
   }
 }
 

@@ -21,24 +21,25 @@ namespace vln::train {
 
 /// Where training stood when the checkpoint was written.
 struct TrainingProgress {
-  int checkpoint_index = 0;   ///< ckpt.<index>.pth, increasing
-  int dagger_iteration = 0;   ///< completed DAgger iterations
-  int epoch = 0;              ///< completed epochs in the current stage
-  int64_t updates = 0;        ///< optimizer steps so far
+  int checkpoint_index = 0;        ///< ckpt.<index>.pth, increasing
+  int dagger_iteration = 0;        ///< completed DAgger iterations
+  int epoch = 0;                   ///< completed epochs in the current stage
+  int64_t updates = 0;             ///< optimizer steps so far
   int64_t episodes_collected = 0;  ///< episodes in the store when written
-  std::string stage;          ///< "teacher_forcing", "dagger", ...
-  double best_spl = -1.0;     ///< best selection-split SPL so far (-1: none)
+  std::string stage;               ///< "teacher_forcing", "dagger", ...
+  double best_spl = -1.0;  ///< best selection-split SPL so far (-1: none)
   int best_checkpoint = -1;
   nlohmann::json extra = nlohmann::json::object();  ///< stage-specific state
 };
 
 /// A checkpoint's contents.
 struct Checkpoint {
-  std::string config_yaml;            ///< the resolved ExperimentConfig
-  models::NamedTensors policy;        ///< policy parameters and buffers
-  std::string optimizer_state;        ///< serialised torch::optim::Adam (may be empty)
+  std::string config_yaml;      ///< the resolved ExperimentConfig
+  models::NamedTensors policy;  ///< policy parameters and buffers
+  std::string
+      optimizer_state;  ///< serialised torch::optim::Adam (may be empty)
   TrainingProgress progress;
-  std::string rng_state;              ///< serialised RNG states (opaque)
+  std::string rng_state;  ///< serialised RNG states (opaque)
 };
 
 /// "ckpt.<index>.pth".
@@ -47,7 +48,8 @@ std::string checkpointFileName(int index);
 /// Writes `checkpoint` to `file` atomically. Throws std::runtime_error naming
 /// the file on any I/O failure (disk full, file size limit), leaving a
 /// previous file of that name intact.
-void saveCheckpoint(const std::filesystem::path& file, const Checkpoint& checkpoint);
+void saveCheckpoint(const std::filesystem::path& file,
+                    const Checkpoint& checkpoint);
 
 /// Reads a checkpoint. Throws std::runtime_error naming the file when it is
 /// missing, truncated or not a checkpoint of this project.
@@ -65,15 +67,17 @@ std::string serializeOptimizer(const torch::optim::Optimizer& optimizer);
 /// Restores serializeOptimizer() bytes into an optimizer over the same
 /// parameters. Throws std::runtime_error naming `source` when they do not
 /// fit (other parameters, corrupt bytes).
-void loadOptimizerState(torch::optim::Optimizer& optimizer, std::string_view bytes,
-                        const std::string& source);
+void loadOptimizerState(torch::optim::Optimizer& optimizer,
+                        std::string_view bytes, const std::string& source);
 
 /// Parses serializeCheckpoint() bytes; `source` names them in errors.
-Checkpoint deserializeCheckpoint(std::string_view bytes, const std::string& source);
+Checkpoint deserializeCheckpoint(std::string_view bytes,
+                                 const std::string& source);
 
 /// The checkpoint files of a directory (ckpt.<index>.pth), by increasing
 /// index; empty when there are none.
-std::vector<std::filesystem::path> listCheckpoints(const std::filesystem::path& dir);
+std::vector<std::filesystem::path> listCheckpoints(
+    const std::filesystem::path& dir);
 
 /// Index parsed from a checkpoint file name, or nullopt.
 std::optional<int> checkpointIndex(const std::filesystem::path& file);

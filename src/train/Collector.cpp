@@ -16,10 +16,12 @@ namespace vln::train {
 // ---------------------------------------------------------------------------
 // oracle and progress
 
-WaypointOracle::WaypointOracle(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
-                               float goalRadius, std::vector<Vec3f> waypoints)
+WaypointOracle::WaypointOracle(const sim::NavMesh& navmesh,
+                               const sim::AgentConfig& agent, float goalRadius,
+                               std::vector<Vec3f> waypoints)
     : follower_(navmesh, agent, goalRadius), waypoints_(std::move(waypoints)) {
-  VLN_CHECK_ARG(!waypoints_.empty(), "WaypointOracle: an episode needs at least one waypoint");
+  VLN_CHECK_ARG(!waypoints_.empty(),
+                "WaypointOracle: an episode needs at least one waypoint");
   // waypoint 0 is the start: the first leg heads for waypoint 1
   current_ = std::min<int>(1, static_cast<int>(waypoints_.size()) - 1);
 }
@@ -29,7 +31,8 @@ sim::Action WaypointOracle::next(const sim::AgentState& state) {
   // a leg ends where the follower would stop at its waypoint; the next leg
   // starts from the same state, as the ground truth was generated
   while (current_ < last) {
-    const sim::Action action = follower_.nextAction(state, waypoints_[static_cast<size_t>(current_)]);
+    const sim::Action action =
+        follower_.nextAction(state, waypoints_[static_cast<size_t>(current_)]);
     if (action != sim::Action::kStop) return action;
     ++current_;
   }
@@ -37,7 +40,8 @@ sim::Action WaypointOracle::next(const sim::AgentState& state) {
 }
 
 float progressTarget(float startDistance, float distance) {
-  if (!std::isfinite(distance) || !std::isfinite(startDistance) || startDistance <= 0.0f)
+  if (!std::isfinite(distance) || !std::isfinite(startDistance) ||
+      startDistance <= 0.0f)
     return 0.0f;
   return std::clamp((startDistance - distance) / startDistance, -1.0f, 1.0f);
 }
@@ -56,34 +60,41 @@ struct Collector::Slot {
   Vec3f goal = Vec3f::Zero();
   torch::Tensor hidden;  ///< [layers, H] policy state (beta < 1)
   int64_t prevAction = 0;
-  std::vector<torch::Tensor> rgb, depth;  ///< per step [C, h, w] in the store dtype
+  std::vector<torch::Tensor> rgb,
+      depth;  ///< per step [C, h, w] in the store dtype
   std::vector<uint8_t> prevActions, oracleActions;
   std::vector<float> progress;
   int64_t oracleSteps = 0;
 };
 
-Collector::Collector(const ExperimentConfig& config, std::shared_ptr<eval::SceneCache> scenes,
+Collector::Collector(const ExperimentConfig& config,
+                     std::shared_ptr<eval::SceneCache> scenes,
                      models::ObservationEncoder encoder)
-    : config_(config), scenes_(std::move(scenes)), encoder_(std::move(encoder)) {
-  envs_ = std::make_unique<eval::VectorEnv>(config_.trainer.num_envs, config_.sim, config_.task,
-                                            scenes_, config_.trainer.env_threads);
+    : config_(config),
+      scenes_(std::move(scenes)),
+      encoder_(std::move(encoder)) {
+  envs_ = std::make_unique<eval::VectorEnv>(config_.trainer.num_envs,
+                                            config_.sim, config_.task, scenes_,
+                                            config_.trainer.env_threads);
 }
 
 Collector::~Collector() = default;
 
-CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& store,
-                                   models::PolicyImpl* policy,
-                                   const data::GroundTruth* groundTruth,
-                                   const std::function<void(int64_t, int64_t)>& progress) {
+CollectionStats Collector::collect(
+    const CollectionRound& round, FeatureStore& store,
+    models::PolicyImpl* policy, const data::GroundTruth* groundTruth,
+    const std::function<void(int64_t, int64_t)>& progress) {
   VLN_CHECK_ARG(round.sources.size() == round.episodes.size(),
                 "Collector::collect(): ", round.sources.size(), " sources for ",
                 round.episodes.size(), " slots");
   const bool usePolicy = round.beta < 1.0;
   VLN_CHECK_ARG(!usePolicy || policy != nullptr,
-                "Collector::collect(): beta = ", round.beta, " < 1 needs a policy");
+                "Collector::collect(): beta = ", round.beta,
+                " < 1 needs a policy");
   const models::ModelConfig& model = config_.model;
   const torch::Device device = models::modelDevice(model);
-  const torch::Dtype storeType = store.layout().fp16 ? torch::kHalf : torch::kFloat32;
+  const torch::Dtype storeType =
+      store.layout().fp16 ? torch::kHalf : torch::kFloat32;
   torch::NoGradGuard noGrad;
   encoder_->eval();
   if (policy) policy->eval();
@@ -98,14 +109,17 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
   stats.skipped = static_cast<int64_t>(round.episodes.size() - pending.size());
   if (pending.empty()) return stats;
   if (stats.skipped > 0)
-    spdlog::info("collection round {}: {} of {} episodes already in the store, collecting {}",
-                 round.iteration, stats.skipped, round.episodes.size(), pending.size());
+    spdlog::info(
+        "collection round {}: {} of {} episodes already in the store, "
+        "collecting {}",
+        round.iteration, stats.skipped, round.episodes.size(), pending.size());
 
   const int numEnvs = envs_->size();
   std::vector<std::unique_ptr<Slot>> slots(static_cast<size_t>(numEnvs));
   size_t nextPending = 0;
-  common::ProgressLine line(strCat("collect round ", round.iteration, " (beta ", round.beta, ")"),
-                            static_cast<int64_t>(pending.size()), "episodes");
+  common::ProgressLine line(
+      strCat("collect round ", round.iteration, " (beta ", round.beta, ")"),
+      static_cast<int64_t>(pending.size()), "episodes");
   int64_t stored = 0;
   int64_t frames = 0;
 
@@ -120,11 +134,14 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
       s->slot = k;
       s->episode = round.episodes[static_cast<size_t>(k)];
       s->source = round.sources[static_cast<size_t>(k)];
-      s->coins.seed(data::deriveSeed(data::deriveSeed(round.seed, 1000003u + static_cast<uint64_t>(round.iteration)),
-                                     static_cast<uint64_t>(k)));
-      VLN_CHECK_ARG(!s->episode->reference_path.empty() && !s->episode->goals.empty(),
-                    "Collector: episode ", s->episode->episode_id,
-                    " has no reference_path or goals (a test split cannot be collected)");
+      s->coins.seed(data::deriveSeed(
+          data::deriveSeed(round.seed,
+                           1000003u + static_cast<uint64_t>(round.iteration)),
+          static_cast<uint64_t>(k)));
+      VLN_CHECK_ARG(
+          !s->episode->reference_path.empty() && !s->episode->goals.empty(),
+          "Collector: episode ", s->episode->episode_id,
+          " has no reference_path or goals (a test split cannot be collected)");
       slots[static_cast<size_t>(env)] = std::move(s);
       started.push_back(env);
       episodes.push_back(slots[static_cast<size_t>(env)]->episode);
@@ -134,14 +151,17 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
     for (int env : started) {
       Slot& s = *slots[static_cast<size_t>(env)];
       const sim::NavMesh& navmesh = envs_->simulator(env).scene().navmesh();
-      s.oracle = std::make_unique<WaypointOracle>(navmesh, config_.sim.agent,
-                                                  config_.task.follower_goal_radius,
-                                                  s.episode->reference_path);
+      s.oracle = std::make_unique<WaypointOracle>(
+          navmesh, config_.sim.agent, config_.task.follower_goal_radius,
+          s.episode->reference_path);
       s.goal = s.episode->goals.front().position;
-      s.startDistance = s.episode->geodesic_distance
-                            ? *s.episode->geodesic_distance
-                            : navmesh.geodesicDistance(s.episode->start_position, s.goal);
-      if (usePolicy) s.hidden = torch::zeros({model.numRecurrentLayers(), model.hidden_size}, device);
+      s.startDistance =
+          s.episode->geodesic_distance
+              ? *s.episode->geodesic_distance
+              : navmesh.geodesicDistance(s.episode->start_position, s.goal);
+      if (usePolicy)
+        s.hidden = torch::zeros({model.numRecurrentLayers(), model.hidden_size},
+                                device);
     }
   };
   std::vector<int> all(static_cast<size_t>(numEnvs));
@@ -171,22 +191,28 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
     std::vector<sim::Action> oracle(static_cast<size_t>(n));
     std::vector<float> targets(static_cast<size_t>(n));
     envs_->forEach(active, [&](int env) {
-      const auto k = static_cast<size_t>(std::find(active.begin(), active.end(), env) - active.begin());
+      const auto k = static_cast<size_t>(
+          std::find(active.begin(), active.end(), env) - active.begin());
       Slot& s = *slots[static_cast<size_t>(env)];
       const sim::AgentState& agent = envs_->state(env).agent;
       oracle[k] = s.oracle->next(agent);
       targets[k] = progressTarget(
-          s.startDistance, envs_->simulator(env).scene().navmesh().geodesicDistance(agent.position, s.goal));
+          s.startDistance,
+          envs_->simulator(env).scene().navmesh().geodesicDistance(
+              agent.position, s.goal));
     });
 
     // the policy's argmax, with its recurrent state carried along
     std::vector<int64_t> policyActions;
     if (usePolicy) {
       std::vector<const data::Episode*> episodes;
-      for (int env : active) episodes.push_back(slots[static_cast<size_t>(env)]->episode);
+      for (int env : active)
+        episodes.push_back(slots[static_cast<size_t>(env)]->episode);
       if (episodes != encodedFor) {
         instruction = policy->encodeInstruction(
-            eval::batchInstructions(episodes, config_.dataset.max_instruction_length).to(device));
+            eval::batchInstructions(episodes,
+                                    config_.dataset.max_instruction_length)
+                .to(device));
         encodedFor = episodes;
       }
       std::vector<torch::Tensor> hidden;
@@ -203,18 +229,23 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
       inputs.depth = features.depth;
       inputs.prev_actions = torch::tensor(prev, torch::kInt64).to(device);
       inputs.not_done = torch::tensor(notDone, torch::kFloat32).to(device);
-      models::PolicyOutputs out = policy->step(instruction, inputs, torch::stack(hidden));
+      models::PolicyOutputs out =
+          policy->step(instruction, inputs, torch::stack(hidden));
       const torch::Tensor argmax = out.logits.argmax(-1).to(torch::kCPU);
-      policyActions.assign(argmax.data_ptr<int64_t>(), argmax.data_ptr<int64_t>() + n);
+      policyActions.assign(argmax.data_ptr<int64_t>(),
+                           argmax.data_ptr<int64_t>() + n);
       for (int64_t k = 0; k < n; ++k)
-        slots[static_cast<size_t>(active[static_cast<size_t>(k)])]->hidden = out.hidden[k];
+        slots[static_cast<size_t>(active[static_cast<size_t>(k)])]->hidden =
+            out.hidden[k];
     }
 
     // record the step and choose the action taken
-    const torch::Tensor rgbCpu =
-        features.rgb.defined() ? features.rgb.to(torch::kCPU, storeType) : torch::Tensor();
+    const torch::Tensor rgbCpu = features.rgb.defined()
+                                     ? features.rgb.to(torch::kCPU, storeType)
+                                     : torch::Tensor();
     const torch::Tensor depthCpu =
-        features.depth.defined() ? features.depth.to(torch::kCPU, storeType) : torch::Tensor();
+        features.depth.defined() ? features.depth.to(torch::kCPU, storeType)
+                                 : torch::Tensor();
     std::vector<sim::Action> actions(static_cast<size_t>(n));
     for (int64_t k = 0; k < n; ++k) {
       Slot& s = *slots[static_cast<size_t>(active[static_cast<size_t>(k)])];
@@ -227,7 +258,9 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
       sim::Action taken = label;
       if (usePolicy) {
         const bool takeOracle = data::uniform01(s.coins) < round.beta;
-        if (!takeOracle) taken = sim::actionFromInt(static_cast<int>(policyActions[static_cast<size_t>(k)]));
+        if (!takeOracle)
+          taken = sim::actionFromInt(
+              static_cast<int>(policyActions[static_cast<size_t>(k)]));
       }
       s.oracleSteps += taken == label;
       actions[static_cast<size_t>(k)] = taken;
@@ -247,7 +280,8 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
       e.key.slot = s.slot;
       e.key.source = s.source;
       const auto& tokens = s.episode->instruction.instruction_tokens;
-      const int length = std::min(data::unpaddedLength(tokens), config_.dataset.max_instruction_length);
+      const int length = std::min(data::unpaddedLength(tokens),
+                                  config_.dataset.max_instruction_length);
       e.tokens.assign(tokens.begin(), tokens.begin() + length);
       e.prev_actions = std::move(s.prevActions);
       e.oracle_actions = std::move(s.oracleActions);
@@ -273,11 +307,14 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
             stats.gt_equal_steps += equal;
             identical &= equal;
           }
-          stats.gt_steps += static_cast<int64_t>(std::max(gt.size(), e.oracle_actions.size()));
+          stats.gt_steps += static_cast<int64_t>(
+              std::max(gt.size(), e.oracle_actions.size()));
           stats.gt_identical += identical;
           if (!identical)
-            spdlog::debug("oracle differs from ground truth on episode {} ({} vs {} actions)",
-                          e.key.episode_id, e.oracle_actions.size(), gt.size());
+            spdlog::debug(
+                "oracle differs from ground truth on episode {} ({} vs {} "
+                "actions)",
+                e.key.episode_id, e.oracle_actions.size(), gt.size());
         }
       }
       slots[static_cast<size_t>(env)].reset();
@@ -290,13 +327,18 @@ CollectionStats Collector::collect(const CollectionRound& round, FeatureStore& s
   }
   stats.seconds = clock.seconds();
   spdlog::info(
-      "collected {} episodes ({} steps) in {:.1f} s: {:.1f} episodes/min, {:.1f} frames/s, "
-      "{:.1f}% oracle actions, {} cut at {} steps; store {} episodes, {:.0f} bytes/step",
+      "collected {} episodes ({} steps) in {:.1f} s: {:.1f} episodes/min, "
+      "{:.1f} frames/s, "
+      "{:.1f}% oracle actions, {} cut at {} steps; store {} episodes, {:.0f} "
+      "bytes/step",
       stats.episodes, stats.steps, stats.seconds,
-      60.0 * static_cast<double>(stats.episodes) / std::max(stats.seconds, 1e-9),
+      60.0 * static_cast<double>(stats.episodes) /
+          std::max(stats.seconds, 1e-9),
       static_cast<double>(frames) / std::max(stats.seconds, 1e-9),
-      100.0 * static_cast<double>(stats.oracle_steps) / std::max<double>(1.0, static_cast<double>(stats.steps)),
-      stats.cut_at_limit, config_.task.max_episode_steps, store.size(), store.bytesPerStep());
+      100.0 * static_cast<double>(stats.oracle_steps) /
+          std::max<double>(1.0, static_cast<double>(stats.steps)),
+      stats.cut_at_limit, config_.task.max_episode_steps, store.size(),
+      store.bytesPerStep());
   return stats;
 }
 

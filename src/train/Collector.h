@@ -79,11 +79,11 @@ struct CollectionRound {
 
 /// What a round collected.
 struct CollectionStats {
-  int64_t episodes = 0;         ///< episodes appended by this call
-  int64_t skipped = 0;          ///< slots already in the store
-  int64_t steps = 0;            ///< steps appended
-  int64_t oracle_steps = 0;     ///< steps that took the oracle action
-  int64_t cut_at_limit = 0;     ///< episodes cut at task.max_episode_steps
+  int64_t episodes = 0;      ///< episodes appended by this call
+  int64_t skipped = 0;       ///< slots already in the store
+  int64_t steps = 0;         ///< steps appended
+  int64_t oracle_steps = 0;  ///< steps that took the oracle action
+  int64_t cut_at_limit = 0;  ///< episodes cut at task.max_episode_steps
   double seconds = 0.0;
   /// Teacher forcing only: episodes compared with the split's ground truth
   /// and those whose action sequence is identical; steps compared position
@@ -98,7 +98,8 @@ class Collector {
  public:
   /// `encoder` is used frozen under NoGradGuard on model.device. The
   /// environments are built here (trainer.num_envs, trainer.env_threads).
-  Collector(const ExperimentConfig& config, std::shared_ptr<eval::SceneCache> scenes,
+  Collector(const ExperimentConfig& config,
+            std::shared_ptr<eval::SceneCache> scenes,
             models::ObservationEncoder encoder);
   ~Collector();
 
@@ -109,10 +110,10 @@ class Collector {
   /// actions of the source-0 slots. `progress` is called
   /// after every stored episode with (stored so far in this round, slots in
   /// the round).
-  CollectionStats collect(const CollectionRound& round, FeatureStore& store,
-                          models::PolicyImpl* policy,
-                          const data::GroundTruth* groundTruth,
-                          const std::function<void(int64_t, int64_t)>& progress = {});
+  CollectionStats collect(
+      const CollectionRound& round, FeatureStore& store,
+      models::PolicyImpl* policy, const data::GroundTruth* groundTruth,
+      const std::function<void(int64_t, int64_t)>& progress = {});
 
  private:
   struct Slot;

@@ -29,7 +29,8 @@ constexpr uint8_t kDtypeF32 = 2;
 
 std::string episodeKey(int64_t index) {
   char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "e%012lld", static_cast<long long>(index));
+  std::snprintf(buffer, sizeof(buffer), "e%012lld",
+                static_cast<long long>(index));
   return buffer;
 }
 
@@ -55,15 +56,17 @@ T getRaw(std::string_view bytes, size_t offset) {
 
 // one header parse shared by the index scan and full reads
 StoredEpisodeKey parseHeader(std::string_view bytes, const std::string& where) {
-  VLN_CHECK_IO(bytes.size() >= kHeaderBytes && std::memcmp(bytes.data(), kMagic, 4) == 0,
-               where, ": not an episode record (", bytes.size(), " bytes)");
+  VLN_CHECK_IO(
+      bytes.size() >= kHeaderBytes && std::memcmp(bytes.data(), kMagic, 4) == 0,
+      where, ": not an episode record (", bytes.size(), " bytes)");
   StoredEpisodeKey key;
   key.episode_id = getRaw<int64_t>(bytes, 8);
   key.iteration = getRaw<int32_t>(bytes, 16);
   key.slot = getRaw<int32_t>(bytes, 20);
   key.length = getRaw<int32_t>(bytes, 24);
   key.source = getRaw<uint8_t>(bytes, 32);
-  VLN_CHECK_IO(key.length >= 1, where, ": episode record with length ", key.length);
+  VLN_CHECK_IO(key.length >= 1, where, ": episode record with length ",
+               key.length);
   return key;
 }
 
@@ -83,19 +86,23 @@ nlohmann::json StoreLayout::toJson() const {
           {"config_hash", config_hash}};
 }
 
-StoreLayout StoreLayout::fromJson(const nlohmann::json& json, std::string_view source) {
+StoreLayout StoreLayout::fromJson(const nlohmann::json& json,
+                                  std::string_view source) {
   StoreLayout layout;
-  auto rgb = common::requireField<std::vector<int64_t>>(json, "rgb_shape", source);
-  auto depth = common::requireField<std::vector<int64_t>>(json, "depth_shape", source);
+  auto rgb =
+      common::requireField<std::vector<int64_t>>(json, "rgb_shape", source);
+  auto depth =
+      common::requireField<std::vector<int64_t>>(json, "depth_shape", source);
   VLN_CHECK_IO(rgb.size() == 3 && depth.size() == 3, source,
                ": rgb_shape and depth_shape must have 3 entries");
   layout.rgb_shape = {rgb[0], rgb[1], rgb[2]};
   layout.depth_shape = {depth[0], depth[1], depth[2]};
   auto dtype = common::requireField<std::string>(json, "dtype", source);
-  VLN_CHECK_IO(dtype == "float16" || dtype == "float32", source, ": unknown dtype '",
-               dtype, "'");
+  VLN_CHECK_IO(dtype == "float16" || dtype == "float32", source,
+               ": unknown dtype '", dtype, "'");
   layout.fp16 = dtype == "float16";
-  layout.config_hash = common::requireField<std::string>(json, "config_hash", source);
+  layout.config_hash =
+      common::requireField<std::string>(json, "config_hash", source);
   return layout;
 }
 
@@ -122,35 +129,40 @@ struct Txn {
 
 }  // namespace
 
-FeatureStore::FeatureStore(const std::filesystem::path& dir, double maxGib, bool readOnly)
+FeatureStore::FeatureStore(const std::filesystem::path& dir, double maxGib,
+                           bool readOnly)
     : dir_(dir), lmdb_(std::make_unique<Lmdb>()), readOnly_(readOnly) {
   openEnv(maxGib);
 }
 
-FeatureStore::FeatureStore(const std::filesystem::path& dir, const StoreLayout& layout,
-                           double maxGib)
+FeatureStore::FeatureStore(const std::filesystem::path& dir,
+                           const StoreLayout& layout, double maxGib)
     : FeatureStore(dir, maxGib, /*readOnly=*/false) {
   std::string meta = readValue(kMetaKey);
   if (meta.empty()) {
     // a new store: an empty episode table and the layout, in one commit
-    VLN_CHECK_IO(readValue(episodeKey(0)).empty(), "FeatureStore: '", dir_.string(),
+    VLN_CHECK_IO(readValue(episodeKey(0)).empty(), "FeatureStore: '",
+                 dir_.string(),
                  "' holds episodes but no meta record: corrupt store");
     layout_ = layout;
     Txn txn;
     int rc = mdb_txn_begin(lmdb_->env, nullptr, 0, &txn.txn);
-    VLN_CHECK_IO(rc == 0, "FeatureStore: cannot begin a transaction in '", dir_.string(),
-                 "': ", mdb_strerror(rc));
-    nlohmann::json metaJson = {{"format", kFormat},   {"version", kVersion},
-                               {"layout", layout_.toJson()}, {"episodes", 0},
-                               {"steps", 0},          {"bytes", 0}};
+    VLN_CHECK_IO(rc == 0, "FeatureStore: cannot begin a transaction in '",
+                 dir_.string(), "': ", mdb_strerror(rc));
+    nlohmann::json metaJson = {{"format", kFormat},
+                               {"version", kVersion},
+                               {"layout", layout_.toJson()},
+                               {"episodes", 0},
+                               {"steps", 0},
+                               {"bytes", 0}};
     std::string text = metaJson.dump();
     MDB_val k{std::strlen(kMetaKey), const_cast<char*>(kMetaKey)};
     MDB_val v{text.size(), text.data()};
     rc = mdb_put(txn.txn, lmdb_->dbi, &k, &v, 0);
     if (rc == 0) rc = mdb_txn_commit(txn.txn);
     txn.txn = nullptr;
-    VLN_CHECK_IO(rc == 0, "FeatureStore: cannot initialise '", dir_.string(), "': ",
-                 mdb_strerror(rc));
+    VLN_CHECK_IO(rc == 0, "FeatureStore: cannot initialise '", dir_.string(),
+                 "': ", mdb_strerror(rc));
   }
   loadIndex();
   VLN_CHECK_IO(layout_ == layout, "FeatureStore: '", dir_.string(),
@@ -159,10 +171,13 @@ FeatureStore::FeatureStore(const std::filesystem::path& dir, const StoreLayout& 
                " (use a new run directory)");
 }
 
-std::unique_ptr<FeatureStore> FeatureStore::openExisting(const std::filesystem::path& dir) {
-  VLN_CHECK_IO(std::filesystem::exists(dir / "data.mdb"), "FeatureStore: no store in '",
-               dir.string(), "' (data.mdb is missing)");
-  std::unique_ptr<FeatureStore> store(new FeatureStore(dir, 0.0, /*readOnly=*/true));
+std::unique_ptr<FeatureStore> FeatureStore::openExisting(
+    const std::filesystem::path& dir) {
+  VLN_CHECK_IO(std::filesystem::exists(dir / "data.mdb"),
+               "FeatureStore: no store in '", dir.string(),
+               "' (data.mdb is missing)");
+  std::unique_ptr<FeatureStore> store(
+      new FeatureStore(dir, 0.0, /*readOnly=*/true));
   store->loadIndex();
   return store;
 }
@@ -172,53 +187,60 @@ FeatureStore::~FeatureStore() = default;
 void FeatureStore::openEnv(double maxGib) {
   std::error_code ec;
   std::filesystem::create_directories(dir_, ec);
-  VLN_CHECK_IO(!ec, "FeatureStore: cannot create '", dir_.string(), "': ", ec.message());
+  VLN_CHECK_IO(!ec, "FeatureStore: cannot create '", dir_.string(),
+               "': ", ec.message());
   int rc = mdb_env_create(&lmdb_->env);
-  VLN_CHECK_IO(rc == 0, "FeatureStore: mdb_env_create failed: ", mdb_strerror(rc));
+  VLN_CHECK_IO(rc == 0,
+               "FeatureStore: mdb_env_create failed: ", mdb_strerror(rc));
   // a read-only opener keeps the writer's map size: a write transaction
   // here would persist another size and break a concurrent writer
   if (!readOnly_) {
-    const auto mapBytes = static_cast<size_t>(maxGib * 1024.0 * 1024.0 * 1024.0);
+    const auto mapBytes =
+        static_cast<size_t>(maxGib * 1024.0 * 1024.0 * 1024.0);
     rc = mdb_env_set_mapsize(lmdb_->env, mapBytes);
-    VLN_CHECK_IO(rc == 0, "FeatureStore: cannot set the map size of '", dir_.string(), "' to ",
-                 maxGib, " GiB (trainer.store_max_gib): ", mdb_strerror(rc));
+    VLN_CHECK_IO(rc == 0, "FeatureStore: cannot set the map size of '",
+                 dir_.string(), "' to ", maxGib,
+                 " GiB (trainer.store_max_gib): ", mdb_strerror(rc));
   }
   // MDB_NOTLS: read transactions are not tied to threads (prefetching)
-  rc = mdb_env_open(lmdb_->env, dir_.c_str(), MDB_NOTLS | (readOnly_ ? MDB_RDONLY : 0), 0664);
+  rc = mdb_env_open(lmdb_->env, dir_.c_str(),
+                    MDB_NOTLS | (readOnly_ ? MDB_RDONLY : 0), 0664);
   if (rc != 0) {
     mdb_env_close(lmdb_->env);
     lmdb_->env = nullptr;
-    throw std::runtime_error(strCat("FeatureStore: cannot open the store '", dir_.string(),
-                                    "': ", mdb_strerror(rc),
-                                    rc == MDB_INVALID ? " (corrupt or not an LMDB store)" : ""));
+    throw std::runtime_error(
+        strCat("FeatureStore: cannot open the store '", dir_.string(),
+               "': ", mdb_strerror(rc),
+               rc == MDB_INVALID ? " (corrupt or not an LMDB store)" : ""));
   }
   Txn txn;
   rc = mdb_txn_begin(lmdb_->env, nullptr, readOnly_ ? MDB_RDONLY : 0, &txn.txn);
   if (rc == 0) rc = mdb_dbi_open(txn.txn, nullptr, 0, &lmdb_->dbi);
   if (rc == 0) rc = mdb_txn_commit(txn.txn);
   txn.txn = nullptr;
-  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot open the database of '", dir_.string(),
-               "': ", mdb_strerror(rc));
+  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot open the database of '",
+               dir_.string(), "': ", mdb_strerror(rc));
 }
 
 std::string FeatureStore::readValue(const std::string& key) const {
   Txn txn;
   int rc = mdb_txn_begin(lmdb_->env, nullptr, MDB_RDONLY, &txn.txn);
-  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot read '", dir_.string(), "': ",
-               mdb_strerror(rc));
+  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot read '", dir_.string(),
+               "': ", mdb_strerror(rc));
   MDB_val k{key.size(), const_cast<char*>(key.data())};
   MDB_val v{};
   rc = mdb_get(txn.txn, lmdb_->dbi, &k, &v);
   if (rc == MDB_NOTFOUND) return {};
-  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot read key '", key, "' of '", dir_.string(),
-               "': ", mdb_strerror(rc));
+  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot read key '", key, "' of '",
+               dir_.string(), "': ", mdb_strerror(rc));
   return std::string(static_cast<const char*>(v.mv_data), v.mv_size);
 }
 
 void FeatureStore::loadIndex() {
   const std::string where = "FeatureStore: '" + dir_.string() + "'";
   std::string metaText = readValue(kMetaKey);
-  VLN_CHECK_IO(!metaText.empty(), where, " has no meta record: not a feature store");
+  VLN_CHECK_IO(!metaText.empty(), where,
+               " has no meta record: not a feature store");
   nlohmann::json meta;
   try {
     meta = nlohmann::json::parse(metaText);
@@ -226,11 +248,15 @@ void FeatureStore::loadIndex() {
     throw std::runtime_error(where + ": corrupt meta record: " + error.what());
   }
   try {
-    VLN_CHECK_IO(meta.value("format", "") == kFormat && meta.value("version", 0) == kVersion,
-                 where, ": meta record is not a version ", kVersion, " feature store");
-    layout_ = StoreLayout::fromJson(common::requireField<nlohmann::json>(meta, "layout", where),
-                                    where + " meta.layout");
-    const auto episodes = common::requireField<int64_t>(meta, "episodes", where);
+    VLN_CHECK_IO(meta.value("format", "") == kFormat &&
+                     meta.value("version", 0) == kVersion,
+                 where, ": meta record is not a version ", kVersion,
+                 " feature store");
+    layout_ = StoreLayout::fromJson(
+        common::requireField<nlohmann::json>(meta, "layout", where),
+        where + " meta.layout");
+    const auto episodes =
+        common::requireField<int64_t>(meta, "episodes", where);
     // scan the record headers once: keys, lengths and slots stay in memory
     keys_.clear();
     totalSteps_ = 0;
@@ -250,11 +276,13 @@ void FeatureStore::loadIndex() {
       const std::string expected = episodeKey(records);
       if (name != expected) {
         mdb_cursor_close(cursor);
-        throw std::runtime_error(strCat(where, ": unexpected key '", name, "' (expected '",
-                                        expected, "'): corrupt store"));
+        throw std::runtime_error(strCat(where, ": unexpected key '", name,
+                                        "' (expected '", expected,
+                                        "'): corrupt store"));
       }
       std::string_view bytes(static_cast<const char*>(v.mv_data), v.mv_size);
-      keys_.push_back(parseHeader(bytes, where + " episode " + std::to_string(records)));
+      keys_.push_back(
+          parseHeader(bytes, where + " episode " + std::to_string(records)));
       totalSteps_ += keys_.back().length;
       totalBytes_ += static_cast<int64_t>(bytes.size());
       ++records;
@@ -264,7 +292,8 @@ void FeatureStore::loadIndex() {
     VLN_CHECK_IO(records == episodes, where, ": meta counts ", episodes,
                  " episodes but the store holds ", records, ": corrupt store");
   } catch (const std::invalid_argument& error) {
-    throw std::runtime_error(std::string("corrupt meta record: ") + error.what());
+    throw std::runtime_error(std::string("corrupt meta record: ") +
+                             error.what());
   }
 }
 
@@ -275,25 +304,30 @@ std::string FeatureStore::encode(const StoredEpisode& e) const {
   const int64_t T = e.length();
   VLN_CHECK_ARG(T >= 1, "FeatureStore::append(): episode ", e.key.episode_id,
                 " has no steps");
-  VLN_CHECK_ARG(static_cast<int64_t>(e.prev_actions.size()) == T &&
-                    static_cast<int64_t>(e.progress.size()) == T,
-                "FeatureStore::append(): episode ", e.key.episode_id,
-                ": prev_actions, oracle_actions and progress must have one entry per "
-                "step, got ",
-                e.prev_actions.size(), ", ", T, ", ", e.progress.size());
+  VLN_CHECK_ARG(
+      static_cast<int64_t>(e.prev_actions.size()) == T &&
+          static_cast<int64_t>(e.progress.size()) == T,
+      "FeatureStore::append(): episode ", e.key.episode_id,
+      ": prev_actions, oracle_actions and progress must have one entry per "
+      "step, got ",
+      e.prev_actions.size(), ", ", T, ", ", e.progress.size());
   auto features = [&](const torch::Tensor& t, const models::FeatureShape& shape,
                       const char* name) {
     if (shape[0] == 0) {
-      VLN_CHECK_ARG(!t.defined(), "FeatureStore::append(): episode ", e.key.episode_id,
-                    " has ", name, " features but the store has none");
+      VLN_CHECK_ARG(!t.defined(), "FeatureStore::append(): episode ",
+                    e.key.episode_id, " has ", name,
+                    " features but the store has none");
       return torch::Tensor();
     }
-    VLN_CHECK_ARG(t.defined() && t.dim() == 4 && t.size(0) == T && t.size(1) == shape[0] &&
-                      t.size(2) == shape[1] && t.size(3) == shape[2],
-                  "FeatureStore::append(): episode ", e.key.episode_id, ": expected ",
-                  name, " features [", T, ", ", shape[0], ", ", shape[1], ", ", shape[2],
-                  "], got ", t.defined() ? t.sizes() : torch::IntArrayRef{});
-    return t.to(torch::kCPU, layout_.fp16 ? torch::kHalf : torch::kFloat32).contiguous();
+    VLN_CHECK_ARG(t.defined() && t.dim() == 4 && t.size(0) == T &&
+                      t.size(1) == shape[0] && t.size(2) == shape[1] &&
+                      t.size(3) == shape[2],
+                  "FeatureStore::append(): episode ", e.key.episode_id,
+                  ": expected ", name, " features [", T, ", ", shape[0], ", ",
+                  shape[1], ", ", shape[2], "], got ",
+                  t.defined() ? t.sizes() : torch::IntArrayRef{});
+    return t.to(torch::kCPU, layout_.fp16 ? torch::kHalf : torch::kFloat32)
+        .contiguous();
   };
   const torch::Tensor rgb = features(e.rgb, layout_.rgb_shape, "RGB");
   const torch::Tensor depth = features(e.depth, layout_.depth_shape, "depth");
@@ -315,10 +349,14 @@ std::string FeatureStore::encode(const StoredEpisode& e) const {
   putRaw<int32_t>(out, static_cast<int32_t>(numel(layout_.depth_shape)));
   putRaw<int32_t>(out, 0);
   VLN_ASSERT(out.size() == kHeaderBytes);
-  out.append(reinterpret_cast<const char*>(e.tokens.data()), e.tokens.size() * 4);
-  out.append(reinterpret_cast<const char*>(e.prev_actions.data()), e.prev_actions.size());
-  out.append(reinterpret_cast<const char*>(e.oracle_actions.data()), e.oracle_actions.size());
-  out.append(reinterpret_cast<const char*>(e.progress.data()), e.progress.size() * 4);
+  out.append(reinterpret_cast<const char*>(e.tokens.data()),
+             e.tokens.size() * 4);
+  out.append(reinterpret_cast<const char*>(e.prev_actions.data()),
+             e.prev_actions.size());
+  out.append(reinterpret_cast<const char*>(e.oracle_actions.data()),
+             e.oracle_actions.size());
+  out.append(reinterpret_cast<const char*>(e.progress.data()),
+             e.progress.size() * 4);
   for (const torch::Tensor& t : {rgb, depth})
     if (t.defined())
       out.append(static_cast<const char*>(t.data_ptr()),
@@ -328,22 +366,26 @@ std::string FeatureStore::encode(const StoredEpisode& e) const {
   return out;
 }
 
-StoredEpisode FeatureStore::decode(std::string_view bytes, int64_t index) const {
+StoredEpisode FeatureStore::decode(std::string_view bytes,
+                                   int64_t index) const {
   const std::string where =
       "FeatureStore: '" + dir_.string() + "' episode " + std::to_string(index);
   StoredEpisode e;
   e.key = parseHeader(bytes, where);
   const uint32_t crc = getRaw<uint32_t>(bytes, 4);
-  VLN_CHECK_IO(crc32c(bytes.substr(8)) == crc, where, ": checksum mismatch: corrupt store");
+  VLN_CHECK_IO(crc32c(bytes.substr(8)) == crc, where,
+               ": checksum mismatch: corrupt store");
   const int64_t T = e.key.length;
   const auto L = getRaw<int32_t>(bytes, 28);
   const auto dtype = getRaw<uint8_t>(bytes, 33);
   VLN_CHECK_IO(L >= 0 && dtype == (layout_.fp16 ? kDtypeF16 : kDtypeF32) &&
                    getRaw<int32_t>(bytes, 36) == numel(layout_.rgb_shape) &&
                    getRaw<int32_t>(bytes, 40) == numel(layout_.depth_shape),
-               where, ": record does not match the store layout ", layout_.toJson().dump());
+               where, ": record does not match the store layout ",
+               layout_.toJson().dump());
   const size_t elem = layout_.fp16 ? 2 : 4;
-  const size_t expected = kHeaderBytes + static_cast<size_t>(L) * 4 + static_cast<size_t>(T) * 6 +
+  const size_t expected = kHeaderBytes + static_cast<size_t>(L) * 4 +
+                          static_cast<size_t>(T) * 6 +
                           static_cast<size_t>(T) * elem *
                               static_cast<size_t>(numel(layout_.rgb_shape) +
                                                   numel(layout_.depth_shape));
@@ -362,8 +404,9 @@ StoredEpisode FeatureStore::decode(std::string_view bytes, int64_t index) const 
   at += static_cast<size_t>(T) * 4;
   auto features = [&](const models::FeatureShape& shape) {
     if (shape[0] == 0) return torch::Tensor();
-    torch::Tensor t = torch::empty({T, shape[0], shape[1], shape[2]},
-                                   layout_.fp16 ? torch::kHalf : torch::kFloat32);
+    torch::Tensor t =
+        torch::empty({T, shape[0], shape[1], shape[2]},
+                     layout_.fp16 ? torch::kHalf : torch::kFloat32);
     const size_t n = static_cast<size_t>(t.numel()) * elem;
     std::memcpy(t.data_ptr(), bytes.data() + at, n);
     at += n;
@@ -375,23 +418,25 @@ StoredEpisode FeatureStore::decode(std::string_view bytes, int64_t index) const 
 }
 
 void FeatureStore::append(const StoredEpisode& episode) {
-  VLN_CHECK_ARG(!readOnly_, "FeatureStore::append(): '", dir_.string(), "' was opened read-only");
+  VLN_CHECK_ARG(!readOnly_, "FeatureStore::append(): '", dir_.string(),
+                "' was opened read-only");
   const std::string value = encode(episode);
   const int64_t index = size();
   const std::string key = episodeKey(index);
-  nlohmann::json meta = {{"format", kFormat},
-                         {"version", kVersion},
-                         {"layout", layout_.toJson()},
-                         {"episodes", index + 1},
-                         {"steps", totalSteps_ + episode.length()},
-                         {"bytes", totalBytes_ + static_cast<int64_t>(value.size())}};
+  nlohmann::json meta = {
+      {"format", kFormat},
+      {"version", kVersion},
+      {"layout", layout_.toJson()},
+      {"episodes", index + 1},
+      {"steps", totalSteps_ + episode.length()},
+      {"bytes", totalBytes_ + static_cast<int64_t>(value.size())}};
   const std::string metaText = meta.dump();
 
   // the episode and the meta record commit together or not at all
   Txn txn;
   int rc = mdb_txn_begin(lmdb_->env, nullptr, 0, &txn.txn);
-  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot begin a write in '", dir_.string(), "': ",
-               mdb_strerror(rc));
+  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot begin a write in '",
+               dir_.string(), "': ", mdb_strerror(rc));
   MDB_val k{key.size(), const_cast<char*>(key.data())};
   MDB_val v{value.size(), const_cast<char*>(value.data())};
   rc = mdb_put(txn.txn, lmdb_->dbi, &k, &v, MDB_NOOVERWRITE);
@@ -406,12 +451,13 @@ void FeatureStore::append(const StoredEpisode& episode) {
     txn.txn = nullptr;  // committed or freed by a failed commit
   }
   if (rc == MDB_MAP_FULL)
-    throw std::runtime_error(strCat(
-        "FeatureStore: the store '", dir_.string(), "' is full (", fileBytes(),
-        " bytes on disk) after ", index,
-        " episodes: raise trainer.store_max_gib (LMDB map size)"));
-  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot write episode ", episode.key.episode_id,
-               " to '", dir_.string(), "': ", mdb_strerror(rc));
+    throw std::runtime_error(
+        strCat("FeatureStore: the store '", dir_.string(), "' is full (",
+               fileBytes(), " bytes on disk) after ", index,
+               " episodes: raise trainer.store_max_gib (LMDB map size)"));
+  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot write episode ",
+               episode.key.episode_id, " to '", dir_.string(),
+               "': ", mdb_strerror(rc));
   keys_.push_back(episode.key);
   keys_.back().length = static_cast<int32_t>(episode.length());
   totalSteps_ += episode.length();
@@ -419,12 +465,12 @@ void FeatureStore::append(const StoredEpisode& episode) {
 }
 
 StoredEpisode FeatureStore::read(int64_t index) const {
-  VLN_CHECK_ARG(index >= 0 && index < size(), "FeatureStore::read(): index ", index,
-                " outside [0, ", size(), ") in '", dir_.string(), "'");
+  VLN_CHECK_ARG(index >= 0 && index < size(), "FeatureStore::read(): index ",
+                index, " outside [0, ", size(), ") in '", dir_.string(), "'");
   Txn txn;
   int rc = mdb_txn_begin(lmdb_->env, nullptr, MDB_RDONLY, &txn.txn);
-  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot read '", dir_.string(), "': ",
-               mdb_strerror(rc));
+  VLN_CHECK_IO(rc == 0, "FeatureStore: cannot read '", dir_.string(),
+               "': ", mdb_strerror(rc));
   const std::string key = episodeKey(index);
   MDB_val k{key.size(), const_cast<char*>(key.data())};
   MDB_val v{};
@@ -432,7 +478,8 @@ StoredEpisode FeatureStore::read(int64_t index) const {
   VLN_CHECK_IO(rc == 0, "FeatureStore: '", dir_.string(), "': episode ", index,
                " cannot be read: ", mdb_strerror(rc));
   // decode copies out of the map before the transaction ends
-  return decode(std::string_view(static_cast<const char*>(v.mv_data), v.mv_size), index);
+  return decode(
+      std::string_view(static_cast<const char*>(v.mv_data), v.mv_size), index);
 }
 
 const StoredEpisodeKey& FeatureStore::key(int64_t index) const {
@@ -448,7 +495,8 @@ std::set<int32_t> FeatureStore::slots(int32_t iteration) const {
 }
 
 double FeatureStore::bytesPerStep() const {
-  return totalSteps_ > 0 ? static_cast<double>(totalBytes_) / static_cast<double>(totalSteps_)
+  return totalSteps_ > 0 ? static_cast<double>(totalBytes_) /
+                               static_cast<double>(totalSteps_)
                          : 0.0;
 }
 
@@ -470,7 +518,8 @@ EpisodeBatch FeatureStore::loadBatch(std::span<const int64_t> indices) const {
   for (int64_t index : indices) {
     episodes.push_back(read(index));
     T = std::max(T, episodes.back().length());
-    L = std::max<int64_t>(L, static_cast<int64_t>(episodes.back().tokens.size()));
+    L = std::max<int64_t>(L,
+                          static_cast<int64_t>(episodes.back().tokens.size()));
   }
   const auto B = static_cast<int64_t>(indices.size());
   EpisodeBatch batch;
@@ -513,9 +562,12 @@ EpisodeBatch FeatureStore::loadBatch(std::span<const int64_t> indices) const {
 }
 
 std::vector<std::vector<int64_t>> epochBatches(std::span<const int32_t> lengths,
-                                               int batchSize, uint64_t seed, int epoch) {
-  VLN_CHECK_ARG(batchSize >= 1, "epochBatches(): batchSize must be >= 1, got ", batchSize);
-  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull + static_cast<uint64_t>(epoch) + 1);
+                                               int batchSize, uint64_t seed,
+                                               int epoch) {
+  VLN_CHECK_ARG(batchSize >= 1, "epochBatches(): batchSize must be >= 1, got ",
+                batchSize);
+  std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ull +
+                      static_cast<uint64_t>(epoch) + 1);
   auto shuffle = [&](auto& values) {
     for (size_t i = values.size(); i > 1; --i)
       std::swap(values[i - 1], values[static_cast<size_t>(rng() % i)]);
@@ -534,9 +586,12 @@ std::vector<std::vector<int64_t>> epochBatches(std::span<const int32_t> lengths,
       byLength.emplace_back(lengths[static_cast<size_t>(order[i])], i);
     std::sort(byLength.begin(), byLength.end());
     std::vector<std::vector<int64_t>> chunkBatches;
-    for (size_t i = 0; i < byLength.size(); i += static_cast<size_t>(batchSize)) {
+    for (size_t i = 0; i < byLength.size();
+         i += static_cast<size_t>(batchSize)) {
       std::vector<int64_t> batch;
-      for (size_t j = i; j < std::min(byLength.size(), i + static_cast<size_t>(batchSize)); ++j)
+      for (size_t j = i;
+           j < std::min(byLength.size(), i + static_cast<size_t>(batchSize));
+           ++j)
         batch.push_back(order[byLength[j].second]);
       chunkBatches.push_back(std::move(batch));
     }

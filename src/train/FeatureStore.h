@@ -55,7 +55,8 @@ struct StoreLayout {
   /// Bytes of one step's features.
   int64_t featureBytesPerStep() const;
   nlohmann::json toJson() const;
-  static StoreLayout fromJson(const nlohmann::json& json, std::string_view source);
+  static StoreLayout fromJson(const nlohmann::json& json,
+                              std::string_view source);
   bool operator==(const StoreLayout&) const = default;
 };
 
@@ -71,12 +72,16 @@ struct StoredEpisodeKey {
 /// One collected episode.
 struct StoredEpisode {
   StoredEpisodeKey key;
-  std::vector<int32_t> tokens;          ///< instruction tokens, PAD removed
-  std::vector<uint8_t> prev_actions;    ///< [T] action taken before step t (0 at t = 0)
-  std::vector<uint8_t> oracle_actions;  ///< [T] oracle action at step t (the label)
-  std::vector<float> progress;          ///< [T] progress target at step t
-  torch::Tensor rgb;    ///< [T, C, h, w] CPU float16/float32; undefined without RGB
-  torch::Tensor depth;  ///< [T, C, h, w] CPU float16/float32; undefined without depth
+  std::vector<int32_t> tokens;  ///< instruction tokens, PAD removed
+  std::vector<uint8_t>
+      prev_actions;  ///< [T] action taken before step t (0 at t = 0)
+  std::vector<uint8_t>
+      oracle_actions;           ///< [T] oracle action at step t (the label)
+  std::vector<float> progress;  ///< [T] progress target at step t
+  torch::Tensor
+      rgb;  ///< [T, C, h, w] CPU float16/float32; undefined without RGB
+  torch::Tensor
+      depth;  ///< [T, C, h, w] CPU float16/float32; undefined without depth
 
   int64_t length() const { return static_cast<int64_t>(oracle_actions.size()); }
 };
@@ -84,8 +89,8 @@ struct StoredEpisode {
 /// Whole episodes padded to the longest one, time-major (PolicyImpl's
 /// sequence mode), on the CPU.
 struct EpisodeBatch {
-  torch::Tensor rgb;             ///< [T, B, C, h, w] float32; undefined without RGB
-  torch::Tensor depth;           ///< [T, B, C, h, w] float32; undefined without depth
+  torch::Tensor rgb;    ///< [T, B, C, h, w] float32; undefined without RGB
+  torch::Tensor depth;  ///< [T, B, C, h, w] float32; undefined without depth
   torch::Tensor prev_actions;    ///< [T, B] int64 (0 at padding)
   torch::Tensor oracle_actions;  ///< [T, B] int64 (0 at padding)
   torch::Tensor progress;        ///< [T, B] float32 (0 at padding)
@@ -108,7 +113,8 @@ class FeatureStore {
                double maxGib);
   /// Opens an existing store read-only with whatever layout it has (tools,
   /// tests; safe while another process appends). append() is refused.
-  static std::unique_ptr<FeatureStore> openExisting(const std::filesystem::path& dir);
+  static std::unique_ptr<FeatureStore> openExisting(
+      const std::filesystem::path& dir);
   ~FeatureStore();
   FeatureStore(const FeatureStore&) = delete;
   FeatureStore& operator=(const FeatureStore&) = delete;
@@ -145,7 +151,9 @@ class FeatureStore {
 
   /// Test hook: when set, append() calls it after writing the episode but
   /// before committing (e.g. to _exit() mid-transaction).
-  void setBeforeCommitHook(std::function<void()> hook) { beforeCommit_ = std::move(hook); }
+  void setBeforeCommitHook(std::function<void()> hook) {
+    beforeCommit_ = std::move(hook);
+  }
 
  private:
   FeatureStore(const std::filesystem::path& dir, double maxGib, bool readOnly);

@@ -10,7 +10,8 @@
 
 namespace vln::train {
 
-double inverseInflectionFrequency(const std::vector<const data::GroundTruth*>& groundTruth) {
+double inverseInflectionFrequency(
+    const std::vector<const data::GroundTruth*>& groundTruth) {
   int64_t actions = 0;
   int64_t inflections = 0;
   for (const data::GroundTruth* gt : groundTruth) {
@@ -22,15 +23,18 @@ double inverseInflectionFrequency(const std::vector<const data::GroundTruth*>& g
       }
     }
   }
-  VLN_CHECK_ARG(inflections > 0,
-                "inverseInflectionFrequency(): the ground truth holds no actions, so "
-                "trainer.inflection_weight <= 0 cannot be computed from it");
+  VLN_CHECK_ARG(
+      inflections > 0,
+      "inverseInflectionFrequency(): the ground truth holds no actions, so "
+      "trainer.inflection_weight <= 0 cannot be computed from it");
   return static_cast<double>(actions) / static_cast<double>(inflections);
 }
 
 ImitationLearner::ImitationLearner(std::shared_ptr<models::PolicyImpl> policy,
                                    const ExperimentConfig& config)
-    : policy_(std::move(policy)), config_(config), device_(models::modelDevice(config.model)) {
+    : policy_(std::move(policy)),
+      config_(config),
+      device_(models::modelDevice(config.model)) {
   VLN_ASSERT(policy_ != nullptr);
   policy_->to(device_);
   for (const torch::Tensor& p : policy_->parameters())
@@ -45,7 +49,8 @@ double ImitationLearner::applyGradients() {
   // processes here, before clipping and the step
   double norm = 0.0;
   if (config_.trainer.grad_clip > 0.0) {
-    norm = torch::nn::utils::clip_grad_norm_(parameters_, config_.trainer.grad_clip);
+    norm = torch::nn::utils::clip_grad_norm_(parameters_,
+                                             config_.trainer.grad_clip);
   } else {
     double squares = 0.0;
     for (const torch::Tensor& p : parameters_)
@@ -59,7 +64,9 @@ double ImitationLearner::applyGradients() {
 UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   policy_->train();
   const models::ModelConfig& model = config_.model;
-  auto to = [&](const torch::Tensor& t) { return t.defined() ? t.to(device_) : t; };
+  auto to = [&](const torch::Tensor& t) {
+    return t.defined() ? t.to(device_) : t;
+  };
   const torch::Tensor actions = to(batch.oracle_actions);
   const torch::Tensor valid = to(batch.valid);
   models::PolicyInputs inputs;
@@ -70,16 +77,19 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   const int64_t B = actions.size(1);
 
   optimizer_->zero_grad();
-  const models::EncodedInstruction instruction =
-      policy_->encodeInstruction(model.usesInstruction() ? to(batch.tokens) : torch::Tensor());
+  const models::EncodedInstruction instruction = policy_->encodeInstruction(
+      model.usesInstruction() ? to(batch.tokens) : torch::Tensor());
   const models::PolicyOutputs out =
       policy_->forwardSequence(instruction, inputs, policy_->initialHidden(B));
-  const torch::Tensor weights = models::inflectionWeights(actions, valid, inflectionCoef_);
-  const torch::Tensor actionLoss = models::weightedActionLoss(out.logits, actions, weights);
+  const torch::Tensor weights =
+      models::inflectionWeights(actions, valid, inflectionCoef_);
+  const torch::Tensor actionLoss =
+      models::weightedActionLoss(out.logits, actions, weights);
   torch::Tensor loss = actionLoss;
   torch::Tensor progressLoss;
   if (model.progress_monitor) {
-    progressLoss = models::progressLoss(out.progress, to(batch.progress), valid);
+    progressLoss =
+        models::progressLoss(out.progress, to(batch.progress), valid);
     loss = loss + config_.trainer.progress_loss_weight * progressLoss;
   }
   if (lossHook_) loss = lossHook_(loss);
@@ -89,16 +99,18 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   result.episodes = B;
   result.loss = loss.item<double>();
   result.action_loss = actionLoss.item<double>();
-  result.progress_loss = progressLoss.defined() ? progressLoss.item<double>() : 0.0;
+  result.progress_loss =
+      progressLoss.defined() ? progressLoss.item<double>() : 0.0;
   if (!std::isfinite(result.loss)) {
     // skip: no gradient reaches the parameters or Adam's moments
     result.skipped = true;
     ++nonFiniteTotal_;
     ++nonFiniteInARow_;
-    spdlog::warn("non-finite loss ({}) at update {}: skipped ({} in a row, {} in total; "
-                 "limit trainer.max_nonfinite_updates = {})",
-                 result.loss, updates_, nonFiniteInARow_, nonFiniteTotal_,
-                 config_.trainer.max_nonfinite_updates);
+    spdlog::warn(
+        "non-finite loss ({}) at update {}: skipped ({} in a row, {} in total; "
+        "limit trainer.max_nonfinite_updates = {})",
+        result.loss, updates_, nonFiniteInARow_, nonFiniteTotal_,
+        config_.trainer.max_nonfinite_updates);
     optimizer_->zero_grad();
     return result;
   }
@@ -109,19 +121,22 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   return result;
 }
 
-EpochResult ImitationLearner::trainEpoch(const FeatureStore& store, uint64_t seed, int epoch,
-                                         const std::function<void(const UpdateResult&)>& onUpdate) {
+EpochResult ImitationLearner::trainEpoch(
+    const FeatureStore& store, uint64_t seed, int epoch,
+    const std::function<void(const UpdateResult&)>& onUpdate) {
   VLN_CHECK_ARG(store.size() > 0, "ImitationLearner::trainEpoch(): the store '",
                 store.dir().string(), "' holds no episodes");
   std::vector<int32_t> lengths;
   lengths.reserve(static_cast<size_t>(store.size()));
-  for (int64_t i = 0; i < store.size(); ++i) lengths.push_back(store.key(i).length);
-  const auto batches = epochBatches(lengths, config_.trainer.batch_size, seed, epoch);
+  for (int64_t i = 0; i < store.size(); ++i)
+    lengths.push_back(store.key(i).length);
+  const auto batches =
+      epochBatches(lengths, config_.trainer.batch_size, seed, epoch);
 
   EpochResult result;
   common::Stopwatch clock;
-  common::ProgressLine line(strCat("epoch ", epoch), static_cast<int64_t>(batches.size()),
-                            "updates");
+  common::ProgressLine line(strCat("epoch ", epoch),
+                            static_cast<int64_t>(batches.size()), "updates");
   for (const auto& indices : batches) {
     const EpisodeBatch batch = store.loadBatch(indices);
     const UpdateResult u = update(batch);
@@ -131,7 +146,8 @@ EpochResult ImitationLearner::trainEpoch(const FeatureStore& store, uint64_t see
         throw std::runtime_error(strCat(
             "ImitationLearner: ", nonFiniteInARow_,
             " consecutive non-finite losses (trainer.max_nonfinite_updates = ",
-            config_.trainer.max_nonfinite_updates, ") at update ", updates_, " of epoch ", epoch,
+            config_.trainer.max_nonfinite_updates, ") at update ", updates_,
+            " of epoch ", epoch,
             ": training stopped, no checkpoint was written for this epoch"));
     } else {
       ++result.updates;

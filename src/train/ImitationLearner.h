@@ -36,9 +36,9 @@ struct UpdateResult {
 
 /// Sums of an epoch.
 struct EpochResult {
-  UpdateResult mean;           ///< means over the applied updates
-  int64_t updates = 0;         ///< applied updates
-  int64_t skipped = 0;         ///< updates skipped for non-finite losses
+  UpdateResult mean;    ///< means over the applied updates
+  int64_t updates = 0;  ///< applied updates
+  int64_t skipped = 0;  ///< updates skipped for non-finite losses
   double seconds = 0.0;
 };
 
@@ -46,13 +46,15 @@ struct EpochResult {
 /// (t = 0 and every action that differs from the previous one) over the
 /// ground-truth action sequences, i.e. total actions / inflections. Throws
 /// std::invalid_argument when `groundTruth` holds no actions.
-double inverseInflectionFrequency(const std::vector<const data::GroundTruth*>& groundTruth);
+double inverseInflectionFrequency(
+    const std::vector<const data::GroundTruth*>& groundTruth);
 
 class ImitationLearner {
  public:
   /// Trains `policy` (moved to model.device) with Adam(trainer.lr) over
   /// its trainable parameters.
-  ImitationLearner(std::shared_ptr<models::PolicyImpl> policy, const ExperimentConfig& config);
+  ImitationLearner(std::shared_ptr<models::PolicyImpl> policy,
+                   const ExperimentConfig& config);
 
   /// Inflection coefficient of the action loss.
   void setInflectionCoef(double coef) { inflectionCoef_ = coef; }
@@ -65,8 +67,9 @@ class ImitationLearner {
   /// `onUpdate` sees every update (applied or skipped). Throws
   /// std::runtime_error after trainer.max_nonfinite_updates consecutive
   /// non-finite losses.
-  EpochResult trainEpoch(const FeatureStore& store, uint64_t seed, int epoch,
-                         const std::function<void(const UpdateResult&)>& onUpdate = {});
+  EpochResult trainEpoch(
+      const FeatureStore& store, uint64_t seed, int epoch,
+      const std::function<void(const UpdateResult&)>& onUpdate = {});
 
   torch::optim::Adam& optimizer() { return *optimizer_; }
   models::PolicyImpl& policy() { return *policy_; }

@@ -11,29 +11,33 @@ namespace vln::train {
 MetricsLog::MetricsLog(const std::filesystem::path& jsonlFile,
                        const std::filesystem::path& tensorboardDir)
     : jsonl_(jsonlFile) {
-  if (jsonl_.has_parent_path()) std::filesystem::create_directories(jsonl_.parent_path());
+  if (jsonl_.has_parent_path())
+    std::filesystem::create_directories(jsonl_.parent_path());
   out_ = std::fopen(jsonl_.c_str(), "a");
-  VLN_CHECK_IO(out_ != nullptr, "MetricsLog: cannot open '", jsonl_.string(), "': ",
-               std::strerror(errno));
-  if (!tensorboardDir.empty()) tensorboard_ = std::make_unique<TensorBoardWriter>(tensorboardDir);
+  VLN_CHECK_IO(out_ != nullptr, "MetricsLog: cannot open '", jsonl_.string(),
+               "': ", std::strerror(errno));
+  if (!tensorboardDir.empty())
+    tensorboard_ = std::make_unique<TensorBoardWriter>(tensorboardDir);
 }
 
 MetricsLog::~MetricsLog() {
   if (out_) std::fclose(out_);
 }
 
-void MetricsLog::write(const std::string& type, nlohmann::json record,
-                       const std::vector<std::pair<std::string, double>>& scalars,
-                       int64_t step) {
+void MetricsLog::write(
+    const std::string& type, nlohmann::json record,
+    const std::vector<std::pair<std::string, double>>& scalars, int64_t step) {
   record["type"] = type;
   record["time"] = std::chrono::duration<double>(
                        std::chrono::system_clock::now().time_since_epoch())
                        .count();
   // non-finite numbers are not JSON: dump() writes them as null
   const std::string line = record.dump() + "\n";
-  const bool ok = std::fwrite(line.data(), 1, line.size(), out_) == line.size() &&
-                  std::fflush(out_) == 0;
-  VLN_CHECK_IO(ok, "MetricsLog: cannot write '", jsonl_.string(), "': ", std::strerror(errno));
+  const bool ok =
+      std::fwrite(line.data(), 1, line.size(), out_) == line.size() &&
+      std::fflush(out_) == 0;
+  VLN_CHECK_IO(ok, "MetricsLog: cannot write '", jsonl_.string(),
+               "': ", std::strerror(errno));
   if (tensorboard_) tensorboard_->addScalars(step, scalars);
 }
 

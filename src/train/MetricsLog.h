@@ -22,7 +22,8 @@ class MetricsLog {
  public:
   /// Appends to `jsonlFile`; TensorBoard files go to `tensorboardDir`
   /// (empty: none). Throws std::runtime_error naming a file it cannot open.
-  MetricsLog(const std::filesystem::path& jsonlFile, const std::filesystem::path& tensorboardDir);
+  MetricsLog(const std::filesystem::path& jsonlFile,
+             const std::filesystem::path& tensorboardDir);
   ~MetricsLog();
   MetricsLog(const MetricsLog&) = delete;
   MetricsLog& operator=(const MetricsLog&) = delete;
@@ -30,7 +31,8 @@ class MetricsLog {
   /// Writes `record` (a JSON object; "type" and "time" are added) as one
   /// line and the numeric `scalars` (tag, value) to TensorBoard at `step`.
   void write(const std::string& type, nlohmann::json record,
-             const std::vector<std::pair<std::string, double>>& scalars, int64_t step);
+             const std::vector<std::pair<std::string, double>>& scalars,
+             int64_t step);
 
  private:
   std::filesystem::path jsonl_;

@@ -19,40 +19,48 @@ class FlattenVisitor : public common::ConfigVisitor {
   void field(std::string_view key, bool& v, std::string_view) override {
     add(key, v ? "true" : "false");
   }
-  void field(std::string_view key, int& v, std::string_view, common::Bounds) override {
+  void field(std::string_view key, int& v, std::string_view,
+             common::Bounds) override {
     add(key, std::to_string(v));
   }
-  void field(std::string_view key, int64_t& v, std::string_view, common::Bounds) override {
+  void field(std::string_view key, int64_t& v, std::string_view,
+             common::Bounds) override {
     add(key, std::to_string(v));
   }
-  void field(std::string_view key, double& v, std::string_view, common::Bounds) override {
+  void field(std::string_view key, double& v, std::string_view,
+             common::Bounds) override {
     add(key, number(v));
   }
-  void field(std::string_view key, float& v, std::string_view, common::Bounds) override {
+  void field(std::string_view key, float& v, std::string_view,
+             common::Bounds) override {
     add(key, number(v));
   }
   void field(std::string_view key, std::string& v, std::string_view) override {
     add(key, "'" + v + "'");
   }
-  void field(std::string_view key, std::vector<std::string>& v, std::string_view) override {
+  void field(std::string_view key, std::vector<std::string>& v,
+             std::string_view) override {
     std::string text = "[";
-    for (size_t i = 0; i < v.size(); ++i) text += (i ? ", '" : "'") + v[i] + "'";
+    for (size_t i = 0; i < v.size(); ++i)
+      text += (i ? ", '" : "'") + v[i] + "'";
     add(key, text + "]");
   }
   void field(std::string_view key, std::vector<int>& v, std::string_view,
              common::Bounds) override {
     std::string text = "[";
-    for (size_t i = 0; i < v.size(); ++i) text += (i ? ", " : "") + std::to_string(v[i]);
+    for (size_t i = 0; i < v.size(); ++i)
+      text += (i ? ", " : "") + std::to_string(v[i]);
     add(key, text + "]");
   }
   void field(std::string_view key, std::vector<double>& v, std::string_view,
              common::Bounds) override {
     std::string text = "[";
-    for (size_t i = 0; i < v.size(); ++i) text += (i ? ", " : "") + number(v[i]);
+    for (size_t i = 0; i < v.size(); ++i)
+      text += (i ? ", " : "") + number(v[i]);
     add(key, text + "]");
   }
-  void choice(std::string_view key, std::string& v, const std::vector<std::string>&,
-              std::string_view) override {
+  void choice(std::string_view key, std::string& v,
+              const std::vector<std::string>&, std::string_view) override {
     add(key, v);
   }
   void beginSection(std::string_view key, std::string_view) override {
@@ -78,14 +86,16 @@ class FlattenVisitor : public common::ConfigVisitor {
 
 }  // namespace
 
-std::vector<std::pair<std::string, std::string>> flattenConfig(const ExperimentConfig& config) {
+std::vector<std::pair<std::string, std::string>> flattenConfig(
+    const ExperimentConfig& config) {
   ExperimentConfig copy = config;
   FlattenVisitor visitor;
   copy.visit(visitor);
   return visitor.values;
 }
 
-std::vector<std::string> configDifferences(const ExperimentConfig& a, const ExperimentConfig& b) {
+std::vector<std::string> configDifferences(const ExperimentConfig& a,
+                                           const ExperimentConfig& b) {
   const auto fa = flattenConfig(a);
   const auto fb = flattenConfig(b);
   VLN_ASSERT(fa.size() == fb.size());
@@ -97,17 +107,29 @@ std::vector<std::string> configDifferences(const ExperimentConfig& a, const Expe
 
 const std::vector<std::string>& resumeSafeKeys() {
   static const std::vector<std::string> keys = {
-      "trainer.torch_threads",  "trainer.env_threads",   "trainer.num_envs",
-      "trainer.log_every_updates", "trainer.epochs",      "trainer.dagger_iterations",
-      "trainer.early_stopping_patience", "trainer.max_nonfinite_updates",
-      "trainer.store_max_gib",  "output.log_level",      "output.tensorboard",
-      "output.keep_checkpoints", "eval.num_envs",        "eval.threads",
-      "eval.save_episodes",     "eval.map_episodes",     "eval.video_episodes",
+      "trainer.torch_threads",
+      "trainer.env_threads",
+      "trainer.num_envs",
+      "trainer.log_every_updates",
+      "trainer.epochs",
+      "trainer.dagger_iterations",
+      "trainer.early_stopping_patience",
+      "trainer.max_nonfinite_updates",
+      "trainer.store_max_gib",
+      "output.log_level",
+      "output.tensorboard",
+      "output.keep_checkpoints",
+      "eval.num_envs",
+      "eval.threads",
+      "eval.save_episodes",
+      "eval.map_episodes",
+      "eval.video_episodes",
       "model.device"};
   return keys;
 }
 
-std::vector<std::string> overriddenKeys(const std::vector<std::string>& overrides) {
+std::vector<std::string> overriddenKeys(
+    const std::vector<std::string>& overrides) {
   std::vector<std::string> keys;
   for (const auto& o : overrides) {
     const auto eq = o.find('=');
@@ -119,19 +141,22 @@ std::vector<std::string> overriddenKeys(const std::vector<std::string>& override
 void checkFreshRunDirectory(const std::filesystem::path& dir) {
   std::error_code ec;
   if (!std::filesystem::exists(dir, ec)) return;
-  VLN_CHECK_ARG(std::filesystem::is_directory(dir, ec), "train: output.dir '", dir.string(),
-                "' exists and is not a directory");
-  VLN_CHECK_ARG(std::filesystem::is_empty(dir, ec), "train: the run directory '", dir.string(),
-                "' is not empty: pass --resume to continue that run, or choose another "
-                "output.dir (--set output.dir=...)");
+  VLN_CHECK_ARG(std::filesystem::is_directory(dir, ec), "train: output.dir '",
+                dir.string(), "' exists and is not a directory");
+  VLN_CHECK_ARG(
+      std::filesystem::is_empty(dir, ec), "train: the run directory '",
+      dir.string(),
+      "' is not empty: pass --resume to continue that run, or choose another "
+      "output.dir (--set output.dir=...)");
 }
 
-std::vector<std::string> checkResumeConfig(const std::filesystem::path& dir,
-                                           const ExperimentConfig& requested,
-                                           const std::vector<std::string>& explicitKeys) {
+std::vector<std::string> checkResumeConfig(
+    const std::filesystem::path& dir, const ExperimentConfig& requested,
+    const std::vector<std::string>& explicitKeys) {
   const auto file = dir / "config.yaml";
-  VLN_CHECK_ARG(std::filesystem::exists(file), "train --resume: '", dir.string(),
-                "' holds no run to resume (", file.string(), " is missing)");
+  VLN_CHECK_ARG(std::filesystem::exists(file), "train --resume: '",
+                dir.string(), "' holds no run to resume (", file.string(),
+                " is missing)");
   // the stored config is the resolved one, so output.dir is in it too
   const ExperimentConfig stored = loadExperimentConfig(file);
   const auto a = flattenConfig(stored);
@@ -142,17 +167,22 @@ std::vector<std::string> checkResumeConfig(const std::filesystem::path& dir,
   for (size_t i = 0; i < a.size(); ++i) {
     if (a[i].second == b[i].second) continue;
     const std::string& key = a[i].first;
-    const bool safe = std::count(resumeSafeKeys().begin(), resumeSafeKeys().end(), key) > 0;
-    const bool explicitlySet = std::count(explicitKeys.begin(), explicitKeys.end(), key) > 0;
+    const bool safe =
+        std::count(resumeSafeKeys().begin(), resumeSafeKeys().end(), key) > 0;
+    const bool explicitlySet =
+        std::count(explicitKeys.begin(), explicitKeys.end(), key) > 0;
     if (safe && explicitlySet) {
       allowed.push_back(key);
       continue;
     }
     ++refusedCount;
-    refused << "\n  " << key << ": run has " << a[i].second << ", requested " << b[i].second
-            << (safe ? " (may change on resume only when given with --set)" : "");
+    refused << "\n  " << key << ": run has " << a[i].second << ", requested "
+            << b[i].second
+            << (safe ? " (may change on resume only when given with --set)"
+                     : "");
   }
-  VLN_CHECK_ARG(refusedCount == 0, "train --resume: the config differs from the run's ",
+  VLN_CHECK_ARG(refusedCount == 0,
+                "train --resume: the config differs from the run's ",
                 file.string(), " in ", refusedCount, " key(s):", refused.str());
   return allowed;
 }

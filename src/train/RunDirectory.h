@@ -25,10 +25,12 @@ namespace vln::train {
 
 /// Every key path of `config` with its value as YAML text
 /// ("trainer.lr" -> "0.00025"), in visit order.
-std::vector<std::pair<std::string, std::string>> flattenConfig(const ExperimentConfig& config);
+std::vector<std::pair<std::string, std::string>> flattenConfig(
+    const ExperimentConfig& config);
 
 /// Key paths whose values differ between `a` and `b`.
-std::vector<std::string> configDifferences(const ExperimentConfig& a, const ExperimentConfig& b);
+std::vector<std::string> configDifferences(const ExperimentConfig& a,
+                                           const ExperimentConfig& b);
 
 /// Keys that may change on --resume when given explicitly with --set:
 /// thread counts, logging, eval output extras, the device, the epoch /
@@ -37,7 +39,8 @@ std::vector<std::string> configDifferences(const ExperimentConfig& a, const Expe
 const std::vector<std::string>& resumeSafeKeys();
 
 /// The key paths set by "section.key=value" overrides.
-std::vector<std::string> overriddenKeys(const std::vector<std::string>& overrides);
+std::vector<std::string> overriddenKeys(
+    const std::vector<std::string>& overrides);
 
 /// Throws std::invalid_argument when a fresh run would start in a non-empty
 /// `dir` (naming it and suggesting --resume).
@@ -47,8 +50,8 @@ void checkFreshRunDirectory(const std::filesystem::path& dir);
 /// listing every differing key (with both values) that is not both in
 /// resumeSafeKeys() and in `explicitKeys`. Throws when the directory holds
 /// no run. Returns the keys that differ (and were allowed).
-std::vector<std::string> checkResumeConfig(const std::filesystem::path& dir,
-                                           const ExperimentConfig& requested,
-                                           const std::vector<std::string>& explicitKeys);
+std::vector<std::string> checkResumeConfig(
+    const std::filesystem::path& dir, const ExperimentConfig& requested,
+    const std::vector<std::string>& explicitKeys);
 
 }  // namespace vln::train

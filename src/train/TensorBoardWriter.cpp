@@ -33,7 +33,8 @@ void putTag(std::string& out, uint32_t field, uint32_t wireType) {
 template <class T>
 void putFixed(std::string& out, T value) {
   char bytes[sizeof(T)];
-  std::memcpy(bytes, &value, sizeof(T));  // little-endian hosts only (checked in FeatureStore)
+  std::memcpy(bytes, &value,
+              sizeof(T));  // little-endian hosts only (checked in FeatureStore)
   out.append(bytes, sizeof(T));
 }
 
@@ -44,7 +45,8 @@ void putBytes(std::string& out, uint32_t field, const std::string& bytes) {
 }
 
 double nowSeconds() {
-  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch())
+  return std::chrono::duration<double>(
+             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -85,18 +87,25 @@ struct Reader {
     return out;
   }
   void skip(uint32_t wireType) {
-    if (wireType == kVarint) varint();
-    else if (wireType == kFixed64) bytes(8);
-    else if (wireType == kFixed32) bytes(4);
-    else if (wireType == kLengthDelimited) bytes(varint());
-    else throw std::runtime_error("unsupported wire type " + std::to_string(wireType));
+    if (wireType == kVarint)
+      varint();
+    else if (wireType == kFixed64)
+      bytes(8);
+    else if (wireType == kFixed32)
+      bytes(4);
+    else if (wireType == kLengthDelimited)
+      bytes(varint());
+    else
+      throw std::runtime_error("unsupported wire type " +
+                               std::to_string(wireType));
   }
 };
 
 }  // namespace
 
-std::string encodeScalarEvent(double wallTime, int64_t step,
-                              const std::vector<std::pair<std::string, double>>& values) {
+std::string encodeScalarEvent(
+    double wallTime, int64_t step,
+    const std::vector<std::pair<std::string, double>>& values) {
   std::string summary;
   for (const auto& [tag, value] : values) {
     std::string v;
@@ -113,18 +122,20 @@ std::string encodeScalarEvent(double wallTime, int64_t step,
 TensorBoardWriter::TensorBoardWriter(const std::filesystem::path& dir) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
-  VLN_CHECK_IO(!ec, "TensorBoardWriter: cannot create '", dir.string(), "': ", ec.message());
+  VLN_CHECK_IO(!ec, "TensorBoardWriter: cannot create '", dir.string(),
+               "': ", ec.message());
   const double now = nowSeconds();
-  file_ = dir / ("events.out.tfevents." + std::to_string(static_cast<int64_t>(now)) + "." +
-                 hostName());
+  file_ = dir / ("events.out.tfevents." +
+                 std::to_string(static_cast<int64_t>(now)) + "." + hostName());
   // a resumed run started within the same second must not append to (and
   // interleave with) the earlier file
   for (int k = 1; std::filesystem::exists(file_); ++k)
-    file_ = dir / ("events.out.tfevents." + std::to_string(static_cast<int64_t>(now)) + "." +
+    file_ = dir / ("events.out.tfevents." +
+                   std::to_string(static_cast<int64_t>(now)) + "." +
                    hostName() + "." + std::to_string(k));
   out_ = std::fopen(file_.c_str(), "wb");
-  VLN_CHECK_IO(out_ != nullptr, "TensorBoardWriter: cannot create '", file_.string(), "': ",
-               std::strerror(errno));
+  VLN_CHECK_IO(out_ != nullptr, "TensorBoardWriter: cannot create '",
+               file_.string(), "': ", std::strerror(errno));
   std::string event = eventHeader(now, 0);
   putBytes(event, 3, "brain.Event:2");
   writeRecord(event);
@@ -134,11 +145,12 @@ TensorBoardWriter::~TensorBoardWriter() {
   if (out_) std::fclose(out_);
 }
 
-void TensorBoardWriter::addScalars(int64_t step,
-                                   const std::vector<std::pair<std::string, double>>& values,
-                                   double wallTime) {
+void TensorBoardWriter::addScalars(
+    int64_t step, const std::vector<std::pair<std::string, double>>& values,
+    double wallTime) {
   if (values.empty()) return;
-  writeRecord(encodeScalarEvent(wallTime >= 0 ? wallTime : nowSeconds(), step, values));
+  writeRecord(
+      encodeScalarEvent(wallTime >= 0 ? wallTime : nowSeconds(), step, values));
 }
 
 void TensorBoardWriter::writeRecord(const std::string& data) {
@@ -148,19 +160,22 @@ void TensorBoardWriter::writeRecord(const std::string& data) {
   putFixed<uint32_t>(record, maskCrc32c(crc32c(record)));
   record += data;
   putFixed<uint32_t>(record, maskCrc32c(crc32c(data)));
-  const bool ok = std::fwrite(record.data(), 1, record.size(), out_) == record.size() &&
-                  std::fflush(out_) == 0;
-  VLN_CHECK_IO(ok, "TensorBoardWriter: cannot write '", file_.string(), "': ",
-               std::strerror(errno));
+  const bool ok =
+      std::fwrite(record.data(), 1, record.size(), out_) == record.size() &&
+      std::fflush(out_) == 0;
+  VLN_CHECK_IO(ok, "TensorBoardWriter: cannot write '", file_.string(),
+               "': ", std::strerror(errno));
 }
 
 TensorBoardFile readTensorBoardFile(const std::filesystem::path& file) {
   std::FILE* in = std::fopen(file.c_str(), "rb");
-  VLN_CHECK_IO(in != nullptr, "readTensorBoardFile(): cannot open '", file.string(), "'");
+  VLN_CHECK_IO(in != nullptr, "readTensorBoardFile(): cannot open '",
+               file.string(), "'");
   std::string bytes;
   char buffer[1 << 16];
   size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof(buffer), in)) > 0) bytes.append(buffer, n);
+  while ((n = std::fread(buffer, 1, sizeof(buffer), in)) > 0)
+    bytes.append(buffer, n);
   std::fclose(in);
 
   TensorBoardFile result;
@@ -171,15 +186,18 @@ TensorBoardFile readTensorBoardFile(const std::filesystem::path& file) {
     return v;
   };
   while (at < bytes.size()) {
-    const std::string where = "readTensorBoardFile(): '" + file.string() + "' record at byte " +
-                              std::to_string(at);
+    const std::string where = "readTensorBoardFile(): '" + file.string() +
+                              "' record at byte " + std::to_string(at);
     VLN_CHECK_IO(at + 12 <= bytes.size(), where, ": truncated header");
     uint64_t length;
     std::memcpy(&length, bytes.data() + at, 8);
-    VLN_CHECK_IO(fixed32(at + 8) == maskCrc32c(crc32c(std::string_view(bytes).substr(at, 8))),
+    VLN_CHECK_IO(fixed32(at + 8) ==
+                     maskCrc32c(crc32c(std::string_view(bytes).substr(at, 8))),
                  where, ": length CRC mismatch");
-    VLN_CHECK_IO(at + 12 + length + 4 <= bytes.size(), where, ": truncated data");
-    const std::string_view data = std::string_view(bytes).substr(at + 12, length);
+    VLN_CHECK_IO(at + 12 + length + 4 <= bytes.size(), where,
+                 ": truncated data");
+    const std::string_view data =
+        std::string_view(bytes).substr(at + 12, length);
     VLN_CHECK_IO(fixed32(at + 12 + length) == maskCrc32c(crc32c(data)), where,
                  ": data CRC mismatch");
     at += 12 + length + 4;

@@ -33,7 +33,8 @@ class TensorBoardWriter {
   TensorBoardWriter& operator=(const TensorBoardWriter&) = delete;
 
   /// Appends one Event holding the scalars `values` (tag, value) at `step`.
-  void addScalars(int64_t step, const std::vector<std::pair<std::string, double>>& values,
+  void addScalars(int64_t step,
+                  const std::vector<std::pair<std::string, double>>& values,
                   double wallTime = -1.0);
   /// One scalar.
   void addScalar(const std::string& tag, double value, int64_t step) {
@@ -65,7 +66,8 @@ struct TensorBoardFile {
 TensorBoardFile readTensorBoardFile(const std::filesystem::path& file);
 
 /// The serialised Event protobuf of scalars (exposed for tests).
-std::string encodeScalarEvent(double wallTime, int64_t step,
-                              const std::vector<std::pair<std::string, double>>& values);
+std::string encodeScalarEvent(
+    double wallTime, int64_t step,
+    const std::vector<std::pair<std::string, double>>& values);
 
 }  // namespace vln::train

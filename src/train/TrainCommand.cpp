@@ -30,7 +30,8 @@ TaskRunner taskRunner(const std::string& task) {
 }
 
 int runTrain(const TrainOptions& options, std::ostream& out) {
-  const ExperimentConfig config = loadExperimentConfig(options.config, options.overrides);
+  const ExperimentConfig config =
+      loadExperimentConfig(options.config, options.overrides);
   const std::string yaml = experimentConfigYaml(config);
   if (options.dry_run) {
     out << yaml;
@@ -38,8 +39,10 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   }
   const fs::path runDir = config.output.dir;
   if (options.resume) {
-    const auto changed = checkResumeConfig(runDir, config, overriddenKeys(options.overrides));
-    for (const auto& key : changed) out << "train --resume: " << key << " changed (allowed)\n";
+    const auto changed =
+        checkResumeConfig(runDir, config, overriddenKeys(options.overrides));
+    for (const auto& key : changed)
+      out << "train --resume: " << key << " changed (allowed)\n";
   } else {
     checkFreshRunDirectory(runDir);
   }
@@ -59,7 +62,8 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   if (!options.export_path.empty()) {
     const fs::path source = bestOrLatestCheckpoint(runDir);
     exportCheckpoint(source, config, options.export_path);
-    out << "exported " << source.string() << " to " << options.export_path.string() << "\n";
+    out << "exported " << source.string() << " to "
+        << options.export_path.string() << "\n";
   }
   return 0;
 }
@@ -70,12 +74,13 @@ int runExport(const ExportOptions& options, std::ostream& out) {
     config = loadExperimentConfig(options.config);
   } else {
     const Checkpoint ckpt = loadCheckpoint(options.checkpoint);
-    config = common::loadConfigText<ExperimentConfig>(ckpt.config_yaml,
-                                                      options.checkpoint.string() + " config");
+    config = common::loadConfigText<ExperimentConfig>(
+        ckpt.config_yaml, options.checkpoint.string() + " config");
   }
   torch::set_num_threads(config.trainer.torch_threads);
   exportCheckpoint(options.checkpoint, config, options.out);
-  out << "exported " << options.checkpoint.string() << " to " << options.out.string() << "\n";
+  out << "exported " << options.checkpoint.string() << " to "
+      << options.out.string() << "\n";
   return 0;
 }
 

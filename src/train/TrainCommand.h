@@ -18,12 +18,14 @@ struct TrainOptions {
   std::vector<std::string> overrides;  ///< --set section.key=value
   bool dry_run = false;                ///< print the resolved YAML and exit
   bool resume = false;                 ///< continue the run in output.dir
-  std::filesystem::path export_path;   ///< --export: TorchScript of the best checkpoint
+  std::filesystem::path
+      export_path;  ///< --export: TorchScript of the best checkpoint
 };
 
 /// Trains one trainer.task in an initialised run directory (config.yaml
 /// written, logging and threads set up). `resume` as in TrainOptions.
-using TaskRunner = std::function<void(const ExperimentConfig& config, bool resume)>;
+using TaskRunner =
+    std::function<void(const ExperimentConfig& config, bool resume)>;
 
 /// The runner of `task`: "vln" is VlnTrainer; the encoder pretraining tasks
 /// (depth_pointnav, rgb_semantic) register theirs here when they land.
@@ -41,8 +43,9 @@ int runTrain(const TrainOptions& options, std::ostream& out);
 /// Options of `vlnce-export`.
 struct ExportOptions {
   std::filesystem::path checkpoint;  ///< ckpt.<i>.pth
-  std::filesystem::path config;      ///< run config; empty: the one in the checkpoint
-  std::filesystem::path out;         ///< TorchScript file
+  std::filesystem::path
+      config;                 ///< run config; empty: the one in the checkpoint
+  std::filesystem::path out;  ///< TorchScript file
 };
 
 /// `vlnce-export`: checkpoint -> TorchScript (policy + encoders).

@@ -60,7 +60,8 @@ Split loadSplit(const fs::path& root, const std::string& name, int cap) {
     split.dataset.episodes.resize(static_cast<size_t>(cap));
   const fs::path gt = data::splitGroundTruthPath(root, name);
   if (fs::exists(gt))
-    split.groundTruth = std::make_unique<data::GroundTruth>(data::readGroundTruth(gt));
+    split.groundTruth =
+        std::make_unique<data::GroundTruth>(data::readGroundTruth(gt));
   return split;
 }
 
@@ -83,12 +84,15 @@ models::NamedTensors readPolicyWeights(const fs::path& file) {
 torch::Tensor embeddingTensor(const ExperimentConfig& config) {
   const fs::path file = config.dataset.embeddingsPath();
   data::EmbeddingMatrix matrix = data::readEmbeddingsJson(file);
-  VLN_CHECK_ARG(matrix.rows == config.model.vocab_size && matrix.dim == config.model.embedding_dim,
-                "train: the embeddings '", file.string(), "' are ", matrix.rows, " x ",
-                matrix.dim, " but model.vocab_size x model.embedding_dim is ",
+  VLN_CHECK_ARG(matrix.rows == config.model.vocab_size &&
+                    matrix.dim == config.model.embedding_dim,
+                "train: the embeddings '", file.string(), "' are ", matrix.rows,
+                " x ", matrix.dim,
+                " but model.vocab_size x model.embedding_dim is ",
                 config.model.vocab_size, " x ", config.model.embedding_dim,
                 " (set the model to the vocabulary of dataset.data_path)");
-  return torch::from_blob(matrix.values.data(), {matrix.rows, matrix.dim}, torch::kFloat32)
+  return torch::from_blob(matrix.values.data(), {matrix.rows, matrix.dim},
+                          torch::kFloat32)
       .clone();
 }
 
@@ -104,40 +108,64 @@ void restoreRngState(const std::string& bytes, const std::string& source) {
   if (bytes.empty()) return;
   auto generator = at::detail::getDefaultCPUGenerator();
   std::lock_guard<std::mutex> lock(generator.mutex());
-  torch::Tensor state = torch::empty({static_cast<int64_t>(bytes.size())}, torch::kUInt8);
+  torch::Tensor state =
+      torch::empty({static_cast<int64_t>(bytes.size())}, torch::kUInt8);
   std::memcpy(state.data_ptr(), bytes.data(), bytes.size());
   try {
     generator.set_state(state);
   } catch (const c10::Error& error) {
-    throw std::runtime_error("train --resume: '" + source + "' holds an invalid RNG state: " +
-                             error.what_without_backtrace());
+    throw std::runtime_error(
+        "train --resume: '" + source +
+        "' holds an invalid RNG state: " + error.what_without_backtrace());
   }
 }
 
 nlohmann::json metricsJson(const eval::EpisodeMetrics& m) {
-  return {{"distance_to_goal", m.distance_to_goal}, {"success", m.success},
-          {"spl", m.spl},           {"ndtw", m.ndtw},
-          {"sdtw", m.sdtw},         {"path_length", m.path_length},
-          {"oracle_success", m.oracle_success}, {"steps_taken", m.steps_taken}};
+  return {{"distance_to_goal", m.distance_to_goal},
+          {"success", m.success},
+          {"spl", m.spl},
+          {"ndtw", m.ndtw},
+          {"sdtw", m.sdtw},
+          {"path_length", m.path_length},
+          {"oracle_success", m.oracle_success},
+          {"steps_taken", m.steps_taken}};
 }
 
 }  // namespace
 
 std::string storeConfigHash(const ExperimentConfig& config) {
   static const std::vector<std::string> prefixes = {
-      "sim.", "task.", "dataset.data_path", "dataset.train_split", "dataset.aug_split",
-      "dataset.max_train_episodes", "dataset.max_aug_episodes",
-      "dataset.max_instruction_length", "model.rgb_encoder", "model.depth_encoder",
-      "model.rgb_weights", "model.depth_weights", "model.no_rgb", "model.no_depth",
-      "model.rgb_height", "model.rgb_width", "model.depth_height", "model.depth_width",
-      "model.depth_resnet_base_planes", "trainer.seed", "trainer.use_aug",
-      "trainer.dagger_episodes", "trainer.dagger_beta", "trainer.fine_tune_dagger",
+      "sim.",
+      "task.",
+      "dataset.data_path",
+      "dataset.train_split",
+      "dataset.aug_split",
+      "dataset.max_train_episodes",
+      "dataset.max_aug_episodes",
+      "dataset.max_instruction_length",
+      "model.rgb_encoder",
+      "model.depth_encoder",
+      "model.rgb_weights",
+      "model.depth_weights",
+      "model.no_rgb",
+      "model.no_depth",
+      "model.rgb_height",
+      "model.rgb_width",
+      "model.depth_height",
+      "model.depth_width",
+      "model.depth_resnet_base_planes",
+      "trainer.seed",
+      "trainer.use_aug",
+      "trainer.dagger_episodes",
+      "trainer.dagger_beta",
+      "trainer.fine_tune_dagger",
       "trainer.store_fp16"};
   // env_threads and num_envs are left out on purpose: collection does not
   // depend on them (per-slot coins)
   std::string text;
   for (const auto& [key, value] : flattenConfig(config)) {
-    if (key == "sim.scenes_dir") continue;  // where scenes live, not what they are
+    if (key == "sim.scenes_dir")
+      continue;  // where scenes live, not what they are
     for (const auto& prefix : prefixes)
       if (key.rfind(prefix, 0) == 0) {
         text += key + "=" + value + "\n";
@@ -145,7 +173,8 @@ std::string storeConfigHash(const ExperimentConfig& config) {
       }
   }
   char hex[17];
-  std::snprintf(hex, sizeof(hex), "%016llx", static_cast<unsigned long long>(fnv1a(text)));
+  std::snprintf(hex, sizeof(hex), "%016llx",
+                static_cast<unsigned long long>(fnv1a(text)));
   return hex;
 }
 
@@ -154,9 +183,10 @@ fs::path bestOrLatestCheckpoint(const fs::path& runDir) {
   const fs::path best = dir / "best.json";
   if (fs::exists(best)) {
     const auto json = common::readJsonFile(best);
-    const fs::path file = dir / common::requireField<std::string>(json, "checkpoint", best.string());
-    VLN_CHECK_IO(fs::exists(file), "train: ", best.string(), " names '", file.string(),
-                 "', which does not exist");
+    const fs::path file = dir / common::requireField<std::string>(
+                                    json, "checkpoint", best.string());
+    VLN_CHECK_IO(fs::exists(file), "train: ", best.string(), " names '",
+                 file.string(), "', which does not exist");
     return file;
   }
   const auto all = listCheckpoints(dir);
@@ -164,8 +194,8 @@ fs::path bestOrLatestCheckpoint(const fs::path& runDir) {
   return all.back();
 }
 
-void exportCheckpoint(const fs::path& checkpoint, const ExperimentConfig& config,
-                      const fs::path& out) {
+void exportCheckpoint(const fs::path& checkpoint,
+                      const ExperimentConfig& config, const fs::path& out) {
   const Checkpoint ckpt = loadCheckpoint(checkpoint);
   auto policy = models::makePolicy(config.model);
   models::loadStateStrict(*policy, ckpt.policy, checkpoint.string());
@@ -213,21 +243,25 @@ struct VlnTrainer::Impl {
 
     // data
     const fs::path root = config.dataset.data_path;
-    train = loadSplit(root, config.dataset.train_split, config.dataset.max_train_episodes);
-    VLN_CHECK_ARG(!train.dataset.episodes.empty(), "train: dataset.train_split '",
-                  config.dataset.train_split, "' under '", root.string(), "' has no episodes");
-    spdlog::info("training split '{}': {} episodes{}", train.name, train.dataset.episodes.size(),
+    train = loadSplit(root, config.dataset.train_split,
+                      config.dataset.max_train_episodes);
+    VLN_CHECK_ARG(!train.dataset.episodes.empty(),
+                  "train: dataset.train_split '", config.dataset.train_split,
+                  "' under '", root.string(), "' has no episodes");
+    spdlog::info("training split '{}': {} episodes{}", train.name,
+                 train.dataset.episodes.size(),
                  train.groundTruth ? "" : " (no ground-truth file)");
     if (config.trainer.use_aug) {
-      aug = std::make_unique<Split>(
-          loadSplit(root, config.dataset.aug_split, config.dataset.max_aug_episodes));
+      aug = std::make_unique<Split>(loadSplit(root, config.dataset.aug_split,
+                                              config.dataset.max_aug_episodes));
       spdlog::info("augmentation split '{}': {} episodes", aug->name,
                    aug->dataset.episodes.size());
     }
     if (config.trainer.eval_during_training)
       for (const auto& name : config.eval.splits) {
-        const int cap = config.eval.train_eval_episodes >= 0 ? config.eval.train_eval_episodes
-                                                              : config.eval.episodes;
+        const int cap = config.eval.train_eval_episodes >= 0
+                            ? config.eval.train_eval_episodes
+                            : config.eval.episodes;
         evalSplits.push_back(loadSplit(root, name, cap));
       }
 
@@ -244,38 +278,46 @@ struct VlnTrainer::Impl {
       parameters += p.numel();
       if (p.requires_grad()) trainable += p.numel();
     }
-    spdlog::info("policy {}: {} parameters, {} trainable", models::policyName(config.model.policy),
-                 parameters, trainable);
+    spdlog::info("policy {}: {} parameters, {} trainable",
+                 models::policyName(config.model.policy), parameters,
+                 trainable);
 
     const auto checkpoints = listCheckpoints(checkpointDir);
     haveCheckpoint = resume && !checkpoints.empty();
     if (!haveCheckpoint && !config.trainer.init_checkpoint.empty()) {
-      models::loadStateStrict(*policy, readPolicyWeights(config.trainer.init_checkpoint),
+      models::loadStateStrict(*policy,
+                              readPolicyWeights(config.trainer.init_checkpoint),
                               config.trainer.init_checkpoint);
-      spdlog::info("initialised the policy from {}", config.trainer.init_checkpoint);
+      spdlog::info("initialised the policy from {}",
+                   config.trainer.init_checkpoint);
     }
     learner = std::make_unique<ImitationLearner>(policy, config);
     if (config.trainer.inflection_weight <= 0.0) {
       std::vector<const data::GroundTruth*> gts = {train.groundTruth.get()};
       if (aug) gts.push_back(aug->groundTruth.get());
       learner->setInflectionCoef(inverseInflectionFrequency(gts));
-      spdlog::info("inflection weight: {:.4f} (inverse inflection frequency of the ground truth)",
-                   learner->inflectionCoef());
+      spdlog::info(
+          "inflection weight: {:.4f} (inverse inflection frequency of the "
+          "ground truth)",
+          learner->inflectionCoef());
     }
 
     if (haveCheckpoint) {
       const fs::path last = checkpoints.back();
       const Checkpoint ckpt = loadCheckpoint(last);
       models::loadStateStrict(*policy, ckpt.policy, last.string());
-      loadOptimizerState(learner->optimizer(), ckpt.optimizer_state, last.string());
+      loadOptimizerState(learner->optimizer(), ckpt.optimizer_state,
+                         last.string());
       restoreRngState(ckpt.rng_state, last.string());
       progress = ckpt.progress;
       learner->setUpdates(progress.updates);
       evalsSinceBest = progress.extra.value("evals_since_best", 0);
       epochsDone = progress.extra.value("epochs_done", int64_t{0});
-      spdlog::info("resuming from {}: stage {}, {} DAgger iterations and {} epochs done, {} updates",
-                   last.string(), progress.stage, progress.dagger_iteration, progress.epoch,
-                   progress.updates);
+      spdlog::info(
+          "resuming from {}: stage {}, {} DAgger iterations and {} epochs "
+          "done, {} updates",
+          last.string(), progress.stage, progress.dagger_iteration,
+          progress.epoch, progress.updates);
     } else {
       progress = TrainingProgress{};
       progress.checkpoint_index = -1;
@@ -284,19 +326,26 @@ struct VlnTrainer::Impl {
 
     // the store
     StoreLayout layout;
-    if (config.model.usesRgb()) layout.rgb_shape = models::rgbFeatureShape(config.model);
-    if (config.model.usesDepth()) layout.depth_shape = models::depthFeatureShape(config.model);
+    if (config.model.usesRgb())
+      layout.rgb_shape = models::rgbFeatureShape(config.model);
+    if (config.model.usesDepth())
+      layout.depth_shape = models::depthFeatureShape(config.model);
     layout.fp16 = config.trainer.store_fp16;
     layout.config_hash = storeConfigHash(config);
-    store = std::make_unique<FeatureStore>(runDir / "store", layout, config.trainer.store_max_gib);
-    spdlog::info("feature store {}: {} episodes, {} steps, {:.0f} bytes/step ({} feature bytes "
-                 "per step, {})",
-                 store->dir().string(), store->size(), store->totalSteps(), store->bytesPerStep(),
-                 layout.featureBytesPerStep(), layout.fp16 ? "float16" : "float32");
+    store = std::make_unique<FeatureStore>(runDir / "store", layout,
+                                           config.trainer.store_max_gib);
+    spdlog::info(
+        "feature store {}: {} episodes, {} steps, {:.0f} bytes/step ({} "
+        "feature bytes "
+        "per step, {})",
+        store->dir().string(), store->size(), store->totalSteps(),
+        store->bytesPerStep(), layout.featureBytesPerStep(),
+        layout.fp16 ? "float16" : "float32");
 
     scenes = std::make_shared<eval::SceneCache>(config.sim);
-    metrics = std::make_unique<MetricsLog>(runDir / "metrics.jsonl",
-                                           config.output.tensorboard ? runDir / "tb" : fs::path());
+    metrics = std::make_unique<MetricsLog>(
+        runDir / "metrics.jsonl",
+        config.output.tensorboard ? runDir / "tb" : fs::path());
   }
 
   // --- collection ------------------------------------------------------------
@@ -336,7 +385,8 @@ struct VlnTrainer::Impl {
     }
     std::vector<size_t> order(episodes.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::mt19937_64 rng(data::deriveSeed(round.seed, 7000u + static_cast<uint64_t>(iteration)));
+    std::mt19937_64 rng(
+        data::deriveSeed(round.seed, 7000u + static_cast<uint64_t>(iteration)));
     data::deterministicShuffle(order, rng);
     size_t count = static_cast<size_t>(config.trainer.dagger_episodes);
     if (round.beta >= 1.0) count = std::min(count, order.size());
@@ -350,13 +400,17 @@ struct VlnTrainer::Impl {
 
   void collect(int iteration) {
     const CollectionRound round = roundOf(iteration);
-    if (!collector) collector = std::make_unique<Collector>(config, scenes, encoder);
+    if (!collector)
+      collector = std::make_unique<Collector>(config, scenes, encoder);
     const CollectionStats stats = collector->collect(
         round, *store, round.beta < 1.0 ? policy.get() : nullptr,
         round.beta >= 1.0 ? train.groundTruth.get() : nullptr);
-    nlohmann::json record = {{"iteration", iteration},      {"beta", round.beta},
-                             {"episodes", stats.episodes},  {"skipped", stats.skipped},
-                             {"steps", stats.steps},        {"seconds", stats.seconds},
+    nlohmann::json record = {{"iteration", iteration},
+                             {"beta", round.beta},
+                             {"episodes", stats.episodes},
+                             {"skipped", stats.skipped},
+                             {"steps", stats.steps},
+                             {"seconds", stats.seconds},
                              {"oracle_steps", stats.oracle_steps},
                              {"cut_at_limit", stats.cut_at_limit},
                              {"store_episodes", store->size()},
@@ -366,30 +420,36 @@ struct VlnTrainer::Impl {
         {"collect/store_episodes", static_cast<double>(store->size())},
         {"collect/bytes_per_step", store->bytesPerStep()}};
     if (stats.seconds > 0 && stats.episodes > 0) {
-      record["episodes_per_minute"] = 60.0 * static_cast<double>(stats.episodes) / stats.seconds;
-      record["frames_per_second"] = static_cast<double>(stats.steps) / stats.seconds;
-      scalars.emplace_back("collect/frames_per_second", static_cast<double>(stats.steps) / stats.seconds);
+      record["episodes_per_minute"] =
+          60.0 * static_cast<double>(stats.episodes) / stats.seconds;
+      record["frames_per_second"] =
+          static_cast<double>(stats.steps) / stats.seconds;
+      scalars.emplace_back("collect/frames_per_second",
+                           static_cast<double>(stats.steps) / stats.seconds);
     }
     if (stats.gt_episodes > 0) {
-      const double identical =
-          static_cast<double>(stats.gt_identical) / static_cast<double>(stats.gt_episodes);
+      const double identical = static_cast<double>(stats.gt_identical) /
+                               static_cast<double>(stats.gt_episodes);
       const double steps =
-          static_cast<double>(stats.gt_equal_steps) / static_cast<double>(std::max<int64_t>(1, stats.gt_steps));
+          static_cast<double>(stats.gt_equal_steps) /
+          static_cast<double>(std::max<int64_t>(1, stats.gt_steps));
       record["gt_episodes"] = stats.gt_episodes;
       record["gt_identical_rate"] = identical;
       record["gt_step_agreement"] = steps;
       scalars.emplace_back("collect/gt_identical_rate", identical);
       auto level = identical < 1.0 ? spdlog::level::warn : spdlog::level::info;
       spdlog::log(level,
-                  "oracle vs ground truth ({}): {}/{} episodes identical ({:.1f}%), {:.1f}% of "
+                  "oracle vs ground truth ({}): {}/{} episodes identical "
+                  "({:.1f}%), {:.1f}% of "
                   "steps agree",
-                  train.name, stats.gt_identical, stats.gt_episodes, 100.0 * identical,
-                  100.0 * steps);
+                  train.name, stats.gt_identical, stats.gt_episodes,
+                  100.0 * identical, 100.0 * steps);
     }
     metrics->write("collect", record, scalars, iteration);
   }
 
-  // --- checkpoints and evaluation ---------------------------------------------
+  // --- checkpoints and evaluation
+  // ---------------------------------------------
 
   void saveCheckpointNow(bool evalDue) {
     progress.checkpoint_index += 1;
@@ -405,7 +465,8 @@ struct VlnTrainer::Impl {
     ckpt.optimizer_state = serializeOptimizer(learner->optimizer());
     ckpt.progress = progress;
     ckpt.rng_state = rngState();
-    const fs::path file = checkpointDir / checkpointFileName(progress.checkpoint_index);
+    const fs::path file =
+        checkpointDir / checkpointFileName(progress.checkpoint_index);
     saveCheckpoint(file, ckpt);
     spdlog::info("saved {} ({} updates)", file.string(), progress.updates);
     prune();
@@ -415,18 +476,22 @@ struct VlnTrainer::Impl {
     const int keep = config.output.keep_checkpoints;
     if (keep < 0) return;
     const auto all = listCheckpoints(checkpointDir);
-    const size_t kept = static_cast<size_t>(std::max(keep, 1));  // the newest is needed to resume
+    const size_t kept = static_cast<size_t>(
+        std::max(keep, 1));  // the newest is needed to resume
     for (size_t i = 0; i + kept < all.size(); ++i) {
       if (checkpointIndex(all[i]) == progress.best_checkpoint) continue;
       std::error_code ec;
       fs::remove(all[i], ec);
-      if (!ec) spdlog::info("removed {} (output.keep_checkpoints = {})", all[i].string(), keep);
+      if (!ec)
+        spdlog::info("removed {} (output.keep_checkpoints = {})",
+                     all[i].string(), keep);
     }
   }
 
   bool evaluated(int index) const {
     for (const auto& split : evalSplits)
-      if (!fs::exists(evalDir / eval::statsFileName(index, split.name))) return false;
+      if (!fs::exists(evalDir / eval::statsFileName(index, split.name)))
+        return false;
     return true;
   }
 
@@ -436,24 +501,30 @@ struct VlnTrainer::Impl {
     const eval::EvalConfig& ec = config.eval;
     double selectionSpl = -1.0;
     for (const Split& split : evalSplits) {
-      eval::VectorEnv envs(ec.num_envs, config.sim, config.task, scenes, ec.threads);
+      eval::VectorEnv envs(ec.num_envs, config.sim, config.task, scenes,
+                           ec.threads);
       // on the heap: PolicyAgent.h declares no destructor, so one instantiated
       // here would need its private EnvState
-      std::unique_ptr<eval::Agent> agent(new eval::PolicyAgent(
-          policy, encoder, ec.num_envs, ec.sample_actions, static_cast<uint64_t>(ec.seed),
-          config.dataset.max_instruction_length));
-      common::ProgressLine line("evaluate " + split.name,
-                                static_cast<int64_t>(split.dataset.episodes.size()), "episodes");
+      std::unique_ptr<eval::Agent> agent(
+          new eval::PolicyAgent(policy, encoder, ec.num_envs, ec.sample_actions,
+                                static_cast<uint64_t>(ec.seed),
+                                config.dataset.max_instruction_length));
+      common::ProgressLine line(
+          "evaluate " + split.name,
+          static_cast<int64_t>(split.dataset.episodes.size()), "episodes");
       common::Stopwatch clock;
       const eval::EvaluationResult result = eval::evaluateEpisodes(
           *agent, envs, split.dataset.episodes, split.groundTruth.get(), ec,
           [&](int, int) { line.advance(); });
       eval::writeStatsFile(evalDir, index, split.name, result.stats);
       const auto& m = result.stats.mean;
-      spdlog::info("ckpt {} {} ({} episodes, {:.1f} s): TL {:.2f} NE {:.2f} nDTW {:.3f} OS {:.3f} "
-                   "SR {:.3f} SPL {:.3f}",
-                   index, split.name, result.stats.num_episodes, clock.seconds(), m.path_length,
-                   m.distance_to_goal, m.ndtw, m.oracle_success, m.success, m.spl);
+      spdlog::info(
+          "ckpt {} {} ({} episodes, {:.1f} s): TL {:.2f} NE {:.2f} nDTW {:.3f} "
+          "OS {:.3f} "
+          "SR {:.3f} SPL {:.3f}",
+          index, split.name, result.stats.num_episodes, clock.seconds(),
+          m.path_length, m.distance_to_goal, m.ndtw, m.oracle_success,
+          m.success, m.spl);
       nlohmann::json record = metricsJson(m);
       record["checkpoint"] = index;
       record["split"] = split.name;
@@ -461,7 +532,8 @@ struct VlnTrainer::Impl {
       std::vector<std::pair<std::string, double>> scalars;
       const nlohmann::json values = metricsJson(m);
       for (const auto& [key, value] : values.items())
-        scalars.emplace_back("eval/" + split.name + "/" + key, value.get<double>());
+        scalars.emplace_back("eval/" + split.name + "/" + key,
+                             value.get<double>());
       metrics->write("eval", record, scalars, index);
       if (split.name == ec.selection_split) selectionSpl = m.spl;
     }
@@ -481,15 +553,18 @@ struct VlnTrainer::Impl {
                              {"split", config.eval.selection_split},
                              {"spl", spl}},
                             2);
-      spdlog::info("new best checkpoint {}: {} SPL {:.4f}", index, config.eval.selection_split, spl);
+      spdlog::info("new best checkpoint {}: {} SPL {:.4f}", index,
+                   config.eval.selection_split, spl);
     } else {
       ++evalsSinceBest;
     }
     const int patience = config.trainer.early_stopping_patience;
     if (patience > 0 && evalsSinceBest >= patience) {
-      spdlog::info("early stopping: {} evaluations without a better {} SPL than {:.4f} (ckpt {})",
-                   evalsSinceBest, config.eval.selection_split, progress.best_spl,
-                   progress.best_checkpoint);
+      spdlog::info(
+          "early stopping: {} evaluations without a better {} SPL than {:.4f} "
+          "(ckpt {})",
+          evalsSinceBest, config.eval.selection_split, progress.best_spl,
+          progress.best_checkpoint);
       return true;
     }
     return false;
@@ -505,15 +580,20 @@ struct VlnTrainer::Impl {
       double spl = -1.0;
       for (const auto& split : evalSplits)
         if (split.name == config.eval.selection_split)
-          spl = eval::readStatsFile(evalDir / eval::statsFileName(index, split.name)).mean.spl;
+          spl = eval::readStatsFile(evalDir /
+                                    eval::statsFileName(index, split.name))
+                    .mean.spl;
       return recordEvaluation(index, spl);
     }
-    spdlog::info("evaluating checkpoint {} (its evaluation did not finish before the interruption)",
-                 index);
+    spdlog::info(
+        "evaluating checkpoint {} (its evaluation did not finish before the "
+        "interruption)",
+        index);
     return evaluate(index);
   }
 
-  // --- training ---------------------------------------------------------------
+  // --- training
+  // ---------------------------------------------------------------
 
   // epoch `epoch` of DAgger iteration `iteration` (0 for teacher forcing);
   // the batch order is a function of (seed, iteration, epoch) only
@@ -522,21 +602,29 @@ struct VlnTrainer::Impl {
         *store,
         data::deriveSeed(static_cast<uint64_t>(config.trainer.seed),
                          static_cast<uint64_t>(iteration)),
-        epoch,
-        [&](const UpdateResult& u) {
+        epoch, [&](const UpdateResult& u) {
           if (u.skipped) {
-            metrics->write("nonfinite", {{"update", learner->updates()}, {"loss", u.loss}}, {},
-                           learner->updates());
+            metrics->write("nonfinite",
+                           {{"update", learner->updates()}, {"loss", u.loss}},
+                           {}, learner->updates());
             return;
           }
-          if (learner->updates() % config.trainer.log_every_updates != 0) return;
-          spdlog::info("update {}: loss {:.4f} (action {:.4f}, progress {:.4f}), grad norm {:.3f}",
-                       learner->updates(), u.loss, u.action_loss, u.progress_loss, u.grad_norm);
+          if (learner->updates() % config.trainer.log_every_updates != 0)
+            return;
+          spdlog::info(
+              "update {}: loss {:.4f} (action {:.4f}, progress {:.4f}), grad "
+              "norm {:.3f}",
+              learner->updates(), u.loss, u.action_loss, u.progress_loss,
+              u.grad_norm);
           metrics->write("update",
-                         {{"update", learner->updates()}, {"epoch", epochsDone},
-                          {"iteration", iteration}, {"loss", u.loss},
-                          {"action_loss", u.action_loss}, {"progress_loss", u.progress_loss},
-                          {"grad_norm", u.grad_norm}, {"steps", u.steps}},
+                         {{"update", learner->updates()},
+                          {"epoch", epochsDone},
+                          {"iteration", iteration},
+                          {"loss", u.loss},
+                          {"action_loss", u.action_loss},
+                          {"progress_loss", u.progress_loss},
+                          {"grad_norm", u.grad_norm},
+                          {"steps", u.steps}},
                          {{"train/loss", u.loss},
                           {"train/action_loss", u.action_loss},
                           {"train/progress_loss", u.progress_loss},
@@ -544,16 +632,26 @@ struct VlnTrainer::Impl {
                          learner->updates());
         });
     ++epochsDone;
-    const double rate = r.seconds > 0 ? static_cast<double>(r.updates) / r.seconds : 0.0;
-    spdlog::info("epoch {} (iteration {}): {} updates ({} skipped) in {:.1f} s ({:.2f} updates/s), "
-                 "mean loss {:.4f} (action {:.4f}, progress {:.4f}), {} episodes in the store",
-                 epochsDone, iteration, r.updates, r.skipped, r.seconds, rate, r.mean.loss,
-                 r.mean.action_loss, r.mean.progress_loss, store->size());
+    const double rate =
+        r.seconds > 0 ? static_cast<double>(r.updates) / r.seconds : 0.0;
+    spdlog::info(
+        "epoch {} (iteration {}): {} updates ({} skipped) in {:.1f} s ({:.2f} "
+        "updates/s), "
+        "mean loss {:.4f} (action {:.4f}, progress {:.4f}), {} episodes in the "
+        "store",
+        epochsDone, iteration, r.updates, r.skipped, r.seconds, rate,
+        r.mean.loss, r.mean.action_loss, r.mean.progress_loss, store->size());
     metrics->write("epoch",
-                   {{"epoch", epochsDone}, {"iteration", iteration}, {"updates", r.updates},
-                    {"skipped", r.skipped}, {"seconds", r.seconds}, {"updates_per_second", rate},
-                    {"loss", r.mean.loss}, {"action_loss", r.mean.action_loss},
-                    {"progress_loss", r.mean.progress_loss}, {"store_episodes", store->size()},
+                   {{"epoch", epochsDone},
+                    {"iteration", iteration},
+                    {"updates", r.updates},
+                    {"skipped", r.skipped},
+                    {"seconds", r.seconds},
+                    {"updates_per_second", rate},
+                    {"loss", r.mean.loss},
+                    {"action_loss", r.mean.action_loss},
+                    {"progress_loss", r.mean.progress_loss},
+                    {"store_episodes", store->size()},
                     {"inflection_coef", learner->inflectionCoef()}},
                    {{"epoch/loss", r.mean.loss},
                     {"epoch/action_loss", r.mean.action_loss},
@@ -583,14 +681,16 @@ struct VlnTrainer::Impl {
       progress.epoch = epoch + 1;
       const bool evalDue = config.trainer.eval_during_training;
       saveCheckpointNow(evalDue);
-      if (evalDue && evaluate(progress.checkpoint_index)) return finish("early_stopping");
+      if (evalDue && evaluate(progress.checkpoint_index))
+        return finish("early_stopping");
     }
     finish("completed");
   }
 
   void runDagger() {
     const int epochsPerIteration = config.trainer.dagger_epochs;
-    for (int n = progress.dagger_iteration; n < config.trainer.dagger_iterations; ++n) {
+    for (int n = progress.dagger_iteration;
+         n < config.trainer.dagger_iterations; ++n) {
       if (progress.epoch == 0) collect(n);
       for (int e = progress.epoch; e < epochsPerIteration; ++e) {
         trainOneEpoch(e, n);
@@ -599,7 +699,8 @@ struct VlnTrainer::Impl {
         progress.epoch = last ? 0 : e + 1;
         const bool evalDue = last && config.trainer.eval_during_training;
         saveCheckpointNow(evalDue);
-        if (evalDue && evaluate(progress.checkpoint_index)) return finish("early_stopping");
+        if (evalDue && evaluate(progress.checkpoint_index))
+          return finish("early_stopping");
       }
     }
     finish("completed");
@@ -618,7 +719,8 @@ void VlnTrainer::run() {
   Impl& t = *impl_;
   if (t.catchUpEvaluation()) return t.finish("early_stopping");
   const int patience = t.config.trainer.early_stopping_patience;
-  if (patience > 0 && t.evalsSinceBest >= patience) return t.finish("early_stopping");
+  if (patience > 0 && t.evalsSinceBest >= patience)
+    return t.finish("early_stopping");
   if (t.dagger())
     t.runDagger();
   else

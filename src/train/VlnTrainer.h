@@ -69,12 +69,14 @@ std::string storeConfigHash(const ExperimentConfig& config);
 /// checkpoints/best.json's checkpoint when present, else the newest
 /// checkpoint of `runDir`. Throws std::runtime_error naming the directory
 /// when there is none.
-std::filesystem::path bestOrLatestCheckpoint(const std::filesystem::path& runDir);
+std::filesystem::path bestOrLatestCheckpoint(
+    const std::filesystem::path& runDir);
 
 /// Exports `checkpoint` with `config`'s model (policy strictly loaded, and
 /// the observation encoders with their pretrained weights) as TorchScript
 /// to `out` (models::exportPolicy).
-void exportCheckpoint(const std::filesystem::path& checkpoint, const ExperimentConfig& config,
+void exportCheckpoint(const std::filesystem::path& checkpoint,
+                      const ExperimentConfig& config,
                       const std::filesystem::path& out);
 
 }  // namespace vln::train

@@ -43,7 +43,8 @@ models::ModelConfig tinyModel() {
 }
 
 // one deterministic imitation step on fixed random inputs
-void trainStep(models::PolicyImpl& policy, torch::optim::Adam& adam, uint64_t seed) {
+void trainStep(models::PolicyImpl& policy, torch::optim::Adam& adam,
+               uint64_t seed) {
   torch::manual_seed(seed);
   const auto& c = policy.config();
   const auto r = models::rgbFeatureShape(c);
@@ -55,19 +56,21 @@ void trainStep(models::PolicyImpl& policy, torch::optim::Adam& adam, uint64_t se
   in.prev_actions = torch::randint(0, 4, {T, B}, torch::kInt64);
   in.not_done = torch::ones({T, B});
   in.not_done[0].fill_(0.0);
-  const torch::Tensor tokens = torch::randint(1, c.vocab_size, {B, 5}, torch::kInt64);
+  const torch::Tensor tokens =
+      torch::randint(1, c.vocab_size, {B, 5}, torch::kInt64);
   const torch::Tensor actions = torch::randint(0, 4, {T, B}, torch::kInt64);
   const torch::Tensor valid = torch::ones({T, B}, torch::kBool);
   adam.zero_grad();
   auto out = policy.forwardSequence(policy.encodeInstruction(tokens), in,
                                     policy.initialHidden(B));
-  auto loss = models::weightedActionLoss(out.logits, actions,
-                                         models::inflectionWeights(actions, valid, 3.2));
+  auto loss = models::weightedActionLoss(
+      out.logits, actions, models::inflectionWeights(actions, valid, 3.2));
   loss.backward();
   adam.step();
 }
 
-Checkpoint makeCheckpoint(models::PolicyImpl& policy, torch::optim::Adam& adam) {
+Checkpoint makeCheckpoint(models::PolicyImpl& policy,
+                          torch::optim::Adam& adam) {
   Checkpoint ckpt;
   ckpt.config_yaml = "trainer:\n  lr: 0.001\n";
   for (const auto& [name, tensor] : models::namedState(policy))
@@ -106,7 +109,8 @@ TEST(CheckpointTest, FileNamesAndIndices) {
 TEST(CheckpointTest, RoundTripThenOneMoreStepEqualsContinuing) {
   torch::manual_seed(0);
   auto policy = models::makePolicy(tinyModel());
-  torch::optim::Adam adam(policy->parameters(), torch::optim::AdamOptions(1e-2));
+  torch::optim::Adam adam(policy->parameters(),
+                          torch::optim::AdamOptions(1e-2));
   trainStep(*policy, adam, 1);
   trainStep(*policy, adam, 2);
 
@@ -131,7 +135,8 @@ TEST(CheckpointTest, RoundTripThenOneMoreStepEqualsContinuing) {
   torch::manual_seed(99);
   auto resumed = models::makePolicy(tinyModel());
   models::loadStateStrict(*resumed, loaded.policy, "ckpt.3.pth");
-  torch::optim::Adam resumedAdam(resumed->parameters(), torch::optim::AdamOptions(1e-2));
+  torch::optim::Adam resumedAdam(resumed->parameters(),
+                                 torch::optim::AdamOptions(1e-2));
   loadOptimizerState(resumedAdam, loaded.optimizer_state, "ckpt.3.pth");
 
   trainStep(*policy, adam, 3);
@@ -145,11 +150,13 @@ TEST(CheckpointTest, RoundTripThenOneMoreStepEqualsContinuing) {
   torch::manual_seed(98);
   auto fresh = models::makePolicy(tinyModel());
   models::loadStateStrict(*fresh, loaded.policy, "ckpt.3.pth");
-  torch::optim::Adam freshAdam(fresh->parameters(), torch::optim::AdamOptions(1e-2));
+  torch::optim::Adam freshAdam(fresh->parameters(),
+                               torch::optim::AdamOptions(1e-2));
   trainStep(*fresh, freshAdam, 3);
   bool anyDiffers = false;
   const auto f = models::namedState(*fresh);
-  for (size_t i = 0; i < a.size(); ++i) anyDiffers |= !torch::equal(a[i].second, f[i].second);
+  for (size_t i = 0; i < a.size(); ++i)
+    anyDiffers |= !torch::equal(a[i].second, f[i].second);
   EXPECT_TRUE(anyDiffers);
 }
 
@@ -167,7 +174,8 @@ TEST(CheckpointTest, StrictLoadingNamesMissingAndMismatchedTensors) {
   auto loaded = loadCheckpoint(dir / "ckpt.0.pth");
   auto other = models::makePolicy(tinyModel());
   try {
-    models::loadStateStrict(*other, loaded.policy, (dir / "ckpt.0.pth").string());
+    models::loadStateStrict(*other, loaded.policy,
+                            (dir / "ckpt.0.pth").string());
     FAIL() << "expected a strict-loading error";
   } catch (const std::invalid_argument& error) {
     EXPECT_THAT(error.what(), HasSubstr(dropped));
@@ -192,13 +200,16 @@ TEST(CheckpointTest, TruncatedOrForeignFilesAreClearErrors) {
   saveCheckpoint(dir / "ckpt.0.pth", makeCheckpoint(*policy, adam));
   std::string bytes = common::readFile(dir / "ckpt.0.pth");
   test::writeText(dir / "ckpt.1.pth", bytes.substr(0, bytes.size() / 2));
-  EXPECT_THAT([&] { loadCheckpoint(dir / "ckpt.1.pth"); },
-              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("ckpt.1.pth")));
+  EXPECT_THAT(
+      [&] { loadCheckpoint(dir / "ckpt.1.pth"); },
+      ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("ckpt.1.pth")));
   test::writeText(dir / "ckpt.2.pth", "not a checkpoint");
-  EXPECT_THAT([&] { loadCheckpoint(dir / "ckpt.2.pth"); },
-              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("ckpt.2.pth")));
+  EXPECT_THAT(
+      [&] { loadCheckpoint(dir / "ckpt.2.pth"); },
+      ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("ckpt.2.pth")));
   EXPECT_THAT([&] { loadCheckpoint(dir / "ckpt.9.pth"); },
-              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("does not exist")));
+              ::testing::ThrowsMessage<std::runtime_error>(
+                  HasSubstr("does not exist")));
 }
 
 // A child process with a file-size limit smaller than a checkpoint tries to
@@ -227,8 +238,9 @@ TEST(CheckpointTest, FileSizeLimitKeepsThePreviousCheckpoint) {
       saveCheckpoint(file, second);
     } catch (const std::runtime_error& error) {
       const std::string message = error.what();
-      const bool clear = message.find(file.string()) != std::string::npos &&
-                         message.find("previous file is intact") != std::string::npos;
+      const bool clear =
+          message.find(file.string()) != std::string::npos &&
+          message.find("previous file is intact") != std::string::npos;
       ::_exit(clear ? 7 : 8);
     }
     ::_exit(0);
@@ -240,7 +252,9 @@ TEST(CheckpointTest, FileSizeLimitKeepsThePreviousCheckpoint) {
   EXPECT_EQ(loadCheckpoint(file).progress.updates, 1);
   // no temporary file is left behind
   int entries = 0;
-  for ([[maybe_unused]] const auto& e : std::filesystem::directory_iterator(dir.path())) ++entries;
+  for ([[maybe_unused]] const auto& e :
+       std::filesystem::directory_iterator(dir.path()))
+    ++entries;
   EXPECT_EQ(entries, 1);
 }
 

@@ -38,8 +38,10 @@ StoreLayout layoutOf(const ExperimentConfig& c) {
 
 struct Fixture {
   const test::TinyWorld& world = test::tinyWorld();
-  data::EpisodeDataset train = data::readEpisodes(data::splitEpisodesPath(world.data, "train"));
-  data::GroundTruth gt = data::readGroundTruth(data::splitGroundTruthPath(world.data, "train"));
+  data::EpisodeDataset train =
+      data::readEpisodes(data::splitEpisodesPath(world.data, "train"));
+  data::GroundTruth gt =
+      data::readGroundTruth(data::splitGroundTruthPath(world.data, "train"));
 };
 
 TEST(WaypointOracleTest, ProgressTargetFollowsVlnCe) {
@@ -47,8 +49,10 @@ TEST(WaypointOracleTest, ProgressTargetFollowsVlnCe) {
   EXPECT_FLOAT_EQ(progressTarget(10.0f, 2.5f), 0.75f);
   EXPECT_FLOAT_EQ(progressTarget(10.0f, 0.0f), 1.0f);
   EXPECT_FLOAT_EQ(progressTarget(10.0f, 15.0f), -0.5f);
-  EXPECT_FLOAT_EQ(progressTarget(10.0f, 35.0f), -1.0f);  // clipped to the tanh range
-  EXPECT_FLOAT_EQ(progressTarget(10.0f, INFINITY), 0.0f);  // VLN-CE's non-finite rule
+  EXPECT_FLOAT_EQ(progressTarget(10.0f, 35.0f),
+                  -1.0f);  // clipped to the tanh range
+  EXPECT_FLOAT_EQ(progressTarget(10.0f, INFINITY),
+                  0.0f);  // VLN-CE's non-finite rule
   EXPECT_FLOAT_EQ(progressTarget(0.0f, 1.0f), 0.0f);
 }
 
@@ -122,14 +126,16 @@ TEST(CollectorTest, DaggerRoundIsIndependentOfEnvCountAndResumes) {
   partial.sources = {0, 0};
   {
     FeatureStore scratch(dir / "scratch", layoutOf(c3), 0.25);
-    Collector(c3, scenes, encoder).collect(round, scratch, policy.get(), nullptr);
+    Collector(c3, scenes, encoder)
+        .collect(round, scratch, policy.get(), nullptr);
     for (int64_t i = 0; i < scratch.size(); ++i) {
       const StoredEpisode e = scratch.read(i);
       if (e.key.slot == 1 || e.key.slot == 4) b.append(e);
     }
   }
   ASSERT_EQ(b.size(), 2);
-  const CollectionStats resumed = Collector(c3, scenes, encoder).collect(round, b, policy.get(), nullptr);
+  const CollectionStats resumed =
+      Collector(c3, scenes, encoder).collect(round, b, policy.get(), nullptr);
   EXPECT_EQ(resumed.skipped, 2);
   EXPECT_EQ(resumed.episodes, 4);
   ASSERT_EQ(b.size(), 6);

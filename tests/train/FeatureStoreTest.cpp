@@ -34,7 +34,8 @@ StoredEpisode makeEpisode(int64_t id, int length, const StoreLayout& layout,
   e.key.iteration = iteration;
   e.key.slot = slot;
   e.key.source = static_cast<uint8_t>(id % 2);
-  for (int i = 0; i < 3 + static_cast<int>(id % 4); ++i) e.tokens.push_back(static_cast<int32_t>(id * 10 + i + 1));
+  for (int i = 0; i < 3 + static_cast<int>(id % 4); ++i)
+    e.tokens.push_back(static_cast<int32_t>(id * 10 + i + 1));
   for (int t = 0; t < length; ++t) {
     e.prev_actions.push_back(static_cast<uint8_t>(t == 0 ? 0 : (t + id) % 4));
     e.oracle_actions.push_back(static_cast<uint8_t>((t + id + 1) % 4));
@@ -44,9 +45,12 @@ StoredEpisode makeEpisode(int64_t id, int length, const StoreLayout& layout,
   const auto& d = layout.depth_shape;
   // small integers and halves are exact in float16
   e.rgb = torch::arange(length * r[0] * r[1] * r[2], torch::kFloat32)
-              .reshape({length, r[0], r[1], r[2]})
-              .fmod(97.0) * 0.5 + static_cast<double>(id);
-  e.depth = torch::arange(length * d[0], torch::kFloat32).reshape({length, d[0], 1, 1}) -
+                  .reshape({length, r[0], r[1], r[2]})
+                  .fmod(97.0) *
+              0.5 +
+          static_cast<double>(id);
+  e.depth = torch::arange(length * d[0], torch::kFloat32)
+                .reshape({length, d[0], 1, 1}) -
             static_cast<double>(id);
   return e;
 }
@@ -60,8 +64,10 @@ void expectEqual(const StoredEpisode& a, const StoredEpisode& b) {
   EXPECT_EQ(a.prev_actions, b.prev_actions);
   EXPECT_EQ(a.oracle_actions, b.oracle_actions);
   EXPECT_EQ(a.progress, b.progress);
-  EXPECT_TRUE(torch::equal(a.rgb.to(torch::kFloat32), b.rgb.to(torch::kFloat32)));
-  EXPECT_TRUE(torch::equal(a.depth.to(torch::kFloat32), b.depth.to(torch::kFloat32)));
+  EXPECT_TRUE(
+      torch::equal(a.rgb.to(torch::kFloat32), b.rgb.to(torch::kFloat32)));
+  EXPECT_TRUE(
+      torch::equal(a.depth.to(torch::kFloat32), b.depth.to(torch::kFloat32)));
 }
 
 TEST(FeatureStoreTest, RoundTripAcrossReopen) {
@@ -80,7 +86,8 @@ TEST(FeatureStoreTest, RoundTripAcrossReopen) {
   }
   FeatureStore store(dir / "store", layout, 0.01);
   ASSERT_EQ(store.size(), 5);
-  for (int i = 0; i < 5; ++i) expectEqual(store.read(i), written[static_cast<size_t>(i)]);
+  for (int i = 0; i < 5; ++i)
+    expectEqual(store.read(i), written[static_cast<size_t>(i)]);
   EXPECT_EQ(store.read(1).rgb.scalar_type(), torch::kHalf);
   EXPECT_EQ(store.totalSteps(), 3 + 4 + 5 + 6 + 7);
   EXPECT_EQ(store.slots(0), (std::set<int32_t>{0, 1, 2}));
@@ -107,7 +114,8 @@ TEST(FeatureStoreTest, BatchIsTimeMajorAndPadded) {
   test::TempDir dir;
   const StoreLayout layout = smallLayout();
   FeatureStore store(dir / "store", layout, 0.01);
-  std::vector<StoredEpisode> eps = {makeEpisode(1, 2, layout), makeEpisode(2, 5, layout)};
+  std::vector<StoredEpisode> eps = {makeEpisode(1, 2, layout),
+                                    makeEpisode(2, 5, layout)};
   for (auto& e : eps) store.append(e);
   const std::vector<int64_t> indices = {1, 0};
   EpisodeBatch batch = store.loadBatch(indices);
@@ -120,10 +128,13 @@ TEST(FeatureStoreTest, BatchIsTimeMajorAndPadded) {
   EXPECT_EQ(batch.not_done[0].sum().item<float>(), 0.0f);
   EXPECT_EQ(batch.not_done[4][1].item<float>(), 1.0f);
   // column 0 is episode index 1 (id 2), column 1 is episode 0 (id 1)
-  EXPECT_TRUE(torch::equal(batch.rgb.select(1, 0), eps[1].rgb.to(torch::kFloat32)));
-  EXPECT_TRUE(torch::equal(batch.rgb.select(1, 1).slice(0, 0, 2), eps[0].rgb.to(torch::kFloat32)));
+  EXPECT_TRUE(
+      torch::equal(batch.rgb.select(1, 0), eps[1].rgb.to(torch::kFloat32)));
+  EXPECT_TRUE(torch::equal(batch.rgb.select(1, 1).slice(0, 0, 2),
+                           eps[0].rgb.to(torch::kFloat32)));
   EXPECT_EQ(batch.rgb.select(1, 1).slice(0, 2).abs().sum().item<float>(), 0.0f);
-  EXPECT_EQ(batch.oracle_actions[3][0].item<int64_t>(), eps[1].oracle_actions[3]);
+  EXPECT_EQ(batch.oracle_actions[3][0].item<int64_t>(),
+            eps[1].oracle_actions[3]);
   EXPECT_EQ(batch.prev_actions[1][1].item<int64_t>(), eps[0].prev_actions[1]);
   EXPECT_FLOAT_EQ(batch.progress[1][1].item<float>(), eps[0].progress[1]);
   // tokens [B, L] padded with 0
@@ -157,7 +168,8 @@ TEST(FeatureStoreTest, WrongFeatureShapeIsRejected) {
   StoredEpisode e = makeEpisode(1, 3, layout);
   e.rgb = torch::zeros({3, 4, 2, 3});
   EXPECT_THAT([&] { store.append(e); },
-              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("RGB features")));
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("RGB features")));
   EXPECT_EQ(store.size(), 0);
 }
 
@@ -179,19 +191,26 @@ TEST(FeatureStoreTest, FlippedRecordByteFailsItsChecksum) {
   StoredEpisode e = makeEpisode(3, 6, layout);
   // a float pattern we can find in the file
   e.progress[2] = 1234.5678f;
-  { FeatureStore store(dir / "store", layout, 0.01); store.append(e); }
   {
-    std::fstream file(dir / "store" / "data.mdb", std::ios::in | std::ios::out | std::ios::binary);
-    std::string bytes((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+    FeatureStore store(dir / "store", layout, 0.01);
+    store.append(e);
+  }
+  {
+    std::fstream file(dir / "store" / "data.mdb",
+                      std::ios::in | std::ios::out | std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(file)),
+                      std::istreambuf_iterator<char>());
     float marker = 1234.5678f;
-    const auto at = bytes.find(std::string(reinterpret_cast<char*>(&marker), 4));
+    const auto at =
+        bytes.find(std::string(reinterpret_cast<char*>(&marker), 4));
     ASSERT_NE(at, std::string::npos);
     file.seekp(static_cast<std::streamoff>(at));
     file.put(static_cast<char>(bytes[at] ^ 0x40));
   }
   FeatureStore store(dir / "store", layout, 0.01);
   EXPECT_THAT([&] { store.read(0); },
-              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("checksum mismatch")));
+              ::testing::ThrowsMessage<std::runtime_error>(
+                  HasSubstr("checksum mismatch")));
 }
 
 TEST(FeatureStoreTest, MapFullIsAClearErrorAndKeepsEarlierEpisodes) {
@@ -217,8 +236,10 @@ TEST(FeatureStoreTest, MapFullIsAClearErrorAndKeepsEarlierEpisodes) {
   }
   auto reopened = FeatureStore::openExisting(dir / "store");
   ASSERT_EQ(reopened->size(), appended);
-  expectEqual(reopened->read(appended - 1), makeEpisode(appended - 1, 8, layout));
-  EXPECT_THROW(reopened->append(makeEpisode(0, 8, layout)), std::invalid_argument);
+  expectEqual(reopened->read(appended - 1),
+              makeEpisode(appended - 1, 8, layout));
+  EXPECT_THROW(reopened->append(makeEpisode(0, 8, layout)),
+               std::invalid_argument);
 }
 
 // The child appends episodes and exits abruptly inside the transaction of
@@ -235,7 +256,8 @@ TEST(FeatureStoreTest, AbruptExitLeavesEveryCommittedEpisodeIntact) {
       store.setBeforeCommitHook([&] {
         if (store.size() == kKillAt) ::_exit(42);
       });
-      for (int i = 0; i < 20; ++i) store.append(makeEpisode(i, 2 + i % 5, layout));
+      for (int i = 0; i < 20; ++i)
+        store.append(makeEpisode(i, 2 + i % 5, layout));
     } catch (...) {
       ::_exit(1);
     }
@@ -248,7 +270,8 @@ TEST(FeatureStoreTest, AbruptExitLeavesEveryCommittedEpisodeIntact) {
 
   FeatureStore store(dir / "store", layout, 0.01);
   ASSERT_EQ(store.size(), kKillAt);
-  for (int i = 0; i < kKillAt; ++i) expectEqual(store.read(i), makeEpisode(i, 2 + i % 5, layout));
+  for (int i = 0; i < kKillAt; ++i)
+    expectEqual(store.read(i), makeEpisode(i, 2 + i % 5, layout));
   // appending continues where the committed episodes end
   store.append(makeEpisode(99, 3, layout));
   EXPECT_EQ(store.size(), kKillAt + 1);
@@ -262,7 +285,8 @@ TEST(FeatureStoreTest, SigkillDuringAppendsLeavesAConsistentStore) {
   ASSERT_GE(child, 0);
   if (child == 0) {
     FeatureStore store(dir / "store", layout, 0.01);
-    for (int i = 0;; ++i) store.append(makeEpisode(i % 1000, 2 + i % 5, layout));
+    for (int i = 0;; ++i)
+      store.append(makeEpisode(i % 1000, 2 + i % 5, layout));
   }
   ::usleep(300 * 1000);
   ::kill(child, SIGKILL);
@@ -271,7 +295,8 @@ TEST(FeatureStoreTest, SigkillDuringAppendsLeavesAConsistentStore) {
   FeatureStore store(dir / "store", layout, 0.01);
   EXPECT_GT(store.size(), 0);
   for (int64_t i = 0; i < store.size(); ++i)
-    expectEqual(store.read(i), makeEpisode(i % 1000, 2 + static_cast<int>(i % 5), layout));
+    expectEqual(store.read(i),
+                makeEpisode(i % 1000, 2 + static_cast<int>(i % 5), layout));
 }
 
 TEST(FeatureStoreTest, EpochBatchesCoverEveryIndexOnceAndAreDeterministic) {

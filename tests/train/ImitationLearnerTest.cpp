@@ -52,7 +52,8 @@ void fillStore(FeatureStore& store, const ExperimentConfig& c, int episodes) {
     for (int t = 0; t < T; ++t) {
       const int action = t == T - 1 ? 0 : 1 + (i + t) % 3;
       e.oracle_actions.push_back(static_cast<uint8_t>(action));
-      e.prev_actions.push_back(static_cast<uint8_t>(t == 0 ? 0 : e.oracle_actions[static_cast<size_t>(t - 1)]));
+      e.prev_actions.push_back(static_cast<uint8_t>(
+          t == 0 ? 0 : e.oracle_actions[static_cast<size_t>(t - 1)]));
       e.progress.push_back(static_cast<float>(t + 1) / static_cast<float>(T));
       e.depth[t][action].fill_(1.0);
     }
@@ -73,15 +74,16 @@ TEST(ImitationLearnerTest, InverseInflectionFrequencyOfHandMadeGroundTruth) {
   using sim::Action;
   data::GroundTruth a, b;
   // inflections at t = 0, 3 (2 after 1) and 4 (0 after 2): 3 of 5 actions
-  a[1].actions = {Action::kMoveForward, Action::kMoveForward, Action::kMoveForward,
-                  Action::kTurnLeft, Action::kStop};
+  a[1].actions = {Action::kMoveForward, Action::kMoveForward,
+                  Action::kMoveForward, Action::kTurnLeft, Action::kStop};
   // t = 0 and t = 2: 2 of 3
   b[7].actions = {Action::kTurnRight, Action::kTurnRight, Action::kStop};
   EXPECT_DOUBLE_EQ(inverseInflectionFrequency({&a}), 5.0 / 3.0);
   EXPECT_DOUBLE_EQ(inverseInflectionFrequency({&a, &b, nullptr}), 8.0 / 5.0);
   data::GroundTruth empty;
   EXPECT_THAT([&] { inverseInflectionFrequency({&empty}); },
-              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("inflection_weight")));
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("inflection_weight")));
 }
 
 TEST(ImitationLearnerTest, NonFiniteLossSkipsTheUpdateAndIsCounted) {
@@ -94,20 +96,24 @@ TEST(ImitationLearnerTest, NonFiniteLossSkipsTheUpdateAndIsCounted) {
   ImitationLearner learner(policy, c);
 
   std::vector<torch::Tensor> before;
-  for (const auto& p : policy->parameters()) before.push_back(p.detach().clone());
+  for (const auto& p : policy->parameters())
+    before.push_back(p.detach().clone());
   const std::vector<int64_t> indices = {0, 1, 2};
-  learner.setLossHook([](const torch::Tensor& loss) { return loss * std::nan(""); });
+  learner.setLossHook(
+      [](const torch::Tensor& loss) { return loss * std::nan(""); });
   UpdateResult skipped = learner.update(store.loadBatch(indices));
   EXPECT_TRUE(skipped.skipped);
   EXPECT_EQ(learner.updates(), 0);
   EXPECT_EQ(learner.nonFiniteInARow(), 1);
   const auto params = policy->parameters();
-  for (size_t i = 0; i < params.size(); ++i) EXPECT_TRUE(torch::equal(params[i], before[i]));
+  for (size_t i = 0; i < params.size(); ++i)
+    EXPECT_TRUE(torch::equal(params[i], before[i]));
   // Adam saw no step: its state is still empty
   EXPECT_TRUE(learner.optimizer().state().empty());
 
   // an infinite loss is skipped too; a finite one applies and resets the run
-  learner.setLossHook([](const torch::Tensor& loss) { return loss + INFINITY; });
+  learner.setLossHook(
+      [](const torch::Tensor& loss) { return loss + INFINITY; });
   EXPECT_TRUE(learner.update(store.loadBatch(indices)).skipped);
   EXPECT_EQ(learner.nonFiniteInARow(), 2);
   learner.setLossHook({});
@@ -118,7 +124,8 @@ TEST(ImitationLearnerTest, NonFiniteLossSkipsTheUpdateAndIsCounted) {
   EXPECT_EQ(learner.nonFiniteInARow(), 0);
   EXPECT_EQ(learner.nonFiniteTotal(), 2);
   bool changed = false;
-  for (size_t i = 0; i < params.size(); ++i) changed |= !torch::equal(params[i], before[i]);
+  for (size_t i = 0; i < params.size(); ++i)
+    changed |= !torch::equal(params[i], before[i]);
   EXPECT_TRUE(changed);
 }
 
@@ -129,11 +136,16 @@ TEST(ImitationLearnerTest, TooManyConsecutiveNonFiniteLossesStopTraining) {
   fillStore(store, c, 16);  // 4 batches, limit 3
   auto policy = models::makePolicy(c.model);
   ImitationLearner learner(policy, c);
-  learner.setLossHook([](const torch::Tensor& loss) { return loss * std::nan(""); });
+  learner.setLossHook(
+      [](const torch::Tensor& loss) { return loss * std::nan(""); });
   int seen = 0;
-  EXPECT_THAT([&] { learner.trainEpoch(store, 1, 0, [&](const UpdateResult&) { ++seen; }); },
-              ::testing::ThrowsMessage<std::runtime_error>(
-                  HasSubstr("3 consecutive non-finite losses (trainer.max_nonfinite_updates = 3)")));
+  EXPECT_THAT(
+      [&] {
+        learner.trainEpoch(store, 1, 0, [&](const UpdateResult&) { ++seen; });
+      },
+      ::testing::ThrowsMessage<std::runtime_error>(
+          HasSubstr("3 consecutive non-finite losses "
+                    "(trainer.max_nonfinite_updates = 3)")));
   EXPECT_EQ(seen, 2);  // the third one throws before the callback
   EXPECT_EQ(learner.updates(), 0);
 }
@@ -165,7 +177,8 @@ TEST(ImitationLearnerTest, LossFallsOnALearnableStore) {
   ImitationLearner learner(policy, c);
   const EpochResult first = learner.trainEpoch(store, 1, 0);
   EpochResult last;
-  for (int epoch = 1; epoch < 30; ++epoch) last = learner.trainEpoch(store, 1, epoch);
+  for (int epoch = 1; epoch < 30; ++epoch)
+    last = learner.trainEpoch(store, 1, epoch);
   EXPECT_LT(last.mean.action_loss, 0.5 * first.mean.action_loss);
   EXPECT_LT(last.mean.progress_loss, first.mean.progress_loss);
   EXPECT_EQ(learner.updates(), 30 * 3);

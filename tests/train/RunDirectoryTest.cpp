@@ -47,8 +47,8 @@ TEST(RunDirectoryTest, FreshRunRefusesANonEmptyDirectory) {
   EXPECT_NO_THROW(checkFreshRunDirectory(dir.path()));
   vln::test::writeText(dir / "config.yaml", "x");
   EXPECT_THAT([&] { checkFreshRunDirectory(dir.path()); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  ::testing::AllOf(HasSubstr(dir.path().string()), HasSubstr("--resume"))));
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
+                  HasSubstr(dir.path().string()), HasSubstr("--resume"))));
 }
 
 TEST(RunDirectoryTest, ResumeAllowsOnlyExplicitSafeChanges) {
@@ -63,8 +63,10 @@ TEST(RunDirectoryTest, ResumeAllowsOnlyExplicitSafeChanges) {
   more.trainer.epochs = 50;
   more.trainer.torch_threads = 4;
   // safe keys given with --set are allowed and reported
-  EXPECT_EQ(checkResumeConfig(dir.path(), more, {"trainer.epochs", "trainer.torch_threads"}),
-            (std::vector<std::string>{"trainer.torch_threads", "trainer.epochs"}));
+  EXPECT_EQ(
+      checkResumeConfig(dir.path(), more,
+                        {"trainer.epochs", "trainer.torch_threads"}),
+      (std::vector<std::string>{"trainer.torch_threads", "trainer.epochs"}));
   // the same change not given explicitly (e.g. an edited YAML) is refused
   EXPECT_THAT([&] { checkResumeConfig(dir.path(), more, {"trainer.epochs"}); },
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
@@ -80,10 +82,12 @@ TEST(RunDirectoryTest, ResumeAllowsOnlyExplicitSafeChanges) {
   } catch (const std::invalid_argument& error) {
     EXPECT_THAT(error.what(), HasSubstr("2 key(s)"));
     EXPECT_THAT(error.what(), HasSubstr("trainer.lr"));
-    EXPECT_THAT(error.what(), HasSubstr("model.hidden_size: run has 512, requested 7"));
+    EXPECT_THAT(error.what(),
+                HasSubstr("model.hidden_size: run has 512, requested 7"));
   }
   EXPECT_THAT([&] { checkResumeConfig(dir / "nothing", stored, {}); },
-              ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("no run to resume")));
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("no run to resume")));
 }
 
 }  // namespace

@@ -42,9 +42,10 @@ TEST(TensorBoardWriterTest, ScalarEventBytesMatchTheProtobufEncoding) {
   expected += "\x10\xac\x02";  // field 2 varint 300
   expected += "\x2a\x0a";      // field 5, 10 bytes
   expected += "\x0a\x08";      // Summary.value, 8 bytes
-  expected += "\x0a\x01"
-              "a";             // tag
-  expected += '\x15';          // simple_value, fixed32
+  expected +=
+      "\x0a\x01"
+      "a";             // tag
+  expected += '\x15';  // simple_value, fixed32
   const float two = 2.0f;
   expected.append(reinterpret_cast<const char*>(&two), 4);
   EXPECT_EQ(event, expected);
@@ -57,9 +58,11 @@ TEST(TensorBoardWriterTest, FileDecodesWithValidCrcs) {
     TensorBoardWriter writer(dir / "tb");
     file = writer.file();
     writer.addScalar("train/loss", 0.75, 1);
-    writer.addScalars(2, {{"train/loss", 0.5}, {"train/action_loss", 0.25}}, 1234.0);
+    writer.addScalars(2, {{"train/loss", 0.5}, {"train/action_loss", 0.25}},
+                      1234.0);
   }
-  EXPECT_THAT(file.filename().string(), ::testing::StartsWith("events.out.tfevents."));
+  EXPECT_THAT(file.filename().string(),
+              ::testing::StartsWith("events.out.tfevents."));
   TensorBoardFile decoded = readTensorBoardFile(file);
   EXPECT_EQ(decoded.file_version, "brain.Event:2");
   ASSERT_EQ(decoded.scalars.size(), 3u);
@@ -72,7 +75,8 @@ TEST(TensorBoardWriterTest, FileDecodesWithValidCrcs) {
 
   // framing: the first record's length field and its masked CRC
   std::ifstream in(file, std::ios::binary);
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string bytes((std::istreambuf_iterator<char>(in)),
+                    std::istreambuf_iterator<char>());
   uint64_t length = 0;
   std::memcpy(&length, bytes.data(), 8);
   uint32_t lengthCrc = 0;
@@ -94,7 +98,8 @@ TEST(TensorBoardWriterTest, CorruptedRecordIsReportedWithItsOffset) {
   std::string bytes;
   {
     std::ifstream in(file, std::ios::binary);
-    bytes.assign((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    bytes.assign((std::istreambuf_iterator<char>(in)),
+                 std::istreambuf_iterator<char>());
   }
   bytes[bytes.size() - 6] ^= 0x01;  // inside the last record's data
   {
@@ -102,7 +107,8 @@ TEST(TensorBoardWriterTest, CorruptedRecordIsReportedWithItsOffset) {
     out << bytes;
   }
   EXPECT_THAT([&] { readTensorBoardFile(file); },
-              ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("data CRC mismatch")));
+              ::testing::ThrowsMessage<std::runtime_error>(
+                  HasSubstr("data CRC mismatch")));
 }
 
 TEST(TensorBoardWriterTest, TwoWritersInOneSecondUseDistinctFiles) {

@@ -2,9 +2,9 @@
 // procedural world: teacher forcing, DAgger, kill -9 during collection and
 // --resume, and the run-directory rules.
 
+#include <fcntl.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -31,9 +31,12 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-std::string bin(const std::string& name) { return (vln::test::binaryPath() / "bin" / name).string(); }
+std::string bin(const std::string& name) {
+  return (vln::test::binaryPath() / "bin" / name).string();
+}
 
-std::string trainCommand(const fs::path& config, const std::string& extra = "") {
+std::string trainCommand(const fs::path& config,
+                         const std::string& extra = "") {
   return bin("train") + " --config " + config.string() + " " + extra + " 2>&1";
 }
 
@@ -50,38 +53,46 @@ std::vector<fs::path> eventFiles(const fs::path& dir) {
   std::vector<fs::path> files;
   if (!fs::exists(dir)) return files;
   for (const auto& e : fs::directory_iterator(dir))
-    if (e.path().filename().string().starts_with("events.out.tfevents.")) files.push_back(e.path());
+    if (e.path().filename().string().starts_with("events.out.tfevents."))
+      files.push_back(e.path());
   return files;
 }
 
 class TrainEndToEndTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    if (!fs::exists(bin("train"))) GTEST_SKIP() << "build the train binary first";
+    if (!fs::exists(bin("train")))
+      GTEST_SKIP() << "build the train binary first";
     world_ = &test::tinyWorld();
   }
   // `output` is appended to the last section (output:)
-  fs::path writeConfig(const std::string& trainer, const std::string& policy = "cma",
+  fs::path writeConfig(const std::string& trainer,
+                       const std::string& policy = "cma",
                        const std::string& output = "") {
     return vln::test::writeText(
-        dir_ / "config.yaml", test::tinyRunConfig(*world_, dir_ / "run", trainer, policy) + output);
+        dir_ / "config.yaml",
+        test::tinyRunConfig(*world_, dir_ / "run", trainer, policy) + output);
   }
   const test::TinyWorld* world_ = nullptr;
   vln::test::TempDir dir_;
 };
 
 TEST_F(TrainEndToEndTest, TeacherForcingRunProducesEverything) {
-  const fs::path config = writeConfig(
-      "  epochs: 2\n  use_aug: true\n  inflection_weight: 0\n", "seq2seq",
-      "  keep_checkpoints: 1\n");
+  const fs::path config =
+      writeConfig("  epochs: 2\n  use_aug: true\n  inflection_weight: 0\n",
+                  "seq2seq", "  keep_checkpoints: 1\n");
   std::string output;
-  ASSERT_EQ(vln::test::runCommand(trainCommand(config, "--dry-run"), &output), 0) << output;
+  ASSERT_EQ(vln::test::runCommand(trainCommand(config, "--dry-run"), &output),
+            0)
+      << output;
   EXPECT_THAT(output, HasSubstr("epochs: 2"));
   EXPECT_FALSE(fs::exists(dir_ / "run"));
 
-  ASSERT_EQ(vln::test::runCommand(
-                trainCommand(config, "--export " + (dir_ / "policy.pt").string()), &output),
-            0)
+  ASSERT_EQ(
+      vln::test::runCommand(
+          trainCommand(config, "--export " + (dir_ / "policy.pt").string()),
+          &output),
+      0)
       << output;
   const fs::path run = dir_ / "run";
   EXPECT_TRUE(fs::exists(run / "config.yaml"));
@@ -95,27 +106,32 @@ TEST_F(TrainEndToEndTest, TeacherForcingRunProducesEverything) {
   EXPECT_GT(last.progress.updates, 0);
 
   // the store holds every train episode plus every aug episode, once
-  const auto train = data::readEpisodes(data::splitEpisodesPath(world_->data, "train"));
-  const auto aug = data::readEpisodes(data::splitEpisodesPath(world_->data, "train_aug"));
+  const auto train =
+      data::readEpisodes(data::splitEpisodesPath(world_->data, "train"));
+  const auto aug =
+      data::readEpisodes(data::splitEpisodesPath(world_->data, "train_aug"));
   auto store = FeatureStore::openExisting(run / "store");
-  EXPECT_EQ(store->size(), static_cast<int64_t>(train.episodes.size() + aug.episodes.size()));
+  EXPECT_EQ(store->size(),
+            static_cast<int64_t>(train.episodes.size() + aug.episodes.size()));
 
   // metrics: collection with the ground-truth agreement, updates, epochs, evals
   std::map<std::string, int> types;
   double inflection = 0;
   for (const auto& record : readJsonLines(run / "metrics.jsonl")) {
     ++types[record["type"].get<std::string>()];
-    if (record["type"] == "epoch") inflection = record["inflection_coef"].get<double>();
+    if (record["type"] == "epoch")
+      inflection = record["inflection_coef"].get<double>();
     if (record["type"] == "collect") {
       EXPECT_GT(record["store_bytes_per_step"].get<double>(), 0.0);
-      EXPECT_EQ(record["gt_episodes"].get<int64_t>(), static_cast<int64_t>(train.episodes.size()));
+      EXPECT_EQ(record["gt_episodes"].get<int64_t>(),
+                static_cast<int64_t>(train.episodes.size()));
     }
   }
   EXPECT_EQ(types["collect"], 1);
   EXPECT_EQ(types["epoch"], 2);
   EXPECT_GE(types["update"], 1);
   EXPECT_EQ(types["eval"], 4);  // two splits after each of two epochs
-  EXPECT_GT(inflection, 1.0);   // auto coefficient: inverse inflection frequency
+  EXPECT_GT(inflection, 1.0);  // auto coefficient: inverse inflection frequency
 
   // TensorBoard: one file, valid CRCs, training and eval scalars
   const auto events = eventFiles(run / "tb");
@@ -130,21 +146,28 @@ TEST_F(TrainEndToEndTest, TeacherForcingRunProducesEverything) {
   // eval stats files and the best checkpoint, which keep_checkpoints keeps
   for (int i : {0, 1})
     for (const char* split : {"val_seen", "val_unseen"})
-      EXPECT_EQ(eval::readStatsFile(run / "eval" / eval::statsFileName(i, split)).num_episodes, 2);
+      EXPECT_EQ(
+          eval::readStatsFile(run / "eval" / eval::statsFileName(i, split))
+              .num_episodes,
+          2);
   const auto best = common::readJsonFile(run / "checkpoints" / "best.json");
-  EXPECT_TRUE(fs::exists(run / "checkpoints" / best["checkpoint"].get<std::string>()));
+  EXPECT_TRUE(
+      fs::exists(run / "checkpoints" / best["checkpoint"].get<std::string>()));
   EXPECT_LE(checkpoints.size(), 2u);
   EXPECT_TRUE(fs::exists(run / "finished.json"));
 
   // the export loads as TorchScript and runs one step
   torch::jit::Module module = torch::jit::load((dir_ / "policy.pt").string());
   const int64_t layers = 1, hidden = 16;
-  auto out = module.forward({torch::zeros({1, 32, 32, 3}, torch::kUInt8),
-                             torch::zeros({1, 32, 32, 1}), torch::ones({1, 3}, torch::kInt64),
-                             torch::zeros({1}, torch::kInt64), torch::zeros({1}),
-                             torch::zeros({1, layers, hidden})})
+  auto out = module
+                 .forward({torch::zeros({1, 32, 32, 3}, torch::kUInt8),
+                           torch::zeros({1, 32, 32, 1}),
+                           torch::ones({1, 3}, torch::kInt64),
+                           torch::zeros({1}, torch::kInt64), torch::zeros({1}),
+                           torch::zeros({1, layers, hidden})})
                  .toTuple();
-  EXPECT_EQ(out->elements()[0].toTensor().sizes(), (std::vector<int64_t>{1, 4}));
+  EXPECT_EQ(out->elements()[0].toTensor().sizes(),
+            (std::vector<int64_t>{1, 4}));
 
   // vlnce-export from a checkpoint with its embedded config
   ASSERT_EQ(vln::test::runCommand(bin("vlnce-export") + " --checkpoint " +
@@ -159,15 +182,18 @@ TEST_F(TrainEndToEndTest, TeacherForcingRunProducesEverything) {
   EXPECT_NE(vln::test::runCommand(trainCommand(config), &output), 0);
   EXPECT_THAT(output, HasSubstr("--resume"));
   // resuming the finished run trains nothing more and can export again
-  ASSERT_EQ(vln::test::runCommand(trainCommand(config, "--resume --export " +
-                                                           (dir_ / "third.pt").string()),
-                                  &output),
+  ASSERT_EQ(vln::test::runCommand(
+                trainCommand(config, "--resume --export " +
+                                         (dir_ / "third.pt").string()),
+                &output),
             0)
       << output;
   EXPECT_EQ(listCheckpoints(run / "checkpoints").back(), checkpoints.back());
   EXPECT_TRUE(fs::exists(dir_ / "third.pt"));
   // a changed learning rate is refused with the key named
-  EXPECT_NE(vln::test::runCommand(trainCommand(config, "--resume --set trainer.lr=0.1"), &output), 0);
+  EXPECT_NE(vln::test::runCommand(
+                trainCommand(config, "--resume --set trainer.lr=0.1"), &output),
+            0);
   EXPECT_THAT(output, HasSubstr("trainer.lr"));
 }
 
@@ -190,7 +216,8 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
   EXPECT_EQ(last.progress.episodes_collected, 8);
   std::vector<double> betas;
   for (const auto& record : readJsonLines(run / "metrics.jsonl"))
-    if (record["type"] == "collect") betas.push_back(record["beta"].get<double>());
+    if (record["type"] == "collect")
+      betas.push_back(record["beta"].get<double>());
   EXPECT_EQ(betas, (std::vector<double>{1.0, 0.75}));
   EXPECT_FALSE(fs::exists(run / "eval"));
 }
@@ -205,22 +232,26 @@ TEST_F(TrainEndToEndTest, KillDuringCollectionThenResume) {
   const pid_t child = ::fork();
   ASSERT_GE(child, 0);
   if (child == 0) {
-    const int fd = ::open((dir_ / "first.log").c_str(), O_CREAT | O_WRONLY | O_TRUNC, 0644);
+    const int fd = ::open((dir_ / "first.log").c_str(),
+                          O_CREAT | O_WRONLY | O_TRUNC, 0644);
     ::dup2(fd, 1);
     ::dup2(fd, 2);
     const std::string train = bin("train");
-    ::execl(train.c_str(), "train", "--config", config.c_str(), static_cast<char*>(nullptr));
+    ::execl(train.c_str(), "train", "--config", config.c_str(),
+            static_cast<char*>(nullptr));
     ::_exit(127);
   }
   // wait until round 1 has stored a few episodes, then kill -9 the trainer
   bool killed = false;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::seconds(120);
   while (std::chrono::steady_clock::now() < deadline) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     if (!fs::exists(run / "store" / "data.mdb")) continue;
     int64_t round1 = 0;
     try {
-      round1 = static_cast<int64_t>(FeatureStore::openExisting(run / "store")->slots(1).size());
+      round1 = static_cast<int64_t>(
+          FeatureStore::openExisting(run / "store")->slots(1).size());
     } catch (const std::exception&) {
       continue;  // the meta record is not there yet
     }
@@ -237,14 +268,17 @@ TEST_F(TrainEndToEndTest, KillDuringCollectionThenResume) {
   EXPECT_LT(before, 24);
 
   std::string output;
-  ASSERT_EQ(vln::test::runCommand(trainCommand(config, "--resume"), &output), 0) << output;
+  ASSERT_EQ(vln::test::runCommand(trainCommand(config, "--resume"), &output), 0)
+      << output;
   auto store = FeatureStore::openExisting(run / "store");
   ASSERT_EQ(store->size(), 24);
   std::set<int32_t> all;
   for (int k = 0; k < 12; ++k) all.insert(k);
   EXPECT_EQ(store->slots(0), all);
   EXPECT_EQ(store->slots(1), all);
-  EXPECT_EQ(loadCheckpoint(listCheckpoints(run / "checkpoints").back()).progress.dagger_iteration, 2);
+  EXPECT_EQ(loadCheckpoint(listCheckpoints(run / "checkpoints").back())
+                .progress.dagger_iteration,
+            2);
   EXPECT_THAT(output, ::testing::Not(HasSubstr("error")));
 }
 

@@ -50,13 +50,15 @@ inline data::WorldConfig tinyWorldConfig() {
 inline const TinyWorld& tinyWorld() {
   static const TinyWorld world = [] {
     namespace fs = std::filesystem;
-    const fs::path root = vln::test::binaryPath() / "tests" / "train_tiny_world";
+    const fs::path root =
+        vln::test::binaryPath() / "tests" / "train_tiny_world";
     fs::create_directories(root);
     TinyWorld w;
     w.data = root / "data";
     w.scenes = root / "scenes";
     const int fd = ::open((root / "lock").c_str(), O_CREAT | O_RDWR, 0644);
-    if (fd < 0) throw std::runtime_error("tinyWorld(): cannot open the lock file");
+    if (fd < 0)
+      throw std::runtime_error("tinyWorld(): cannot open the lock file");
     ::flock(fd, LOCK_EX);
     try {
       if (!fs::exists(root / "done")) {
@@ -74,7 +76,8 @@ inline const TinyWorld& tinyWorld() {
     }
     ::flock(fd, LOCK_UN);
     ::close(fd);
-    const data::EmbeddingMatrix matrix = data::readEmbeddingsJson(w.data / "embeddings.json.gz");
+    const data::EmbeddingMatrix matrix =
+        data::readEmbeddingsJson(w.data / "embeddings.json.gz");
     w.vocab_size = matrix.rows;
     w.embedding_dim = matrix.dim;
     return w;
@@ -85,22 +88,34 @@ inline const TinyWorld& tinyWorld() {
 /// A run config (YAML) of a tiny Seq2Seq-or-CMA model in `outDir` on the
 /// tiny world; `extra` is appended (later keys of a section must not
 /// repeat earlier ones, so pass whole extra sections or use --set).
-inline std::string tinyRunConfig(const TinyWorld& w, const std::filesystem::path& outDir,
-                                 const std::string& trainer, const std::string& policy = "cma") {
+inline std::string tinyRunConfig(const TinyWorld& w,
+                                 const std::filesystem::path& outDir,
+                                 const std::string& trainer,
+                                 const std::string& policy = "cma") {
   return "sim:\n"
-         "  scenes_dir: " + w.scenes.string() + "\n"
+         "  scenes_dir: " +
+         w.scenes.string() +
+         "\n"
          "  rgb: {width: 32, height: 32}\n"
          "  depth: {width: 32, height: 32}\n"
          "task:\n"
          "  max_episode_steps: 120\n"
          "dataset:\n"
-         "  data_path: " + w.data.string() + "\n"
+         "  data_path: " +
+         w.data.string() +
+         "\n"
          "model:\n"
-         "  policy: " + policy + "\n"
+         "  policy: " +
+         policy +
+         "\n"
          "  rgb_encoder: small_cnn\n"
          "  depth_encoder: small_cnn\n"
-         "  vocab_size: " + std::to_string(w.vocab_size) + "\n"
-         "  embedding_dim: " + std::to_string(w.embedding_dim) + "\n"
+         "  vocab_size: " +
+         std::to_string(w.vocab_size) +
+         "\n"
+         "  embedding_dim: " +
+         std::to_string(w.embedding_dim) +
+         "\n"
          "  instruction_hidden_size: 8\n"
          "  hidden_size: 16\n"
          "  prev_action_embedding_dim: 4\n"
@@ -108,7 +123,8 @@ inline std::string tinyRunConfig(const TinyWorld& w, const std::filesystem::path
          "  depth_projection_size: 8\n"
          "  spatial_embedding_dim: 4\n"
          "  progress_monitor: true\n"
-         "  rgb_height: 32\n  rgb_width: 32\n  depth_height: 32\n  depth_width: 32\n"
+         "  rgb_height: 32\n  rgb_width: 32\n  depth_height: 32\n  "
+         "depth_width: 32\n"
          "trainer:\n"
          "  torch_threads: 1\n"
          "  num_envs: 3\n"
@@ -125,7 +141,8 @@ inline std::string tinyRunConfig(const TinyWorld& w, const std::filesystem::path
          "  threads: 1\n"
          "  map_episodes: 0\n"
          "output:\n"
-         "  dir: " + outDir.string() + "\n";
+         "  dir: " +
+         outDir.string() + "\n";
 }
 
 }  // namespace vln::train::test
