@@ -231,11 +231,14 @@ void emitInstructionEncoder(ScriptWriter& w, const ModelConfig& config) {
   w.line(0,
          "def encode_instruction(self, tokens: Tensor) -> Tuple[Tensor, "
          "Tensor, Tensor]:");
+  // trailing PAD columns never change the result: drop them (R2R stores
+  // instructions padded to 200 tokens)
+  w.line(1, "length = int((tokens != 0).sum(1).max())");
+  w.line(1, "tokens = tokens[:, :length]");
   w.line(1, "mask = tokens != 0");
   w.line(1, "m = mask.to({f32}).unsqueeze(2)");
   w.line(1,
          "x = torch.embedding(" + w.ref(p + "embedding.weight") + ", tokens)");
-  w.line(1, "length = tokens.size(1)");
   auto direction = [&](const std::string& suffix, bool reverse,
                        const std::string& list) {
     w.line(1, "h = torch.zeros([tokens.size(0), " + hidden +

@@ -164,17 +164,22 @@ TEST(ExportTest, FeatureEntryPointMatchesPolicy) {
   torch::NoGradGuard g;
   const auto expected =
       policy->step(policy->encodeInstruction(tokens), test::stepOf(in, 0), h);
+  // R2R pads instructions to 200 tokens: extra PAD must not matter
+  const torch::Tensor padded =
+      torch::cat({tokens, torch::zeros({2, 20}, torch::kInt64)}, 1);
   for (const char* method : {"forward", "step_features"}) {
-    const auto out =
-        m.get_method(method)({in.rgb[0], in.depth[0], tokens,
-                              in.prev_actions[0], in.not_done[0], h})
-            .toTuple();
-    EXPECT_TRUE(torch::allclose(out->elements()[0].toTensor(), expected.logits,
-                                1e-4, 1e-5))
-        << method;
-    EXPECT_TRUE(torch::allclose(out->elements()[2].toTensor(), expected.hidden,
-                                1e-4, 1e-5))
-        << method;
+    for (const torch::Tensor& t : {tokens, padded}) {
+      const auto out =
+          m.get_method(method)({in.rgb[0], in.depth[0], t, in.prev_actions[0],
+                                in.not_done[0], h})
+              .toTuple();
+      EXPECT_TRUE(torch::allclose(out->elements()[0].toTensor(),
+                                  expected.logits, 1e-4, 1e-5))
+          << method << " width " << t.size(1);
+      EXPECT_TRUE(torch::allclose(out->elements()[2].toTensor(),
+                                  expected.hidden, 1e-4, 1e-5))
+          << method << " width " << t.size(1);
+    }
   }
 }
 
