@@ -81,8 +81,12 @@ void expectSameStore(const fs::path& a, const fs::path& b) {
     EXPECT_EQ(ea.key.slot, eb.key.slot) << i;
     EXPECT_EQ(ea.oracle_actions, eb.oracle_actions) << i;
     EXPECT_EQ(ea.prev_actions, eb.prev_actions) << i;
-    if (ea.rgb.defined()) EXPECT_TRUE(torch::equal(ea.rgb, eb.rgb)) << i;
-    if (ea.depth.defined()) EXPECT_TRUE(torch::equal(ea.depth, eb.depth)) << i;
+    if (ea.rgb.defined()) {
+      EXPECT_TRUE(torch::equal(ea.rgb, eb.rgb)) << i;
+    }
+    if (ea.depth.defined()) {
+      EXPECT_TRUE(torch::equal(ea.depth, eb.depth)) << i;
+    }
   }
 }
 

@@ -20,6 +20,7 @@
 
 #include <fstream>
 #include <cerrno>
+#include <csignal>
 #include <cstring>
 #include <iostream>
 #include <functional>
