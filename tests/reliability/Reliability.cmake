@@ -2,15 +2,24 @@
 # strictness, resource limits, determinism and kill -9/resume tests. Each
 # tests/reliability/<Name>Test.cpp is one executable linked against the
 # whole stack (vln::train). Label "reliability", except the multi-minute
-# end-to-end ones, labelled "slow" so that CI can pick them by label.
+# end-to-end ones (they drive the train, eval and vlnce-data binaries),
+# labelled "slow" with a longer timeout so that CI can pick them by label.
 file(GLOB reliability_sources CONFIGURE_DEPENDS
   ${CMAKE_CURRENT_LIST_DIR}/*Test.cpp)
 foreach(source IN LISTS reliability_sources)
   get_filename_component(test_name ${source} NAME_WE)
-  set(label reliability)
   if(test_name MATCHES "^(KillResume|Determinism)Test$")
-    set(label slow)
+    # vln_add_test() with a 1 h timeout (sanitized builds run 2-5x slower)
+    add_executable(${test_name} ${source})
+    target_link_libraries(${test_name} PRIVATE vln::train vln_test_support
+      GTest::gtest_main GTest::gmock vln_warnings)
+    set_target_properties(${test_name} PROPERTIES
+      RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/tests)
+    vln_use_torch_pch(${test_name})
+    gtest_discover_tests(${test_name} DISCOVERY_MODE PRE_TEST
+      DISCOVERY_TIMEOUT 120 PROPERTIES LABELS slow TIMEOUT 3600)
+  else()
+    vln_add_test(${test_name} SOURCES ${source} LIBS vln::train
+      LABEL reliability TORCH)
   endif()
-  vln_add_test(${test_name} SOURCES ${source} LIBS vln::train
-    LABEL ${label} TORCH)
 endforeach()
