@@ -61,7 +61,13 @@ if [[ ! -f $build/CMakeCache.txt ]]; then
     -DVLN_SANITIZE=ON -DVLN_FUZZ=ON -DVLN_WERROR=ON \
     -DVLN_BUILD_TESTS=OFF -DVLN_BUILD_BENCH=OFF
 fi
-need_seeds=(fuzz-seeds vlnce-data)
+# fuzz-seeds links LibTorch: built only when a LibTorch target is asked for
+need_seeds=(vlnce-data)
+with_torch=0
+for t in "${targets[@]}"; do
+  [[ $t == fuzz_experiment_config || $t == fuzz_checkpoint ]] && with_torch=1
+done
+((with_torch)) && need_seeds+=(fuzz-seeds)
 cmake --build "$build" -j "$jobs" --target "${targets[@]}" "${need_seeds[@]}"
 
 # --- seeds -------------------------------------------------------------------
@@ -74,7 +80,7 @@ for t in "${all_targets[@]}"; do
   mkdir -p "$seeds/$t"
   if [[ -d fuzz/corpus/$t ]]; then cp fuzz/corpus/$t/* "$seeds/$t/"; fi
 done
-"$build/fuzz/fuzz-seeds" "$seeds"
+if ((with_torch)); then "$build/fuzz/fuzz-seeds" "$seeds"; fi
 data=tests/data_files/r2r
 cp $data/tiny_split.json $data/test_split.json "$seeds/fuzz_episodes/"
 cp $data/tiny_split_gt.json "$seeds/fuzz_ground_truth/"
