@@ -943,6 +943,8 @@ void checkPlyHeader(const fs::path& file) {
       vertexProperties.insert(words.back());
     }
   }
+  // an empty file has no magic: only its extension can make it a PLY file
+  if (first && lowerExtension(file) != ".ply") return;
   throw std::invalid_argument(strCat(
       "loadScene(): ", file, " is a PLY file whose header has no end_header "
       "line (truncated?)"));

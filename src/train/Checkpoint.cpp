@@ -197,9 +197,56 @@ std::vector<std::filesystem::path> listCheckpoints(
 
 namespace vln::train {
 
+// Adam's state in a layout of our own, keyed by the position of each
+// parameter (group g, parameter i) instead of LibTorch's own
+// Optimizer::save(), which keys it by the address of the parameter's
+// TensorImpl and in hash-map order: two identical runs then wrote
+// different bytes, and checkpoints could not be compared for determinism.
+namespace {
+
+constexpr int64_t kAdamStateFormat = 1;
+
+std::string stateKey(size_t group, size_t param, const char* what) {
+  return strCat("g", group, "/p", param, "/", what);
+}
+
+std::string implKey(const torch::Tensor& param) {
+  return c10::guts::to_string(param.unsafeGetTensorImpl());
+}
+
+}  // namespace
+
 std::string serializeOptimizer(const torch::optim::Optimizer& optimizer) {
   torch::serialize::OutputArchive archive;
-  optimizer.save(archive);
+  archive.write("vln_adam_format", torch::tensor(kAdamStateFormat));
+  const auto& groups = optimizer.param_groups();
+  archive.write("groups", torch::tensor(static_cast<int64_t>(groups.size())));
+  for (size_t g = 0; g < groups.size(); ++g) {
+    const auto* options =
+        dynamic_cast<const torch::optim::AdamOptions*>(&groups[g].options());
+    VLN_CHECK_ARG(options != nullptr,
+                  "serializeOptimizer(): only Adam is supported");
+    archive.write(strCat("g", g, "/options"),
+                  torch::tensor({options->lr(), std::get<0>(options->betas()),
+                                 std::get<1>(options->betas()), options->eps(),
+                                 options->weight_decay(),
+                                 options->amsgrad() ? 1.0 : 0.0},
+                                torch::kFloat64));
+    const auto& params = groups[g].params();
+    archive.write(strCat("g", g, "/params"),
+                  torch::tensor(static_cast<int64_t>(params.size())));
+    for (size_t i = 0; i < params.size(); ++i) {
+      auto it = optimizer.state().find(implKey(params[i]));
+      if (it == optimizer.state().end()) continue;  // never stepped
+      const auto& state =
+          static_cast<const torch::optim::AdamParamState&>(*it->second);
+      archive.write(stateKey(g, i, "step"), torch::tensor(state.step()));
+      archive.write(stateKey(g, i, "exp_avg"), state.exp_avg());
+      archive.write(stateKey(g, i, "exp_avg_sq"), state.exp_avg_sq());
+      if (state.max_exp_avg_sq().defined())
+        archive.write(stateKey(g, i, "max_exp_avg_sq"), state.max_exp_avg_sq());
+    }
+  }
   std::string bytes;
   archive.save_to([&](const void* data, size_t size) {
     bytes.append(static_cast<const char*>(data), size);
@@ -213,7 +260,66 @@ void loadOptimizerState(torch::optim::Optimizer& optimizer,
   try {
     torch::serialize::InputArchive archive;
     archive.load_from(bytes.data(), bytes.size());
-    optimizer.load(archive);
+    torch::Tensor format;
+    if (!archive.try_read("vln_adam_format", format)) {
+      optimizer.load(archive);  // LibTorch's own layout (older checkpoints)
+      return;
+    }
+    VLN_CHECK_ARG(format.item<int64_t>() == kAdamStateFormat,
+                  "loadOptimizerState(): '", source,
+                  "' has optimizer state format ", format.item<int64_t>(),
+                  ", this build reads ", kAdamStateFormat);
+    torch::Tensor count;
+    archive.read("groups", count);
+    auto& groups = optimizer.param_groups();
+    VLN_CHECK_ARG(count.item<int64_t>() == static_cast<int64_t>(groups.size()),
+                  "loadOptimizerState(): the optimizer state of '", source,
+                  "' has ", count.item<int64_t>(), " parameter groups, the optimizer ",
+                  groups.size());
+    std::vector<std::string> mismatches;
+    for (size_t g = 0; g < groups.size(); ++g) {
+      auto* options = dynamic_cast<torch::optim::AdamOptions*>(&groups[g].options());
+      VLN_CHECK_ARG(options != nullptr,
+                    "loadOptimizerState(): only Adam is supported");
+      torch::Tensor o;
+      archive.read(strCat("g", g, "/options"), o);
+      const auto v = o.accessor<double, 1>();
+      options->lr(v[0]).betas({v[1], v[2]}).eps(v[3]).weight_decay(v[4]).amsgrad(v[5] != 0.0);
+      archive.read(strCat("g", g, "/params"), count);
+      const auto& params = groups[g].params();
+      VLN_CHECK_ARG(count.item<int64_t>() == static_cast<int64_t>(params.size()),
+                    "loadOptimizerState(): the optimizer state of '", source,
+                    "' is for ", count.item<int64_t>(), " parameters, the policy has ",
+                    params.size());
+      for (size_t i = 0; i < params.size(); ++i) {
+        torch::Tensor step, expAvg, expAvgSq, maxExpAvgSq;
+        if (!archive.try_read(stateKey(g, i, "step"), step)) continue;
+        archive.read(stateKey(g, i, "exp_avg"), expAvg);
+        archive.read(stateKey(g, i, "exp_avg_sq"), expAvgSq);
+        if (!expAvg.sizes().equals(params[i].sizes()) ||
+            !expAvgSq.sizes().equals(params[i].sizes())) {
+          mismatches.push_back(strCat("parameter ", i, " of group ", g, ": state ",
+                                      expAvg.sizes(), ", parameter ", params[i].sizes()));
+          continue;
+        }
+        auto state = std::make_unique<torch::optim::AdamParamState>();
+        state->step(step.item<int64_t>());
+        state->exp_avg(expAvg.to(params[i].device()));
+        state->exp_avg_sq(expAvgSq.to(params[i].device()));
+        if (archive.try_read(stateKey(g, i, "max_exp_avg_sq"), maxExpAvgSq))
+          state->max_exp_avg_sq(maxExpAvgSq.to(params[i].device()));
+        optimizer.state()[implKey(params[i])] = std::move(state);
+      }
+    }
+    if (!mismatches.empty()) {
+      std::string list;
+      for (const auto& m : mismatches) list += "\n  " + m;
+      throw std::invalid_argument(strCat("loadOptimizerState(): the optimizer state of '",
+                                         source, "' does not fit this policy:", list));
+    }
+  } catch (const std::invalid_argument& error) {
+    // a checkpoint that does not fit is bad data, not a bad call
+    throw std::runtime_error(error.what());
   } catch (const c10::Error& error) {
     throw std::runtime_error(
         strCat("loadOptimizerState(): the optimizer state of '", source,

@@ -325,10 +325,18 @@ struct SemanticPretrainer::Impl {
     counts.images += set.size();
   }
 
+  // per image: the binary cross-entropies summed over the labels (each
+  // label is a decision of its own; a mean over 29 labels would shrink the
+  // rare ones' gradients next to the room's) plus the room cross-entropy;
+  // then the mean over the batch
   torch::Tensor loss(const SemanticLogits& logits, const torch::Tensor& categories,
                      const torch::Tensor& colors, const torch::Tensor& room) const {
-    return torch::binary_cross_entropy_with_logits(logits.categories, categories) +
-           torch::binary_cross_entropy_with_logits(logits.colors, colors) +
+    const double images = static_cast<double>(room.size(0));
+    return (torch::binary_cross_entropy_with_logits(logits.categories, categories, {}, {},
+                                                    at::Reduction::Sum) +
+            torch::binary_cross_entropy_with_logits(logits.colors, colors, {}, {},
+                                                    at::Reduction::Sum)) /
+               images +
            torch::nn::functional::cross_entropy(logits.room, room);
   }
 

@@ -18,8 +18,9 @@
 // new images throughout and memory holds one epoch. The network is the RGB
 // CNN (model.rgb_encoder at model.rgb_width x rgb_height) followed by one
 // linear head per output on its flattened feature map, so what is learned
-// sits in the CNN that VLN reuses. Loss: mean binary cross-entropy of each
-// multi-label head plus the room cross-entropy; Adam(pretrain.lr), batches
+// sits in the CNN that VLN reuses. Loss per image: the binary
+// cross-entropies of both multi-label heads summed over their labels plus
+// the room cross-entropy, averaged over a batch; Adam(pretrain.lr), batches
 // of pretrain.batch_size images.
 //
 // Held-out results (pretrain.eval_samples views in the held-out houses,

@@ -10,6 +10,7 @@
 #include "common/Config.h"
 #include "common/FileIo.h"
 #include "train/Checkpoint.h"
+#include "train/PretrainTasks.h"
 #include "train/RunDirectory.h"
 #include "train/VlnTrainer.h"
 
@@ -17,15 +18,29 @@ namespace vln::train {
 namespace fs = std::filesystem;
 
 TaskRunner taskRunner(const std::string& task) {
-  // one entry per trainer.task; the pretraining tasks add theirs here
+  // one entry per trainer.task. Pretraining runs are minutes long and keep
+  // no resumable state: --resume on them is refused rather than silently
+  // restarting from scratch.
+  auto pretraining = [](void (*run)(const ExperimentConfig&, const fs::path&)) {
+    return [run](const ExperimentConfig& config, bool resume) {
+      VLN_CHECK_ARG(!resume, "train --resume: trainer.task '", config.trainer.task,
+                    "' cannot resume; delete ", config.output.dir,
+                    " and start again");
+      validatePretrainConfig(config);
+      run(config, config.output.dir);
+    };
+  };
   static const std::map<std::string, TaskRunner> runners = {
-      {"vln", [](const ExperimentConfig& config, bool resume) {
+      {"vln",
+       [](const ExperimentConfig& config, bool resume) {
          VlnTrainer trainer(config, resume);
          trainer.run();
-       }}};
+       }},
+      {"depth_pointnav", pretraining(&runDepthPointNavPretraining)},
+      {"rgb_semantic", pretraining(&runRgbSemanticPretraining)}};
   auto it = runners.find(task);
   VLN_CHECK_ARG(it != runners.end(), "train: trainer.task '", task,
-                "' cannot be trained by this build (available: vln)");
+                "' is unknown (available: vln, depth_pointnav, rgb_semantic)");
   return it->second;
 }
 
@@ -33,6 +48,9 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   const ExperimentConfig config =
       loadExperimentConfig(options.config, options.overrides);
   const std::string yaml = experimentConfigYaml(config);
+  VLN_CHECK_ARG(options.export_path.empty() || config.trainer.task == "vln",
+                "train --export: trainer.task '", config.trainer.task,
+                "' trains an encoder, not a policy; it is saved to pretrain.encoder_out");
   if (options.dry_run) {
     out << yaml;
     return 0;

@@ -1,0 +1,343 @@
+// Tests of src/train/PointNavPretrainer.cpp (and the shared parts of
+// src/train/PretrainTasks.cpp): the point-goal sensor's frame and signs,
+// episode sampling, the policy's padding and blind variant, config errors,
+// the memory bound, and one tiny end-to-end run that must learn (its
+// imitation loss falls and it beats the random agent on held-out houses)
+// and whose depth encoder loads strictly into a VLN model's frozen depth
+// encoder but not into a different one.
+
+#include "train/PointNavPretrainer.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "common/Json.h"
+#include "models/StateDict.h"
+#include "support/TestPaths.h"
+#include "train/PretrainTasks.h"
+
+namespace vln::train {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+// Two small training houses and one held-out house, 32x32 depth, a small
+// CNN and GRU: big enough for the policy to learn heading to the goal and
+// stopping there, small enough for a few seconds of CPU.
+ExperimentConfig tinyConfig(const fs::path& runDir) {
+  ExperimentConfig c;
+  c.trainer.task = "depth_pointnav";
+  c.trainer.seed = 7;
+  c.trainer.torch_threads = 1;
+  c.trainer.num_envs = 8;
+  c.trainer.env_threads = 2;
+  c.trainer.log_every_updates = 5;
+  c.model.rgb_encoder = models::EncoderType::kSmallCnn;
+  c.model.depth_encoder = models::EncoderType::kSmallCnn;
+  c.model.rgb_width = c.model.rgb_height = 32;
+  c.model.depth_width = c.model.depth_height = 32;
+  c.model.depth_projection_size = 32;
+  c.sim.rgb.width = c.sim.rgb.height = 32;
+  c.sim.depth.camera.width = c.sim.depth.camera.height = 32;
+  c.task.max_episode_steps = 60;
+  c.pretrain.train_houses = 2;
+  c.pretrain.heldout_houses = 1;
+  c.pretrain.house_seed = 4242;
+  c.pretrain.house.min_rooms = 2;
+  c.pretrain.house.max_rooms = 3;
+  c.pretrain.house.floor_hole_probability = 0.0f;
+  c.pretrain.samples = 48;
+  c.pretrain.iterations = 3;
+  c.pretrain.epochs_per_iteration = 3;
+  c.pretrain.batch_size = 8;
+  c.pretrain.lr = 3e-3;
+  c.pretrain.hidden_size = 64;
+  c.pretrain.eval_samples = 40;
+  c.pretrain.min_goal_distance = 1.0f;
+  c.pretrain.max_goal_distance = 4.0f;
+  c.pretrain.success_distance = 0.3f;
+  c.pretrain.encoder_out = (runDir / "depth_cnn.pt").string();
+  c.output.dir = runDir.string();
+  c.output.tensorboard = true;
+  return c;
+}
+
+std::vector<std::shared_ptr<const sim::Scene>> tinyHouses(const ExperimentConfig& c) {
+  return generatePretrainHouses(c, /*threads=*/2).train;
+}
+
+std::vector<nlohmann::json> readJsonLines(const fs::path& file) {
+  std::ifstream in(file);
+  std::vector<nlohmann::json> lines;
+  for (std::string line; std::getline(in, line);)
+    lines.push_back(nlohmann::json::parse(line));
+  return lines;
+}
+
+void expectFiniteNumbers(const nlohmann::json& j, const std::string& path) {
+  if (j.is_object()) {
+    for (const auto& [key, value] : j.items()) expectFiniteNumbers(value, path + "." + key);
+  } else if (j.is_array()) {
+    for (size_t i = 0; i < j.size(); ++i) expectFiniteNumbers(j[i], path + "[" + std::to_string(i) + "]");
+  } else {
+    // nlohmann writes NaN and infinities as null
+    EXPECT_FALSE(j.is_null()) << path << " is not a finite number";
+    if (j.is_number()) {
+      EXPECT_TRUE(std::isfinite(j.get<double>())) << path;
+    }
+  }
+}
+
+// ---------------------------------------------------------------------------
+// sensor and episodes
+
+TEST(PointGoalObservationTest, PolarCoordinatesInTheAgentFrame) {
+  sim::AgentState agent;  // at the origin, looking along -Z
+  auto g = pointGoalObservation(agent, Vec3f(0.0f, 0.0f, -2.0f));
+  EXPECT_NEAR(g[0], 2.0f, 1e-6f);  // straight ahead
+  EXPECT_NEAR(g[1], 1.0f, 1e-6f);
+  EXPECT_NEAR(g[2], 0.0f, 1e-6f);
+  // heading +90 degrees looks along -X (common/Math.h), so -X is on the left
+  g = pointGoalObservation(agent, Vec3f(-1.0f, 0.0f, 0.0f));
+  EXPECT_NEAR(g[0], 1.0f, 1e-6f);
+  EXPECT_NEAR(g[1], 0.0f, 1e-6f);
+  EXPECT_NEAR(g[2], 1.0f, 1e-6f);
+  g = pointGoalObservation(agent, Vec3f(1.0f, 0.0f, 0.0f));
+  EXPECT_NEAR(g[2], -1.0f, 1e-6f);
+  // the height difference does not count; a turned agent sees it ahead
+  agent.heading = kPi / 2.0f;
+  agent.position = Vec3f(1.0f, 0.3f, 5.0f);
+  g = pointGoalObservation(agent, Vec3f(-2.0f, 0.0f, 5.0f));
+  EXPECT_NEAR(g[0], 3.0f, 1e-5f);
+  EXPECT_NEAR(g[1], 1.0f, 1e-5f);
+  EXPECT_NEAR(g[2], 0.0f, 1e-5f);
+  // behind: cos = -1
+  g = pointGoalObservation(agent, Vec3f(4.0f, 0.0f, 5.0f));
+  EXPECT_NEAR(g[1], -1.0f, 1e-5f);
+}
+
+TEST(PointGoalEpisodesTest, InRangeOnTheMainIslandAndDeterministic) {
+  test::TempDir dir;
+  const ExperimentConfig c = tinyConfig(dir.path());
+  const auto scenes = tinyHouses(c);
+  const auto a = samplePointGoalEpisodes(scenes, 20, 1.0f, 4.0f, /*seed=*/5);
+  const auto b = samplePointGoalEpisodes(scenes, 25, 1.0f, 4.0f, /*seed=*/5);
+  ASSERT_EQ(a.size(), 20u);
+  std::set<int> housesSeen;
+  for (size_t k = 0; k < a.size(); ++k) {
+    const auto& e = a[k];
+    housesSeen.insert(e.house);
+    const sim::NavMesh& navmesh = scenes[static_cast<size_t>(e.house)]->navmesh();
+    EXPECT_GE(e.geodesic_distance, 1.0f);
+    EXPECT_LE(e.geodesic_distance, 4.0f);
+    EXPECT_NEAR(navmesh.geodesicDistance(e.start.position, e.goal), e.geodesic_distance, 1e-4f);
+    EXPECT_EQ(navmesh.islandIndex(e.start.position), 0);
+    EXPECT_EQ(navmesh.islandIndex(e.goal), 0);
+    // episode k does not depend on how many are drawn
+    EXPECT_EQ(b[k].start, e.start);
+    EXPECT_EQ(b[k].goal, e.goal);
+  }
+  EXPECT_EQ(housesSeen.size(), 2u);
+  EXPECT_NE(samplePointGoalEpisodes(scenes, 1, 1.0f, 4.0f, 6)[0].goal, a[0].goal);
+}
+
+TEST(PointGoalEpisodesTest, ImpossibleRangeNamesTheScene) {
+  test::TempDir dir;
+  const ExperimentConfig c = tinyConfig(dir.path());
+  const auto scenes = tinyHouses(c);
+  try {
+    samplePointGoalEpisodes(scenes, 1, 400.0f, 500.0f, 1);
+    FAIL() << "no house is 400 m across";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("house_4242"));
+    EXPECT_THAT(e.what(), HasSubstr("pretrain.min_goal_distance"));
+  }
+}
+
+// ---------------------------------------------------------------------------
+// the policy
+
+PointNavInputs randomInputs(int64_t steps, const std::vector<int64_t>& lengths, int64_t size) {
+  const int64_t batch = static_cast<int64_t>(lengths.size());
+  PointNavInputs in;
+  std::vector<int64_t> index;
+  for (int64_t b = 0; b < batch; ++b)
+    for (int64_t t = 0; t < lengths[static_cast<size_t>(b)]; ++t) index.push_back(t * batch + b);
+  in.frame_index = torch::tensor(index, torch::kLong);
+  in.depth = torch::rand({static_cast<int64_t>(index.size()), size, size, 1});
+  in.goal = torch::randn({steps, batch, 3});
+  in.prev_actions = torch::randint(0, 4, {steps, batch}, torch::kLong);
+  in.not_done = torch::ones({steps, batch});
+  in.not_done[0].zero_();
+  return in;
+}
+
+TEST(PointNavPolicyTest, PaddedBatchEqualsEpisodesRunAlone) {
+  test::TempDir dir;
+  ExperimentConfig c = tinyConfig(dir.path());
+  torch::manual_seed(3);
+  PointNavPolicy policy(c.model, /*hiddenSize=*/16, /*useDepth=*/true);
+  const std::vector<int64_t> lengths = {5, 2, 4};
+  const PointNavInputs in = randomInputs(5, lengths, 32);
+  auto [logits, last] = policy->forward(in, policy->initialHidden(3));
+  ASSERT_EQ(logits.sizes(), (std::vector<int64_t>{5, 3, 4}));
+  ASSERT_EQ(last.sizes(), (std::vector<int64_t>{3, 16}));
+
+  // episode 1 alone: its frames, goals and actions at T = 2, B = 1
+  PointNavInputs alone;
+  const torch::Tensor frames = torch::tensor(std::vector<int64_t>{5, 6});  // after episode 0's five
+  alone.depth = in.depth.index_select(0, frames);
+  alone.frame_index = torch::arange(2, torch::kLong);
+  alone.goal = in.goal.slice(0, 0, 2).slice(1, 1, 2);
+  alone.prev_actions = in.prev_actions.slice(0, 0, 2).slice(1, 1, 2);
+  alone.not_done = in.not_done.slice(0, 0, 2).slice(1, 1, 2);
+  auto [aloneLogits, aloneLast] = policy->forward(alone, policy->initialHidden(1));
+  EXPECT_TRUE(torch::allclose(aloneLogits.squeeze(1), logits.slice(0, 0, 2).select(1, 1),
+                              1e-5, 1e-6));
+}
+
+TEST(PointNavPolicyTest, BlindControlHasNoDepthInput) {
+  test::TempDir dir;
+  ExperimentConfig c = tinyConfig(dir.path());
+  PointNavPolicy blind(c.model, 16, /*useDepth=*/false);
+  PointNavPolicy seeing(c.model, 16, /*useDepth=*/true);
+  EXPECT_FALSE(blind->usesDepth());
+  EXPECT_TRUE(seeing->usesDepth());
+  for (const auto& item : blind->named_parameters())
+    EXPECT_THAT(item.key(), ::testing::Not(HasSubstr("depth"))) << item.key();
+  PointNavInputs in = randomInputs(3, {3, 3}, 32);
+  in.depth = torch::Tensor();
+  in.frame_index = torch::Tensor();
+  auto [logits, last] = blind->forward(in, blind->initialHidden(2));
+  EXPECT_EQ(logits.sizes(), (std::vector<int64_t>{3, 2, 4}));
+  EXPECT_THROW(seeing->forward(in, seeing->initialHidden(2)), c10::Error);
+}
+
+// ---------------------------------------------------------------------------
+// config errors
+
+TEST(PointNavPretrainerTest, BadConfigValuesAreNamed) {
+  test::TempDir dir;
+  auto expectError = [&](const std::function<void(ExperimentConfig&)>& change,
+                         const std::string& key) {
+    ExperimentConfig c = tinyConfig(dir.path());
+    change(c);
+    try {
+      validatePretrainConfig(c);
+      ADD_FAILURE() << "accepted a bad " << key;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_THAT(e.what(), HasSubstr(key));
+    }
+  };
+  expectError([](ExperimentConfig& c) { c.pretrain.min_goal_distance = 0.2f; },
+              "pretrain.success_distance (0.3)");
+  expectError([](ExperimentConfig& c) { c.pretrain.max_goal_distance = 0.5f; },
+              "pretrain.max_goal_distance (0.5)");
+  expectError([](ExperimentConfig& c) { c.model.no_depth = true; }, "model.no_depth");
+  expectError([](ExperimentConfig& c) { c.sim.depth.camera.width = 48; }, "sim.depth.width");
+  expectError([](ExperimentConfig& c) { c.pretrain.house.min_rooms = 5; }, "pretrain.house");
+  expectError([](ExperimentConfig& c) { c.trainer.task = "vln"; }, "trainer.task");
+}
+
+TEST(PointNavPretrainerTest, MemoryBoundIsEnforced) {
+  test::TempDir dir;
+  ExperimentConfig c = tinyConfig(dir.path());
+  c.pretrain.samples = 100;  // 1 to 4 m each: well over 1,000 frames
+  c.pretrain.iterations = 1;
+  c.pretrain.max_memory_gib = 1e-3;  // 1 MiB: about 500 frames of 32x32
+  PointNavPretrainer pretrainer(c, dir.path());
+  try {
+    pretrainer.run();
+    FAIL() << "the frames fit in 1 MiB?";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("pretrain.max_memory_gib = 0.001"));
+  }
+}
+
+// ---------------------------------------------------------------------------
+// end to end
+
+TEST(PointNavPretrainerTest, LearnsAndSavesALoadableDepthEncoder) {
+  test::TempDir dir;
+  const ExperimentConfig c = tinyConfig(dir.path());
+  PointNavPretrainer pretrainer(c, dir.path());
+  const PointNavResult r = pretrainer.run();
+
+  // it learned: the imitation loss fell a lot, and on the held-out house the
+  // policy beats habitat's random agent (which even stops by the sensor)
+  EXPECT_LT(r.final_loss, 0.5 * r.initial_loss)
+      << "initial " << r.initial_loss << " final " << r.final_loss;
+  EXPECT_GT(r.policy.success, r.random.success + 0.1)
+      << "policy " << r.policy.success << " random " << r.random.success;
+  EXPECT_GT(r.policy.spl, r.random.spl);
+  // the follower reaches nearly every goal (the upper bound is sane)
+  EXPECT_GE(r.oracle.success, 0.95);
+  EXPECT_EQ(r.policy.episodes, 40);
+  EXPECT_GT(r.frames, 3 * 48);
+
+  // the summary file: every number finite
+  const nlohmann::json summary = common::readJsonFile(dir / "pretrain_metrics.json");
+  expectFiniteNumbers(summary, "pretrain_metrics");
+  EXPECT_EQ(summary["task"], "depth_pointnav");
+  EXPECT_DOUBLE_EQ(summary["heldout"]["policy"]["success"].get<double>(), r.policy.success);
+  EXPECT_DOUBLE_EQ(summary["heldout"]["random"]["spl"].get<double>(), r.random.spl);
+
+  // metrics.jsonl: one collect per iteration, one epoch per epoch, four evals
+  std::map<std::string, int> types;
+  for (const auto& line : readJsonLines(dir / "metrics.jsonl")) ++types[line["type"]];
+  EXPECT_EQ(types["collect"], 3);
+  EXPECT_EQ(types["epoch"], 9);
+  EXPECT_EQ(types["eval"], 4);
+  EXPECT_EQ(types["finished"], 1);
+  EXPECT_GT(types["update"], 0);
+  EXPECT_FALSE(fs::is_empty(dir / "tb"));
+
+  // the encoder loads strictly, frozen, into a VLN model's depth encoder
+  ASSERT_EQ(r.encoder_file, dir / "depth_cnn.pt");
+  models::ModelConfig vln = c.model;
+  vln.depth_weights = r.encoder_file.string();
+  models::ObservationEncoder encoder(vln);
+  encoder->loadPretrained();
+  const models::NamedTensors saved = models::readTensorFile(r.encoder_file);
+  const models::NamedTensors loaded = models::namedState(encoder->depth->cnnModule());
+  ASSERT_EQ(saved.size(), loaded.size());
+  for (size_t i = 0; i < saved.size(); ++i) {
+    EXPECT_EQ(saved[i].first, loaded[i].first);
+    EXPECT_TRUE(torch::equal(saved[i].second, loaded[i].second)) << saved[i].first;
+    EXPECT_FALSE(loaded[i].second.requires_grad()) << saved[i].first << " is not frozen";
+  }
+  EXPECT_TRUE(fs::exists(dir / "pointnav_policy.pt"));
+
+  // ... and not into a different encoder: every mismatch is listed
+  models::ModelConfig other = vln;
+  other.depth_encoder = models::EncoderType::kResNet18;
+  other.depth_width = other.depth_height = 64;
+  models::ObservationEncoder resnet(other);
+  try {
+    resnet->loadPretrained();
+    FAIL() << "a small CNN's tensors loaded into a ResNet-18";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("depth_cnn.pt"));
+    EXPECT_THAT(e.what(), HasSubstr("cnn.0.weight"));
+    EXPECT_THAT(e.what(), HasSubstr("backbone.conv1.0.weight"));
+  }
+  // a depth CNN as RGB weights: same names, other input channels
+  models::ModelConfig asRgb = c.model;
+  asRgb.rgb_weights = r.encoder_file.string();
+  models::ObservationEncoder rgb(asRgb);
+  try {
+    rgb->loadPretrained();
+    FAIL() << "1-channel depth weights loaded into the 3-channel RGB CNN";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("cnn.0.weight"));
+  }
+}
+
+}  // namespace
+}  // namespace vln::train
