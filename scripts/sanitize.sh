@@ -6,13 +6,19 @@
 #   scripts/sanitize.sh                  # whole suite
 #   scripts/sanitize.sh -L 'common|sim'  # extra arguments go to ctest
 #   scripts/sanitize.sh -LE slow         # everything but the slow tests
+#   VLN_SANITIZE_MODULES="common sim data" scripts/sanitize.sh
+#                                        # only those modules' tests
 #
 # Suppressions (tests/reliability/sanitizers/*.supp) are narrow and each one
 # says why; LibTorch, OpenBLAS and Mesa are not instrumented, which is fine.
 # Prints the build and test wall-clock times at the end.
 #
 # Environment: VLN_JOBS (build and ctest parallelism, default 2),
-# VLN_ASAN_BUILD_DIR (default build-asan).
+# VLN_ASAN_BUILD_DIR (default build-asan), VLN_SANITIZE_MODULES (modules,
+# space-separated: build only the tests/<module>/*Test targets and the
+# libraries they link, and run only the tests labelled with those modules;
+# "common sim data" needs no LibTorch code and builds in a fraction of the
+# full tree's time).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD
@@ -20,10 +26,28 @@ build=${VLN_ASAN_BUILD_DIR:-build-asan}
 jobs=${VLN_JOBS:-2}
 supp=$root/tests/reliability/sanitizers
 
+# VLN_SANITIZE_MODULES: the test targets of those modules and a ctest label
+# filter for them (tests/CMakeLists.txt labels each test with its module)
+read -ra modules <<<"${VLN_SANITIZE_MODULES:-}"
+targets=()
+filter=()
+if ((${#modules[@]})); then
+  for module in "${modules[@]}"; do
+    if ! compgen -G "tests/$module/*Test.cpp" >/dev/null; then
+      echo "sanitize: no tests/$module/*Test.cpp (VLN_SANITIZE_MODULES)" >&2
+      exit 2
+    fi
+    for source in tests/"$module"/*Test.cpp; do targets+=("$(basename "$source" .cpp)"); done
+  done
+  labels=$(IFS='|'; echo "${modules[*]}")
+  filter=(-L "^($labels)\$")
+  echo "sanitize: modules ${modules[*]}: ${#targets[@]} test targets, ctest ${filter[*]}"
+fi
+
 start=$(date +%s)
 # packages, configure (first time) and build, through the project's setup
 # script; -g1 gives the reports line numbers at a fraction of -g's cost
-VLN_BUILD_DIR=$build VLN_JOBS=$jobs \
+VLN_BUILD_DIR=$build VLN_JOBS=$jobs VLN_BUILD_TARGETS="${targets[*]}" \
   VLN_CMAKE_ARGS="-DVLN_SANITIZE=ON -DVLN_WERROR=ON -DVLN_BUILD_BENCH=OFF -DCMAKE_CXX_FLAGS=-g1 -DCMAKE_C_FLAGS=-g1" \
   scripts/setup.sh
 built=$(date +%s)
@@ -35,7 +59,7 @@ export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
 export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1:suppressions=$supp/ubsan.supp"
 # sanitized code is 2-5x slower: give ctest's per-test timeout room
 set +e
-(cd "$build" && ctest --output-on-failure -j "$jobs" --timeout 2400 "$@")
+(cd "$build" && ctest --output-on-failure -j "$jobs" --timeout 2400 "${filter[@]}" "$@")
 rc=$?
 set -e
 done_at=$(date +%s)

@@ -45,5 +45,8 @@ jobs=${VLN_JOBS:-$(nproc)}
 if [[ ! -f "$build_dir/CMakeCache.txt" ]]; then
   cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release ${VLN_CMAKE_ARGS:-}
 fi
-cmake --build "$build_dir" -j "$jobs"
+# VLN_BUILD_TARGETS (space-separated) builds only those targets, e.g. the
+# binaries scripts/run.sh needs; the rest builds when scripts/test.sh runs
+# shellcheck disable=SC2086
+cmake --build "$build_dir" -j "$jobs" ${VLN_BUILD_TARGETS:+--target $VLN_BUILD_TARGETS}
 echo "setup: built into $build_dir/ (binaries in $build_dir/bin)"

@@ -2,6 +2,7 @@
 // Runs an Agent over a split's episodes in a VectorEnv and computes VLN-CE's
 // metrics (Metrics.h) from the recorded paths.
 
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <vector>
@@ -20,8 +21,10 @@ struct EvaluationResult {
   std::vector<EpisodeResult> episodes;  ///< in the order of the input episodes
   SplitStats stats;                     ///< means over `episodes` with goals
   /// Whether episodes[i] has metrics (false for episodes without goals,
-  /// e.g. the test split).
-  std::vector<bool> scored;
+  /// e.g. the test split). Bytes, not std::vector<bool>: environment
+  /// threads set neighbouring entries at once, and vector<bool> packs them
+  /// into shared words (that race dropped episodes from the means).
+  std::vector<uint8_t> scored;
 };
 
 /// Watches episodes while they run, e.g. to draw maps or write videos

@@ -59,7 +59,9 @@ struct TrainerConfig {
   /// The paper's DA*: beta = dagger_beta^(n+1), for fine-tuning from
   /// init_checkpoint.
   bool fine_tune_dagger = false;
-  /// Policy weights to start from (strictly loaded; empty: fresh init).
+  /// Policy weights to start from (strictly loaded; empty: fresh init): a
+  /// checkpoint, a run directory (its best checkpoint by selection-split
+  /// SPL, else its latest) or a tensor file.
   std::string init_checkpoint;
 
   /// Mix the dataset's augmentation split into teacher forcing (paper "Aug").
@@ -114,7 +116,7 @@ struct TrainerConfig {
     v.field("fine_tune_dagger", fine_tune_dagger,
             "DA*: beta = dagger_beta^(n+1)");
     v.field("init_checkpoint", init_checkpoint,
-            "Checkpoint to start from (empty: fresh)");
+            "Checkpoint, run directory (its best checkpoint) or tensor file to start from (empty: fresh)");
     v.field("use_aug", use_aug, "Mix the augmentation split into training");
     v.field("store_fp16", store_fp16, "Store features as fp16");
     v.field("store_max_gib", store_max_gib, "Feature store map size (GiB)",

@@ -65,9 +65,17 @@ Split loadSplit(const fs::path& root, const std::string& name, int cap) {
   return split;
 }
 
-// policy tensors from one of our checkpoints or from a TorchScript tensor
-// file (models/StateDict.h)
-models::NamedTensors readPolicyWeights(const fs::path& file) {
+// policy tensors from one of our checkpoints, from a run directory (its
+// best checkpoint by selection SPL, else its latest: how a DA* config names
+// the run it fine-tunes) or from a TorchScript tensor file
+// (models/StateDict.h)
+models::NamedTensors readPolicyWeights(const fs::path& given) {
+  fs::path file = given;
+  if (fs::is_directory(given)) {
+    file = bestOrLatestCheckpoint(given);
+    spdlog::info("trainer.init_checkpoint: run directory {} -> {}", given.string(),
+                 file.string());
+  }
   try {
     return loadCheckpoint(file).policy;
   } catch (const std::runtime_error& checkpointError) {

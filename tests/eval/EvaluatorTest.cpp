@@ -196,7 +196,7 @@ TEST(EvaluatorTest, EpisodesWithoutGoalsAreRecordedButNotScored) {
   episodes[2].goals.clear();
   ReplayAgent agent(w.groundTruth);
   const EvaluationResult r = run(agent, episodes, nullptr, 2, 2);
-  EXPECT_EQ(r.scored, (std::vector<bool>{false, true, false}));
+  EXPECT_EQ(r.scored, (std::vector<uint8_t>{0, 1, 0}));
   EXPECT_EQ(r.stats.num_episodes, 1);
   EXPECT_EQ(r.stats.mean, r.episodes[1].metrics);
   EXPECT_EQ(r.episodes[0].record.positions, w.followerPositions[0]);
