@@ -50,4 +50,4 @@ vln_evaluate $results/handcrafted $config \
 vln_stamp "tables"
 "$vln_bin/eval" tables --runs $results --out $results/table.md
 cat $results/table.md
-vln_stamp "done: maps in $results/cma/maps, metrics in $results/*/stats_ckpt_*.json"
+vln_stamp "done: maps in $results/cma/pictures, metrics in $results/*/stats_ckpt_*.json"
