@@ -339,4 +339,14 @@ std::filesystem::path splitGroundTruthPath(const std::filesystem::path& root,
   return root / split / (std::string(split) + "_gt.json.gz");
 }
 
+void keepEvenlySpaced(std::vector<Episode>& episodes, int count) {
+  const size_t n = episodes.size();
+  if (count < 0 || static_cast<size_t>(count) >= n) return;
+  std::vector<Episode> kept;
+  kept.reserve(static_cast<size_t>(count));
+  for (size_t i = 0; i < static_cast<size_t>(count); ++i)
+    kept.push_back(std::move(episodes[i * n / static_cast<size_t>(count)]));
+  episodes = std::move(kept);
+}
+
 }  // namespace vln::data

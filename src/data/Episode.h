@@ -75,6 +75,12 @@ struct EpisodeDataset {
   bool operator==(const EpisodeDataset&) const = default;
 };
 
+/// Keeps at most `count` of `episodes`, spread evenly over the list
+/// (indices floor(i * n / count), file order kept); all of them when
+/// count < 0 or count >= n. R2R files list a scene's episodes together, so
+/// the first N would cover only a few scenes.
+void keepEvenlySpaced(std::vector<Episode>& episodes, int count);
+
 /// Tolerance on |q| - 1 and on the x and z components of start_rotation.
 inline constexpr float kQuaternionTolerance = 1e-4f;
 

@@ -50,8 +50,7 @@ SplitData loadSplit(const EvalSettings& settings, const std::string& name,
   split.name = name;
   const fs::path root = settings.dataset.data_path;
   split.episodes = data::readEpisodes(data::splitEpisodesPath(root, name)).episodes;
-  if (cap >= 0 && static_cast<int>(split.episodes.size()) > cap)
-    split.episodes.resize(static_cast<size_t>(cap));
+  data::keepEvenlySpaced(split.episodes, cap);
   VLN_CHECK_ARG(!split.episodes.empty(), "eval: split '", name, "' under '",
                 root.string(), "' has no episodes");
   for (const auto& e : split.episodes)

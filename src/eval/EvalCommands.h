@@ -89,7 +89,7 @@ struct EvalCommandOptions {
   std::string agent;
   /// Splits to evaluate; empty: eval.splits.
   std::vector<std::string> splits;
-  /// Episodes per split (first N by file order); unset: eval.episodes.
+  /// Episodes per split (N spread evenly over the file); unset: eval.episodes.
   std::optional<int> episodes;
   /// Output directory; empty: <output.dir>/eval.
   std::filesystem::path out;

@@ -14,7 +14,8 @@ struct EvalConfig {
   std::vector<std::string> splits = {"val_seen", "val_unseen"};
   /// Split whose SPL selects the best checkpoint (the paper's early stopping).
   std::string selection_split = "val_unseen";
-  /// Episodes per split (-1: all). Deterministic: the first N by file order.
+  /// Episodes per split (-1: all). Deterministic: N spread evenly over the
+  /// file (data::keepEvenlySpaced), so that they cover its scenes.
   int episodes = -1;
   /// Episodes per split for the periodic evaluation during training
   /// (-1: same as `episodes`).

@@ -56,8 +56,7 @@ Split loadSplit(const fs::path& root, const std::string& name, int cap) {
   Split split;
   split.name = name;
   split.dataset = data::readEpisodes(data::splitEpisodesPath(root, name));
-  if (cap >= 0 && static_cast<int>(split.dataset.episodes.size()) > cap)
-    split.dataset.episodes.resize(static_cast<size_t>(cap));
+  data::keepEvenlySpaced(split.dataset.episodes, cap);
   const fs::path gt = data::splitGroundTruthPath(root, name);
   if (fs::exists(gt))
     split.groundTruth =

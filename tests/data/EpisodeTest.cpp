@@ -488,4 +488,30 @@ TEST(EpisodeTest, RealGroundTruthMatchesRawJsonAndRoundTrips) {
 }
 
 }  // namespace
+
+TEST(KeepEvenlySpacedTest, SpreadsOverTheListInFileOrder) {
+  auto ids = [](const std::vector<Episode>& episodes) {
+    std::vector<int64_t> out;
+    for (const auto& e : episodes) out.push_back(e.episode_id);
+    return out;
+  };
+  std::vector<Episode> ten(10);
+  for (int i = 0; i < 10; ++i) ten[static_cast<size_t>(i)].episode_id = i;
+
+  auto some = ten;
+  keepEvenlySpaced(some, 4);
+  EXPECT_EQ(ids(some), (std::vector<int64_t>{0, 2, 5, 7}));
+  some = ten;
+  keepEvenlySpaced(some, 1);
+  EXPECT_EQ(ids(some), (std::vector<int64_t>{0}));
+  some = ten;
+  keepEvenlySpaced(some, 0);
+  EXPECT_TRUE(some.empty());
+  for (int all : {-1, 10, 11}) {
+    some = ten;
+    keepEvenlySpaced(some, all);
+    EXPECT_EQ(ids(some), ids(ten)) << all;
+  }
+}
+
 }  // namespace vln::data
