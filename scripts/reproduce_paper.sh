@@ -8,13 +8,13 @@
 #   scripts/reproduce_paper.sh cma seq2seq_da ...   # only these runs
 #
 # Runs go to runs/experiments/<name>/, evaluations (the checkpoint chosen on
-# val_unseen SPL, first 100 episodes of val_seen and val_unseen) to
+# val_unseen SPL, on all of val_seen and val_unseen) to
 # results/paper/<name>/ with a run.json naming the config and the command.
 # Finished runs and evaluations are skipped and interrupted ones resume, so
 # the script can be stopped and restarted at any time; the tables are
-# rebuilt from whatever has finished (missing rows say so). About 4-9
+# rebuilt from whatever has finished (missing rows say so). About 1-8
 # minutes per run on 2 cores (docs/results.md gives the measured times).
-# Environment: VLN_BUILD_DIR (build), VLN_EVAL_EPISODES (100).
+# Environment: VLN_BUILD_DIR (build), VLN_EVAL_EPISODES (-1: all).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 vln_bin=${VLN_BUILD_DIR:-build}/bin
@@ -25,7 +25,7 @@ scripts/setup.sh
 vln_ensure_world
 vln_ensure_encoders
 
-episodes=${VLN_EVAL_EPISODES:-100}
+episodes=${VLN_EVAL_EPISODES:--1}
 results=results/paper
 s2s='"model": "Seq2Seq"'
 cma='"model": "Cross-Modal Attention"'
