@@ -9,7 +9,9 @@
 #
 # Runs go to runs/experiments/<name>/, evaluations (the checkpoint chosen on
 # val_unseen SPL, on all of val_seen and val_unseen) to
-# results/paper/<name>/ with a run.json naming the config and the command.
+# results/paper/<name>/ with a run.json naming the config and the command;
+# the tables go to results/paper/tables.md and into docs/results.md. Every
+# run is also scored on the nav-graph (paper Table 3).
 # Finished runs and evaluations are skipped and interrupted ones resume, so
 # the script can be stopped and restarted at any time; the tables are
 # rebuilt from whatever has finished (missing rows say so). About 1-8
@@ -65,7 +67,8 @@ for name in "${order[@]}"; do
   [[ -n "${fields[$name]}" ]] || continue
   best=$(vln_best "runs/experiments/$name")
   vln_evaluate "$results/$name" "$config" "{${fields[$name]}, \"checkpoint\": $best}" \
-    --checkpoint "runs/experiments/$name/checkpoints/ckpt.$best.pth" --episodes "$episodes"
+    --checkpoint "runs/experiments/$name/checkpoints/ckpt.$best.pth" --episodes "$episodes" \
+    --navgraph data/datasets/procedural/connectivity
 done
 
 vln_evaluate "$results/random" configs/vln/reproduction.yaml \
@@ -78,4 +81,22 @@ vln_evaluate "$results/handcrafted" configs/vln/reproduction.yaml \
 
 vln_stamp "tables"
 "$vln_bin/eval" tables --runs "$results" --out "$results/tables.md"
-vln_stamp "done: $results/tables.md (docs/results.md adds the findings)"
+# docs/results.md keeps its prose; the generated tables go between its
+# markers (the whole file when it has none)
+python3 - "$results/tables.md" docs/results.md <<'PY'
+import os, sys
+tables, doc = sys.argv[1:]
+generated = open(tables).read()
+begin, end = "<!-- tables:begin -->", "<!-- tables:end -->"
+text = open(doc).read() if os.path.exists(doc) else ""
+if begin in text and end in text:
+    head, rest = text.split(begin, 1)
+    tail = rest.split(end, 1)[1]
+    text = head + begin + "\n" + generated + end + tail
+else:
+    text = begin + "\n" + generated + end + "\n"
+with open(doc + ".tmp", "w") as f:
+    f.write(text)
+os.replace(doc + ".tmp", doc)
+PY
+vln_stamp "done: $results/tables.md, tables updated in docs/results.md"
