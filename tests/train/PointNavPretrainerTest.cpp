@@ -1,10 +1,10 @@
 // Tests of src/train/PointNavPretrainer.cpp (and the shared parts of
 // src/train/PretrainTasks.cpp): the point-goal sensor's frame and signs,
 // episode sampling, the policy's padding and blind variant, config errors,
-// the memory bound, and one tiny end-to-end run that must learn (its
-// imitation loss falls and it beats the random agent on held-out houses)
-// and whose depth encoder loads strictly into a VLN model's frozen depth
-// encoder but not into a different one.
+// skipped non-finite losses, the memory bound, and one tiny end-to-end run
+// that must learn (its imitation loss falls and it beats the random agent
+// on held-out houses) and whose depth encoder loads strictly into a VLN
+// model's frozen depth encoder but not into a different one.
 
 #include "train/PointNavPretrainer.h"
 
@@ -19,6 +19,7 @@
 #include "common/Json.h"
 #include "models/StateDict.h"
 #include "support/TestPaths.h"
+#include "train/PretrainCommon.h"
 #include "train/PretrainTasks.h"
 
 namespace vln::train {
@@ -257,6 +258,41 @@ TEST(PointNavPretrainerTest, MemoryBoundIsEnforced) {
     FAIL() << "the frames fit in 1 MiB?";
   } catch (const std::runtime_error& e) {
     EXPECT_THAT(e.what(), HasSubstr("pretrain.max_memory_gib = 0.001"));
+  }
+}
+
+// ---------------------------------------------------------------------------
+// steps shared with the RGB task (PretrainCommon.h)
+
+TEST(NonFiniteLossesTest, CountsAndGivesUpInARowNamingTheModel) {
+  ExperimentConfig c;
+  c.trainer.max_nonfinite_updates = 2;
+  NonFiniteLosses losses;
+  losses.skip(c, "depth_pointnav", "blind control", /*update=*/7);
+  EXPECT_EQ(losses.inARow, 1);
+  EXPECT_EQ(losses.total, 1);
+  try {
+    losses.skip(c, "depth_pointnav", "blind control", 8);
+    FAIL() << "two in a row were allowed";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(),
+                 "depth_pointnav: 2 non-finite losses in a row for the blind control "
+                 "(trainer.max_nonfinite_updates = 2); lower pretrain.lr");
+  }
+  EXPECT_EQ(losses.total, 2);
+  // a task's only model goes unnamed
+  NonFiniteLosses single;
+  single.skip(c, "rgb_semantic", "", 1);
+  single.inARow = 0;  // an applied update in between
+  single.skip(c, "rgb_semantic", "", 3);
+  EXPECT_EQ(single.total, 2);
+  try {
+    single.skip(c, "rgb_semantic", "", 4);
+    FAIL() << "two in a row were allowed";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(),
+                 "rgb_semantic: 2 non-finite losses in a row "
+                 "(trainer.max_nonfinite_updates = 2); lower pretrain.lr");
   }
 }
 
