@@ -33,6 +33,8 @@ import sys
 
 import torch
 
+from weight_archive import tensor_archive
+
 PREFIX = "actor_critic.net.visual_encoder."
 
 
@@ -63,24 +65,6 @@ def load_checkpoint(path):
         return torch.load(path, map_location="cpu", weights_only=False)
     finally:
         pickle.Unpickler = original
-
-
-def tensor_archive(tensors):
-    """A scriptable module tree holding `tensors` (dotted names) as buffers."""
-
-    class Node(torch.nn.Module):
-        pass
-
-    root = Node()
-    for name, tensor in tensors.items():
-        *path, leaf = name.split(".")
-        node = root
-        for part in path:
-            if not hasattr(node, part):
-                node.add_module(part, Node())
-            node = getattr(node, part)
-        node.register_buffer(leaf, tensor.detach().cpu().contiguous())
-    return torch.jit.script(root)
 
 
 def main():

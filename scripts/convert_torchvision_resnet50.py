@@ -31,26 +31,10 @@ import sys
 
 import torch
 
+from weight_archive import tensor_archive
+
 # torchvision's state_dict sizes without fc.*: entries and parameters
 EXPECTED = {"resnet50": (318, 23508032), "resnet18": (120, 11176512)}
-
-
-def tensor_archive(tensors):
-    """A scriptable module tree holding `tensors` (dotted names) as buffers."""
-
-    class Node(torch.nn.Module):
-        pass
-
-    root = Node()
-    for name, tensor in tensors.items():
-        *path, leaf = name.split(".")
-        node = root
-        for part in path:
-            if not hasattr(node, part):
-                node.add_module(part, Node())
-            node = getattr(node, part)
-        node.register_buffer(leaf, tensor.detach().cpu().contiguous())
-    return torch.jit.script(root)
 
 
 def load_state_dict(args):

@@ -12,64 +12,40 @@
 #include "sim/Agent.h"
 #include "sim/Follower.h"
 #include "sim/NavMesh.h"
+#include "sim/SimTestScenes.h"
 
 namespace vln::sim {
 namespace {
 
-// Appends an axis-aligned box with outward-facing triangles.
-void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
-  const auto base = static_cast<uint32_t>(mesh.positions.size());
-  for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
-                                i & 2 ? hi.y() : lo.y(),
-                                i & 4 ? hi.z() : lo.z());
-  const Vec3f center = (lo + hi) / 2.0f;
-  const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
-                           {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
-  for (const auto& q : quads) {
-    const Vec3f& a = mesh.positions[base + q[0]];
-    const Vec3f& b = mesh.positions[base + q[1]];
-    const Vec3f& c = mesh.positions[base + q[2]];
-    const bool outward =
-        (b - a).cross(c - a).dot((a + c) / 2.0f - center) > 0.0f;
-    const uint32_t i0 = base + q[0], i1 = base + q[1], i2 = base + q[2],
-                   i3 = base + q[3];
-    if (outward)
-      mesh.indices.insert(mesh.indices.end(), {i0, i1, i2, i0, i2, i3});
-    else
-      mesh.indices.insert(mesh.indices.end(), {i0, i2, i1, i0, i3, i2});
-  }
-}
+using test::addBox;
+using test::kSlab;
+using test::kWall;
+using test::kWallTop;
+using test::wallAlongX;
+using test::wallAlongZ;
 
 // A 16 x 10 m house: a row of four 4 m rooms joined by doorways and a
 // corridor-like south strip, with pillars and tables. Roughly an MP3D
 // apartment floor in extent.
 TriangleMesh fewRoomHouse() {
-  constexpr float kWall = 0.12f, kTop = 2.5f, kSlab = 0.1f;
-  auto wallZ = [&](TriangleMesh& m, float x, float z0, float z1) {
-    addBox(m, {x - kWall / 2, -kSlab, z0}, {x + kWall / 2, kTop, z1});
-  };
-  auto wallX = [&](TriangleMesh& m, float z, float x0, float x1) {
-    addBox(m, {x0, -kSlab, z - kWall / 2}, {x1, kTop, z + kWall / 2});
-  };
   TriangleMesh m;
   addBox(m, {0, -kSlab, 0}, {16, 0, 10});
-  wallX(m, 0, -kWall, 16 + kWall);
-  wallX(m, 10, -kWall, 16 + kWall);
-  wallZ(m, 0, 0, 10);
-  wallZ(m, 16, 0, 10);
+  wallAlongX(m, 0, -kWall, 16 + kWall);
+  wallAlongX(m, 10, -kWall, 16 + kWall);
+  wallAlongZ(m, 0, 0, 10);
+  wallAlongZ(m, 16, 0, 10);
   // rooms in the north 7 m, a 3 m hall along the south
   for (int r = 1; r < 4; ++r) {
     const float x = 4.0f * static_cast<float>(r);
-    wallZ(m, x, 0, 3.0f + static_cast<float>(r % 2));
-    wallZ(m, x, 4.2f + static_cast<float>(r % 2), 7);
+    wallAlongZ(m, x, 0, 3.0f + static_cast<float>(r % 2));
+    wallAlongZ(m, x, 4.2f + static_cast<float>(r % 2), 7);
   }
   for (int r = 0; r < 4; ++r) {
     const float x0 = 4.0f * static_cast<float>(r);
-    wallX(m, 7, x0, x0 + 1.2f);  // doorway to the hall in [x0+1.2, x0+2.4]
-    wallX(m, 7, x0 + 2.4f, x0 + 4.0f);
+    wallAlongX(m, 7, x0, x0 + 1.2f);  // doorway to the hall in [x0+1.2, x0+2.4]
+    wallAlongX(m, 7, x0 + 2.4f, x0 + 4.0f);
     addBox(m, {x0 + 2.5f, 0, 1.0f}, {x0 + 3.3f, 0.75f, 2.2f});  // table
-    addBox(m, {x0 + 1.0f, 0, 4.5f}, {x0 + 1.4f, kTop, 4.9f});   // pillar
+    addBox(m, {x0 + 1.0f, 0, 4.5f}, {x0 + 1.4f, kWallTop, 4.9f});   // pillar
   }
   return m;
 }

@@ -7,6 +7,7 @@
 #include "common/Check.h"
 #include "eval/Baselines.h"
 #include "eval/ObservationBatch.h"
+#include "eval/RecurrentAgentState.h"
 
 namespace vln::eval {
 
@@ -97,13 +98,8 @@ models::EncodedInstruction stackInstructions(
 // ---------------------------------------------------------------------------
 // PolicyAgent
 
-struct PolicyAgent::EnvState {
-  bool started = false;
+struct PolicyAgent::EnvState : RecurrentEnvState {
   models::EncodedInstruction instruction;  // one row, [1, L, ...]
-  torch::Tensor hidden;                    // [layers, hidden_size]
-  int64_t prevAction = 0;
-  bool first = true;  // not_done = 0 on the episode's first step
-  std::mt19937_64 rng;
 };
 
 namespace {
@@ -149,15 +145,8 @@ PolicyAgent::PolicyAgent(std::shared_ptr<models::PolicyImpl> policy,
 
 PolicyAgent::~PolicyAgent() = default;
 
-PolicyAgent::EnvState& PolicyAgent::stateOf(int env, const char* method) {
-  VLN_CHECK_ARG(env >= 0 && env < static_cast<int>(states_.size()),
-                "PolicyAgent::", method, "(): environment ", env,
-                " out of range [0, ", states_.size(), ")");
-  return *states_[static_cast<size_t>(env)];
-}
-
 void PolicyAgent::reset(int env, const data::Episode& episode) {
-  EnvState& s = stateOf(env, "reset");
+  EnvState& s = stateAt(states_, env, "PolicyAgent", "reset");
   torch::NoGradGuard noGrad;
   // the instruction is encoded alone, so its encoding never depends on
   // which episodes share the batch
@@ -167,24 +156,15 @@ void PolicyAgent::reset(int env, const data::Episode& episode) {
     s.instruction = policy_->encodeInstruction(
         batchInstructions(one, maxInstructionLength_).to(device_));
   }
-  s.hidden = policy_->initialHidden(1)[0];
-  s.prevAction = 0;
-  s.first = true;
-  s.rng.seed(episodeSeed(seed_, std::to_string(episode.episode_id)));
-  s.started = true;
+  s.restart(policy_->initialHidden(1)[0], seed_, episode);
 }
 
 std::vector<sim::Action> PolicyAgent::act(VectorEnv& envs,
                                           std::span<const int> active) {
   const auto n = static_cast<int64_t>(active.size());
   if (n == 0) return {};
-  std::vector<EnvState*> states;
-  for (int env : active) {
-    EnvState& s = stateOf(env, "act");
-    VLN_CHECK_ARG(s.started, "PolicyAgent::act(): environment ", env,
-                  " was never reset");
-    states.push_back(&s);
-  }
+  const std::vector<EnvState*> states =
+      activeStates(states_, active, "PolicyAgent");
   torch::NoGradGuard noGrad;
 
   // observations -> feature maps on the policy's device
@@ -201,40 +181,20 @@ std::vector<sim::Action> PolicyAgent::act(VectorEnv& envs,
     for (const EnvState* s : states) rows.push_back(&s->instruction);
     instruction = stackInstructions(rows);
   }
-  std::vector<torch::Tensor> hidden;
-  std::vector<int64_t> prev;
-  std::vector<float> notDone;
-  for (const EnvState* s : states) {
-    hidden.push_back(s->hidden);
-    prev.push_back(s->prevAction);
-    notDone.push_back(s->first ? 0.0f : 1.0f);
-  }
+  const RecurrentInputs recurrent = recurrentInputs(states, device_);
   models::PolicyInputs inputs;
   inputs.rgb = features.rgb;
   inputs.depth = features.depth;
-  inputs.prev_actions = torch::tensor(prev, torch::kInt64).to(device_);
-  inputs.not_done = torch::tensor(notDone, torch::kFloat32).to(device_);
+  inputs.prev_actions = recurrent.prevActions;
+  inputs.not_done = recurrent.notDone;
   const models::PolicyOutputs out =
-      policy_->step(instruction, inputs, torch::stack(hidden));
+      policy_->step(instruction, inputs, recurrent.hidden);
 
   // argmax (first maximum) or a draw from the episode's own generator
   const torch::Tensor logits =
       out.logits.to(torch::kCPU, torch::kFloat64).contiguous();
   lastProbabilities_ = torch::softmax(logits, /*dim=*/-1).to(torch::kFloat32);
-  const double* row = logits.data_ptr<double>();
-  std::vector<sim::Action> actions(static_cast<size_t>(n));
-  for (int64_t k = 0; k < n; ++k) {
-    EnvState& s = *states[static_cast<size_t>(k)];
-    const int chosen = chooseAction(
-        std::span<const double>(row + k * models::kNumActions,
-                                static_cast<size_t>(models::kNumActions)),
-        sample_, s.rng);
-    actions[static_cast<size_t>(k)] = sim::actionFromInt(chosen);
-    s.hidden = out.hidden[k];
-    s.prevAction = chosen;
-    s.first = false;
-  }
-  return actions;
+  return chooseAndAdvance(logits, out.hidden, states, sample_);
 }
 
 }  // namespace vln::eval

@@ -43,7 +43,6 @@ class PolicyAgent : public Agent {
 
  private:
   struct EnvState;
-  EnvState& stateOf(int env, const char* method);
 
   std::shared_ptr<models::PolicyImpl> policy_;
   models::ObservationEncoder encoder_;

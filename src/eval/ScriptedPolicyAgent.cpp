@@ -6,19 +6,13 @@
 #include "common/Check.h"
 #include "common/Config.h"
 #include "data/Vocabulary.h"
-#include "eval/Baselines.h"
 #include "eval/ObservationBatch.h"
-#include "eval/PolicyAgent.h"
+#include "eval/RecurrentAgentState.h"
 
 namespace vln::eval {
 
-struct ScriptedPolicyAgent::EnvState {
-  bool started = false;
+struct ScriptedPolicyAgent::EnvState : RecurrentEnvState {
   std::vector<int64_t> tokens;  // real tokens, capped at the max length
-  torch::Tensor hidden;         // [layers, hidden_size]
-  int64_t prevAction = 0;
-  bool first = true;
-  std::mt19937_64 rng;
 };
 
 models::ModelConfig exportedModelConfig(const torch::jit::Module& module,
@@ -86,16 +80,8 @@ ScriptedPolicyAgent::ScriptedPolicyAgent(const std::filesystem::path& file,
 
 ScriptedPolicyAgent::~ScriptedPolicyAgent() = default;
 
-ScriptedPolicyAgent::EnvState& ScriptedPolicyAgent::stateOf(int env,
-                                                            const char* method) {
-  VLN_CHECK_ARG(env >= 0 && env < static_cast<int>(states_.size()),
-                "ScriptedPolicyAgent::", method, "(): environment ", env,
-                " out of range [0, ", states_.size(), ")");
-  return *states_[static_cast<size_t>(env)];
-}
-
 void ScriptedPolicyAgent::reset(int env, const data::Episode& episode) {
-  EnvState& s = stateOf(env, "reset");
+  EnvState& s = stateAt(states_, env, "ScriptedPolicyAgent", "reset");
   // the archive re-encodes the instruction at every call; keep its tokens
   // (real ones only: the encoder packs by length, so padding is free)
   s.tokens.clear();
@@ -108,25 +94,17 @@ void ScriptedPolicyAgent::reset(int env, const data::Episode& episode) {
     for (int j = 0; j < length; ++j)
       s.tokens.push_back(source[static_cast<size_t>(j)]);
   }
-  s.hidden = torch::zeros({config_.numRecurrentLayers(), config_.hidden_size},
-                          torch::TensorOptions(device_).dtype(torch::kFloat32));
-  s.prevAction = 0;
-  s.first = true;
-  s.rng.seed(episodeSeed(seed_, std::to_string(episode.episode_id)));
-  s.started = true;
+  s.restart(torch::zeros({config_.numRecurrentLayers(), config_.hidden_size},
+                         torch::TensorOptions(device_).dtype(torch::kFloat32)),
+            seed_, episode);
 }
 
 std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
                                                   std::span<const int> active) {
   const auto n = static_cast<int64_t>(active.size());
   if (n == 0) return {};
-  std::vector<EnvState*> states;
-  for (int env : active) {
-    EnvState& s = stateOf(env, "act");
-    VLN_CHECK_ARG(s.started, "ScriptedPolicyAgent::act(): environment ", env,
-                  " was never reset");
-    states.push_back(&s);
-  }
+  const std::vector<EnvState*> states =
+      activeStates(states_, active, "ScriptedPolicyAgent");
   torch::NoGradGuard noGrad;
 
   // raw observations; ablated modalities get a placeholder the archive
@@ -149,18 +127,10 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
       tokens[k][static_cast<int64_t>(j)] = row[j];
   }
 
-  std::vector<torch::Tensor> hidden;
-  std::vector<int64_t> prev;
-  std::vector<float> notDone;
-  for (const EnvState* s : states) {
-    hidden.push_back(s->hidden);
-    prev.push_back(s->prevAction);
-    notDone.push_back(s->first ? 0.0f : 1.0f);
-  }
-  const c10::IValue output = module_.forward(
-      {rgb, depth, tokens.to(device_),
-       torch::tensor(prev, torch::kInt64).to(device_),
-       torch::tensor(notDone, torch::kFloat32).to(device_), torch::stack(hidden)});
+  const RecurrentInputs recurrent = recurrentInputs(states, device_);
+  const c10::IValue output =
+      module_.forward({rgb, depth, tokens.to(device_), recurrent.prevActions,
+                       recurrent.notDone, recurrent.hidden});
   const auto tuple = output.toTuple();
   VLN_CHECK_ARG(tuple->elements().size() == 3, "ScriptedPolicyAgent: '",
                 file_.string(), "' forward returned ",
@@ -175,20 +145,7 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
                 n, ", ", models::kNumActions, "]");
 
   // the same choice rule as PolicyAgent
-  const double* row = logits.data_ptr<double>();
-  std::vector<sim::Action> actions(static_cast<size_t>(n));
-  for (int64_t k = 0; k < n; ++k) {
-    EnvState& s = *states[static_cast<size_t>(k)];
-    const int chosen = chooseAction(
-        std::span<const double>(row + k * models::kNumActions,
-                                static_cast<size_t>(models::kNumActions)),
-        sample_, s.rng);
-    actions[static_cast<size_t>(k)] = sim::actionFromInt(chosen);
-    s.hidden = newHidden[k];
-    s.prevAction = chosen;
-    s.first = false;
-  }
-  return actions;
+  return chooseAndAdvance(logits, newHidden, states, sample_);
 }
 
 }  // namespace vln::eval

@@ -41,7 +41,6 @@ class ScriptedPolicyAgent : public Agent {
 
  private:
   struct EnvState;
-  EnvState& stateOf(int env, const char* method);
 
   std::filesystem::path file_;
   torch::jit::Module module_;

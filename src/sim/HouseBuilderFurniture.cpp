@@ -6,14 +6,8 @@
 //  - the room stays navigable: an agent needing corridors of
 //    2 * kAgentClearance reaches every doorway and gets next to every object.
 
-// Bit-identical houses on every machine: never fuse a*b+c into one FMA
-// instruction, even in builds for CPUs that have it (-march=native). Must
-// precede the includes so that inline header code is covered too.
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+// First of all includes: no FMA contraction (see the header).
+#include "sim/HouseFpContract.h"
 
 #include <algorithm>
 #include <cmath>

@@ -9,14 +9,8 @@
 // closed, and no floor lies inside a wall (a navmesh never finds a walkable
 // strip there).
 
-// Bit-identical houses on every machine: never fuse a*b+c into one FMA
-// instruction, even in builds for CPUs that have it (-march=native). Must
-// precede the includes so that inline header code is covered too.
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+// First of all includes: no FMA contraction (see the header).
+#include "sim/HouseFpContract.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,14 +1,8 @@
 // Procedural houses: ties the stages of HouseBuilder.h together (floor plan,
 // style, furniture, textures, mesh) and holds the fixed vocabularies.
 
-// Bit-identical houses on every machine: never fuse a*b+c into one FMA
-// instruction, even in builds for CPUs that have it (-march=native). Must
-// precede the includes so that inline header code is covered too.
-#if defined(__clang__)
-#pragma clang fp contract(off)
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+// First of all includes: no FMA contraction (see the header).
+#include "sim/HouseFpContract.h"
 
 #include "sim/HouseGenerator.h"
 

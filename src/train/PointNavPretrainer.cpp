@@ -18,6 +18,7 @@
 #include "sim/Follower.h"
 #include "sim/Simulator.h"
 #include "train/MetricsLog.h"
+#include "train/PretrainCommon.h"
 #include "train/PretrainTasks.h"
 
 namespace vln::train {
@@ -578,8 +579,7 @@ struct Learner {
   std::string name;
   PointNavPolicy policy{nullptr};
   std::unique_ptr<torch::optim::Adam> optimizer;
-  int nonFiniteInARow = 0;
-  int64_t nonFiniteTotal = 0;
+  NonFiniteLosses nonFinite;
   double epochLoss = 0.0;
   int64_t epochUpdates = 0;
 };
@@ -590,19 +590,11 @@ struct Learner {
 // the pretrainer
 // ===========================================================================
 
-struct PointNavPretrainer::Impl {
-  ExperimentConfig config;
-  fs::path runDir;
-  torch::Device device{torch::kCPU};
-  PretrainHouses houses;
-  std::unique_ptr<common::ThreadPool> pool;
-  std::unique_ptr<MetricsLog> metrics;
+struct PointNavPretrainer::Impl : PretrainRun {
   Learner depthLearner, blindLearner;
   std::vector<RecordedEpisode> aggregate;
   size_t aggregateBytes = 0;
   double inflectionCoef = 0.0;
-  int64_t updates = 0;
-  double initialLoss = std::numeric_limits<double>::quiet_NaN();
   float depthScale = 1.0f;
 
   double betaOf(int iteration) const {
@@ -676,24 +668,11 @@ struct PointNavPretrainer::Impl {
     const torch::Tensor loss = models::weightedActionLoss(logits, batch.labels, weights);
     const double value = loss.item<double>();
     if (!std::isfinite(value)) {
-      // the project's numeric-fault policy: skip, count, give up in a row
-      ++learner.nonFiniteTotal;
-      ++learner.nonFiniteInARow;
-      spdlog::warn("{}: non-finite loss at update {} skipped ({} in a row)", learner.name,
-                   updates, learner.nonFiniteInARow);
-      VLN_CHECK_IO(learner.nonFiniteInARow < config.trainer.max_nonfinite_updates,
-                   "depth_pointnav: ", learner.nonFiniteInARow,
-                   " non-finite losses in a row for the ", learner.name,
-                   " (trainer.max_nonfinite_updates = ", config.trainer.max_nonfinite_updates,
-                   "); lower pretrain.lr");
+      learner.nonFinite.skip(config, "depth_pointnav", learner.name, updates);
       return std::numeric_limits<double>::quiet_NaN();
     }
-    learner.nonFiniteInARow = 0;
-    learner.optimizer->zero_grad();
-    loss.backward();
-    if (config.trainer.grad_clip > 0.0)
-      torch::nn::utils::clip_grad_norm_(learner.policy->parameters(), config.trainer.grad_clip);
-    learner.optimizer->step();
+    learner.nonFinite.inARow = 0;
+    applyUpdate(*learner.optimizer, *learner.policy, loss, config.trainer.grad_clip);
     learner.epochLoss += value;
     ++learner.epochUpdates;
     return value;
@@ -701,12 +680,9 @@ struct PointNavPretrainer::Impl {
 
   void trainEpoch(int iteration, int epoch) {
     const PretrainConfig& p = config.pretrain;
-    std::vector<size_t> order(aggregate.size());
-    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::mt19937_64 rng(data::deriveSeed(
-        static_cast<uint64_t>(config.trainer.seed),
-        kEpochStream + static_cast<uint64_t>(iteration) * 1000u + static_cast<uint64_t>(epoch)));
-    data::deterministicShuffle(order, rng);
+    const std::vector<int64_t> order = shuffledOrder(
+        aggregate.size(),
+        kEpochStream + static_cast<uint64_t>(iteration) * 1000u + static_cast<uint64_t>(epoch));
     const size_t batchSize = static_cast<size_t>(p.batch_size);
     const int64_t batches = static_cast<int64_t>((order.size() + batchSize - 1) / batchSize);
     for (Learner* l : {&depthLearner, &blindLearner}) {
@@ -721,7 +697,7 @@ struct PointNavPretrainer::Impl {
     for (size_t first = 0; first < order.size(); first += batchSize) {
       std::vector<const RecordedEpisode*> episodes;
       for (size_t k = first; k < std::min(order.size(), first + batchSize); ++k)
-        episodes.push_back(&aggregate[order[k]]);
+        episodes.push_back(&aggregate[static_cast<size_t>(order[k])]);
       const Batch batch = makeBatch(episodes, config.sim.depth.camera.height,
                                     config.sim.depth.camera.width, depthScale, device);
       frames += batch.steps;
@@ -748,7 +724,7 @@ struct PointNavPretrainer::Impl {
                    {{"iteration", iteration}, {"epoch", epoch}, {"updates", batches},
                     {"seconds", seconds}, {"frames", frames}, {"loss", loss},
                     {"blind_loss", blindLoss},
-                    {"skipped", depthLearner.nonFiniteTotal + blindLearner.nonFiniteTotal}},
+                    {"skipped", depthLearner.nonFinite.total + blindLearner.nonFinite.total}},
                    {{"epoch/loss", loss}, {"epoch/blind_loss", blindLoss}}, updates);
   }
 
@@ -777,25 +753,8 @@ struct PointNavPretrainer::Impl {
 PointNavPretrainer::PointNavPretrainer(const ExperimentConfig& config, fs::path runDir)
     : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
-  s.config = config;
-  s.runDir = std::move(runDir);
-  validatePretrainConfig(config);
-  VLN_CHECK_ARG(config.trainer.task == "depth_pointnav",
-                "PointNavPretrainer: trainer.task must be depth_pointnav, got '",
-                config.trainer.task, "'");
-  s.device = models::modelDevice(config.model);
+  s.start(config, std::move(runDir), "depth_pointnav", "PointNavPretrainer");
   s.depthScale = config.sim.depth.normalize_depth ? 1.0f : config.sim.depth.max_depth;
-  torch::set_num_threads(config.trainer.torch_threads);
-  torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
-
-  s.pool = std::make_unique<common::ThreadPool>(config.trainer.env_threads);
-  common::Stopwatch clock;
-  s.houses = generatePretrainHouses(config, config.trainer.env_threads);
-  spdlog::info("depth_pointnav: {} training and {} held-out houses (seeds {}..{}) in {:.1f} s",
-               s.houses.train.size(), s.houses.heldout.size(), config.pretrain.house_seed,
-               config.pretrain.house_seed + config.pretrain.train_houses +
-                   config.pretrain.heldout_houses - 1,
-               clock.seconds());
 
   // the two learners: same architecture but for the depth input
   const int64_t hidden = config.pretrain.hidden_size;
@@ -811,12 +770,9 @@ PointNavPretrainer::PointNavPretrainer(const ExperimentConfig& config, fs::path 
     l->policy->to(s.device);
     l->optimizer = std::make_unique<torch::optim::Adam>(
         l->policy->parameters(), torch::optim::AdamOptions(config.pretrain.lr));
-    int64_t parameters = 0;
-    for (const auto& p : l->policy->parameters()) parameters += p.numel();
-    spdlog::info("{}: {} parameters", l->name, parameters);
+    spdlog::info("{}: {} parameters", l->name, parameterCount(*l->policy));
   }
-  s.metrics = std::make_unique<MetricsLog>(
-      s.runDir / "metrics.jsonl", config.output.tensorboard ? s.runDir / "tb" : fs::path());
+  s.openMetrics();
 }
 
 PointNavPretrainer::~PointNavPretrainer() = default;
@@ -873,25 +829,20 @@ PointNavResult PointNavPretrainer::run() {
                result.seconds, result.policy.spl, result.blind.spl, result.random.spl,
                result.oracle.spl, result.encoder_file.string());
 
-  nlohmann::json summary = {
-      {"task", "depth_pointnav"},
-      {"seconds", result.seconds},
-      {"train_houses", p.train_houses},
-      {"heldout_houses", p.heldout_houses},
-      {"house_seed", p.house_seed},
+  nlohmann::json summary = s.summary("depth_pointnav", result.seconds);
+  summary.update({
       {"success_distance", p.success_distance},
       {"goal_distance_range", {p.min_goal_distance, p.max_goal_distance}},
       {"iterations", p.iterations},
       {"episodes_per_iteration", p.samples},
       {"epochs_per_iteration", p.epochs_per_iteration},
-      {"updates", s.updates},
       {"aggregate_frames", result.frames},
       {"aggregate_gib", result.memory_gib},
       {"inflection_coef", result.inflection_coef},
       {"initial_loss", result.initial_loss},
       {"final_loss", result.final_loss},
       {"blind_final_loss", result.blind_final_loss},
-      {"nonfinite_updates", s.depthLearner.nonFiniteTotal + s.blindLearner.nonFiniteTotal},
+      {"nonfinite_updates", s.depthLearner.nonFinite.total + s.blindLearner.nonFinite.total},
       {"depth_encoder", models::encoderName(config.model.depth_encoder)},
       {"depth_size", {config.model.depth_width, config.model.depth_height}},
       {"encoder_file", result.encoder_file.string()},
@@ -899,11 +850,8 @@ PointNavResult PointNavPretrainer::run() {
        {{"policy", metricsJson(result.policy)},
         {"blind", metricsJson(result.blind)},
         {"random", metricsJson(result.random)},
-        {"follower", metricsJson(result.oracle)}}}};
-  common::writeJsonFile(s.runDir / "pretrain_metrics.json", summary, 2);
-  s.metrics->write("finished", summary,
-                   {{"final/spl", result.policy.spl}, {"final/blind_spl", result.blind.spl}},
-                   s.updates);
+        {"follower", metricsJson(result.oracle)}}}});
+  s.finish(summary, {{"final/spl", result.policy.spl}, {"final/blind_spl", result.blind.spl}});
   return result;
 }
 

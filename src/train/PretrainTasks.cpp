@@ -4,12 +4,18 @@
 #include <torch/torch.h>
 
 #include <exception>
+#include <numeric>
+#include <random>
 
 #include "common/Check.h"
+#include "common/Json.h"
 #include "common/Progress.h"
 #include "common/ThreadPool.h"
+#include "data/WorldConfig.h"
+#include "models/Policy.h"
 #include "sim/HouseGenerator.h"
 #include "train/PointNavPretrainer.h"
+#include "train/PretrainCommon.h"
 #include "train/SemanticPretrainer.h"
 
 namespace vln::train {
@@ -108,6 +114,99 @@ fs::path encoderOutputPath(const ExperimentConfig& config,
   if (!config.pretrain.encoder_out.empty()) return config.pretrain.encoder_out;
   return runDir / defaultName;
 }
+
+// ===========================================================================
+// PretrainCommon.h
+// ===========================================================================
+
+void PretrainRun::start(const ExperimentConfig& runConfig, fs::path dir,
+                        const std::string& task, const std::string& className) {
+  config = runConfig;
+  runDir = std::move(dir);
+  validatePretrainConfig(runConfig);
+  VLN_CHECK_ARG(runConfig.trainer.task == task, className,
+                ": trainer.task must be ", task, ", got '",
+                runConfig.trainer.task, "'");
+  device = models::modelDevice(runConfig.model);
+  torch::set_num_threads(runConfig.trainer.torch_threads);
+  torch::manual_seed(static_cast<uint64_t>(runConfig.trainer.seed));
+
+  pool = std::make_unique<common::ThreadPool>(runConfig.trainer.env_threads);
+  common::Stopwatch clock;
+  houses = generatePretrainHouses(runConfig, runConfig.trainer.env_threads);
+  const PretrainConfig& p = runConfig.pretrain;
+  spdlog::info(
+      "{}: {} training and {} held-out houses (seeds {}..{}) in {:.1f} s", task,
+      houses.train.size(), houses.heldout.size(), p.house_seed,
+      p.house_seed + p.train_houses + p.heldout_houses - 1, clock.seconds());
+}
+
+void PretrainRun::openMetrics() {
+  metrics = std::make_unique<MetricsLog>(
+      runDir / "metrics.jsonl",
+      config.output.tensorboard ? runDir / "tb" : fs::path());
+}
+
+nlohmann::json PretrainRun::summary(const std::string& task,
+                                    double seconds) const {
+  const PretrainConfig& p = config.pretrain;
+  return {{"task", task},
+          {"seconds", seconds},
+          {"train_houses", p.train_houses},
+          {"heldout_houses", p.heldout_houses},
+          {"house_seed", p.house_seed},
+          {"updates", updates}};
+}
+
+void PretrainRun::finish(
+    const nlohmann::json& record,
+    const std::vector<std::pair<std::string, double>>& scalars) {
+  common::writeJsonFile(runDir / "pretrain_metrics.json", record, 2);
+  metrics->write("finished", record, scalars, updates);
+}
+
+std::vector<int64_t> PretrainRun::shuffledOrder(size_t count,
+                                                uint64_t stream) const {
+  std::vector<int64_t> order(count);
+  std::iota(order.begin(), order.end(), int64_t{0});
+  std::mt19937_64 rng(
+      data::deriveSeed(static_cast<uint64_t>(config.trainer.seed), stream));
+  data::deterministicShuffle(order, rng);
+  return order;
+}
+
+void NonFiniteLosses::skip(const ExperimentConfig& config,
+                           const std::string& task, const std::string& model,
+                           int64_t update) {
+  ++total;
+  ++inARow;
+  spdlog::warn("{}: non-finite loss at update {} skipped ({} in a row)",
+               model.empty() ? task : model, update, inARow);
+  VLN_CHECK_IO(inARow < config.trainer.max_nonfinite_updates, task, ": ",
+               inARow, " non-finite losses in a row",
+               model.empty() ? std::string() : " for the " + model,
+               " (trainer.max_nonfinite_updates = ",
+               config.trainer.max_nonfinite_updates, "); lower pretrain.lr");
+}
+
+void applyUpdate(torch::optim::Optimizer& optimizer, torch::nn::Module& module,
+                 const torch::Tensor& loss, double gradClip) {
+  optimizer.zero_grad();
+  loss.backward();
+  if (gradClip > 0.0)
+    torch::nn::utils::clip_grad_norm_(module.parameters(), gradClip);
+  optimizer.step();
+}
+
+int64_t parameterCount(const torch::nn::Module& module) {
+  int64_t count = 0;
+  for (const auto& p : module.parameters()) count += p.numel();
+  return count;
+}
+
+// ===========================================================================
+// the tasks
+// ===========================================================================
 
 void runDepthPointNavPretraining(const ExperimentConfig& config,
                                  const fs::path& runDir) {

@@ -21,6 +21,7 @@
 #include "sim/HouseGenerator.h"
 #include "sim/Simulator.h"
 #include "train/MetricsLog.h"
+#include "train/PretrainCommon.h"
 #include "train/PretrainTasks.h"
 
 namespace vln::train {
@@ -240,20 +241,11 @@ struct LabelCounts {
 // the pretrainer
 // ===========================================================================
 
-struct SemanticPretrainer::Impl {
-  ExperimentConfig config;
-  fs::path runDir;
-  torch::Device device{torch::kCPU};
-  PretrainHouses houses;
-  std::unique_ptr<common::ThreadPool> pool;
-  std::unique_ptr<MetricsLog> metrics;
+struct SemanticPretrainer::Impl : PretrainRun {
   SemanticNet net{nullptr};
   std::unique_ptr<torch::optim::Adam> optimizer;
   LabelCounts counts;
-  int64_t updates = 0;
-  int nonFiniteInARow = 0;
-  int64_t nonFiniteTotal = 0;
-  double initialLoss = std::numeric_limits<double>::quiet_NaN();
+  NonFiniteLosses nonFinite;
   double lastEpochLoss = 0.0;
 
   int64_t numCategories() const { return static_cast<int64_t>(sim::houseObjectCategories().size()); }
@@ -342,11 +334,8 @@ struct SemanticPretrainer::Impl {
 
   // one epoch over `set`; returns the mean loss of the applied updates
   double trainEpoch(const ViewSet& set, int epoch) {
-    std::vector<int64_t> order(static_cast<size_t>(set.size()));
-    std::iota(order.begin(), order.end(), int64_t{0});
-    std::mt19937_64 rng(data::deriveSeed(static_cast<uint64_t>(config.trainer.seed),
-                                         kEpochStream + static_cast<uint64_t>(epoch)));
-    data::deterministicShuffle(order, rng);
+    std::vector<int64_t> order =
+        shuffledOrder(static_cast<size_t>(set.size()), kEpochStream + static_cast<uint64_t>(epoch));
     const int64_t batchSize = config.pretrain.batch_size;
     const int64_t batches = (set.size() + batchSize - 1) / batchSize;
     common::ProgressLine line("train epoch " + std::to_string(epoch), batches, "updates");
@@ -367,22 +356,11 @@ struct SemanticPretrainer::Impl {
       line.advance();
       if (std::isnan(initialLoss)) initialLoss = v;
       if (!std::isfinite(v)) {
-        // the project's numeric-fault policy: skip, count, give up in a row
-        ++nonFiniteTotal;
-        ++nonFiniteInARow;
-        spdlog::warn("rgb_semantic: non-finite loss at update {} skipped ({} in a row)", updates,
-                     nonFiniteInARow);
-        VLN_CHECK_IO(nonFiniteInARow < config.trainer.max_nonfinite_updates, "rgb_semantic: ",
-                     nonFiniteInARow, " non-finite losses in a row (trainer.max_nonfinite_updates = ",
-                     config.trainer.max_nonfinite_updates, "); lower pretrain.lr");
+        nonFinite.skip(config, "rgb_semantic", /*model=*/"", updates);
         continue;
       }
-      nonFiniteInARow = 0;
-      optimizer->zero_grad();
-      value.backward();
-      if (config.trainer.grad_clip > 0.0)
-        torch::nn::utils::clip_grad_norm_(net->parameters(), config.trainer.grad_clip);
-      optimizer->step();
+      nonFinite.inARow = 0;
+      applyUpdate(*optimizer, *net, value, config.trainer.grad_clip);
       ++updates;
       ++applied;
       sum += v;
@@ -477,24 +455,7 @@ nlohmann::json semanticMetricsJson(const SemanticMetrics& m) {
 SemanticPretrainer::SemanticPretrainer(const ExperimentConfig& config, fs::path runDir)
     : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
-  s.config = config;
-  s.runDir = std::move(runDir);
-  validatePretrainConfig(config);
-  VLN_CHECK_ARG(config.trainer.task == "rgb_semantic",
-                "SemanticPretrainer: trainer.task must be rgb_semantic, got '",
-                config.trainer.task, "'");
-  s.device = models::modelDevice(config.model);
-  torch::set_num_threads(config.trainer.torch_threads);
-  torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
-
-  s.pool = std::make_unique<common::ThreadPool>(config.trainer.env_threads);
-  common::Stopwatch clock;
-  s.houses = generatePretrainHouses(config, config.trainer.env_threads);
-  spdlog::info("rgb_semantic: {} training and {} held-out houses (seeds {}..{}) in {:.1f} s",
-               s.houses.train.size(), s.houses.heldout.size(), config.pretrain.house_seed,
-               config.pretrain.house_seed + config.pretrain.train_houses +
-                   config.pretrain.heldout_houses - 1,
-               clock.seconds());
+  s.start(config, std::move(runDir), "rgb_semantic", "SemanticPretrainer");
 
   s.net = SemanticNet(config.model);
   if (!config.model.rgb_weights.empty()) {
@@ -504,13 +465,10 @@ SemanticPretrainer::SemanticPretrainer(const ExperimentConfig& config, fs::path 
   s.net->to(s.device);
   s.optimizer = std::make_unique<torch::optim::Adam>(s.net->parameters(),
                                                      torch::optim::AdamOptions(config.pretrain.lr));
-  int64_t parameters = 0;
-  for (const auto& p : s.net->parameters()) parameters += p.numel();
   spdlog::info("semantic network ({} RGB CNN, {}x{}): {} parameters",
                models::encoderName(config.model.rgb_encoder), config.model.rgb_width,
-               config.model.rgb_height, parameters);
-  s.metrics = std::make_unique<MetricsLog>(
-      s.runDir / "metrics.jsonl", config.output.tensorboard ? s.runDir / "tb" : fs::path());
+               config.model.rgb_height, parameterCount(*s.net));
+  s.openMetrics();
 }
 
 SemanticPretrainer::~SemanticPretrainer() = default;
@@ -569,30 +527,22 @@ SemanticResult SemanticPretrainer::run() {
                result.model.colors.mean_ap, result.prior.colors.mean_ap,
                result.encoder_file.string());
 
-  const nlohmann::json summary = {
-      {"task", "rgb_semantic"},
-      {"seconds", result.seconds},
-      {"train_houses", p.train_houses},
-      {"heldout_houses", p.heldout_houses},
-      {"house_seed", p.house_seed},
+  nlohmann::json summary = s.summary("rgb_semantic", result.seconds);
+  summary.update({
       {"epochs", p.iterations},
       {"images_per_epoch", p.samples},
       {"train_images", result.train_images},
       {"min_object_fraction", p.min_object_fraction},
-      {"updates", s.updates},
       {"initial_loss", result.initial_loss},
       {"final_loss", result.final_loss},
-      {"nonfinite_updates", s.nonFiniteTotal},
+      {"nonfinite_updates", s.nonFinite.total},
       {"rgb_encoder", models::encoderName(config.model.rgb_encoder)},
       {"rgb_size", {config.model.rgb_width, config.model.rgb_height}},
       {"encoder_file", result.encoder_file.string()},
       {"heldout", {{"network", semanticMetricsJson(result.model)},
-                   {"prior", semanticMetricsJson(result.prior)}}}};
-  common::writeJsonFile(s.runDir / "pretrain_metrics.json", summary, 2);
-  s.metrics->write("finished", summary,
-                   {{"final/room_accuracy", result.model.room_accuracy},
-                    {"final/category_map", result.model.categories.mean_ap}},
-                   s.updates);
+                   {"prior", semanticMetricsJson(result.prior)}}}});
+  s.finish(summary, {{"final/room_accuracy", result.model.room_accuracy},
+                     {"final/category_map", result.model.categories.mean_ap}});
   return result;
 }
 

@@ -11,27 +11,17 @@
 
 #include "EvalTestWorld.h"
 #include "models/ModelConfig.h"
+#include "models/ModelTestUtil.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
 
 namespace vln::eval::test {
 
+/// The model tests' tiny model (models/ModelTestUtil.h) over the test
+/// house's vocabulary.
 inline models::ModelConfig tinyModel(models::PolicyType type) {
-  models::ModelConfig c;
-  c.policy = type;
-  c.rgb_encoder = models::EncoderType::kSmallCnn;
-  c.depth_encoder = models::EncoderType::kSmallCnn;
+  models::ModelConfig c = models::test::tinyConfig(type);
   c.vocab_size = kTestVocab;
-  c.embedding_dim = 6;
-  c.instruction_hidden_size = 5;
-  c.hidden_size = 10;
-  c.prev_action_embedding_dim = 3;
-  c.rgb_projection_size = 7;
-  c.depth_projection_size = 9;
-  c.spatial_embedding_dim = 4;
-  c.progress_monitor = true;
-  c.rgb_height = c.rgb_width = 32;
-  c.depth_height = c.depth_width = 32;
   return c;
 }
 

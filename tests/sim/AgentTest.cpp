@@ -7,47 +7,26 @@
 #include <memory>
 
 #include "sim/NavMesh.h"
+#include "sim/SimTestScenes.h"
 
 namespace vln::sim {
 namespace {
 
 using ::testing::HasSubstr;
-
-// Appends an axis-aligned box with outward-facing triangles.
-void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
-  const auto base = static_cast<uint32_t>(mesh.positions.size());
-  for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
-                                i & 2 ? hi.y() : lo.y(),
-                                i & 4 ? hi.z() : lo.z());
-  const Vec3f center = (lo + hi) / 2.0f;
-  const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
-                           {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
-  for (const auto& q : quads) {
-    const Vec3f& a = mesh.positions[base + q[0]];
-    const Vec3f& b = mesh.positions[base + q[1]];
-    const Vec3f& c = mesh.positions[base + q[2]];
-    const bool outward =
-        (b - a).cross(c - a).dot((a + c) / 2.0f - center) > 0.0f;
-    const uint32_t i0 = base + q[0], i1 = base + q[1], i2 = base + q[2],
-                   i3 = base + q[3];
-    if (outward)
-      mesh.indices.insert(mesh.indices.end(), {i0, i1, i2, i0, i2, i3});
-    else
-      mesh.indices.insert(mesh.indices.end(), {i0, i2, i1, i0, i3, i2});
-  }
-}
+using test::addBox;
+using test::kSlab;
+using test::kWall;
+using test::kWallTop;
 
 // A walled 6 x 6 m room (x, z in [0, 6]) whose east half continues, past
 // x = 6, into a 4 m ramp rising 1 m (14 degrees) to a landing.
 TriangleMesh roomWithRamp() {
-  constexpr float kWall = 0.12f, kTop = 2.5f, kSlab = 0.1f;
   TriangleMesh m;
   addBox(m, {0, -kSlab, 0}, {6, 0, 6});
-  addBox(m, {-kWall, -kSlab, -kWall}, {6, kTop, 0});     // north (-z)
-  addBox(m, {-kWall, -kSlab, 6}, {6, kTop, 6 + kWall});  // south
-  addBox(m, {-kWall, -kSlab, 0}, {0, kTop, 6});          // west
-  addBox(m, {6, -kSlab, 0}, {6 + kWall, kTop, 3});       // east, north half
+  addBox(m, {-kWall, -kSlab, -kWall}, {6, kWallTop, 0});     // north (-z)
+  addBox(m, {-kWall, -kSlab, 6}, {6, kWallTop, 6 + kWall});  // south
+  addBox(m, {-kWall, -kSlab, 0}, {0, kWallTop, 6});          // west
+  addBox(m, {6, -kSlab, 0}, {6 + kWall, kWallTop, 3});       // east, north half
   const auto base = static_cast<uint32_t>(m.positions.size());
   m.positions.insert(m.positions.end(),
                      {{6, 0, 3}, {10, 1, 3}, {10, 1, 6}, {6, 0, 6}});

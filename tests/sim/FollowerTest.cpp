@@ -6,43 +6,17 @@
 #include <memory>
 #include <random>
 
+#include "sim/SimTestScenes.h"
+
 namespace vln::sim {
 namespace {
 
-// Appends an axis-aligned box with outward-facing triangles.
-void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
-  const auto base = static_cast<uint32_t>(mesh.positions.size());
-  for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
-                                i & 2 ? hi.y() : lo.y(),
-                                i & 4 ? hi.z() : lo.z());
-  const Vec3f center = (lo + hi) / 2.0f;
-  const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
-                           {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
-  for (const auto& q : quads) {
-    const Vec3f& a = mesh.positions[base + q[0]];
-    const Vec3f& b = mesh.positions[base + q[1]];
-    const Vec3f& c = mesh.positions[base + q[2]];
-    const bool outward =
-        (b - a).cross(c - a).dot((a + c) / 2.0f - center) > 0.0f;
-    const uint32_t i0 = base + q[0], i1 = base + q[1], i2 = base + q[2],
-                   i3 = base + q[3];
-    if (outward)
-      mesh.indices.insert(mesh.indices.end(), {i0, i1, i2, i0, i2, i3});
-    else
-      mesh.indices.insert(mesh.indices.end(), {i0, i2, i1, i0, i3, i2});
-  }
-}
-
-constexpr float kWall = 0.12f, kTop = 2.5f, kSlab = 0.1f;
-
-// A wall along z at x (from z0 to z1) or along x at z (from x0 to x1).
-void wallAlongZ(TriangleMesh& m, float x, float z0, float z1) {
-  addBox(m, {x - kWall / 2, -kSlab, z0}, {x + kWall / 2, kTop, z1});
-}
-void wallAlongX(TriangleMesh& m, float z, float x0, float x1) {
-  addBox(m, {x0, -kSlab, z - kWall / 2}, {x1, kTop, z + kWall / 2});
-}
+using test::addBox;
+using test::kSlab;
+using test::kWall;
+using test::kWallTop;
+using test::wallAlongX;
+using test::wallAlongZ;
 
 // Three rooms in a 12 x 8 m house, joined by 1.2 m doorways at different
 // heights of the dividing walls, with a half wall in the third room, four
@@ -62,7 +36,7 @@ TriangleMesh threeRoomHouse() {
   for (const Vec2f& c :
        {Vec2f(2, 2), Vec2f(6, 5.5f), Vec2f(5.5f, 2), Vec2f(10, 6)})
     addBox(m, {c.x() - 0.2f, 0, c.y() - 0.2f},
-           {c.x() + 0.2f, kTop, c.y() + 0.2f});
+           {c.x() + 0.2f, kWallTop, c.y() + 0.2f});
   addBox(m, {1, 0, 5}, {2.6f, 0.75f, 6.6f});  // table
   return m;
 }

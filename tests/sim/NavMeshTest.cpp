@@ -11,48 +11,25 @@
 #include <vector>
 
 #include "common/FileIo.h"
+#include "sim/SimTestScenes.h"
 #include "support/TestPaths.h"
 
 namespace vln::sim {
 namespace {
 
 using ::testing::HasSubstr;
+using test::addBox;
+using test::kSlab;
+using test::kTableHi;
+using test::kTableLo;
+using test::kTableTop;
+using test::kWall;
+using test::kWallTop;
+using test::roomWithTable;
 
 // ---------------------------------------------------------------------------
 // inline geometry
 // ---------------------------------------------------------------------------
-
-// Appends an axis-aligned box with outward-facing (counter-clockwise seen
-// from outside) triangles.
-void addBox(TriangleMesh& mesh, const Vec3f& lo, const Vec3f& hi) {
-  const auto base = static_cast<uint32_t>(mesh.positions.size());
-  for (int i = 0; i < 8; ++i)
-    mesh.positions.emplace_back(i & 1 ? hi.x() : lo.x(),
-                                i & 2 ? hi.y() : lo.y(),
-                                i & 4 ? hi.z() : lo.z());
-  const Vec3f center = (lo + hi) / 2.0f;
-  const int quads[6][4] = {{0, 2, 6, 4}, {1, 3, 7, 5}, {0, 1, 5, 4},
-                           {2, 3, 7, 6}, {0, 1, 3, 2}, {4, 5, 7, 6}};
-  for (const auto& q : quads) {
-    const Vec3f& a = mesh.positions[base + q[0]];
-    const Vec3f& b = mesh.positions[base + q[1]];
-    const Vec3f& c = mesh.positions[base + q[2]];
-    const Vec3f& d = mesh.positions[base + q[3]];
-    const bool outward =
-        (b - a).cross(c - a).dot((a + c) / 2.0f - center) > 0.0f;
-    const uint32_t i0 = base + q[0], i1 = base + q[1], i2 = base + q[2],
-                   i3 = base + q[3];
-    if (outward)
-      mesh.indices.insert(mesh.indices.end(), {i0, i1, i2, i0, i2, i3});
-    else
-      mesh.indices.insert(mesh.indices.end(), {i0, i2, i1, i0, i3, i2});
-    static_cast<void>(d);
-  }
-}
-
-constexpr float kWall = 0.12f;    // wall thickness, m
-constexpr float kWallTop = 2.5f;  // wall height, m
-constexpr float kSlab = 0.1f;     // floor slab thickness, m
 
 // An L-shaped corridor with 1.2 m wide legs: leg 1 spans x in [0, 6],
 // z in [0, 1.2]; leg 2 spans x in [4.8, 6], z in [0, 6]. The inner (reflex)
@@ -71,20 +48,6 @@ TriangleMesh lCorridor() {
          {0, kWallTop, 1.2f + kWall});  // leg 1 end
   addBox(m, {4.8f - kWall, -kSlab, 6},
          {6 + kWall, kWallTop, 6 + kWall});  // leg 2 end
-  return m;
-}
-
-// A walled 6 x 6 m room (x, z in [0, 6]) with a solid 1.5 x 1.5 m table,
-// 0.75 m high, in its middle.
-constexpr float kTableLo = 2.25f, kTableHi = 3.75f, kTableTop = 0.75f;
-TriangleMesh roomWithTable() {
-  TriangleMesh m;
-  addBox(m, {0, -kSlab, 0}, {6, 0, 6});
-  addBox(m, {-kWall, -kSlab, -kWall}, {6 + kWall, kWallTop, 0});
-  addBox(m, {-kWall, -kSlab, 6}, {6 + kWall, kWallTop, 6 + kWall});
-  addBox(m, {-kWall, -kSlab, 0}, {0, kWallTop, 6});
-  addBox(m, {6, -kSlab, 0}, {6 + kWall, kWallTop, 6});
-  addBox(m, {kTableLo, 0, kTableLo}, {kTableHi, kTableTop, kTableHi});
   return m;
 }
 

@@ -9,56 +9,20 @@
 
 #include "common/FileIo.h"
 #include "sim/Scene.h"
+#include "sim/SimTestScenes.h"
 #include "support/TestPaths.h"
 
 namespace vln::sim {
 namespace {
 
 using ::testing::HasSubstr;
-
-void addQuad(TriangleMesh& mesh, const std::array<Vec3f, 4>& corners,
-             Rgb8 color, int object) {
-  const auto base = static_cast<uint32_t>(mesh.positions.size());
-  for (const Vec3f& p : corners) {
-    mesh.positions.push_back(p);
-    mesh.colors.push_back(color);
-  }
-  for (uint32_t i : {0u, 1u, 2u, 0u, 2u, 3u}) mesh.indices.push_back(base + i);
-  mesh.triangle_object.push_back(object);
-  mesh.triangle_object.push_back(object);
-}
-
-void addWalls(TriangleMesh& mesh, float x0, float x1, float z0, float z1,
-              float y0, float y1) {
-  const Rgb8 wall{200, 200, 210};
-  addQuad(mesh, {Vec3f(x0, y0, z0), {x1, y0, z0}, {x1, y1, z0}, {x0, y1, z0}}, wall, -1);
-  addQuad(mesh, {Vec3f(x1, y0, z1), {x0, y0, z1}, {x0, y1, z1}, {x1, y1, z1}}, wall, -1);
-  addQuad(mesh, {Vec3f(x0, y0, z1), {x0, y0, z0}, {x0, y1, z0}, {x0, y1, z1}}, wall, -1);
-  addQuad(mesh, {Vec3f(x1, y0, z0), {x1, y0, z1}, {x1, y1, z1}, {x1, y1, z0}}, wall, -1);
-}
+using test::addQuad;
+using test::addWalls;
 
 // A 6 m x 6 m walled room at y = 0 with a red 1 m cube (object 4, "table")
 // centred at (2, 0.5, 0).
 std::shared_ptr<const Scene> roomScene() {
-  TriangleMesh mesh;
-  addQuad(mesh, {Vec3f(-3, 0, 3), {3, 0, 3}, {3, 0, -3}, {-3, 0, -3}}, Rgb8{180, 160, 120}, -1);
-  addWalls(mesh, -3, 3, -3, 3, 0, 2.7f);
-  const float x0 = 1.5f, x1 = 2.5f, y1 = 1.0f, z0 = -0.5f, z1 = 0.5f;
-  const Rgb8 red{220, 30, 30};
-  addQuad(mesh, {Vec3f(x0, 0, z1), {x1, 0, z1}, {x1, y1, z1}, {x0, y1, z1}}, red, 4);
-  addQuad(mesh, {Vec3f(x1, 0, z0), {x0, 0, z0}, {x0, y1, z0}, {x1, y1, z0}}, red, 4);
-  addQuad(mesh, {Vec3f(x0, 0, z0), {x0, 0, z1}, {x0, y1, z1}, {x0, y1, z0}}, red, 4);
-  addQuad(mesh, {Vec3f(x1, 0, z1), {x1, 0, z0}, {x1, y1, z0}, {x1, y1, z1}}, red, 4);
-  addQuad(mesh, {Vec3f(x0, y1, z1), {x1, y1, z1}, {x1, y1, z0}, {x0, y1, z0}}, red, 4);
-  SceneSemantics semantics;
-  SemanticObject cube;
-  cube.id = 4;
-  cube.category = "table";
-  cube.color = "red";
-  cube.bounds = Eigen::AlignedBox3f(Vec3f(x0, 0, z0), Vec3f(x1, y1, z1));
-  semantics.objects.push_back(cube);
-  return Scene::fromMesh("map-room", std::move(mesh), std::move(semantics),
-                         NavMeshConfig{});
+  return test::roomWithCube("map-room", /*ceiling=*/false);
 }
 
 Rgb8 pixelAt(const TopDownMap& map, const Vec3f& p) {

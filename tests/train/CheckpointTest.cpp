@@ -16,6 +16,7 @@
 
 #include "common/FileIo.h"
 #include "models/Loss.h"
+#include "models/ModelTestUtil.h"
 #include "support/TestPaths.h"
 
 namespace vln::train {
@@ -23,22 +24,10 @@ namespace {
 
 using ::testing::HasSubstr;
 
+// the model tests' tiny CMA (models/ModelTestUtil.h) with 17 tokens
 models::ModelConfig tinyModel() {
-  models::ModelConfig c;
-  c.policy = models::PolicyType::kCma;
-  c.rgb_encoder = models::EncoderType::kSmallCnn;
-  c.depth_encoder = models::EncoderType::kSmallCnn;
+  models::ModelConfig c = models::test::tinyConfig(models::PolicyType::kCma);
   c.vocab_size = 17;
-  c.embedding_dim = 6;
-  c.instruction_hidden_size = 5;
-  c.hidden_size = 10;
-  c.prev_action_embedding_dim = 3;
-  c.rgb_projection_size = 7;
-  c.depth_projection_size = 9;
-  c.spatial_embedding_dim = 4;
-  c.progress_monitor = true;
-  c.rgb_height = c.rgb_width = 32;
-  c.depth_height = c.depth_width = 32;
   return c;
 }
 
@@ -47,15 +36,8 @@ void trainStep(models::PolicyImpl& policy, torch::optim::Adam& adam,
                uint64_t seed) {
   torch::manual_seed(seed);
   const auto& c = policy.config();
-  const auto r = models::rgbFeatureShape(c);
-  const auto d = models::depthFeatureShape(c);
   const int64_t T = 4, B = 2;
-  models::PolicyInputs in;
-  in.rgb = torch::rand({T, B, r[0], r[1], r[2]});
-  in.depth = torch::rand({T, B, d[0], d[1], d[2]});
-  in.prev_actions = torch::randint(0, 4, {T, B}, torch::kInt64);
-  in.not_done = torch::ones({T, B});
-  in.not_done[0].fill_(0.0);
+  const models::PolicyInputs in = models::test::randomInputs(c, T, B);
   const torch::Tensor tokens =
       torch::randint(1, c.vocab_size, {B, 5}, torch::kInt64);
   const torch::Tensor actions = torch::randint(0, 4, {T, B}, torch::kInt64);

@@ -1,10 +1,10 @@
 // Tests of src/train/PointNavPretrainer.cpp (and the shared parts of
 // src/train/PretrainTasks.cpp): the point-goal sensor's frame and signs,
 // episode sampling, the policy's padding and blind variant, config errors,
-// the memory bound, and one tiny end-to-end run that must learn (its
-// imitation loss falls and it beats the random agent on held-out houses)
-// and whose depth encoder loads strictly into a VLN model's frozen depth
-// encoder but not into a different one.
+// skipped non-finite losses, the memory bound, and one tiny end-to-end run
+// that must learn (its imitation loss falls and it beats the random agent
+// on held-out houses) and whose depth encoder loads strictly into a VLN
+// model's frozen depth encoder but not into a different one.
 
 #include "train/PointNavPretrainer.h"
 
@@ -12,14 +12,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <set>
 
 #include "common/Json.h"
 #include "models/StateDict.h"
 #include "support/TestPaths.h"
+#include "train/PretrainCommon.h"
 #include "train/PretrainTasks.h"
+#include "train/PretrainTestUtil.h"
 
 namespace vln::train {
 namespace {
@@ -31,27 +32,15 @@ using ::testing::HasSubstr;
 // CNN and GRU: big enough for the policy to learn heading to the goal and
 // stopping there, small enough for a few seconds of CPU.
 ExperimentConfig tinyConfig(const fs::path& runDir) {
-  ExperimentConfig c;
-  c.trainer.task = "depth_pointnav";
+  ExperimentConfig c = test::tinyPretrainConfig("depth_pointnav", runDir);
   c.trainer.seed = 7;
-  c.trainer.torch_threads = 1;
   c.trainer.num_envs = 8;
-  c.trainer.env_threads = 2;
   c.trainer.log_every_updates = 5;
-  c.model.rgb_encoder = models::EncoderType::kSmallCnn;
-  c.model.depth_encoder = models::EncoderType::kSmallCnn;
-  c.model.rgb_width = c.model.rgb_height = 32;
-  c.model.depth_width = c.model.depth_height = 32;
   c.model.depth_projection_size = 32;
-  c.sim.rgb.width = c.sim.rgb.height = 32;
-  c.sim.depth.camera.width = c.sim.depth.camera.height = 32;
   c.task.max_episode_steps = 60;
   c.pretrain.train_houses = 2;
   c.pretrain.heldout_houses = 1;
   c.pretrain.house_seed = 4242;
-  c.pretrain.house.min_rooms = 2;
-  c.pretrain.house.max_rooms = 3;
-  c.pretrain.house.floor_hole_probability = 0.0f;
   c.pretrain.samples = 48;
   c.pretrain.iterations = 3;
   c.pretrain.epochs_per_iteration = 3;
@@ -63,21 +52,12 @@ ExperimentConfig tinyConfig(const fs::path& runDir) {
   c.pretrain.max_goal_distance = 4.0f;
   c.pretrain.success_distance = 0.3f;
   c.pretrain.encoder_out = (runDir / "depth_cnn.pt").string();
-  c.output.dir = runDir.string();
   c.output.tensorboard = true;
   return c;
 }
 
 std::vector<std::shared_ptr<const sim::Scene>> tinyHouses(const ExperimentConfig& c) {
   return generatePretrainHouses(c, /*threads=*/2).train;
-}
-
-std::vector<nlohmann::json> readJsonLines(const fs::path& file) {
-  std::ifstream in(file);
-  std::vector<nlohmann::json> lines;
-  for (std::string line; std::getline(in, line);)
-    lines.push_back(nlohmann::json::parse(line));
-  return lines;
 }
 
 void expectFiniteNumbers(const nlohmann::json& j, const std::string& path) {
@@ -123,7 +103,7 @@ TEST(PointGoalObservationTest, PolarCoordinatesInTheAgentFrame) {
 }
 
 TEST(PointGoalEpisodesTest, InRangeOnTheMainIslandAndDeterministic) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   const ExperimentConfig c = tinyConfig(dir.path());
   const auto scenes = tinyHouses(c);
   const auto a = samplePointGoalEpisodes(scenes, 20, 1.0f, 4.0f, /*seed=*/5);
@@ -148,7 +128,7 @@ TEST(PointGoalEpisodesTest, InRangeOnTheMainIslandAndDeterministic) {
 }
 
 TEST(PointGoalEpisodesTest, ImpossibleRangeNamesTheScene) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   const ExperimentConfig c = tinyConfig(dir.path());
   const auto scenes = tinyHouses(c);
   try {
@@ -179,7 +159,7 @@ PointNavInputs randomInputs(int64_t steps, const std::vector<int64_t>& lengths, 
 }
 
 TEST(PointNavPolicyTest, PaddedBatchEqualsEpisodesRunAlone) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   ExperimentConfig c = tinyConfig(dir.path());
   torch::manual_seed(3);
   PointNavPolicy policy(c.model, /*hiddenSize=*/16, /*useDepth=*/true);
@@ -203,7 +183,7 @@ TEST(PointNavPolicyTest, PaddedBatchEqualsEpisodesRunAlone) {
 }
 
 TEST(PointNavPolicyTest, BlindControlHasNoDepthInput) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   ExperimentConfig c = tinyConfig(dir.path());
   PointNavPolicy blind(c.model, 16, /*useDepth=*/false);
   PointNavPolicy seeing(c.model, 16, /*useDepth=*/true);
@@ -223,7 +203,7 @@ TEST(PointNavPolicyTest, BlindControlHasNoDepthInput) {
 // config errors
 
 TEST(PointNavPretrainerTest, BadConfigValuesAreNamed) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   auto expectError = [&](const std::function<void(ExperimentConfig&)>& change,
                          const std::string& key) {
     ExperimentConfig c = tinyConfig(dir.path());
@@ -246,7 +226,7 @@ TEST(PointNavPretrainerTest, BadConfigValuesAreNamed) {
 }
 
 TEST(PointNavPretrainerTest, MemoryBoundIsEnforced) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   ExperimentConfig c = tinyConfig(dir.path());
   c.pretrain.samples = 100;  // 1 to 4 m each: well over 1,000 frames
   c.pretrain.iterations = 1;
@@ -261,10 +241,45 @@ TEST(PointNavPretrainerTest, MemoryBoundIsEnforced) {
 }
 
 // ---------------------------------------------------------------------------
+// steps shared with the RGB task (PretrainCommon.h)
+
+TEST(NonFiniteLossesTest, CountsAndGivesUpInARowNamingTheModel) {
+  ExperimentConfig c;
+  c.trainer.max_nonfinite_updates = 2;
+  NonFiniteLosses losses;
+  losses.skip(c, "depth_pointnav", "blind control", /*update=*/7);
+  EXPECT_EQ(losses.inARow, 1);
+  EXPECT_EQ(losses.total, 1);
+  try {
+    losses.skip(c, "depth_pointnav", "blind control", 8);
+    FAIL() << "two in a row were allowed";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(),
+                 "depth_pointnav: 2 non-finite losses in a row for the blind control "
+                 "(trainer.max_nonfinite_updates = 2); lower pretrain.lr");
+  }
+  EXPECT_EQ(losses.total, 2);
+  // a task's only model goes unnamed
+  NonFiniteLosses single;
+  single.skip(c, "rgb_semantic", "", 1);
+  single.inARow = 0;  // an applied update in between
+  single.skip(c, "rgb_semantic", "", 3);
+  EXPECT_EQ(single.total, 2);
+  try {
+    single.skip(c, "rgb_semantic", "", 4);
+    FAIL() << "two in a row were allowed";
+  } catch (const std::runtime_error& e) {
+    EXPECT_STREQ(e.what(),
+                 "rgb_semantic: 2 non-finite losses in a row "
+                 "(trainer.max_nonfinite_updates = 2); lower pretrain.lr");
+  }
+}
+
+// ---------------------------------------------------------------------------
 // end to end
 
 TEST(PointNavPretrainerTest, LearnsAndSavesALoadableDepthEncoder) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   const ExperimentConfig c = tinyConfig(dir.path());
   PointNavPretrainer pretrainer(c, dir.path());
   const PointNavResult r = pretrainer.run();
@@ -290,7 +305,7 @@ TEST(PointNavPretrainerTest, LearnsAndSavesALoadableDepthEncoder) {
 
   // metrics.jsonl: one collect per iteration, one epoch per epoch, four evals
   std::map<std::string, int> types;
-  for (const auto& line : readJsonLines(dir / "metrics.jsonl")) ++types[line["type"]];
+  for (const auto& line : test::readJsonLines(dir / "metrics.jsonl")) ++types[line["type"]];
   EXPECT_EQ(types["collect"], 3);
   EXPECT_EQ(types["epoch"], 9);
   EXPECT_EQ(types["eval"], 4);
@@ -304,14 +319,8 @@ TEST(PointNavPretrainerTest, LearnsAndSavesALoadableDepthEncoder) {
   vln.depth_weights = r.encoder_file.string();
   models::ObservationEncoder encoder(vln);
   encoder->loadPretrained();
-  const models::NamedTensors saved = models::readTensorFile(r.encoder_file);
-  const models::NamedTensors loaded = models::namedState(encoder->depth->cnnModule());
-  ASSERT_EQ(saved.size(), loaded.size());
-  for (size_t i = 0; i < saved.size(); ++i) {
-    EXPECT_EQ(saved[i].first, loaded[i].first);
-    EXPECT_TRUE(torch::equal(saved[i].second, loaded[i].second)) << saved[i].first;
-    EXPECT_FALSE(loaded[i].second.requires_grad()) << saved[i].first << " is not frozen";
-  }
+  test::expectLoadedFrozen(models::readTensorFile(r.encoder_file),
+                           models::namedState(encoder->depth->cnnModule()));
   EXPECT_TRUE(fs::exists(dir / "pointnav_policy.pt"));
 
   // ... and not into a different encoder: every mismatch is listed

@@ -11,13 +11,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <fstream>
 
 #include "common/Json.h"
 #include "models/StateDict.h"
 #include "sim/HouseGenerator.h"
 #include "support/TestPaths.h"
 #include "train/PretrainTasks.h"
+#include "train/PretrainTestUtil.h"
 
 namespace vln::train {
 namespace {
@@ -27,26 +27,14 @@ using ::testing::HasSubstr;
 
 // Two small training houses and one held-out house, 32x32 RGB, a small CNN.
 ExperimentConfig tinyConfig(const fs::path& runDir) {
-  ExperimentConfig c;
-  c.trainer.task = "rgb_semantic";
+  ExperimentConfig c = test::tinyPretrainConfig("rgb_semantic", runDir);
   c.trainer.seed = 5;
-  c.trainer.torch_threads = 1;
-  c.trainer.env_threads = 2;
   c.trainer.log_every_updates = 10;
-  c.model.rgb_encoder = models::EncoderType::kSmallCnn;
-  c.model.depth_encoder = models::EncoderType::kSmallCnn;
-  c.model.rgb_width = c.model.rgb_height = 32;
-  c.model.depth_width = c.model.depth_height = 32;
-  c.sim.rgb.width = c.sim.rgb.height = 32;
-  c.sim.depth.camera.width = c.sim.depth.camera.height = 32;
   // fewer training houses than this and the network learns those houses'
   // labels rather than what objects look like (held-out mAP below the prior)
   c.pretrain.train_houses = 6;
   c.pretrain.heldout_houses = 2;
   c.pretrain.house_seed = 777;
-  c.pretrain.house.min_rooms = 2;
-  c.pretrain.house.max_rooms = 3;
-  c.pretrain.house.floor_hole_probability = 0.0f;
   c.pretrain.samples = 400;
   c.pretrain.iterations = 6;
   c.pretrain.batch_size = 32;
@@ -54,7 +42,6 @@ ExperimentConfig tinyConfig(const fs::path& runDir) {
   c.pretrain.eval_samples = 200;
   c.pretrain.min_object_fraction = 0.03f;
   c.pretrain.encoder_out = (runDir / "rgb_cnn.pt").string();
-  c.output.dir = runDir.string();
   return c;
 }
 
@@ -173,7 +160,7 @@ TEST(MultiLabelMetricsTest, MicroAndMacroF1OverLabelsWithPositives) {
 // config errors
 
 TEST(SemanticPretrainerTest, BadConfigValuesAreNamed) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   auto expectError = [&](const std::function<void(ExperimentConfig&)>& change,
                          const std::string& key) {
     ExperimentConfig c = tinyConfig(dir.path());
@@ -196,7 +183,7 @@ TEST(SemanticPretrainerTest, BadConfigValuesAreNamed) {
 // end to end
 
 TEST(SemanticPretrainerTest, BeatsThePriorAndSavesALoadableRgbEncoder) {
-  test::TempDir dir;
+  vln::test::TempDir dir;
   const ExperimentConfig c = tinyConfig(dir.path());
   SemanticPretrainer pretrainer(c, dir.path());
   const SemanticResult r = pretrainer.run();
@@ -228,10 +215,9 @@ TEST(SemanticPretrainerTest, BeatsThePriorAndSavesALoadableRgbEncoder) {
   }
   EXPECT_DOUBLE_EQ(summary["heldout"]["network"]["room_accuracy"].get<double>(),
                    r.model.room_accuracy);
-  std::ifstream jsonl(dir / "metrics.jsonl");
   int epochs = 0;
-  for (std::string line; std::getline(jsonl, line);)
-    epochs += nlohmann::json::parse(line)["type"] == "epoch";
+  for (const auto& line : test::readJsonLines(dir / "metrics.jsonl"))
+    epochs += line["type"] == "epoch";
   EXPECT_EQ(epochs, c.pretrain.iterations);
 
   // the encoder loads strictly, frozen, into a VLN model's RGB encoder
@@ -239,13 +225,8 @@ TEST(SemanticPretrainerTest, BeatsThePriorAndSavesALoadableRgbEncoder) {
   vln.rgb_weights = r.encoder_file.string();
   models::ObservationEncoder encoder(vln);
   encoder->loadPretrained();
-  const models::NamedTensors saved = models::readTensorFile(dir / "rgb_cnn.pt");
-  const models::NamedTensors loaded = models::namedState(encoder->rgb->cnnModule());
-  ASSERT_EQ(saved.size(), loaded.size());
-  for (size_t i = 0; i < saved.size(); ++i) {
-    EXPECT_TRUE(torch::equal(saved[i].second, loaded[i].second)) << saved[i].first;
-    EXPECT_FALSE(loaded[i].second.requires_grad()) << saved[i].first << " is not frozen";
-  }
+  test::expectLoadedFrozen(models::readTensorFile(dir / "rgb_cnn.pt"),
+                           models::namedState(encoder->rgb->cnnModule()));
   // ... and not into a ResNet-18: every mismatch is listed
   models::ModelConfig other = vln;
   other.rgb_encoder = models::EncoderType::kResNet18;
@@ -266,7 +247,7 @@ TEST(SemanticPretrainerTest, BeatsThePriorAndSavesALoadableRgbEncoder) {
   shortRun.pretrain.eval_samples = 16;
   std::vector<models::NamedTensors> runs;
   for (int i = 0; i < 2; ++i) {
-    test::TempDir again;
+    vln::test::TempDir again;
     shortRun.output.dir = again.path().string();
     shortRun.pretrain.encoder_out = (again / "rgb.pt").string();
     SemanticPretrainer(shortRun, again.path()).run();

@@ -1,0 +1,69 @@
+#pragma once
+// Shared by the pretraining task tests (PointNavPretrainerTest.cpp,
+// SemanticPretrainerTest.cpp): the settings of a tiny run, the metrics log
+// read back, and the check that an encoder file loaded into a VLN model's
+// encoder as it was saved.
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "models/StateDict.h"
+#include "train/ExperimentConfig.h"
+
+namespace vln::train::test {
+
+/// trainer.task = `task` writing to `runDir`, one LibTorch thread and two
+/// rendering threads, small CNNs on 32x32 images (model and sensors), and
+/// pretraining houses of 2 to 3 rooms without floor holes; the house
+/// counts, samples and optimisation are left to each test.
+inline ExperimentConfig tinyPretrainConfig(
+    const std::string& task, const std::filesystem::path& runDir) {
+  ExperimentConfig c;
+  c.trainer.task = task;
+  c.trainer.torch_threads = 1;
+  c.trainer.env_threads = 2;
+  c.model.rgb_encoder = models::EncoderType::kSmallCnn;
+  c.model.depth_encoder = models::EncoderType::kSmallCnn;
+  c.model.rgb_width = c.model.rgb_height = 32;
+  c.model.depth_width = c.model.depth_height = 32;
+  c.sim.rgb.width = c.sim.rgb.height = 32;
+  c.sim.depth.camera.width = c.sim.depth.camera.height = 32;
+  c.pretrain.house.min_rooms = 2;
+  c.pretrain.house.max_rooms = 3;
+  c.pretrain.house.floor_hole_probability = 0.0f;
+  c.output.dir = runDir.string();
+  return c;
+}
+
+/// The records of a metrics.jsonl file, in order.
+inline std::vector<nlohmann::json> readJsonLines(
+    const std::filesystem::path& file) {
+  std::ifstream in(file);
+  std::vector<nlohmann::json> lines;
+  for (std::string line; std::getline(in, line);)
+    lines.push_back(nlohmann::json::parse(line));
+  return lines;
+}
+
+/// Expects the tensors `loaded` into an encoder (models::namedState() after
+/// loadPretrained()) to be those `saved` in its weight file, name by name,
+/// and frozen.
+inline void expectLoadedFrozen(const models::NamedTensors& saved,
+                               const models::NamedTensors& loaded) {
+  ASSERT_EQ(saved.size(), loaded.size());
+  for (size_t i = 0; i < saved.size(); ++i) {
+    EXPECT_EQ(saved[i].first, loaded[i].first);
+    EXPECT_TRUE(torch::equal(saved[i].second, loaded[i].second))
+        << saved[i].first;
+    EXPECT_FALSE(loaded[i].second.requires_grad())
+        << saved[i].first << " is not frozen";
+  }
+}
+
+}  // namespace vln::train::test
