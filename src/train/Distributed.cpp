@@ -39,10 +39,10 @@ int parseIntVariable(const char* name, const char* text, int lo, int hi) {
   int parsed = 0;
   const auto [end, ec] =
       std::from_chars(value.data(), value.data() + value.size(), parsed);
-  VLN_CHECK_ARG(ec == std::errc() && end == value.data() + value.size() &&
-                    !value.empty(),
-                "distributed training: environment variable ", name, "='",
-                value, "' is not an integer");
+  VLN_CHECK_ARG(
+      ec == std::errc() && end == value.data() + value.size() && !value.empty(),
+      "distributed training: environment variable ", name, "='", value,
+      "' is not an integer");
   VLN_CHECK_ARG(parsed >= lo && parsed <= hi,
                 "distributed training: environment variable ", name, "=",
                 parsed, " is outside [", lo, ", ", hi, "]");
@@ -121,11 +121,20 @@ std::optional<DistributedEnv> parseDistributedEnv(
   env.local_rank = local != nullptr && *local != '\0'
                        ? parseIntVariable("LOCAL_RANK", local, 0, 1 << 20)
                        : env.rank;
+  // torchrun's static rendezvous: its agent hosts the store on MASTER_PORT
+  const char* agentStore = getenv("TORCHELASTIC_USE_AGENT_STORE");
+  env.use_agent_store =
+      agentStore != nullptr && std::string_view(agentStore) == "True";
+  const char* restarts = getenv("TORCHELASTIC_RESTART_COUNT");
+  if (restarts != nullptr && *restarts != '\0')
+    env.restart_count =
+        parseIntVariable("TORCHELASTIC_RESTART_COUNT", restarts, 0, 1 << 30);
   return env;
 }
 
 std::optional<DistributedEnv> distributedEnvFromEnvironment() {
-  return parseDistributedEnv([](const char* name) { return std::getenv(name); });
+  return parseDistributedEnv(
+      [](const char* name) { return std::getenv(name); });
 }
 
 bool ncclCompiledIn() {
@@ -176,11 +185,12 @@ struct Distributed::Impl {
       throw;
     } catch (const std::exception& error) {
       throw std::runtime_error(strCat(
-          "Distributed: rank ", rank, " could not form the process group of "
-          "WORLD_SIZE=", world, " ranks through ", endpoint, " within ",
-          seconds(options.timeout),
+          "Distributed: rank ", rank,
+          " could not form the process group of WORLD_SIZE=", world,
+          " ranks through ", endpoint, " within ", seconds(options.timeout),
           " s (trainer.distributed_timeout_s; did every rank start, with the "
-          "same WORLD_SIZE?): ", errorText(error)));
+          "same WORLD_SIZE?): ",
+          errorText(error)));
     }
   }
 
@@ -192,12 +202,12 @@ struct Distributed::Impl {
       c10::intrusive_ptr<c10d::Work> work = start();
       work->wait();
     } catch (const std::exception& error) {
-      throw std::runtime_error(strCat(
-          "Distributed: rank ", rank, " of ", world, ": ", what,
-          " failed (another rank stopped, or it took longer than "
-          "trainer.distributed_timeout_s = ",
-          seconds(options.timeout), " s; see the other ranks' logs): ",
-          errorText(error)));
+      throw std::runtime_error(
+          strCat("Distributed: rank ", rank, " of ", world, ": ", what,
+                 " failed (another rank stopped, or it took longer than "
+                 "trainer.distributed_timeout_s = ",
+                 seconds(options.timeout),
+                 " s; see the other ranks' logs): ", errorText(error)));
     }
   }
 
@@ -258,34 +268,39 @@ Distributed::~Distributed() = default;
 
 std::unique_ptr<Distributed> Distributed::connect(
     const DistributedEnv& env, const DistributedOptions& options) {
-  VLN_CHECK_ARG(env.world_size >= 2 && env.rank >= 0 &&
-                    env.rank < env.world_size,
-                "Distributed::connect(): RANK=", env.rank,
-                " must be in [0, WORLD_SIZE=", env.world_size,
-                ") with WORLD_SIZE >= 2");
+  VLN_CHECK_ARG(
+      env.world_size >= 2 && env.rank >= 0 && env.rank < env.world_size,
+      "Distributed::connect(): RANK=", env.rank,
+      " must be in [0, WORLD_SIZE=", env.world_size, ") with WORLD_SIZE >= 2");
   auto impl = std::make_unique<Impl>();
   impl->rank = env.rank;
   impl->world = env.world_size;
   impl->options = options;
   impl->endpoint = strCat("MASTER_ADDR:MASTER_PORT = ", env.master_addr, ":",
                           env.master_port);
-  // rank 0 hosts the store; everyone, rank 0 included, connects to it
+  // rank 0 hosts the store (unless torchrun's agent does); everyone, rank
+  // 0 included, connects to it
   c10d::TCPStoreOptions storeOptions;
   storeOptions.port = static_cast<uint16_t>(env.master_port);
-  storeOptions.isServer = env.rank == 0;
+  storeOptions.isServer = env.rank == 0 && !env.use_agent_store;
   storeOptions.numWorkers = static_cast<size_t>(env.world_size);
   storeOptions.waitWorkers = false;  // the process group waits for them
   storeOptions.timeout = options.timeout;
   try {
     impl->store =
         c10::make_intrusive<c10d::TCPStore>(env.master_addr, storeOptions);
+    // the agent's store outlives a restarted attempt: keys of this one only
+    if (env.use_agent_store)
+      impl->store = c10::make_intrusive<c10d::PrefixStore>(
+          strCat("/worker/attempt_", env.restart_count), impl->store);
   } catch (const std::exception& error) {
-    if (env.rank == 0)
+    if (storeOptions.isServer)
       throw std::runtime_error(strCat(
-          "Distributed::connect(): rank 0 could not host the rendezvous store "
-          "at ",
-          impl->endpoint, " (is MASTER_PORT in use, or MASTER_ADDR not an "
-          "address of this machine?): ",
+          "Distributed::connect(): rank 0 could not host the rendezvous "
+          "store at ",
+          impl->endpoint,
+          " (is MASTER_PORT in use, or MASTER_ADDR not an address of this "
+          "machine?): ",
           errorText(error)));
     throw std::runtime_error(strCat(
         "Distributed::connect(): rank ", env.rank,
@@ -296,8 +311,9 @@ std::unique_ptr<Distributed> Distributed::connect(
         errorText(error)));
   }
   impl->createGroup(env.master_addr);
-  spdlog::info("distributed: rank {} of {} joined through {} ({})", env.rank,
+  spdlog::info("distributed: rank {} of {} joined through {}{} ({})", env.rank,
                env.world_size, impl->endpoint,
+               env.use_agent_store ? " (torchrun's store)" : "",
                options.backend == CollectiveBackend::kNccl ? "nccl" : "gloo");
   return std::unique_ptr<Distributed>(new Distributed(std::move(impl)));
 }
@@ -314,11 +330,13 @@ std::unique_ptr<Distributed> Distributed::overFileStore(
   impl->options = options;
   impl->endpoint = "the file store '" + file.string() + "'";
   try {
-    impl->store = c10::make_intrusive<c10d::FileStore>(file.string(), worldSize);
+    impl->store =
+        c10::make_intrusive<c10d::FileStore>(file.string(), worldSize);
     impl->store->setTimeout(options.timeout);
   } catch (const std::exception& error) {
-    throw std::runtime_error(strCat("Distributed::overFileStore(): cannot open '",
-                                    file.string(), "': ", errorText(error)));
+    throw std::runtime_error(
+        strCat("Distributed::overFileStore(): cannot open '", file.string(),
+               "': ", errorText(error)));
   }
   impl->createGroup("");
   return std::unique_ptr<Distributed>(new Distributed(std::move(impl)));
@@ -343,10 +361,10 @@ void Distributed::waitForAll(const std::string& what) {
   common::Stopwatch clock;
   double nextLog = 60.0;
   auto storeFailed = [&](const std::exception& error) {
-    return std::runtime_error(strCat(
-        "Distributed: rank ", d.rank, " lost the rendezvous store at ",
-        d.endpoint, " while waiting for every rank at '", what,
-        "' (rank 0 hosts it: did it stop?): ", errorText(error)));
+    return std::runtime_error(
+        strCat("Distributed: rank ", d.rank, " lost the rendezvous store at ",
+               d.endpoint, " while waiting for every rank at '", what,
+               "' (rank 0 hosts it: did it stop?): ", errorText(error)));
   };
   try {
     // the last rank to arrive marks the point as reached by all
@@ -356,22 +374,24 @@ void Distributed::waitForAll(const std::string& what) {
     while (!d.store->check({allKey})) {
       if (d.store->check({kAbortKey})) {
         const std::vector<uint8_t> message = d.store->get(kAbortKey);
-        throw std::runtime_error(strCat(
-            "Distributed: rank ", d.rank, " stopped while waiting for every "
-            "rank at '", what, "' because ",
-            std::string(message.begin(), message.end())));
+        throw std::runtime_error(
+            strCat("Distributed: rank ", d.rank,
+                   " stopped while waiting for every rank at '", what,
+                   "' because ", std::string(message.begin(), message.end())));
       }
       const double waited = clock.seconds();
       if (waited > seconds(d.options.wait_timeout))
-        throw std::runtime_error(strCat(
-            "Distributed: rank ", d.rank, " waited ", static_cast<int64_t>(waited),
-            " s for every rank at '", what, "': ", d.store->add(key, 0), " of ",
-            d.world, " arrived (trainer.distributed_wait_s = ",
-            seconds(d.options.wait_timeout), ")"));
+        throw std::runtime_error(
+            strCat("Distributed: rank ", d.rank, " waited ",
+                   static_cast<int64_t>(waited), " s for every rank at '", what,
+                   "': ", d.store->add(key, 0), " of ", d.world,
+                   " arrived (trainer.distributed_wait_s = ",
+                   seconds(d.options.wait_timeout), ")"));
       if (waited > nextLog) {
-        spdlog::info("rank {}: waiting for the other ranks at '{}' ({} of {} "
-                     "arrived, {:.0f} s)",
-                     d.rank, what, d.store->add(key, 0), d.world, waited);
+        spdlog::info(
+            "rank {}: waiting for the other ranks at '{}' ({} of {} "
+            "arrived, {:.0f} s)",
+            d.rank, what, d.store->add(key, 0), d.world, waited);
         nextLog += 60.0;
       }
       std::this_thread::sleep_for(pause);
@@ -387,13 +407,15 @@ void Distributed::waitForAll(const std::string& what) {
 void Distributed::abort(const std::string& message) noexcept {
   try {
     const std::string text = strCat("rank ", impl_->rank, " failed: ", message);
-    impl_->store->set(kAbortKey, std::vector<uint8_t>(text.begin(), text.end()));
+    impl_->store->set(kAbortKey,
+                      std::vector<uint8_t>(text.begin(), text.end()));
   } catch (...) {
     // the store may be gone already (rank 0 stopped): nothing left to tell
   }
 }
 
-void Distributed::averageGradients(const std::vector<torch::Tensor>& parameters) {
+void Distributed::averageGradients(
+    const std::vector<torch::Tensor>& parameters) {
   Impl& d = *impl_;
   // which gradients exist on how many ranks
   std::vector<double> defined(parameters.size());
@@ -440,9 +462,10 @@ void Distributed::broadcastOptimizer(torch::optim::Optimizer& optimizer,
 std::string Distributed::broadcastBytes(const std::string& bytes, int root) {
   Impl& d = *impl_;
   VLN_ASSERT(root >= 0 && root < d.world);
-  torch::Tensor size = torch::full(
-      {1}, d.rank == root ? static_cast<int64_t>(bytes.size()) : 0,
-      torch::kInt64).to(d.commDevice);
+  torch::Tensor size =
+      torch::full({1}, d.rank == root ? static_cast<int64_t>(bytes.size()) : 0,
+                  torch::kInt64)
+          .to(d.commDevice);
   d.broadcast(size, root, "the broadcast of a byte string's size");
   const int64_t n = size.to(torch::kCPU).item<int64_t>();
   if (n == 0) return {};
@@ -455,11 +478,11 @@ std::string Distributed::broadcastBytes(const std::string& bytes, int root) {
                      static_cast<size_t>(n));
 }
 
-std::vector<double> Distributed::allReduceSum(const std::vector<double>& values) {
+std::vector<double> Distributed::allReduceSum(
+    const std::vector<double>& values) {
   Impl& d = *impl_;
   if (values.empty()) return {};
-  torch::Tensor t =
-      torch::tensor(values, torch::kFloat64).to(d.commDevice);
+  torch::Tensor t = torch::tensor(values, torch::kFloat64).to(d.commDevice);
   d.allReduce(t, c10d::ReduceOp::SUM, "the all-reduce of metrics");
   t = t.to(torch::kCPU).contiguous();
   return std::vector<double>(t.data_ptr<double>(),
@@ -528,8 +551,8 @@ void Distributed::collectively(const std::string& what,
   const int root = static_cast<int>(first - failed.begin());
   const std::string firstMessage = broadcastBytes(message, root);
   if (error) std::rethrow_exception(error);
-  throw std::runtime_error(strCat("rank ", root, " failed during ", what, ": ",
-                                  firstMessage));
+  throw std::runtime_error(
+      strCat("rank ", root, " failed during ", what, ": ", firstMessage));
 }
 
 }  // namespace vln::train

@@ -4,7 +4,9 @@
 // ProcessGroupGloo on the CPU, ProcessGroupNCCL when this LibTorch was built
 // with CUDA and NCCL (compile-time guard VLN_WITH_NCCL) and the model runs on
 // a GPU. Rendezvous follows torchrun: RANK, WORLD_SIZE, LOCAL_RANK,
-// MASTER_ADDR and MASTER_PORT, through a TCPStore that rank 0 hosts.
+// MASTER_ADDR and MASTER_PORT, through a TCPStore that rank 0 hosts (or,
+// under torchrun's static rendezvous, TORCHELASTIC_USE_AGENT_STORE=True,
+// the one torchrun's agent hosts there, as PyTorch's env:// does).
 //
 // Every collective here must be called by every rank in the same order
 // (c10d's rule). Collectives fail after DistributedOptions::timeout; the
@@ -31,11 +33,18 @@ namespace vln::train {
 
 /// One process's place in a multi-process run, as torchrun exports it.
 struct DistributedEnv {
-  int rank = 0;             ///< RANK, in [0, world_size)
-  int world_size = 1;       ///< WORLD_SIZE
-  int local_rank = 0;       ///< LOCAL_RANK (GPU index on its machine); RANK when unset
+  int rank = 0;        ///< RANK, in [0, world_size)
+  int world_size = 1;  ///< WORLD_SIZE
+  int local_rank =
+      0;  ///< LOCAL_RANK (GPU index on its machine); RANK when unset
   std::string master_addr;  ///< MASTER_ADDR: host of rank 0's TCPStore
   int master_port = 0;      ///< MASTER_PORT, in [1, 65535]
+  /// TORCHELASTIC_USE_AGENT_STORE=True: torchrun's agent already hosts the
+  /// TCPStore at MASTER_ADDR:MASTER_PORT; every rank, rank 0 included,
+  /// connects to it as a client, under the key prefix
+  /// "/worker/attempt_<TORCHELASTIC_RESTART_COUNT>" (PyTorch's choice).
+  bool use_agent_store = false;
+  int restart_count = 0;  ///< TORCHELASTIC_RESTART_COUNT (0 when unset)
 };
 
 /// Parses the torchrun variables through `getenv` (returns nullptr for an
@@ -73,15 +82,16 @@ struct DistributedOptions {
 class Distributed {
  public:
   /// Joins the run described by `env`: rank 0 hosts a TCPStore on
-  /// MASTER_PORT (all interfaces), every rank connects to
-  /// MASTER_ADDR:MASTER_PORT and the process group is built over it. Gloo
+  /// MASTER_PORT (all interfaces; not with env.use_agent_store), every rank
+  /// connects to MASTER_ADDR:MASTER_PORT and the process group is built over
+  /// it. Gloo
   /// uses the interface named by GLOO_SOCKET_IFNAME when set, loopback when
   /// MASTER_ADDR is a loopback address, else the interface of this host's
   /// name. Throws std::runtime_error naming MASTER_ADDR:MASTER_PORT when the
   /// master cannot be reached, the port cannot be bound, or not every rank
   /// joined within options.timeout.
-  static std::unique_ptr<Distributed> connect(const DistributedEnv& env,
-                                              const DistributedOptions& options);
+  static std::unique_ptr<Distributed> connect(
+      const DistributedEnv& env, const DistributedOptions& options);
 
   /// A process group over a c10d FileStore at `file` (every rank passes the
   /// same path on a shared filesystem; tests use it with threads). Gloo on

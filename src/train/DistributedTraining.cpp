@@ -45,7 +45,8 @@ std::map<std::string, std::string> parseLines(const std::string& text) {
     if (end == std::string::npos) end = text.size();
     const std::string line = text.substr(begin, end - begin);
     const size_t eq = line.find('=');
-    if (eq != std::string::npos) values[line.substr(0, eq)] = line.substr(eq + 1);
+    if (eq != std::string::npos)
+      values[line.substr(0, eq)] = line.substr(eq + 1);
     begin = end + 1;
   }
   return values;
@@ -84,8 +85,8 @@ std::unique_ptr<Distributed> connectForTraining(ExperimentConfig& config) {
                   config.model.device, "' (CUDA available: ",
                   torch::cuda::is_available() ? "yes" : "no", ")");
     options.backend = CollectiveBackend::kNccl;
-  } else if (t.distributed_backend == "auto" && ncclCompiledIn() &&
-             cudaModel && torch::cuda::is_available()) {
+  } else if (t.distributed_backend == "auto" && ncclCompiledIn() && cudaModel &&
+             torch::cuda::is_available()) {
     options.backend = CollectiveBackend::kNccl;
   }
   options.timeout = std::chrono::milliseconds(
@@ -103,9 +104,9 @@ std::unique_ptr<Distributed> connectForTraining(ExperimentConfig& config) {
 
 const std::vector<std::string>& rankLocalConfigKeys() {
   static const std::vector<std::string> keys = {
-      "output.dir",           "sim.scenes_dir",          "dataset.data_path",
-      "model.rgb_weights",    "model.depth_weights",     "trainer.init_checkpoint",
-      "model.device",         "output.log_level",        "trainer.env_threads",
+      "output.dir",        "sim.scenes_dir",      "dataset.data_path",
+      "model.rgb_weights", "model.depth_weights", "trainer.init_checkpoint",
+      "model.device",      "output.log_level",    "trainer.env_threads",
       "eval.threads"};
   return keys;
 }
@@ -155,19 +156,20 @@ fs::path rankLogFile(const fs::path& runDir, int rank) {
 }
 
 void checkRunWorldSize(const fs::path& runDir, int worldSize, bool resume) {
-  if (!resume) return;
+  // a fresh run, or no run at all (checkResumeConfig() says so)
+  if (!resume || !fs::exists(runDir / "config.yaml")) return;
   const fs::path file = runDir / "distributed.json";
   int runWorld = 1;
   if (fs::exists(file))
     runWorld = common::requireField<int>(common::readJsonFile(file),
                                          "world_size", file.string());
-  VLN_CHECK_ARG(
-      runWorld == worldSize, "train --resume: the run in '", runDir.string(),
-      "' was trained by ", runWorld, " process(es) (",
-      runWorld > 1 ? file.string() : "it has no distributed.json",
-      ") but WORLD_SIZE is now ", worldSize,
-      ": resume it with WORLD_SIZE=", runWorld,
-      " (each rank resumes its own store shard)");
+  VLN_CHECK_ARG(runWorld == worldSize, "train --resume: the run in '",
+                runDir.string(), "' was trained by ", runWorld,
+                " process(es) (",
+                runWorld > 1 ? file.string() : "it has no distributed.json",
+                ") but WORLD_SIZE is now ", worldSize,
+                ": resume it with WORLD_SIZE=", runWorld,
+                " (each rank resumes its own store shard)");
 }
 
 void writeRunWorldSize(const fs::path& runDir, int worldSize) {

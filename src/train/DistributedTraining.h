@@ -45,14 +45,16 @@ std::string rankConfigHash(const ExperimentConfig& config);
 /// Throws on every rank when any rank's config differs from rank 0's in a
 /// key outside rankLocalConfigKeys(); the failing rank's message lists the
 /// keys with both values, the others quote it.
-void checkSameConfigOnAllRanks(Distributed& dist, const ExperimentConfig& config);
+void checkSameConfigOnAllRanks(Distributed& dist,
+                               const ExperimentConfig& config);
 
 /// <runDir>/store/rank<rank>.
 std::filesystem::path storeShardDir(const std::filesystem::path& runDir,
                                     int rank);
 
 /// The log file of `rank`: train.log for rank 0, train.rank<r>.log else.
-std::filesystem::path rankLogFile(const std::filesystem::path& runDir, int rank);
+std::filesystem::path rankLogFile(const std::filesystem::path& runDir,
+                                  int rank);
 
 /// For --resume: throws std::invalid_argument when the run in `runDir` was
 /// trained with another number of processes than `worldSize` (its

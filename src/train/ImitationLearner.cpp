@@ -2,6 +2,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/Check.h"
@@ -85,15 +86,29 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
       policy_->forwardSequence(instruction, inputs, policy_->initialHidden(B));
   const torch::Tensor weights =
       models::inflectionWeights(actions, valid, inflectionCoef_);
-  const torch::Tensor actionLoss =
+  torch::Tensor actionLoss =
       models::weightedActionLoss(out.logits, actions, weights);
-  torch::Tensor loss = actionLoss;
   torch::Tensor progressLoss;
-  if (model.progress_monitor) {
+  if (model.progress_monitor)
     progressLoss =
         models::progressLoss(out.progress, to(batch.progress), valid);
-    loss = loss + config_.trainer.progress_loss_weight * progressLoss;
+  // multi-process: the update is that of the union of the ranks' batches.
+  // The action loss is a mean over episodes and the progress loss one over
+  // steps, so this rank's terms are weighted by its share of the episodes
+  // and steps of all ranks; times the world size, which the gradient
+  // averaging divides out again.
+  if (dist_) {
+    const std::vector<double> counts = dist_->allReduceSum(
+        {static_cast<double>(B), static_cast<double>(batch.steps)});
+    const auto world = static_cast<double>(dist_->worldSize());
+    actionLoss = actionLoss * (world * static_cast<double>(B) / counts[0]);
+    if (progressLoss.defined())
+      progressLoss = progressLoss * (world * static_cast<double>(batch.steps) /
+                                     std::max(counts[1], 1.0));
   }
+  torch::Tensor loss = actionLoss;
+  if (progressLoss.defined())
+    loss = loss + config_.trainer.progress_loss_weight * progressLoss;
   if (lossHook_) loss = lossHook_(loss);
 
   UpdateResult result;
@@ -107,7 +122,8 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   bool skip = !finiteHere;
   if (dist_) {
     // every rank skips when any rank's loss is non-finite (the all-reduces
-    // must pair up); the reported losses are the means over the ranks
+    // must pair up); the reported losses are those of the union of the
+    // batches: the means of the ranks' weighted terms
     const std::vector<double> sums = dist_->allReduceSum(
         {skip ? 1.0 : 0.0, skip ? 0.0 : result.loss,
          skip ? 0.0 : result.action_loss, skip ? 0.0 : result.progress_loss,
@@ -115,10 +131,10 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
          static_cast<double>(result.episodes)});
     skip = sums[0] > 0.0;
     if (!skip) {
-      const auto ranks = static_cast<double>(dist_->worldSize());
-      result.loss = sums[1] / ranks;
-      result.action_loss = sums[2] / ranks;
-      result.progress_loss = sums[3] / ranks;
+      const auto world = static_cast<double>(dist_->worldSize());
+      result.loss = sums[1] / world;
+      result.action_loss = sums[2] / world;
+      result.progress_loss = sums[3] / world;
     }
     result.steps = static_cast<int64_t>(sums[4]);
     result.episodes = static_cast<int64_t>(sums[5]);

@@ -60,13 +60,16 @@ class ImitationLearner {
                    const ExperimentConfig& config);
 
   /// Trains as one rank of a multi-process run (Distributed.h; nullptr:
-  /// this process alone, the default). Then every update averages the
-  /// gradients over the ranks before clipping and the step, a non-finite
-  /// loss on any rank skips the update on every rank, UpdateResult holds
-  /// the means of the ranks' losses and the sums of their steps and
-  /// episodes (grad_norm is that of the averaged gradient), and every
-  /// epoch has as many updates on every rank (trainEpoch()). `dist` must
-  /// outlive the learner.
+  /// this process alone, the default). Then every update is that of the
+  /// union of the ranks' batches: each rank weights its action loss (a mean
+  /// over episodes) by its share of all ranks' episodes and its progress
+  /// loss (a mean over steps) by its share of their steps, the gradients
+  /// are combined over the ranks before clipping and the step, a non-finite
+  /// loss on any rank skips the update on every rank, and UpdateResult
+  /// holds the union's losses, steps and episodes (grad_norm is that of the
+  /// combined gradient). Every epoch has as many updates on every rank
+  /// (trainEpoch()). Two all-reduces of counters and one of the gradients
+  /// per update. `dist` must outlive the learner.
   void setDistributed(Distributed* dist) { dist_ = dist; }
 
   /// Inflection coefficient of the action loss.

@@ -62,24 +62,33 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   const std::unique_ptr<Distributed> dist = connectForTraining(rankConfig);
   const bool master = !dist || dist->isMaster();
   if (dist) {
-    VLN_CHECK_ARG(config.trainer.task == "vln", "train: trainer.task '",
-                  config.trainer.task,
-                  "' trains in one process only, but WORLD_SIZE=",
-                  dist->worldSize(), " (unset WORLD_SIZE or set "
-                  "trainer.distributed: off)");
+    VLN_CHECK_ARG(
+        config.trainer.task == "vln", "train: trainer.task '",
+        config.trainer.task,
+        "' trains in one process only, but WORLD_SIZE=", dist->worldSize(),
+        " (unset WORLD_SIZE or set "
+        "trainer.distributed: off)");
     checkSameConfigOnAllRanks(*dist, config);
+    // every rank resumes, or none (a fresh rank 0 would otherwise train
+    // from scratch next to ranks that reopened their store shards)
+    const double resuming =
+        dist->allReduceSum({options.resume ? 1.0 : 0.0}).front();
+    VLN_CHECK_ARG(resuming == 0.0 || resuming == dist->worldSize(),
+                  "train: --resume was given to ", resuming, " of the ",
+                  dist->worldSize(),
+                  " ranks; give it to every rank or to none");
   }
   const fs::path runDir = config.output.dir;
   auto checkRunDirectory = [&] {
     if (options.resume) {
-      // rank 0 owns config.yaml; the others run rank 0's config (checked)
+      // rank 0 owns config.yaml; the others run rank 0's config (checked).
+      // The process count first: a run cannot change it at all.
       if (master) {
+        checkRunWorldSize(runDir, dist ? dist->worldSize() : 1, options.resume);
         const auto changed = checkResumeConfig(
             runDir, config, overriddenKeys(options.overrides));
         for (const auto& key : changed)
           out << "train --resume: " << key << " changed (allowed)\n";
-        checkRunWorldSize(runDir, dist ? dist->worldSize() : 1,
-                          options.resume);
       }
     } else {
       checkFreshRunDirectory(runDir);
@@ -96,8 +105,8 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   common::initLogging(rankLogFile(runDir, dist ? dist->rank() : 0),
                       config.output.log_level);
   if (dist)
-    spdlog::set_pattern(strCat("[%H:%M:%S.%e] [rank ", dist->rank(),
-                               "] [%^%l%$] %v"));
+    spdlog::set_pattern(
+        strCat("[%H:%M:%S.%e] [rank ", dist->rank(), "] [%^%l%$] %v"));
   spdlog::info("train {} in {}{}", config.trainer.task, runDir.string(),
                options.resume ? " (resume)" : "");
 

@@ -263,10 +263,10 @@ struct VlnTrainer::Impl {
     storeEpisodes = store->size();
     storeBytesPerStep = store->bytesPerStep();
     if (!dist) return;
-    const std::vector<double> sums = dist->allReduceSum(
-        {static_cast<double>(store->size()),
-         static_cast<double>(store->totalBytes()),
-         static_cast<double>(store->totalSteps())});
+    const std::vector<double> sums =
+        dist->allReduceSum({static_cast<double>(store->size()),
+                            static_cast<double>(store->totalBytes()),
+                            static_cast<double>(store->totalSteps())});
     storeEpisodes = static_cast<int64_t>(sums[0]);
     storeBytesPerStep = sums[2] > 0.0 ? sums[1] / sums[2] : 0.0;
   }
@@ -530,18 +530,17 @@ struct VlnTrainer::Impl {
            static_cast<double>(stats.gt_identical),
            static_cast<double>(stats.gt_steps),
            static_cast<double>(stats.gt_equal_steps)});
-      int64_t* fields[] = {&stats.episodes,     &stats.skipped,
-                           &stats.steps,        &stats.oracle_steps,
-                           &stats.cut_at_limit, &stats.gt_episodes,
-                           &stats.gt_identical, &stats.gt_steps,
-                           &stats.gt_equal_steps};
+      int64_t* fields[] = {
+          &stats.episodes,     &stats.skipped,      &stats.steps,
+          &stats.oracle_steps, &stats.cut_at_limit, &stats.gt_episodes,
+          &stats.gt_identical, &stats.gt_steps,     &stats.gt_equal_steps};
       for (size_t i = 0; i < std::size(fields); ++i)
         *fields[i] = static_cast<int64_t>(sums[i]);
-      stats.seconds = static_cast<double>(
-                          dist->allReduceMax({static_cast<int64_t>(
-                              stats.seconds * 1000.0)})
-                              .front()) /
-                      1000.0;
+      stats.seconds =
+          static_cast<double>(
+              dist->allReduceMax({static_cast<int64_t>(stats.seconds * 1000.0)})
+                  .front()) /
+          1000.0;
     }
     updateStoreTotals();
     if (!master()) return;
@@ -669,9 +668,8 @@ struct VlnTrainer::Impl {
           *agent, envs, *episodes, split.groundTruth.get(), ec,
           [&](int, int) { line.advance(); });
       const eval::SplitStats stats =
-          dist ? combineShards(result.stats,
-                               strCat("the evaluation of checkpoint ", index,
-                                      " on ", split.name))
+          dist ? combineShards(result, strCat("the evaluation of checkpoint ",
+                                              index, " on ", split.name))
                : result.stats;
       if (master()) eval::writeStatsFile(evalDir, index, split.name, stats);
       const auto& m = stats.mean;
@@ -679,9 +677,8 @@ struct VlnTrainer::Impl {
           "ckpt {} {} ({} episodes, {:.1f} s): TL {:.2f} NE {:.2f} nDTW {:.3f} "
           "OS {:.3f} "
           "SR {:.3f} SPL {:.3f}",
-          index, split.name, stats.num_episodes, clock.seconds(),
-          m.path_length, m.distance_to_goal, m.ndtw, m.oracle_success,
-          m.success, m.spl);
+          index, split.name, stats.num_episodes, clock.seconds(), m.path_length,
+          m.distance_to_goal, m.ndtw, m.oracle_success, m.success, m.spl);
       nlohmann::json record = metricsJson(m);
       record["checkpoint"] = index;
       record["split"] = split.name;
@@ -698,25 +695,36 @@ struct VlnTrainer::Impl {
     return recordEvaluation(index, selectionSpl);
   }
 
-  // the whole split's means from every rank's shard (after all finished)
-  eval::SplitStats combineShards(const eval::SplitStats& mine,
+  // the whole split's means from every rank's shard (after all finished):
+  // the sums of the scored episodes' metrics over the ranks, divided by
+  // their count (as eval::aggregate() does in one process, up to the order
+  // of the additions)
+  eval::SplitStats combineShards(const eval::EvaluationResult& mine,
                                  const std::string& what) {
     dist->waitForAll(what);
-    const eval::EpisodeMetrics& m = mine.mean;
-    const auto n = static_cast<double>(mine.num_episodes);
-    const std::vector<double> sums = dist->allReduceSum(
-        {m.distance_to_goal * n, m.success * n, m.spl * n, m.ndtw * n,
-         m.sdtw * n, m.path_length * n, m.oracle_success * n,
-         m.steps_taken * n, n});
+    using M = eval::EpisodeMetrics;
+    static constexpr double M::*kFields[] = {&M::distance_to_goal,
+                                             &M::success,
+                                             &M::spl,
+                                             &M::ndtw,
+                                             &M::sdtw,
+                                             &M::path_length,
+                                             &M::oracle_success,
+                                             &M::steps_taken};
+    constexpr size_t kCount = std::size(kFields);
+    std::vector<double> sums(kCount + 1, 0.0);
+    for (size_t i = 0; i < mine.episodes.size(); ++i) {
+      if (!mine.scored[i]) continue;
+      for (size_t f = 0; f < kCount; ++f)
+        sums[f] += mine.episodes[i].metrics.*kFields[f];
+      sums[kCount] += 1.0;
+    }
+    sums = dist->allReduceSum(sums);
     eval::SplitStats all;
-    all.num_episodes = static_cast<int>(sums[8]);
+    all.num_episodes = static_cast<int>(sums[kCount]);
     if (all.num_episodes == 0) return all;
-    double* fields[] = {&all.mean.distance_to_goal, &all.mean.success,
-                        &all.mean.spl,              &all.mean.ndtw,
-                        &all.mean.sdtw,             &all.mean.path_length,
-                        &all.mean.oracle_success,   &all.mean.steps_taken};
-    for (size_t i = 0; i < std::size(fields); ++i)
-      *fields[i] = sums[i] / sums[8];
+    for (size_t f = 0; f < kCount; ++f)
+      all.mean.*kFields[f] = sums[f] / sums[kCount];
     return all;
   }
 
@@ -729,11 +737,11 @@ struct VlnTrainer::Impl {
       evalsSinceBest = 0;
       if (master())
         common::writeJsonFile(checkpointDir / "best.json",
-                            {{"checkpoint", checkpointFileName(index)},
-                             {"index", index},
-                             {"split", config.eval.selection_split},
-                             {"spl", spl}},
-                            2);
+                              {{"checkpoint", checkpointFileName(index)},
+                               {"index", index},
+                               {"split", config.eval.selection_split},
+                               {"spl", spl}},
+                              2);
       spdlog::info("new best checkpoint {}: {} SPL {:.4f}", index,
                    config.eval.selection_split, spl);
     } else {
@@ -791,8 +799,8 @@ struct VlnTrainer::Impl {
         epoch, [&](const UpdateResult& u) {
           if (u.skipped) {
             writeMetrics("nonfinite",
-                           {{"update", learner->updates()}, {"loss", u.loss}},
-                           {}, learner->updates());
+                         {{"update", learner->updates()}, {"loss", u.loss}}, {},
+                         learner->updates());
             return;
           }
           if (learner->updates() % config.trainer.log_every_updates != 0)
@@ -803,19 +811,19 @@ struct VlnTrainer::Impl {
               learner->updates(), u.loss, u.action_loss, u.progress_loss,
               u.grad_norm);
           writeMetrics("update",
-                         {{"update", learner->updates()},
-                          {"epoch", epochsDone},
-                          {"iteration", iteration},
-                          {"loss", u.loss},
-                          {"action_loss", u.action_loss},
-                          {"progress_loss", u.progress_loss},
-                          {"grad_norm", u.grad_norm},
-                          {"steps", u.steps}},
-                         {{"train/loss", u.loss},
-                          {"train/action_loss", u.action_loss},
-                          {"train/progress_loss", u.progress_loss},
-                          {"train/grad_norm", u.grad_norm}},
-                         learner->updates());
+                       {{"update", learner->updates()},
+                        {"epoch", epochsDone},
+                        {"iteration", iteration},
+                        {"loss", u.loss},
+                        {"action_loss", u.action_loss},
+                        {"progress_loss", u.progress_loss},
+                        {"grad_norm", u.grad_norm},
+                        {"steps", u.steps}},
+                       {{"train/loss", u.loss},
+                        {"train/action_loss", u.action_loss},
+                        {"train/progress_loss", u.progress_loss},
+                        {"train/grad_norm", u.grad_norm}},
+                       learner->updates());
         });
     ++epochsDone;
     const double rate =
@@ -829,22 +837,22 @@ struct VlnTrainer::Impl {
         r.mean.loss, r.mean.action_loss, r.mean.progress_loss, storeEpisodes);
     checkRanksAgree(strCat("after epoch ", epochsDone));
     writeMetrics("epoch",
-                   {{"epoch", epochsDone},
-                    {"iteration", iteration},
-                    {"updates", r.updates},
-                    {"skipped", r.skipped},
-                    {"seconds", r.seconds},
-                    {"updates_per_second", rate},
-                    {"loss", r.mean.loss},
-                    {"action_loss", r.mean.action_loss},
-                    {"progress_loss", r.mean.progress_loss},
-                    {"store_episodes", storeEpisodes},
-                    {"inflection_coef", learner->inflectionCoef()}},
-                   {{"epoch/loss", r.mean.loss},
-                    {"epoch/action_loss", r.mean.action_loss},
-                    {"epoch/progress_loss", r.mean.progress_loss},
-                    {"epoch/updates_per_second", rate}},
-                   epochsDone);
+                 {{"epoch", epochsDone},
+                  {"iteration", iteration},
+                  {"updates", r.updates},
+                  {"skipped", r.skipped},
+                  {"seconds", r.seconds},
+                  {"updates_per_second", rate},
+                  {"loss", r.mean.loss},
+                  {"action_loss", r.mean.action_loss},
+                  {"progress_loss", r.mean.progress_loss},
+                  {"store_episodes", storeEpisodes},
+                  {"inflection_coef", learner->inflectionCoef()}},
+                 {{"epoch/loss", r.mean.loss},
+                  {"epoch/action_loss", r.mean.action_loss},
+                  {"epoch/progress_loss", r.mean.progress_loss},
+                  {"epoch/updates_per_second", rate}},
+                 epochsDone);
   }
 
   void finish(const std::string& reason) {

@@ -37,9 +37,10 @@
 //
 // Multi-process (docs/distributed.md, DistributedTraining.h): rank r
 // collects the slots k of every round with k % WORLD_SIZE == r into its own
-// store shard (store/rank<r>/) and trains on it; every update averages the
-// gradients of all ranks (ImitationLearner::setDistributed()), so the ranks'
-// policies stay bitwise identical (checked after every epoch). Rank 0 reads
+// store shard (store/rank<r>/) and trains on it; every update combines the
+// gradients of all ranks into that of the union of their batches
+// (ImitationLearner::setDistributed()), so the ranks' policies stay bitwise
+// identical (checked after every epoch). Rank 0 reads
 // the checkpoint to resume from and sends it to the others; at a fresh start
 // every rank takes rank 0's initial weights. Rank 0 alone writes
 // checkpoints, metrics, TensorBoard events, eval stats, best.json and

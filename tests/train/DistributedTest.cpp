@@ -1,10 +1,10 @@
 // Tests of src/train/Distributed.cpp and of the learner's multi-process
 // mode, with two ranks as two threads of this process over a c10d FileStore
-// (and once over the TCPStore rendezvous): the torchrun variables and their
-// errors, bucketed gradient averaging, broadcasts, reductions, the
-// identity check, error propagation, waits and aborts, an unreachable
-// master; then two ImitationLearners on half batches against one learner on
-// the whole batch.
+// (and over TCPStores: rank 0's and torchrun's agent's): the torchrun
+// variables and their errors, bucketed gradient averaging, broadcasts,
+// reductions, the identity check, error propagation, waits and aborts, an
+// unreachable master; then two ImitationLearners on parts of batches (even
+// and uneven) against one learner on the whole batch.
 
 #include "train/Distributed.h"
 
@@ -14,6 +14,7 @@
 #include <netinet/in.h>
 #include <sys/socket.h>
 #include <unistd.h>
+#include <torch/csrc/distributed/c10d/TCPStore.hpp>
 
 #include <array>
 #include <cmath>
@@ -121,6 +122,23 @@ TEST(DistributedTest, ParsesTorchrunVariables) {
                    {"MASTER_PORT", "1"}})
                 ->local_rank,
             1);
+  EXPECT_FALSE(env->use_agent_store);
+  // torchrun's static rendezvous: its agent hosts the store
+  const auto agent = parse({{"WORLD_SIZE", "2"},
+                            {"RANK", "0"},
+                            {"MASTER_ADDR", "h"},
+                            {"MASTER_PORT", "29500"},
+                            {"TORCHELASTIC_USE_AGENT_STORE", "True"},
+                            {"TORCHELASTIC_RESTART_COUNT", "3"}});
+  ASSERT_TRUE(agent.has_value());
+  EXPECT_TRUE(agent->use_agent_store);
+  EXPECT_EQ(agent->restart_count, 3);
+  EXPECT_FALSE(parse({{"WORLD_SIZE", "2"},
+                      {"RANK", "0"},
+                      {"MASTER_ADDR", "h"},
+                      {"MASTER_PORT", "29500"},
+                      {"TORCHELASTIC_USE_AGENT_STORE", "False"}})
+                   ->use_agent_store);
 }
 
 TEST(DistributedTest, BadTorchrunVariablesAreNamed) {
@@ -146,14 +164,16 @@ TEST(DistributedTest, BadTorchrunVariablesAreNamed) {
     vars[key] = value;
     return vars;
   };
-  EXPECT_THAT(error(without("RANK")),
-              HasSubstr("WORLD_SIZE=2 but environment variable RANK is not set"));
-  EXPECT_THAT(error(without("MASTER_ADDR")), HasSubstr("MASTER_ADDR is not set"));
-  EXPECT_THAT(error(without("MASTER_PORT")), HasSubstr("MASTER_PORT is not set"));
+  EXPECT_THAT(
+      error(without("RANK")),
+      HasSubstr("WORLD_SIZE=2 but environment variable RANK is not set"));
+  EXPECT_THAT(error(without("MASTER_ADDR")),
+              HasSubstr("MASTER_ADDR is not set"));
+  EXPECT_THAT(error(without("MASTER_PORT")),
+              HasSubstr("MASTER_PORT is not set"));
   EXPECT_THAT(error(with("WORLD_SIZE", "two")),
               HasSubstr("WORLD_SIZE='two' is not an integer"));
-  EXPECT_THAT(error(with("RANK", "2")),
-              HasSubstr("RANK=2 is outside [0, 1]"));
+  EXPECT_THAT(error(with("RANK", "2")), HasSubstr("RANK=2 is outside [0, 1]"));
   EXPECT_THAT(error(with("RANK", "-1")), HasSubstr("RANK=-1 is outside"));
   EXPECT_THAT(error(with("MASTER_PORT", "70000")),
               HasSubstr("MASTER_PORT=70000 is outside [1, 65535]"));
@@ -185,9 +205,11 @@ TEST(DistributedTest, AveragesGradientsInBucketsOfMixedDtypes) {
         if (r == 0) params[1].mutable_grad() = torch::full({2, 3}, 6.0f);
         params[2].mutable_grad() =
             torch::linspace(0.5, 2.5, 5, torch::kFloat64) * (r + 1);
-        params[4].mutable_grad() = torch::full({1}, 1.0f + static_cast<float>(r));
+        params[4].mutable_grad() =
+            torch::full({1}, 1.0f + static_cast<float>(r));
         dist.averageGradients(params);
-        for (const auto& p : params) results[static_cast<size_t>(r)].push_back(p.grad());
+        for (const auto& p : params)
+          results[static_cast<size_t>(r)].push_back(p.grad());
       },
       options);
   expectNoErrors(errors);
@@ -260,12 +282,12 @@ TEST(DistributedTest, ReducesMetricsAndDetectsDivergedTensors) {
     // identical everywhere: passes
     dist.checkIdentical({a, b, c}, {"a", "b", "c"}, "in the first check");
     // one ulp of one element of b on rank 1: every rank throws
-    if (r == 1)
-      b[1][2] = std::nextafter(b[1][2].item<double>(), 1e9);
+    if (r == 1) b[1][2] = std::nextafter(b[1][2].item<double>(), 1e9);
     dist.checkIdentical({a, b, c}, {"a", "b", "c"}, "in the second check");
   });
   for (int r = 0; r < 2; ++r) {
-    EXPECT_EQ(sums[static_cast<size_t>(r)], (std::vector<double>{3.0, 0.5, -3.0}));
+    EXPECT_EQ(sums[static_cast<size_t>(r)],
+              (std::vector<double>{3.0, 0.5, -3.0}));
     EXPECT_EQ(maxima[static_cast<size_t>(r)], (std::vector<int64_t>{1, 0, 7}));
     EXPECT_THAT(messageOf(errors[static_cast<size_t>(r)]),
                 HasSubstr("copies of 'b' differ in the second check"));
@@ -307,8 +329,10 @@ TEST(DistributedTest, WaitForAllEndsWithAnotherRanksAbortOrItsTimeout) {
   options.wait_timeout = std::chrono::milliseconds(300);
   errors = onTwoRanks(
       [&](Distributed& dist) {
-        if (dist.rank() == 0) dist.waitForAll("the evaluation");
-        else std::this_thread::sleep_for(std::chrono::milliseconds(800));
+        if (dist.rank() == 0)
+          dist.waitForAll("the evaluation");
+        else
+          std::this_thread::sleep_for(std::chrono::milliseconds(800));
       },
       options);
   EXPECT_THAT(messageOf(errors[0]),
@@ -359,6 +383,44 @@ TEST(DistributedTest, RendezvousThroughTcpStoreAndAnUnreachableMaster) {
           env.master_port, " within 1.5 s"))));
 }
 
+TEST(DistributedTest, JoinsThroughTorchrunsAgentStore) {
+  // torchrun's agent (here: this thread) hosts the store on MASTER_PORT;
+  // rank 0 must not try to host another one there
+  const int port = freePort();
+  c10d::TCPStoreOptions agentOptions;
+  agentOptions.port = static_cast<uint16_t>(port);
+  agentOptions.isServer = true;
+  agentOptions.waitWorkers = false;
+  auto agent = c10::make_intrusive<c10d::TCPStore>("127.0.0.1", agentOptions);
+  // a key of an earlier attempt does not disturb this one
+  agent->set("/worker/attempt_0/vln/abort", std::vector<uint8_t>{'x'});
+  std::array<std::vector<double>, 2> sums;
+  std::array<std::exception_ptr, 2> errors;
+  std::array<std::thread, 2> threads;
+  for (int r = 0; r < 2; ++r)
+    threads[static_cast<size_t>(r)] = std::thread([&, r] {
+      try {
+        DistributedEnv env;
+        env.rank = r;
+        env.world_size = 2;
+        env.master_addr = "127.0.0.1";
+        env.master_port = port;
+        env.use_agent_store = true;
+        env.restart_count = 1;
+        auto dist = Distributed::connect(env, testOptions());
+        sums[static_cast<size_t>(r)] = dist->allReduceSum({1.0 + r});
+        dist->waitForAll("the end");
+      } catch (...) {
+        errors[static_cast<size_t>(r)] = std::current_exception();
+      }
+    });
+  for (auto& t : threads) t.join();
+  expectNoErrors(errors);
+  EXPECT_EQ(sums[0], std::vector<double>{3.0});
+  EXPECT_EQ(sums[1], std::vector<double>{3.0});
+  EXPECT_TRUE(agent->check({"/worker/attempt_1/vln/wait/0"}));
+}
+
 // ---------------------------------------------------------------------------
 // the learner on two ranks
 
@@ -373,9 +435,9 @@ ExperimentConfig learnerConfig() {
   c.model.hidden_size = 12;
   c.model.rgb_projection_size = 5;
   c.model.depth_projection_size = 7;
-  // the progress MSE averages over the batch's steps, not per episode, so
-  // only the action loss splits exactly into per-rank means
-  c.model.progress_monitor = false;
+  // the progress MSE averages over the batch's steps, the action loss over
+  // its episodes: the learner weights each rank's terms by its shares
+  c.model.progress_monitor = true;
   c.model.rgb_height = c.model.rgb_width = 32;
   c.model.depth_height = c.model.depth_width = 32;
   c.trainer.batch_size = 2;
@@ -420,7 +482,8 @@ StoreLayout layoutOf(const ExperimentConfig& c) {
 
 std::vector<torch::Tensor> snapshot(models::PolicyImpl& policy) {
   std::vector<torch::Tensor> values;
-  for (const auto& p : policy.parameters()) values.push_back(p.detach().clone());
+  for (const auto& p : policy.parameters())
+    values.push_back(p.detach().clone());
   return values;
 }
 
@@ -441,19 +504,15 @@ double maxAbsDifference(const std::vector<torch::Tensor>& a,
   return m;
 }
 
-TEST(DistributedTest, TwoRanksOnHalfBatchesMatchOneProcessOnTheWholeBatch) {
+TEST(DistributedTest, TwoRanksOnPartsOfBatchesMatchOneProcessOnTheWholeBatch) {
   torch::set_num_threads(1);
   const ExperimentConfig c = learnerConfig();
   vln::test::TempDir dir;
   FeatureStore store(dir / "store", layoutOf(c), 0.05);
   fillStore(store, c, 0, 12);
-  // three updates: the whole batch of 4 episodes, split 2 + 2 by rank
+  // three updates on whole batches of 4 episodes of different lengths
   const std::vector<std::vector<int64_t>> whole = {
       {0, 1, 2, 3}, {4, 5, 6, 7}, {8, 9, 10, 11}};
-  auto half = [&](size_t u, int rank) {
-    return std::vector<int64_t>(whole[u].begin() + 2 * rank,
-                                whole[u].begin() + 2 * rank + 2);
-  };
 
   torch::manual_seed(7);
   auto initial = models::makePolicy(c.model);
@@ -471,55 +530,68 @@ TEST(DistributedTest, TwoRanksOnHalfBatchesMatchOneProcessOnTheWholeBatch) {
   for (const auto& batch : whole)
     singleResults.push_back(singleLearner.update(store.loadBatch(batch)));
   const std::vector<torch::Tensor> singleEnd = snapshot(*single);
-
-  // two ranks on the halves (rank 1 starts from other weights: the
-  // broadcast must fix that)
-  std::array<std::vector<torch::Tensor>, 2> rankEnd;
-  std::array<std::vector<UpdateResult>, 2> rankResults;
-  const auto errors = onTwoRanks([&](Distributed& dist) {
-    const int r = dist.rank();
-    auto policy = r == 0 ? freshPolicy() : models::makePolicy(c.model);
-    ImitationLearner learner(policy, c);
-    learner.setDistributed(&dist);
-    dist.broadcastModule(*policy);
-    for (size_t u = 0; u < whole.size(); ++u)
-      rankResults[static_cast<size_t>(r)].push_back(
-          learner.update(store.loadBatch(half(u, r))));
-    rankEnd[static_cast<size_t>(r)] = snapshot(*policy);
-  });
-  expectNoErrors(errors);
-
-  // the ranks are bitwise identical
-  ASSERT_EQ(rankEnd[0].size(), singleEnd.size());
-  for (size_t i = 0; i < singleEnd.size(); ++i)
-    EXPECT_TRUE(torch::equal(rankEnd[0][i], rankEnd[1][i])) << "parameter " << i;
-  // ... and equal to one process up to float rounding: the gradient of the
-  // mean of per-episode losses over 4 episodes is the mean of the two
-  // 2-episode means
   const double moved = distance(singleEnd, start);
   ASSERT_GT(moved, 1e-3);
-  EXPECT_LT(distance(rankEnd[0], singleEnd), 1e-4 * moved);
-  EXPECT_LT(maxAbsDifference(rankEnd[0], singleEnd), 1e-5);
-  for (size_t u = 0; u < whole.size(); ++u)
-    for (int r = 0; r < 2; ++r) {
-      const UpdateResult& d = rankResults[static_cast<size_t>(r)][u];
-      EXPECT_NEAR(d.loss, singleResults[u].loss, 1e-5 * singleResults[u].loss);
-      EXPECT_NEAR(d.grad_norm, singleResults[u].grad_norm,
-                  1e-4 * singleResults[u].grad_norm);
-      EXPECT_EQ(d.episodes, 4);
-      EXPECT_EQ(d.steps, singleResults[u].steps);
-    }
 
-  // the control: one rank's half batches alone land far away, so the
-  // comparison above can tell averaged gradients from a rank's own
+  // rank 0 takes the first `split` episodes of each batch, rank 1 the rest
+  // (rank 1 starts from other weights: the broadcast must fix that)
+  for (const int split : {2, 3}) {
+    SCOPED_TRACE(strCat("rank 0 takes ", split, " of 4 episodes"));
+    auto part = [&](size_t u, int rank) {
+      const auto& w = whole[u];
+      return rank == 0 ? std::vector<int64_t>(w.begin(), w.begin() + split)
+                       : std::vector<int64_t>(w.begin() + split, w.end());
+    };
+    std::array<std::vector<torch::Tensor>, 2> rankEnd;
+    std::array<std::vector<UpdateResult>, 2> rankResults;
+    const auto errors = onTwoRanks([&](Distributed& dist) {
+      const int r = dist.rank();
+      auto policy = r == 0 ? freshPolicy() : models::makePolicy(c.model);
+      ImitationLearner learner(policy, c);
+      learner.setDistributed(&dist);
+      dist.broadcastModule(*policy);
+      for (size_t u = 0; u < whole.size(); ++u)
+        rankResults[static_cast<size_t>(r)].push_back(
+            learner.update(store.loadBatch(part(u, r))));
+      rankEnd[static_cast<size_t>(r)] = snapshot(*policy);
+    });
+    expectNoErrors(errors);
+
+    // the ranks are bitwise identical
+    ASSERT_EQ(rankEnd[0].size(), singleEnd.size());
+    for (size_t i = 0; i < singleEnd.size(); ++i)
+      EXPECT_TRUE(torch::equal(rankEnd[0][i], rankEnd[1][i]))
+          << "parameter " << i;
+    // ... and equal to one process up to float rounding: each rank's action
+    // loss (a mean over its episodes) and progress loss (a mean over its
+    // steps) are weighted by its share of the episodes and steps
+    EXPECT_LT(distance(rankEnd[0], singleEnd), 1e-4 * moved);
+    EXPECT_LT(maxAbsDifference(rankEnd[0], singleEnd), 1e-5);
+    for (size_t u = 0; u < whole.size(); ++u)
+      for (int r = 0; r < 2; ++r) {
+        const UpdateResult& d = rankResults[static_cast<size_t>(r)][u];
+        const UpdateResult& s = singleResults[u];
+        EXPECT_NEAR(d.loss, s.loss, 1e-5 * s.loss);
+        EXPECT_NEAR(d.action_loss, s.action_loss, 1e-5 * s.action_loss);
+        EXPECT_NEAR(d.progress_loss, s.progress_loss, 1e-5 * s.progress_loss);
+        EXPECT_NEAR(d.grad_norm, s.grad_norm, 1e-4 * s.grad_norm);
+        EXPECT_EQ(d.episodes, 4);
+        EXPECT_EQ(d.steps, s.steps);
+      }
+  }
+
+  // the control: one rank's part batches alone land far away, so the
+  // comparison above can tell combined gradients from a rank's own
   auto alone = freshPolicy();
   ImitationLearner aloneLearner(alone, c);
-  for (size_t u = 0; u < whole.size(); ++u)
-    aloneLearner.update(store.loadBatch(half(u, 0)));
+  for (const auto& batch : whole)
+    aloneLearner.update(
+        store.loadBatch(std::vector<int64_t>{batch[0], batch[1]}));
   EXPECT_GT(distance(snapshot(*alone), singleEnd), 0.05 * moved);
 }
 
-TEST(DistributedTest, UnevenShardsTrainEqualUpdatesAndNonFiniteLossesSkipEverywhere) {
+TEST(DistributedTest,
+     UnevenShardsTrainEqualUpdatesAndNonFiniteLossesSkipEverywhere) {
   torch::set_num_threads(1);
   const ExperimentConfig c = learnerConfig();
   vln::test::TempDir dir;

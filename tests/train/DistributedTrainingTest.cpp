@@ -3,13 +3,15 @@
 // loopback with RANK 0/1, WORLD_SIZE 2, MASTER_ADDR 127.0.0.1 and a free
 // MASTER_PORT, as torchrun would start them.
 //  - teacher forcing with batch 5 per rank against one process with batch
-//    10 on the same 10 episodes: the ranks end bitwise identical, and equal
-//    to the one process up to float rounding (the loss is a mean of
-//    per-episode losses, so the mean of two 5-episode gradients is the
-//    10-episode gradient); sharded evaluation equals the eval binary's;
+//    10 on the same 10 episodes, progress monitor on: the ranks end bitwise
+//    identical, and equal to the one process up to float rounding (each
+//    rank's losses are weighted by its share of the episodes and steps, so
+//    the combined gradient is the 10-episode one); sharded evaluation
+//    equals the eval binary's;
 //  - DAgger, then --resume on both ranks for another iteration;
 //  - the errors: missing variables, an unreachable master, different
-//    configs, more ranks than episodes, a resume with another WORLD_SIZE.
+//    configs, more ranks than episodes, --resume on one rank only, a resume
+//    with another WORLD_SIZE.
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -205,7 +207,8 @@ double distance(const models::NamedTensors& a, const models::NamedTensors& b) {
   return std::sqrt(squares);
 }
 
-bool bitwiseEqual(const models::NamedTensors& a, const models::NamedTensors& b) {
+bool bitwiseEqual(const models::NamedTensors& a,
+                  const models::NamedTensors& b) {
   if (a.size() != b.size()) return false;
   for (size_t i = 0; i < a.size(); ++i)
     if (a[i].first != b[i].first || !torch::equal(a[i].second, b[i].second))
@@ -215,30 +218,30 @@ bool bitwiseEqual(const models::NamedTensors& a, const models::NamedTensors& b) 
 
 TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
   // every update sees all 10 training episodes: batch 10 in one process,
-  // 5 per rank in two; no progress monitor (its MSE is not per episode)
+  // 5 per rank in two
   const std::string trainer = "  epochs: 2\n  inflection_weight: 3.2\n";
   const fs::path singleConfig = writeConfig("single", trainer);
   const fs::path distConfig = writeConfig("dist", trainer);
-  const std::vector<std::string> common = {
-      "--set", "model.progress_monitor=false", "--set",
-      "trainer.log_every_updates=1"};
+  const std::vector<std::string> common = {"--set",
+                                           "trainer.log_every_updates=1"};
   auto args = [&](const fs::path& config, int batch) {
-    std::vector<std::string> a = {"--config", config.string(), "--set",
-                                  "trainer.batch_size=" + std::to_string(batch)};
+    std::vector<std::string> a = {
+        "--config", config.string(), "--set",
+        "trainer.batch_size=" + std::to_string(batch)};
     a.insert(a.end(), common.begin(), common.end());
     return a;
   };
-  const RankRun single =
-      runSingle(args(singleConfig, 10),
-                {{"VLN_DEBUG_PARAMETER_DUMP_DIR", (dir_ / "dump1").string()}},
-                "single");
+  const RankRun single = runSingle(
+      args(singleConfig, 10),
+      {{"VLN_DEBUG_PARAMETER_DUMP_DIR", (dir_ / "dump1").string()}}, "single");
   ASSERT_EQ(single.status, 0) << single.log;
   const auto ranks = runTwoRanks(
       args(distConfig, 5), "dist", {},
       {{"VLN_DEBUG_PARAMETER_DUMP_DIR", (dir_ / "dump2").string()}});
   for (int r = 0; r < 2; ++r)
     ASSERT_EQ(ranks[static_cast<size_t>(r)].status, 0)
-        << "rank " << r << ":\n" << ranks[static_cast<size_t>(r)].log;
+        << "rank " << r << ":\n"
+        << ranks[static_cast<size_t>(r)].log;
 
   // the ranks' final weights are bitwise identical, and rank 0's checkpoint
   // holds them
@@ -255,9 +258,13 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
   const auto singleCkpts = listCheckpoints(dir_ / "single" / "checkpoints");
   ASSERT_EQ(singleCkpts.size(), 2u);
   const auto singleEnd = loadCheckpoint(singleCkpts.back()).policy;
-  const double step = distance(singleEnd, loadCheckpoint(singleCkpts[0]).policy);
+  const double step =
+      distance(singleEnd, loadCheckpoint(singleCkpts[0]).policy);
   ASSERT_GT(step, 1e-3);
   EXPECT_LT(distance(rank0, singleEnd), 1e-3 * step);
+  // the measured ratio, for docs/distributed.md (--gtest_output=json)
+  RecordProperty("distance_over_last_step",
+                 strCat(distance(rank0, singleEnd) / step));
   EXPECT_TRUE(bitwiseEqual(
       singleEnd, models::readTensorFile(dir_ / "dump1" / "rank0.pt")));
 
@@ -277,6 +284,10 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
     const double loss = singleUpdates[u]["loss"].get<double>();
     const double norm = singleUpdates[u]["grad_norm"].get<double>();
     EXPECT_NEAR(distUpdates[u]["loss"].get<double>(), loss, 1e-4 * loss);
+    const double progress = singleUpdates[u]["progress_loss"].get<double>();
+    ASSERT_GT(progress, 0.0);
+    EXPECT_NEAR(distUpdates[u]["progress_loss"].get<double>(), progress,
+                1e-4 * progress);
     EXPECT_NEAR(distUpdates[u]["grad_norm"].get<double>(), norm, 1e-3 * norm);
     EXPECT_EQ(distUpdates[u]["steps"], singleUpdates[u]["steps"]);
   }
@@ -324,20 +335,19 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
   // sharded evaluation (one episode per rank) = the eval binary on the
   // same checkpoint in one process
   std::string output;
-  ASSERT_EQ(vln::test::runCommand(
-                bin("eval") + " --log-level warn --config " +
-                    distConfig.string() +
-                    " --set model.progress_monitor=false --checkpoint " +
-                    distCkpts.back().string() + " --episodes 2 --out " +
-                    (dir_ / "evalcheck").string() + " 2>&1",
-                &output),
-            0)
+  ASSERT_EQ(
+      vln::test::runCommand(
+          bin("eval") + " --log-level warn --config " + distConfig.string() +
+              " --checkpoint " + distCkpts.back().string() +
+              " --episodes 2 --out " + (dir_ / "evalcheck").string() + " 2>&1",
+          &output),
+      0)
       << output;
   for (const char* split : {"val_seen", "val_unseen"}) {
     const auto trainer =
         eval::readStatsFile(run / "eval" / eval::statsFileName(1, split));
-    const auto alone = eval::readStatsFile(dir_ / "evalcheck" /
-                                           eval::statsFileName(1, split));
+    const auto alone =
+        eval::readStatsFile(dir_ / "evalcheck" / eval::statsFileName(1, split));
     EXPECT_EQ(trainer.num_episodes, 2) << split;
     EXPECT_EQ(alone.num_episodes, 2) << split;
     EXPECT_NEAR(trainer.mean.distance_to_goal, alone.mean.distance_to_goal,
@@ -352,8 +362,9 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
 
 TEST_F(DistributedTrainingTest, DaggerResumesOnEveryRank) {
   const fs::path config = writeConfig(
-      "run", "  dagger_iterations: 1\n  dagger_episodes: 4\n  dagger_epochs: 1\n"
-             "  eval_during_training: false\n");
+      "run",
+      "  dagger_iterations: 1\n  dagger_episodes: 4\n  dagger_epochs: 1\n"
+      "  eval_during_training: false\n");
   const std::vector<std::string> args = {"--config", config.string()};
   const std::map<std::string, std::string> dump = {
       {"VLN_DEBUG_PARAMETER_DUMP_DIR", (dir_ / "dump").string()}};
@@ -362,12 +373,13 @@ TEST_F(DistributedTrainingTest, DaggerResumesOnEveryRank) {
     ASSERT_EQ(first[static_cast<size_t>(r)].status, 0)
         << first[static_cast<size_t>(r)].log;
   // one more iteration: each rank resumes its shard from rank 0's checkpoint
-  auto second = runTwoRanks(args, "second",
-                            {std::vector<std::string>{
-                                 "--resume", "--set", "trainer.dagger_iterations=2"},
-                             std::vector<std::string>{
-                                 "--resume", "--set", "trainer.dagger_iterations=2"}},
-                            dump);
+  auto second =
+      runTwoRanks(args, "second",
+                  {std::vector<std::string>{"--resume", "--set",
+                                            "trainer.dagger_iterations=2"},
+                   std::vector<std::string>{"--resume", "--set",
+                                            "trainer.dagger_iterations=2"}},
+                  dump);
   for (int r = 0; r < 2; ++r)
     ASSERT_EQ(second[static_cast<size_t>(r)].status, 0)
         << second[static_cast<size_t>(r)].log;
@@ -387,8 +399,8 @@ TEST_F(DistributedTrainingTest, DaggerResumesOnEveryRank) {
   EXPECT_EQ(last.progress.episodes_collected, 8);
   EXPECT_EQ(last.progress.extra["world_size"], 2);
   const auto rank0 = models::readTensorFile(dir_ / "dump" / "rank0.pt");
-  EXPECT_TRUE(bitwiseEqual(rank0,
-                           models::readTensorFile(dir_ / "dump" / "rank1.pt")));
+  EXPECT_TRUE(
+      bitwiseEqual(rank0, models::readTensorFile(dir_ / "dump" / "rank1.pt")));
   EXPECT_TRUE(bitwiseEqual(rank0, last.policy));
   std::vector<int64_t> collected;
   for (const auto& record : readJsonLines(run / "metrics.jsonl"))
@@ -397,8 +409,9 @@ TEST_F(DistributedTrainingTest, DaggerResumesOnEveryRank) {
   EXPECT_EQ(collected, (std::vector<int64_t>{4, 4}));
 
   // one process cannot resume a two-process run
-  const RankRun alone = runSingle(
-      {"--config", config.string(), "--resume"}, {}, "alone");
+  const RankRun alone = runSingle({"--config", config.string(), "--resume",
+                                   "--set", "trainer.dagger_iterations=2"},
+                                  {}, "alone");
   EXPECT_NE(alone.status, 0);
   EXPECT_THAT(alone.log, HasSubstr("was trained by 2 process(es)"));
   EXPECT_THAT(alone.log, HasSubstr("resume it with WORLD_SIZE=2"));
@@ -430,9 +443,10 @@ TEST_F(DistributedTrainingTest, ErrorsNameTheVariableTheAddressAndTheKey) {
                                         port, " within 1 s")));
 
   // the ranks disagree on the learning rate: both stop, naming it
-  auto ranks = runTwoRanks(
-      args, "mismatch",
-      {std::vector<std::string>{}, std::vector<std::string>{"--set", "trainer.lr=0.1"}});
+  auto ranks =
+      runTwoRanks(args, "mismatch",
+                  {std::vector<std::string>{},
+                   std::vector<std::string>{"--set", "trainer.lr=0.1"}});
   EXPECT_NE(ranks[0].status, 0);
   EXPECT_NE(ranks[1].status, 0);
   EXPECT_THAT(ranks[1].log,
@@ -442,14 +456,25 @@ TEST_F(DistributedTrainingTest, ErrorsNameTheVariableTheAddressAndTheKey) {
   EXPECT_FALSE(fs::exists(dir_ / "run"));
 
   // more ranks than episodes
-  ranks = runTwoRanks(args, "small",
-                      {std::vector<std::string>{"--set", "dataset.max_train_episodes=1"},
-                       std::vector<std::string>{"--set", "dataset.max_train_episodes=1"}});
+  ranks = runTwoRanks(
+      args, "small",
+      {std::vector<std::string>{"--set", "dataset.max_train_episodes=1"},
+       std::vector<std::string>{"--set", "dataset.max_train_episodes=1"}});
   for (int r = 0; r < 2; ++r) {
     EXPECT_NE(ranks[static_cast<size_t>(r)].status, 0);
     EXPECT_THAT(ranks[static_cast<size_t>(r)].log,
                 HasSubstr("WORLD_SIZE = 2 is larger than the 1 episodes of a "
                           "collection round"));
+  }
+
+  // --resume given to one rank only
+  ranks = runTwoRanks(
+      args, "halfresume",
+      {std::vector<std::string>{}, std::vector<std::string>{"--resume"}});
+  for (int r = 0; r < 2; ++r) {
+    EXPECT_NE(ranks[static_cast<size_t>(r)].status, 0);
+    EXPECT_THAT(ranks[static_cast<size_t>(r)].log,
+                HasSubstr("--resume was given to 1 of the 2 ranks"));
   }
 }
 
