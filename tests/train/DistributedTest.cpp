@@ -8,6 +8,7 @@
 
 #include "train/Distributed.h"
 
+#include <ATen/CPUGeneratorImpl.h>
 #include <arpa/inet.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -271,13 +272,17 @@ TEST(DistributedTest, BroadcastsModulesOptimizerStateAndBytes) {
 TEST(DistributedTest, ReducesMetricsAndDetectsDivergedTensors) {
   std::array<std::vector<double>, 2> sums;
   std::array<std::vector<int64_t>, 2> maxima;
+  // drawn here: the ranks are threads, which would share the global
+  // generator's draws between them
+  torch::manual_seed(4);
+  const torch::Tensor a0 = torch::randn({1000});
+  const torch::Tensor b0 = torch::randn({3, 7}).to(torch::kFloat64);
   const auto errors = onTwoRanks([&](Distributed& dist) {
     const int r = dist.rank();
     sums[static_cast<size_t>(r)] = dist.allReduceSum({1.0 + r, 0.25, -3.0 * r});
     maxima[static_cast<size_t>(r)] = dist.allReduceMax({r, -r, 7});
-    torch::manual_seed(4);
-    torch::Tensor a = torch::randn({1000});
-    torch::Tensor b = torch::randn({3, 7}).to(torch::kFloat64);
+    torch::Tensor a = a0.clone();
+    torch::Tensor b = b0.clone();
     torch::Tensor c = torch::arange(5);
     // identical everywhere: passes
     dist.checkIdentical({a, b, c}, {"a", "b", "c"}, "in the first check");
@@ -452,14 +457,16 @@ void fillStore(FeatureStore& store, const ExperimentConfig& c, int first,
   const auto r = models::rgbFeatureShape(c.model);
   const auto d = models::depthFeatureShape(c.model);
   for (int i = first; i < first + count; ++i) {
-    torch::manual_seed(static_cast<uint64_t>(100 + i));
+    // a generator of its own: ranks are threads of this process
+    const at::Generator gen =
+        at::detail::createCPUGenerator(static_cast<uint64_t>(100 + i));
     StoredEpisode e;
     e.key.episode_id = i;
     e.key.slot = i;
     const int T = 3 + (i * 7) % 6;
     e.tokens = {1 + i % 10, 2, 3};
-    e.rgb = torch::rand({T, r[0], r[1], r[2]});
-    e.depth = torch::rand({T, d[0], d[1], d[2]});
+    e.rgb = torch::rand({T, r[0], r[1], r[2]}, gen);
+    e.depth = torch::rand({T, d[0], d[1], d[2]}, gen);
     for (int t = 0; t < T; ++t) {
       const int action = t == T - 1 ? 0 : 1 + (i + t) % 3;
       e.oracle_actions.push_back(static_cast<uint8_t>(action));
@@ -604,8 +611,9 @@ TEST(DistributedTest,
     // rank 0 holds 5 episodes (3 batches of 2), rank 1 holds 3 (2 batches)
     FeatureStore store(dir / ("shard" + std::to_string(r)), layoutOf(c), 0.05);
     fillStore(store, c, r == 0 ? 0 : 5, r == 0 ? 5 : 3);
-    torch::manual_seed(9);
+    // every rank starts from rank 0's weights, as in the trainer
     auto policy = models::makePolicy(c.model);
+    dist.broadcastModule(*policy);
     ImitationLearner learner(policy, c);
     learner.setDistributed(&dist);
     // rank 1's first loss is NaN: the first update is skipped on both
