@@ -101,18 +101,26 @@ CollectionStats Collector::collect(
 
   CollectionStats stats;
   common::Stopwatch clock;
-  // the slots still missing from the store, in round order
+  VLN_CHECK_ARG(round.num_shards >= 1 && round.shard >= 0 &&
+                    round.shard < round.num_shards,
+                "Collector::collect(): shard ", round.shard, " of ",
+                round.num_shards, " does not exist");
+  // the slots of this shard still missing from the store, in round order
   const std::set<int32_t> done = store.slots(round.iteration);
   std::vector<int32_t> pending;
-  for (int32_t k = 0; k < static_cast<int32_t>(round.episodes.size()); ++k)
+  size_t mine = 0;
+  for (int32_t k = 0; k < static_cast<int32_t>(round.episodes.size()); ++k) {
+    if (k % round.num_shards != round.shard) continue;
+    ++mine;
     if (!done.count(k)) pending.push_back(k);
-  stats.skipped = static_cast<int64_t>(round.episodes.size() - pending.size());
+  }
+  stats.skipped = static_cast<int64_t>(mine - pending.size());
   if (pending.empty()) return stats;
   if (stats.skipped > 0)
     spdlog::info(
         "collection round {}: {} of {} episodes already in the store, "
         "collecting {}",
-        round.iteration, stats.skipped, round.episodes.size(), pending.size());
+        round.iteration, stats.skipped, mine, pending.size());
 
   const int numEnvs = envs_->size();
   std::vector<std::unique_ptr<Slot>> slots(static_cast<size_t>(numEnvs));

@@ -75,6 +75,12 @@ struct CollectionRound {
   int32_t iteration = 0;         ///< DAgger iteration (0: teacher forcing)
   double beta = 1.0;             ///< probability of taking the oracle action
   uint64_t seed = 0;             ///< seed of the run (coins derive from it)
+  /// A multi-process run partitions the round by rank: this call collects
+  /// only the slots k with k % num_shards == shard. Slot numbers, coins and
+  /// store keys stay those of the whole round, so the shards together hold
+  /// what one process would collect.
+  int32_t shard = 0;
+  int32_t num_shards = 1;
 };
 
 /// What a round collected.
@@ -103,7 +109,8 @@ class Collector {
             models::ObservationEncoder encoder);
   ~Collector();
 
-  /// Runs the missing slots of `round` and appends each finished episode
+  /// Runs the missing slots of `round` (of its shard) and appends each
+  /// finished episode
   /// to `store` (one transaction each). `policy` is needed when
   /// round.beta < 1 (eval mode, no grad). `groundTruth` (of the source-0
   /// split), when given and beta == 1, is compared with the oracle's

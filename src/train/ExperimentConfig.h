@@ -83,6 +83,23 @@ struct TrainerConfig {
   /// Log a training line every this many updates.
   int log_every_updates = 20;
 
+  /// Data-parallel training over several processes (docs/distributed.md):
+  /// auto trains with every process of a torchrun-style launch when the
+  /// environment sets WORLD_SIZE > 1; off always trains in this process
+  /// alone (WORLD_SIZE is then ignored).
+  std::string distributed = "auto";
+  /// Collective backend: auto (nccl when model.device is a GPU and this
+  /// LibTorch has NCCL, else gloo), gloo, nccl.
+  std::string distributed_backend = "auto";
+  /// Rendezvous and every collective (gradient all-reduce, ...) fail after
+  /// this many seconds.
+  double distributed_timeout_s = 600.0;
+  /// How long a rank waits for the others at the end of a collection round
+  /// or an evaluation (uneven phases), seconds.
+  double distributed_wait_s = 86400.0;
+  /// Gradients are all-reduced in flat buckets of at most this many MiB.
+  double distributed_bucket_mib = 25.0;
+
   void visit(common::ConfigVisitor& v) {
     v.choice("task", task, {"vln", "depth_pointnav", "rgb_semantic"},
              "What to train");
@@ -131,6 +148,17 @@ struct TrainerConfig {
             common::inRange(1, 1000000));
     v.field("log_every_updates", log_every_updates, "Updates per log line",
             common::atLeast(1));
+    v.choice("distributed", distributed, {"auto", "off"},
+             "Multi-process training when WORLD_SIZE > 1 (auto) or never (off)");
+    v.choice("distributed_backend", distributed_backend,
+             {"auto", "gloo", "nccl"}, "Collective backend");
+    v.field("distributed_timeout_s", distributed_timeout_s,
+            "Rendezvous and collective timeout (s)", common::inRange(0.1, 1e7));
+    v.field("distributed_wait_s", distributed_wait_s,
+            "Wait for the other ranks after collection/evaluation (s)",
+            common::inRange(0.1, 1e8));
+    v.field("distributed_bucket_mib", distributed_bucket_mib,
+            "Gradient all-reduce bucket size (MiB)", common::inRange(0.001, 1e5));
   }
   bool operator==(const TrainerConfig&) const = default;
 };

@@ -2,11 +2,13 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/Check.h"
 #include "common/Progress.h"
 #include "models/Loss.h"
+#include "train/Distributed.h"
 
 namespace vln::train {
 
@@ -45,8 +47,9 @@ ImitationLearner::ImitationLearner(std::shared_ptr<models::PolicyImpl> policy,
 }
 
 double ImitationLearner::applyGradients() {
-  // seam for multi-process training: average the gradients across
-  // processes here, before clipping and the step
+  // multi-process training: the ranks' gradients are averaged here, before
+  // clipping and the step, so every rank applies the same update
+  if (dist_) dist_->averageGradients(parameters_);
   double norm = 0.0;
   if (config_.trainer.grad_clip > 0.0) {
     norm = torch::nn::utils::clip_grad_norm_(parameters_,
@@ -83,15 +86,29 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
       policy_->forwardSequence(instruction, inputs, policy_->initialHidden(B));
   const torch::Tensor weights =
       models::inflectionWeights(actions, valid, inflectionCoef_);
-  const torch::Tensor actionLoss =
+  torch::Tensor actionLoss =
       models::weightedActionLoss(out.logits, actions, weights);
-  torch::Tensor loss = actionLoss;
   torch::Tensor progressLoss;
-  if (model.progress_monitor) {
+  if (model.progress_monitor)
     progressLoss =
         models::progressLoss(out.progress, to(batch.progress), valid);
-    loss = loss + config_.trainer.progress_loss_weight * progressLoss;
+  // multi-process: the update is that of the union of the ranks' batches.
+  // The action loss is a mean over episodes and the progress loss one over
+  // steps, so this rank's terms are weighted by its share of the episodes
+  // and steps of all ranks; times the world size, which the gradient
+  // averaging divides out again.
+  if (dist_) {
+    const std::vector<double> counts = dist_->allReduceSum(
+        {static_cast<double>(B), static_cast<double>(batch.steps)});
+    const auto world = static_cast<double>(dist_->worldSize());
+    actionLoss = actionLoss * (world * static_cast<double>(B) / counts[0]);
+    if (progressLoss.defined())
+      progressLoss = progressLoss * (world * static_cast<double>(batch.steps) /
+                                     std::max(counts[1], 1.0));
   }
+  torch::Tensor loss = actionLoss;
+  if (progressLoss.defined())
+    loss = loss + config_.trainer.progress_loss_weight * progressLoss;
   if (lossHook_) loss = lossHook_(loss);
 
   UpdateResult result;
@@ -101,15 +118,37 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   result.action_loss = actionLoss.item<double>();
   result.progress_loss =
       progressLoss.defined() ? progressLoss.item<double>() : 0.0;
-  if (!std::isfinite(result.loss)) {
+  const bool finiteHere = std::isfinite(result.loss);
+  bool skip = !finiteHere;
+  if (dist_) {
+    // every rank skips when any rank's loss is non-finite (the all-reduces
+    // must pair up); the reported losses are those of the union of the
+    // batches: the means of the ranks' weighted terms
+    const std::vector<double> sums = dist_->allReduceSum(
+        {skip ? 1.0 : 0.0, skip ? 0.0 : result.loss,
+         skip ? 0.0 : result.action_loss, skip ? 0.0 : result.progress_loss,
+         static_cast<double>(result.steps),
+         static_cast<double>(result.episodes)});
+    skip = sums[0] > 0.0;
+    if (!skip) {
+      const auto world = static_cast<double>(dist_->worldSize());
+      result.loss = sums[1] / world;
+      result.action_loss = sums[2] / world;
+      result.progress_loss = sums[3] / world;
+    }
+    result.steps = static_cast<int64_t>(sums[4]);
+    result.episodes = static_cast<int64_t>(sums[5]);
+  }
+  if (skip) {
     // skip: no gradient reaches the parameters or Adam's moments
     result.skipped = true;
     ++nonFiniteTotal_;
     ++nonFiniteInARow_;
     spdlog::warn(
-        "non-finite loss ({}) at update {}: skipped ({} in a row, {} in total; "
-        "limit trainer.max_nonfinite_updates = {})",
-        result.loss, updates_, nonFiniteInARow_, nonFiniteTotal_,
+        "non-finite loss ({}{}) at update {}: skipped ({} in a row, {} in "
+        "total; limit trainer.max_nonfinite_updates = {})",
+        result.loss, finiteHere ? " here, non-finite on another rank" : "",
+        updates_, nonFiniteInARow_, nonFiniteTotal_,
         config_.trainer.max_nonfinite_updates);
     optimizer_->zero_grad();
     return result;
@@ -130,8 +169,15 @@ EpochResult ImitationLearner::trainEpoch(
   lengths.reserve(static_cast<size_t>(store.size()));
   for (int64_t i = 0; i < store.size(); ++i)
     lengths.push_back(store.key(i).length);
-  const auto batches =
-      epochBatches(lengths, config_.trainer.batch_size, seed, epoch);
+  auto batches = epochBatches(lengths, config_.trainer.batch_size, seed, epoch);
+  if (dist_) {
+    // as many updates on every rank: the largest count; the others go on
+    // with their own batches from the start of this epoch's order
+    const size_t own = batches.size();
+    const auto count = static_cast<size_t>(
+        dist_->allReduceMax({static_cast<int64_t>(own)}).front());
+    for (size_t i = own; i < count; ++i) batches.push_back(batches[i % own]);
+  }
 
   EpochResult result;
   common::Stopwatch clock;

@@ -8,7 +8,8 @@
 // trainer.max_nonfinite_updates of them in a row, train() throws.
 //
 // Every optimizer step goes through applyGradients(): that is the one place
-// where a multi-process run inserts its gradient all-reduce.
+// where a multi-process run inserts its gradient all-reduce
+// (setDistributed()).
 
 #include <torch/torch.h>
 
@@ -22,6 +23,8 @@
 #include "train/FeatureStore.h"
 
 namespace vln::train {
+
+class Distributed;
 
 /// The losses of one update (or their means over an epoch).
 struct UpdateResult {
@@ -56,6 +59,19 @@ class ImitationLearner {
   ImitationLearner(std::shared_ptr<models::PolicyImpl> policy,
                    const ExperimentConfig& config);
 
+  /// Trains as one rank of a multi-process run (Distributed.h; nullptr:
+  /// this process alone, the default). Then every update is that of the
+  /// union of the ranks' batches: each rank weights its action loss (a mean
+  /// over episodes) by its share of all ranks' episodes and its progress
+  /// loss (a mean over steps) by its share of their steps, the gradients
+  /// are combined over the ranks before clipping and the step, a non-finite
+  /// loss on any rank skips the update on every rank, and UpdateResult
+  /// holds the union's losses, steps and episodes (grad_norm is that of the
+  /// combined gradient). Every epoch has as many updates on every rank
+  /// (trainEpoch()). Two all-reduces of counters and one of the gradients
+  /// per update. `dist` must outlive the learner.
+  void setDistributed(Distributed* dist) { dist_ = dist; }
+
   /// Inflection coefficient of the action loss.
   void setInflectionCoef(double coef) { inflectionCoef_ = coef; }
   double inflectionCoef() const { return inflectionCoef_; }
@@ -64,6 +80,10 @@ class ImitationLearner {
   UpdateResult update(const EpisodeBatch& batch);
 
   /// One epoch over `store` in epochBatches(seed, epoch) order.
+  /// Multi-process: every rank runs U = the largest batch count over the
+  /// ranks; a rank with fewer batches continues with its own batches from
+  /// the start of the same order (batch i % count), so the all-reduces pair
+  /// up and every stored episode is seen at least once per epoch.
   /// `onUpdate` sees every update (applied or skipped). Throws
   /// std::runtime_error after trainer.max_nonfinite_updates consecutive
   /// non-finite losses.
@@ -87,8 +107,8 @@ class ImitationLearner {
   }
 
  private:
-  /// Clipping, the (future) all-reduce, and the optimizer step. Returns the
-  /// gradient norm before clipping.
+  /// The gradient all-reduce (multi-process), clipping and the optimizer
+  /// step. Returns the gradient norm before clipping.
   double applyGradients();
 
   std::shared_ptr<models::PolicyImpl> policy_;
@@ -101,6 +121,7 @@ class ImitationLearner {
   int64_t nonFiniteTotal_ = 0;
   int64_t nonFiniteInARow_ = 0;
   std::function<torch::Tensor(const torch::Tensor&)> lossHook_;
+  Distributed* dist_ = nullptr;
 };
 
 }  // namespace vln::train

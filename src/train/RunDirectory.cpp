@@ -124,7 +124,10 @@ const std::vector<std::string>& resumeSafeKeys() {
       "eval.save_episodes",
       "eval.map_episodes",
       "eval.video_episodes",
-      "model.device"};
+      "model.device",
+      "trainer.distributed_timeout_s",
+      "trainer.distributed_wait_s",
+      "trainer.distributed_bucket_mib"};
   return keys;
 }
 

@@ -35,7 +35,7 @@ std::vector<std::string> configDifferences(const ExperimentConfig& a,
 /// Keys that may change on --resume when given explicitly with --set:
 /// thread counts, logging, eval output extras, the device, the epoch /
 /// iteration counts (to extend a run), patience and fault limits, the store
-/// map size.
+/// map size, the distributed timeouts and bucket size.
 const std::vector<std::string>& resumeSafeKeys();
 
 /// The key paths set by "section.key=value" overrides.

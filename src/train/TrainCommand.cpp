@@ -10,6 +10,7 @@
 #include "common/Config.h"
 #include "common/FileIo.h"
 #include "train/Checkpoint.h"
+#include "train/DistributedTraining.h"
 #include "train/PretrainTasks.h"
 #include "train/RunDirectory.h"
 #include "train/VlnTrainer.h"
@@ -55,18 +56,57 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
     out << yaml;
     return 0;
   }
-  const fs::path runDir = config.output.dir;
-  if (options.resume) {
-    const auto changed =
-        checkResumeConfig(runDir, config, overriddenKeys(options.overrides));
-    for (const auto& key : changed)
-      out << "train --resume: " << key << " changed (allowed)\n";
-  } else {
-    checkFreshRunDirectory(runDir);
+  // several processes when torchrun's variables ask for it
+  // (DistributedTraining.h); rankConfig may name this rank's GPU
+  ExperimentConfig rankConfig = config;
+  const std::unique_ptr<Distributed> dist = connectForTraining(rankConfig);
+  const bool master = !dist || dist->isMaster();
+  if (dist) {
+    VLN_CHECK_ARG(
+        config.trainer.task == "vln", "train: trainer.task '",
+        config.trainer.task,
+        "' trains in one process only, but WORLD_SIZE=", dist->worldSize(),
+        " (unset WORLD_SIZE or set "
+        "trainer.distributed: off)");
+    checkSameConfigOnAllRanks(*dist, config);
+    // every rank resumes, or none (a fresh rank 0 would otherwise train
+    // from scratch next to ranks that reopened their store shards)
+    const double resuming =
+        dist->allReduceSum({options.resume ? 1.0 : 0.0}).front();
+    VLN_CHECK_ARG(resuming == 0.0 || resuming == dist->worldSize(),
+                  "train: --resume was given to ", resuming, " of the ",
+                  dist->worldSize(),
+                  " ranks; give it to every rank or to none");
   }
+  const fs::path runDir = config.output.dir;
+  auto checkRunDirectory = [&] {
+    if (options.resume) {
+      // rank 0 owns config.yaml; the others run rank 0's config (checked).
+      // The process count first: a run cannot change it at all.
+      if (master) {
+        checkRunWorldSize(runDir, dist ? dist->worldSize() : 1, options.resume);
+        const auto changed = checkResumeConfig(
+            runDir, config, overriddenKeys(options.overrides));
+        for (const auto& key : changed)
+          out << "train --resume: " << key << " changed (allowed)\n";
+      }
+    } else {
+      checkFreshRunDirectory(runDir);
+    }
+  };
+  if (dist)
+    dist->collectively("the run directory check", checkRunDirectory);
+  else
+    checkRunDirectory();
   fs::create_directories(runDir);
-  common::writeFileAtomic(runDir / "config.yaml", yaml);
-  common::initLogging(runDir / "train.log", config.output.log_level);
+  if (master) common::writeFileAtomic(runDir / "config.yaml", yaml);
+  if (dist && master && !options.resume)
+    writeRunWorldSize(runDir, dist->worldSize());
+  common::initLogging(rankLogFile(runDir, dist ? dist->rank() : 0),
+                      config.output.log_level);
+  if (dist)
+    spdlog::set_pattern(
+        strCat("[%H:%M:%S.%e] [rank ", dist->rank(), "] [%^%l%$] %v"));
   spdlog::info("train {} in {}{}", config.trainer.task, runDir.string(),
                options.resume ? " (resume)" : "");
 
@@ -75,9 +115,20 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   torch::set_num_threads(config.trainer.torch_threads);
   torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
 
-  taskRunner(config.trainer.task)(config, options.resume);
+  if (dist) {
+    try {
+      VlnTrainer trainer(rankConfig, options.resume, dist.get());
+      trainer.run();
+    } catch (const std::exception& error) {
+      // the other ranks stop at their next wait instead of timing out
+      dist->abort(error.what());
+      throw;
+    }
+  } else {
+    taskRunner(config.trainer.task)(config, options.resume);
+  }
 
-  if (!options.export_path.empty()) {
+  if (!options.export_path.empty() && master) {
     const fs::path source = bestOrLatestCheckpoint(runDir);
     exportCheckpoint(source, config, options.export_path);
     out << "exported " << source.string() << " to "

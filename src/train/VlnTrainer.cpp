@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <random>
 
 #include "common/Check.h"
@@ -23,6 +25,8 @@
 #include "models/Policy.h"
 #include "models/StateDict.h"
 #include "train/Collector.h"
+#include "train/Distributed.h"
+#include "train/DistributedTraining.h"
 #include "train/FeatureStore.h"
 #include "train/ImitationLearner.h"
 #include "train/MetricsLog.h"
@@ -237,7 +241,57 @@ struct VlnTrainer::Impl {
   int evalsSinceBest = 0;
   int64_t epochsDone = 0;
 
+  // multi-process: this rank's group (nullptr: one process), and the
+  // episodes and bytes per step of all ranks' stores together (updated
+  // when a round is collected)
+  Distributed* dist = nullptr;
+  int64_t storeEpisodes = 0;
+  double storeBytesPerStep = 0.0;
+
   bool dagger() const { return config.trainer.dagger_iterations > 0; }
+  // rank 0 (or the only process) writes the run's files
+  bool master() const { return !dist || dist->isMaster(); }
+
+  void writeMetrics(const std::string& type, nlohmann::json record,
+                    const std::vector<std::pair<std::string, double>>& scalars,
+                    int64_t step) {
+    if (metrics) metrics->write(type, std::move(record), scalars, step);
+  }
+
+  // store totals over the ranks (a collective in a multi-process run)
+  void updateStoreTotals() {
+    storeEpisodes = store->size();
+    storeBytesPerStep = store->bytesPerStep();
+    if (!dist) return;
+    const std::vector<double> sums =
+        dist->allReduceSum({static_cast<double>(store->size()),
+                            static_cast<double>(store->totalBytes()),
+                            static_cast<double>(store->totalSteps())});
+    storeEpisodes = static_cast<int64_t>(sums[0]);
+    storeBytesPerStep = sums[2] > 0.0 ? sums[1] / sums[2] : 0.0;
+  }
+
+  // the ranks' policies must be bitwise identical (same updates applied)
+  void checkRanksAgree(const std::string& when) {
+    if (!dist) return;
+    std::vector<torch::Tensor> tensors;
+    std::vector<std::string> names;
+    for (const auto& [name, tensor] : models::namedState(*policy)) {
+      names.push_back(name);
+      tensors.push_back(tensor);
+    }
+    dist->checkIdentical(tensors, names, when);
+  }
+
+  // the fewest episodes of any collection round (every rank needs one)
+  size_t smallestRound() const {
+    const size_t pooled = pool(nullptr).size();
+    if (!dagger()) return pooled;
+    size_t smallest = static_cast<size_t>(config.trainer.dagger_episodes);
+    for (int n = 0; n < config.trainer.dagger_iterations; ++n)
+      if (betaOf(n) >= 1.0) smallest = std::min(smallest, pooled);
+    return smallest;
+  }
 
   // --- setup ---------------------------------------------------------------
 
@@ -289,9 +343,42 @@ struct VlnTrainer::Impl {
                  models::policyName(config.model.policy), parameters,
                  trainable);
 
-    const auto checkpoints = listCheckpoints(checkpointDir);
-    haveCheckpoint = resume && !checkpoints.empty();
-    if (!haveCheckpoint && !config.trainer.init_checkpoint.empty()) {
+    if (dist) {
+      const size_t smallest = smallestRound();
+      VLN_CHECK_ARG(
+          smallest >= static_cast<size_t>(dist->worldSize()),
+          "train: WORLD_SIZE = ", dist->worldSize(), " is larger than the ",
+          smallest, " episodes of a collection round (",
+          dagger() ? "trainer.dagger_episodes or the training pool"
+                   : "the training pool: dataset.train_split",
+          config.trainer.use_aug ? " + dataset.aug_split" : "",
+          ", capped by dataset.max_train_episodes): every rank needs at "
+          "least one episode");
+    }
+
+    // the checkpoint to resume from; in a multi-process run rank 0 reads it
+    // and sends it to the others (whose run directory may be elsewhere)
+    std::optional<Checkpoint> resumeFrom;
+    std::string resumeSource;
+    if (master()) {
+      const auto checkpoints = listCheckpoints(checkpointDir);
+      if (resume && !checkpoints.empty()) {
+        resumeSource = checkpoints.back().string();
+        resumeFrom = loadCheckpoint(checkpoints.back());
+      }
+    }
+    if (dist) {
+      const std::string bytes = dist->broadcastBytes(
+          resumeFrom ? serializeCheckpoint(*resumeFrom) : std::string());
+      if (!master() && !bytes.empty()) {
+        resumeSource = "rank 0's checkpoint";
+        resumeFrom = deserializeCheckpoint(bytes, resumeSource);
+      }
+    }
+    haveCheckpoint = resumeFrom.has_value();
+    // rank 0 reads init_checkpoint; the others receive its weights below
+    if (!haveCheckpoint && !config.trainer.init_checkpoint.empty() &&
+        master()) {
       models::loadStateStrict(*policy,
                               readPolicyWeights(config.trainer.init_checkpoint),
                               config.trainer.init_checkpoint);
@@ -299,6 +386,7 @@ struct VlnTrainer::Impl {
                    config.trainer.init_checkpoint);
     }
     learner = std::make_unique<ImitationLearner>(policy, config);
+    if (dist) learner->setDistributed(dist);
     if (config.trainer.inflection_weight <= 0.0) {
       std::vector<const data::GroundTruth*> gts = {train.groundTruth.get()};
       if (aug) gts.push_back(aug->groundTruth.get());
@@ -310,12 +398,11 @@ struct VlnTrainer::Impl {
     }
 
     if (haveCheckpoint) {
-      const fs::path last = checkpoints.back();
-      const Checkpoint ckpt = loadCheckpoint(last);
-      models::loadStateStrict(*policy, ckpt.policy, last.string());
-      loadOptimizerState(learner->optimizer(), ckpt.optimizer_state,
-                         last.string());
-      restoreRngState(ckpt.rng_state, last.string());
+      const Checkpoint& ckpt = *resumeFrom;
+      const std::string& last = resumeSource;
+      models::loadStateStrict(*policy, ckpt.policy, last);
+      loadOptimizerState(learner->optimizer(), ckpt.optimizer_state, last);
+      restoreRngState(ckpt.rng_state, last);
       progress = ckpt.progress;
       learner->setUpdates(progress.updates);
       evalsSinceBest = progress.extra.value("evals_since_best", 0);
@@ -323,8 +410,8 @@ struct VlnTrainer::Impl {
       spdlog::info(
           "resuming from {}: stage {}, {} DAgger iterations and {} epochs "
           "done, {} updates",
-          last.string(), progress.stage, progress.dagger_iteration,
-          progress.epoch, progress.updates);
+          last, progress.stage, progress.dagger_iteration, progress.epoch,
+          progress.updates);
     } else {
       progress = TrainingProgress{};
       progress.checkpoint_index = -1;
@@ -339,8 +426,9 @@ struct VlnTrainer::Impl {
       layout.depth_shape = models::depthFeatureShape(config.model);
     layout.fp16 = config.trainer.store_fp16;
     layout.config_hash = storeConfigHash(config);
-    store = std::make_unique<FeatureStore>(runDir / "store", layout,
-                                           config.trainer.store_max_gib);
+    store = std::make_unique<FeatureStore>(
+        dist ? storeShardDir(runDir, dist->rank()) : runDir / "store", layout,
+        config.trainer.store_max_gib);
     spdlog::info(
         "feature store {}: {} episodes, {} steps, {:.0f} bytes/step ({} "
         "feature bytes "
@@ -349,10 +437,23 @@ struct VlnTrainer::Impl {
         store->bytesPerStep(), layout.featureBytesPerStep(),
         layout.fp16 ? "float16" : "float32");
 
+    updateStoreTotals();
+
     scenes = std::make_shared<eval::SceneCache>(config.sim);
-    metrics = std::make_unique<MetricsLog>(
-        runDir / "metrics.jsonl",
-        config.output.tensorboard ? runDir / "tb" : fs::path());
+    if (master())
+      metrics = std::make_unique<MetricsLog>(
+          runDir / "metrics.jsonl",
+          config.output.tensorboard ? runDir / "tb" : fs::path());
+
+    if (dist) {
+      // every rank starts from rank 0's weights and Adam state
+      dist->broadcastModule(*policy);
+      dist->broadcastOptimizer(learner->optimizer());
+      checkRanksAgree("at the start");
+      spdlog::info("distributed: rank {} of {} ({}), store shard {}",
+                   dist->rank(), dist->worldSize(), dist->backendName(),
+                   store->dir().string());
+    }
   }
 
   // --- collection ------------------------------------------------------------
@@ -406,12 +507,43 @@ struct VlnTrainer::Impl {
   }
 
   void collect(int iteration) {
-    const CollectionRound round = roundOf(iteration);
+    CollectionRound round = roundOf(iteration);
+    if (dist) {
+      round.shard = dist->rank();
+      round.num_shards = dist->worldSize();
+    }
     if (!collector)
       collector = std::make_unique<Collector>(config, scenes, encoder);
-    const CollectionStats stats = collector->collect(
+    CollectionStats stats = collector->collect(
         round, *store, round.beta < 1.0 ? policy.get() : nullptr,
         round.beta >= 1.0 ? train.groundTruth.get() : nullptr);
+    if (dist) {
+      // every shard is complete before anyone trains; the record covers
+      // the whole round (its wall time is the slowest rank's)
+      dist->waitForAll(strCat("the end of collection round ", iteration));
+      const std::vector<double> sums = dist->allReduceSum(
+          {static_cast<double>(stats.episodes),
+           static_cast<double>(stats.skipped), static_cast<double>(stats.steps),
+           static_cast<double>(stats.oracle_steps),
+           static_cast<double>(stats.cut_at_limit),
+           static_cast<double>(stats.gt_episodes),
+           static_cast<double>(stats.gt_identical),
+           static_cast<double>(stats.gt_steps),
+           static_cast<double>(stats.gt_equal_steps)});
+      int64_t* fields[] = {
+          &stats.episodes,     &stats.skipped,      &stats.steps,
+          &stats.oracle_steps, &stats.cut_at_limit, &stats.gt_episodes,
+          &stats.gt_identical, &stats.gt_steps,     &stats.gt_equal_steps};
+      for (size_t i = 0; i < std::size(fields); ++i)
+        *fields[i] = static_cast<int64_t>(sums[i]);
+      stats.seconds =
+          static_cast<double>(
+              dist->allReduceMax({static_cast<int64_t>(stats.seconds * 1000.0)})
+                  .front()) /
+          1000.0;
+    }
+    updateStoreTotals();
+    if (!master()) return;
     nlohmann::json record = {{"iteration", iteration},
                              {"beta", round.beta},
                              {"episodes", stats.episodes},
@@ -420,12 +552,12 @@ struct VlnTrainer::Impl {
                              {"seconds", stats.seconds},
                              {"oracle_steps", stats.oracle_steps},
                              {"cut_at_limit", stats.cut_at_limit},
-                             {"store_episodes", store->size()},
-                             {"store_bytes_per_step", store->bytesPerStep()}};
+                             {"store_episodes", storeEpisodes},
+                             {"store_bytes_per_step", storeBytesPerStep}};
     std::vector<std::pair<std::string, double>> scalars = {
         {"collect/beta", round.beta},
-        {"collect/store_episodes", static_cast<double>(store->size())},
-        {"collect/bytes_per_step", store->bytesPerStep()}};
+        {"collect/store_episodes", static_cast<double>(storeEpisodes)},
+        {"collect/bytes_per_step", storeBytesPerStep}};
     if (stats.seconds > 0 && stats.episodes > 0) {
       record["episodes_per_minute"] =
           60.0 * static_cast<double>(stats.episodes) / stats.seconds;
@@ -452,7 +584,7 @@ struct VlnTrainer::Impl {
                   train.name, stats.gt_identical, stats.gt_episodes,
                   100.0 * identical, 100.0 * steps);
     }
-    metrics->write("collect", record, scalars, iteration);
+    writeMetrics("collect", record, scalars, iteration);
   }
 
   // --- checkpoints and evaluation
@@ -461,11 +593,13 @@ struct VlnTrainer::Impl {
   void saveCheckpointNow(bool evalDue) {
     progress.checkpoint_index += 1;
     progress.updates = learner->updates();
-    progress.episodes_collected = store->size();
+    progress.episodes_collected = storeEpisodes;
     progress.extra["evals_since_best"] = evalsSinceBest;
     progress.extra["epochs_done"] = epochsDone;
     progress.extra["eval_due"] = evalDue;
     progress.extra["inflection_coef"] = learner->inflectionCoef();
+    if (dist) progress.extra["world_size"] = dist->worldSize();
+    if (!master()) return;  // the progress above is kept on every rank
     Checkpoint ckpt;
     ckpt.config_yaml = experimentConfigYaml(config);
     ckpt.policy = models::namedState(*policy);
@@ -508,6 +642,16 @@ struct VlnTrainer::Impl {
     const eval::EvalConfig& ec = config.eval;
     double selectionSpl = -1.0;
     for (const Split& split : evalSplits) {
+      // multi-process: rank r runs episodes r, r + N, ... of the split
+      std::vector<data::Episode> shard;
+      const std::vector<data::Episode>* episodes = &split.dataset.episodes;
+      if (dist) {
+        for (size_t i = static_cast<size_t>(dist->rank());
+             i < split.dataset.episodes.size();
+             i += static_cast<size_t>(dist->worldSize()))
+          shard.push_back(split.dataset.episodes[i]);
+        episodes = &shard;
+      }
       eval::VectorEnv envs(ec.num_envs, config.sim, config.task, scenes,
                            ec.threads);
       // on the heap: PolicyAgent.h declares no destructor, so one instantiated
@@ -516,50 +660,88 @@ struct VlnTrainer::Impl {
           new eval::PolicyAgent(policy, encoder, ec.num_envs, ec.sample_actions,
                                 static_cast<uint64_t>(ec.seed),
                                 config.dataset.max_instruction_length));
-      common::ProgressLine line(
-          "evaluate " + split.name,
-          static_cast<int64_t>(split.dataset.episodes.size()), "episodes");
+      common::ProgressLine line("evaluate " + split.name,
+                                static_cast<int64_t>(episodes->size()),
+                                "episodes");
       common::Stopwatch clock;
       const eval::EvaluationResult result = eval::evaluateEpisodes(
-          *agent, envs, split.dataset.episodes, split.groundTruth.get(), ec,
+          *agent, envs, *episodes, split.groundTruth.get(), ec,
           [&](int, int) { line.advance(); });
-      eval::writeStatsFile(evalDir, index, split.name, result.stats);
-      const auto& m = result.stats.mean;
+      const eval::SplitStats stats =
+          dist ? combineShards(result, strCat("the evaluation of checkpoint ",
+                                              index, " on ", split.name))
+               : result.stats;
+      if (master()) eval::writeStatsFile(evalDir, index, split.name, stats);
+      const auto& m = stats.mean;
       spdlog::info(
           "ckpt {} {} ({} episodes, {:.1f} s): TL {:.2f} NE {:.2f} nDTW {:.3f} "
           "OS {:.3f} "
           "SR {:.3f} SPL {:.3f}",
-          index, split.name, result.stats.num_episodes, clock.seconds(),
-          m.path_length, m.distance_to_goal, m.ndtw, m.oracle_success,
-          m.success, m.spl);
+          index, split.name, stats.num_episodes, clock.seconds(), m.path_length,
+          m.distance_to_goal, m.ndtw, m.oracle_success, m.success, m.spl);
       nlohmann::json record = metricsJson(m);
       record["checkpoint"] = index;
       record["split"] = split.name;
-      record["num_episodes"] = result.stats.num_episodes;
+      record["num_episodes"] = stats.num_episodes;
       std::vector<std::pair<std::string, double>> scalars;
       const nlohmann::json values = metricsJson(m);
       for (const auto& [key, value] : values.items())
         scalars.emplace_back("eval/" + split.name + "/" + key,
                              value.get<double>());
-      metrics->write("eval", record, scalars, index);
+      writeMetrics("eval", record, scalars, index);
       if (split.name == ec.selection_split) selectionSpl = m.spl;
     }
     policy->train();
     return recordEvaluation(index, selectionSpl);
   }
 
-  // best checkpoint and patience bookkeeping after an evaluation
+  // the whole split's means from every rank's shard (after all finished):
+  // the sums of the scored episodes' metrics over the ranks, divided by
+  // their count (as eval::aggregate() does in one process, up to the order
+  // of the additions)
+  eval::SplitStats combineShards(const eval::EvaluationResult& mine,
+                                 const std::string& what) {
+    dist->waitForAll(what);
+    using M = eval::EpisodeMetrics;
+    static constexpr double M::*kFields[] = {&M::distance_to_goal,
+                                             &M::success,
+                                             &M::spl,
+                                             &M::ndtw,
+                                             &M::sdtw,
+                                             &M::path_length,
+                                             &M::oracle_success,
+                                             &M::steps_taken};
+    constexpr size_t kCount = std::size(kFields);
+    std::vector<double> sums(kCount + 1, 0.0);
+    for (size_t i = 0; i < mine.episodes.size(); ++i) {
+      if (!mine.scored[i]) continue;
+      for (size_t f = 0; f < kCount; ++f)
+        sums[f] += mine.episodes[i].metrics.*kFields[f];
+      sums[kCount] += 1.0;
+    }
+    sums = dist->allReduceSum(sums);
+    eval::SplitStats all;
+    all.num_episodes = static_cast<int>(sums[kCount]);
+    if (all.num_episodes == 0) return all;
+    for (size_t f = 0; f < kCount; ++f)
+      all.mean.*kFields[f] = sums[f] / sums[kCount];
+    return all;
+  }
+
+  // best checkpoint and patience bookkeeping after an evaluation (the same
+  // on every rank; rank 0 writes best.json)
   bool recordEvaluation(int index, double spl) {
     if (spl > progress.best_spl) {
       progress.best_spl = spl;
       progress.best_checkpoint = index;
       evalsSinceBest = 0;
-      common::writeJsonFile(checkpointDir / "best.json",
-                            {{"checkpoint", checkpointFileName(index)},
-                             {"index", index},
-                             {"split", config.eval.selection_split},
-                             {"spl", spl}},
-                            2);
+      if (master())
+        common::writeJsonFile(checkpointDir / "best.json",
+                              {{"checkpoint", checkpointFileName(index)},
+                               {"index", index},
+                               {"split", config.eval.selection_split},
+                               {"spl", spl}},
+                              2);
       spdlog::info("new best checkpoint {}: {} SPL {:.4f}", index,
                    config.eval.selection_split, spl);
     } else {
@@ -582,14 +764,19 @@ struct VlnTrainer::Impl {
     if (!haveCheckpoint || !config.trainer.eval_during_training) return false;
     const int index = progress.checkpoint_index;
     if (!progress.extra.value("eval_due", false)) return false;
-    if (evaluated(index)) {
+    // rank 0's eval/ directory decides (the only one with stats files)
+    bool done = master() && evaluated(index);
+    if (dist) done = dist->broadcastBytes(done ? "1" : "0") == "1";
+    if (done) {
       // finished before the kill: fold its result in from the stats file
       double spl = -1.0;
-      for (const auto& split : evalSplits)
-        if (split.name == config.eval.selection_split)
-          spl = eval::readStatsFile(evalDir /
-                                    eval::statsFileName(index, split.name))
-                    .mean.spl;
+      if (master())
+        for (const auto& split : evalSplits)
+          if (split.name == config.eval.selection_split)
+            spl = eval::readStatsFile(evalDir /
+                                      eval::statsFileName(index, split.name))
+                      .mean.spl;
+      if (dist) spl = dist->allReduceSum({master() ? spl : 0.0}).front();
       return recordEvaluation(index, spl);
     }
     spdlog::info(
@@ -611,9 +798,9 @@ struct VlnTrainer::Impl {
                          static_cast<uint64_t>(iteration)),
         epoch, [&](const UpdateResult& u) {
           if (u.skipped) {
-            metrics->write("nonfinite",
-                           {{"update", learner->updates()}, {"loss", u.loss}},
-                           {}, learner->updates());
+            writeMetrics("nonfinite",
+                         {{"update", learner->updates()}, {"loss", u.loss}}, {},
+                         learner->updates());
             return;
           }
           if (learner->updates() % config.trainer.log_every_updates != 0)
@@ -623,20 +810,20 @@ struct VlnTrainer::Impl {
               "norm {:.3f}",
               learner->updates(), u.loss, u.action_loss, u.progress_loss,
               u.grad_norm);
-          metrics->write("update",
-                         {{"update", learner->updates()},
-                          {"epoch", epochsDone},
-                          {"iteration", iteration},
-                          {"loss", u.loss},
-                          {"action_loss", u.action_loss},
-                          {"progress_loss", u.progress_loss},
-                          {"grad_norm", u.grad_norm},
-                          {"steps", u.steps}},
-                         {{"train/loss", u.loss},
-                          {"train/action_loss", u.action_loss},
-                          {"train/progress_loss", u.progress_loss},
-                          {"train/grad_norm", u.grad_norm}},
-                         learner->updates());
+          writeMetrics("update",
+                       {{"update", learner->updates()},
+                        {"epoch", epochsDone},
+                        {"iteration", iteration},
+                        {"loss", u.loss},
+                        {"action_loss", u.action_loss},
+                        {"progress_loss", u.progress_loss},
+                        {"grad_norm", u.grad_norm},
+                        {"steps", u.steps}},
+                       {{"train/loss", u.loss},
+                        {"train/action_loss", u.action_loss},
+                        {"train/progress_loss", u.progress_loss},
+                        {"train/grad_norm", u.grad_norm}},
+                       learner->updates());
         });
     ++epochsDone;
     const double rate =
@@ -647,36 +834,44 @@ struct VlnTrainer::Impl {
         "mean loss {:.4f} (action {:.4f}, progress {:.4f}), {} episodes in the "
         "store",
         epochsDone, iteration, r.updates, r.skipped, r.seconds, rate,
-        r.mean.loss, r.mean.action_loss, r.mean.progress_loss, store->size());
-    metrics->write("epoch",
-                   {{"epoch", epochsDone},
-                    {"iteration", iteration},
-                    {"updates", r.updates},
-                    {"skipped", r.skipped},
-                    {"seconds", r.seconds},
-                    {"updates_per_second", rate},
-                    {"loss", r.mean.loss},
-                    {"action_loss", r.mean.action_loss},
-                    {"progress_loss", r.mean.progress_loss},
-                    {"store_episodes", store->size()},
-                    {"inflection_coef", learner->inflectionCoef()}},
-                   {{"epoch/loss", r.mean.loss},
-                    {"epoch/action_loss", r.mean.action_loss},
-                    {"epoch/progress_loss", r.mean.progress_loss},
-                    {"epoch/updates_per_second", rate}},
-                   epochsDone);
+        r.mean.loss, r.mean.action_loss, r.mean.progress_loss, storeEpisodes);
+    checkRanksAgree(strCat("after epoch ", epochsDone));
+    writeMetrics("epoch",
+                 {{"epoch", epochsDone},
+                  {"iteration", iteration},
+                  {"updates", r.updates},
+                  {"skipped", r.skipped},
+                  {"seconds", r.seconds},
+                  {"updates_per_second", rate},
+                  {"loss", r.mean.loss},
+                  {"action_loss", r.mean.action_loss},
+                  {"progress_loss", r.mean.progress_loss},
+                  {"store_episodes", storeEpisodes},
+                  {"inflection_coef", learner->inflectionCoef()}},
+                 {{"epoch/loss", r.mean.loss},
+                  {"epoch/action_loss", r.mean.action_loss},
+                  {"epoch/progress_loss", r.mean.progress_loss},
+                  {"epoch/updates_per_second", rate}},
+                 epochsDone);
   }
 
   void finish(const std::string& reason) {
-    common::writeJsonFile(runDir / "finished.json",
-                          {{"reason", reason},
-                           {"last_checkpoint", progress.checkpoint_index},
-                           {"best_checkpoint", progress.best_checkpoint},
-                           {"best_spl", progress.best_spl},
-                           {"updates", learner->updates()},
-                           {"store_episodes", store->size()},
-                           {"store_bytes_per_step", store->bytesPerStep()}},
-                          2);
+    // debug hook of the multi-process tests: every rank's final weights
+    if (const char* dump = std::getenv("VLN_DEBUG_PARAMETER_DUMP_DIR");
+        dump != nullptr && *dump != '\0')
+      models::writeTensorFile(
+          fs::path(dump) / strCat("rank", dist ? dist->rank() : 0, ".pt"),
+          models::namedState(*policy));
+    if (master())
+      common::writeJsonFile(runDir / "finished.json",
+                            {{"reason", reason},
+                             {"last_checkpoint", progress.checkpoint_index},
+                             {"best_checkpoint", progress.best_checkpoint},
+                             {"best_spl", progress.best_spl},
+                             {"updates", learner->updates()},
+                             {"store_episodes", storeEpisodes},
+                             {"store_bytes_per_step", storeBytesPerStep}},
+                            2);
     spdlog::info("training finished ({}): last checkpoint {}, best {}", reason,
                  progress.checkpoint_index, progress.best_checkpoint);
   }
@@ -714,9 +909,11 @@ struct VlnTrainer::Impl {
   }
 };
 
-VlnTrainer::VlnTrainer(const ExperimentConfig& config, bool resume)
+VlnTrainer::VlnTrainer(const ExperimentConfig& config, bool resume,
+                       Distributed* dist)
     : impl_(std::make_unique<Impl>()) {
   impl_->config = config;
+  impl_->dist = dist;
   impl_->setup(resume);
 }
 

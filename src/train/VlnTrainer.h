@@ -34,6 +34,19 @@
 // a better eval.selection_split SPL, training stops. checkpoints/best.json
 // names the best checkpoint; output.keep_checkpoints newest checkpoints are
 // kept besides the best (the newest always, --resume needs it).
+//
+// Multi-process (docs/distributed.md, DistributedTraining.h): rank r
+// collects the slots k of every round with k % WORLD_SIZE == r into its own
+// store shard (store/rank<r>/) and trains on it; every update combines the
+// gradients of all ranks into that of the union of their batches
+// (ImitationLearner::setDistributed()), so the ranks' policies stay bitwise
+// identical (checked after every epoch). Rank 0 reads
+// the checkpoint to resume from and sends it to the others; at a fresh start
+// every rank takes rank 0's initial weights. Rank 0 alone writes
+// checkpoints, metrics, TensorBoard events, eval stats, best.json and
+// finished.json. Evaluations are sharded: rank r runs episodes r, r + N, ...
+// of each split and the metric sums are all-reduced, so rank 0's stats cover
+// the whole split.
 
 #include <filesystem>
 #include <memory>
@@ -44,11 +57,17 @@
 
 namespace vln::train {
 
+class Distributed;
+
 class VlnTrainer {
  public:
   /// Loads the data, the embeddings, the policy and the encoders; with
-  /// `resume`, restores the last checkpoint of output.dir.
-  VlnTrainer(const ExperimentConfig& config, bool resume);
+  /// `resume`, restores the last checkpoint of output.dir. `dist` (which
+  /// must outlive the trainer) makes this one rank of a multi-process run;
+  /// nullptr trains in this process alone. Throws std::invalid_argument
+  /// when WORLD_SIZE exceeds the episodes of a collection round.
+  VlnTrainer(const ExperimentConfig& config, bool resume,
+             Distributed* dist = nullptr);
   ~VlnTrainer();
 
   /// Trains until the configured end or early stopping.
