@@ -1,9 +1,11 @@
 #include "common/FileIo.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cstring>
@@ -48,7 +50,8 @@ std::string readFile(const std::filesystem::path& file) {
                "': ", errnoText(errno));
   std::ostringstream contents;
   contents << in.rdbuf();
-  VLN_CHECK_IO(!in.bad(), "readFile(): I/O error reading '", file.string(), "'");
+  VLN_CHECK_IO(!in.bad(), "readFile(): I/O error reading '", file.string(),
+               "'");
   std::string data = contents.str();
   if (hasGzipMagic(data)) return gzipDecompress(data, file.string());
   return data;
@@ -132,7 +135,8 @@ void writeFileAtomic(const std::filesystem::path& file,
   }
   std::string payload;
   if (isGzipPath(file)) payload = gzipCompress(contents);
-  std::string_view bytes = isGzipPath(file) ? std::string_view(payload) : contents;
+  std::string_view bytes =
+      isGzipPath(file) ? std::string_view(payload) : contents;
 
   std::filesystem::path temp = file;
   temp += ".tmp." + std::to_string(::getpid()) + "." +
@@ -157,6 +161,50 @@ void writeFileAtomic(const std::filesystem::path& file,
                              file.string() + "': " + errnoText(err));
   }
   syncDirectory(dir);
+}
+
+namespace {
+
+// The pid of a writeFileAtomic() temporary name, or 0 when `name` is not one.
+pid_t temporaryOwner(const std::string& name) {
+  const size_t tag = name.rfind(".tmp.");
+  if (tag == std::string::npos || tag == 0) return 0;
+  const std::string rest = name.substr(tag + 5);  // "<pid>.<n>"
+  const size_t dot = rest.find('.');
+  if (dot == std::string::npos || dot == 0 || dot + 1 == rest.size()) return 0;
+  const auto digits = [](std::string_view s) {
+    return std::all_of(s.begin(), s.end(),
+                       [](char c) { return c >= '0' && c <= '9'; });
+  };
+  const std::string pid = rest.substr(0, dot);
+  if (!digits(pid) || !digits(rest.substr(dot + 1)) || pid.size() > 9) return 0;
+  return static_cast<pid_t>(std::stol(pid));
+}
+
+}  // namespace
+
+std::vector<std::filesystem::path> removeStaleTemporaries(
+    const std::filesystem::path& dir) {
+  std::vector<std::filesystem::path> removed;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(dir, ec)) return removed;
+  for (auto it = std::filesystem::recursive_directory_iterator(dir, ec);
+       !ec && it != std::filesystem::recursive_directory_iterator();
+       it.increment(ec)) {
+    if (!it->is_regular_file(ec)) continue;
+    const pid_t owner = temporaryOwner(it->path().filename().string());
+    // a live owner (ESRCH tells a dead one) may be about to rename it
+    if (owner <= 0 || (::kill(owner, 0) == 0 || errno != ESRCH)) continue;
+    removed.push_back(it->path());
+  }
+  VLN_CHECK_IO(!ec, "removeStaleTemporaries(): cannot list '", dir.string(),
+               "': ", ec.message());
+  for (const auto& path : removed) {
+    std::filesystem::remove(path, ec);
+    VLN_CHECK_IO(!ec, "removeStaleTemporaries(): cannot remove '",
+                 path.string(), "': ", ec.message());
+  }
+  return removed;
 }
 
 }  // namespace vln::common

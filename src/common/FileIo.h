@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace vln::common {
 
@@ -25,6 +26,13 @@ bool isGzipPath(const std::filesystem::path& path);
 /// leaving the previous file untouched.
 void writeFileAtomic(const std::filesystem::path& file,
                      std::string_view contents);
+
+/// Removes the temporaries writeFileAtomic() leaves when its process is
+/// killed between creating and renaming them ("<name>.tmp.<pid>.<n>") from
+/// `dir` and its subdirectories, skipping those of processes still running.
+/// Returns the removed paths. A missing `dir` removes nothing.
+std::vector<std::filesystem::path> removeStaleTemporaries(
+    const std::filesystem::path& dir);
 
 /// gzip-compresses `data` (RFC 1952 container, zlib level `level`).
 std::string gzipCompress(std::string_view data, int level = 6);

@@ -109,6 +109,10 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
         strCat("[%H:%M:%S.%e] [rank ", dist->rank(), "] [%^%l%$] %v"));
   spdlog::info("train {} in {}{}", config.trainer.task, runDir.string(),
                options.resume ? " (resume)" : "");
+  // a kill during an atomic write leaves its temporary behind
+  if (options.resume && master)
+    for (const auto& stale : common::removeStaleTemporaries(runDir))
+      spdlog::info("removed {}, left by a killed write", stale.string());
 
   // threads and seeds before anything builds a model
   common::setBlasThreadsEnv(config.trainer.torch_threads);

@@ -1,6 +1,10 @@
 #include "common/FileIo.h"
 
 #include <gmock/gmock.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <gtest/gtest.h>
 
 #include "common/Json.h"
@@ -44,6 +48,34 @@ TEST(FileIoTest, AtomicWriteKeepsNoTemporaries) {
   }
   EXPECT_EQ(files, 1);
   EXPECT_EQ(readJsonFile(dir / "sub" / "a.json")["k"], 1);
+}
+
+TEST(FileIoTest, StaleTemporariesOfDeadWritersAreRemoved) {
+  test::TempDir dir;
+  // a child that exits is a writer killed mid-write: its pid is free after
+  // the wait (and not reused this quickly)
+  const pid_t dead = ::fork();
+  ASSERT_GE(dead, 0);
+  if (dead == 0) ::_exit(0);
+  ASSERT_EQ(::waitpid(dead, nullptr, 0), dead);
+  const std::string deadTag = ".tmp." + std::to_string(dead) + ".3";
+  const std::string liveTag = ".tmp." + std::to_string(::getpid()) + ".0";
+  test::writeText(dir / ("ckpt.2.pth" + deadTag), "half");
+  test::writeText(dir / "checkpoints" / ("best.json" + deadTag), "{");
+  test::writeText(dir / ("metrics.jsonl" + liveTag), "in flight");
+  test::writeText(dir / "notes.tmp.txt", "not a temporary");
+  test::writeText(dir / "ckpt.1.pth", "kept");
+
+  auto removed = removeStaleTemporaries(dir.path());
+  std::sort(removed.begin(), removed.end());
+  EXPECT_EQ(removed, (std::vector<std::filesystem::path>{
+                         dir / "checkpoints" / ("best.json" + deadTag),
+                         dir / ("ckpt.2.pth" + deadTag)}));
+  EXPECT_FALSE(std::filesystem::exists(dir / ("ckpt.2.pth" + deadTag)));
+  EXPECT_TRUE(std::filesystem::exists(dir / ("metrics.jsonl" + liveTag)));
+  EXPECT_TRUE(std::filesystem::exists(dir / "notes.tmp.txt"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "ckpt.1.pth"));
+  EXPECT_TRUE(removeStaleTemporaries(dir / "missing").empty());
 }
 
 TEST(FileIoTest, JsonErrorsNameFileAndField) {
