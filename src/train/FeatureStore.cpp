@@ -1,10 +1,13 @@
 #include "train/FeatureStore.h"
 
 #include <lmdb.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 
 #include <algorithm>
 #include <bit>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <random>
@@ -15,6 +18,25 @@
 
 namespace vln::train {
 namespace {
+
+// Why a write of `needed` more bytes into `dir` failed, as far as the
+// process can tell: the file size limit, a full filesystem, or neither.
+std::string writeFailureCause(const std::filesystem::path& dir,
+                              uint64_t needed) {
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_FSIZE, &limit) == 0 &&
+      limit.rlim_cur != RLIM_INFINITY && needed > limit.rlim_cur)
+    return strCat("the file size limit, ulimit -f, is ", limit.rlim_cur,
+                  " bytes");
+  struct statvfs fs {};
+  if (::statvfs(dir.c_str(), &fs) == 0) {
+    const uint64_t free = static_cast<uint64_t>(fs.f_bavail) * fs.f_frsize;
+    if (free < (uint64_t{1} << 20))
+      return strCat("the disk is full: ", free, " bytes free");
+    return strCat("a write error with ", free, " bytes free");
+  }
+  return "a write error";
+}
 
 static_assert(std::endian::native == std::endian::little,
               "the feature store format is little-endian");
@@ -455,6 +477,16 @@ void FeatureStore::append(const StoredEpisode& episode) {
         strCat("FeatureStore: the store '", dir_.string(), "' is full (",
                fileBytes(), " bytes on disk) after ", index,
                " episodes: raise trainer.store_max_gib (LMDB map size)"));
+  // LMDB reports a short page write as EIO: tell the likely cause
+  if (rc == EIO || rc == ENOSPC || rc == EFBIG || rc == EDQUOT)
+    throw std::runtime_error(strCat(
+        "FeatureStore: cannot write episode ", episode.key.episode_id, " to '",
+        dir_.string(), "': ", mdb_strerror(rc), " (",
+        writeFailureCause(dir_,
+                          static_cast<uint64_t>(fileBytes()) + value.size()),
+        "); the ", index,
+        " episodes committed before it are intact: free space or lift the "
+        "limit, then train --resume"));
   VLN_CHECK_IO(rc == 0, "FeatureStore: cannot write episode ",
                episode.key.episode_id, " to '", dir_.string(),
                "': ", mdb_strerror(rc));

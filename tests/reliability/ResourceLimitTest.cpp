@@ -172,9 +172,10 @@ train::StoredEpisode episode(int64_t id, int32_t slot, int64_t steps) {
 }
 
 // Three small episodes commit; one large one fails naming the store
-// directory; the store reopens with the three episodes, each passing its
-// CRC check.
-void storeScenario(Reporter& r, const fs::path& dir) {
+// directory, the cause (`cause`: the limit or the full disk) and what
+// survived; the store reopens with the three episodes, each passing its CRC
+// check.
+void storeScenario(Reporter& r, const fs::path& dir, const std::string& cause) {
   train::StoreLayout layout;
   layout.rgb_shape = {4, 4, 4};
   layout.fp16 = false;
@@ -191,6 +192,11 @@ void storeScenario(Reporter& r, const fs::path& dir) {
       r.note("store error: " + message);
       r.check(message.find(storeDir.string()) != std::string::npos,
               "the error does not name the store: " + message);
+      r.check(message.find(cause) != std::string::npos,
+              "the error does not say '" + cause + "': " + message);
+      r.check(message.find("3 episodes committed before it are intact") !=
+                  std::string::npos,
+              "the error does not say what survived: " + message);
     }
     r.check(store.size() == 3, "the store counts the failed episode");
     // whether this handle can still append (LMDB may refuse after a failed
@@ -269,7 +275,7 @@ TEST_F(ResourceLimitTest, CheckpointUnderFileSizeLimit) {
 TEST_F(ResourceLimitTest, StoreCommitUnderFileSizeLimit) {
   const Report report = inChild([&](Reporter& r) {
     limitFileSize(r, 1024 * 1024);
-    storeScenario(r, dir_.path());
+    storeScenario(r, dir_.path(), "the file size limit, ulimit -f, is 1048576 bytes");
   });
   expectClean(report);
   EXPECT_GE(train::FeatureStore::openExisting(dir_ / "store")->size(), 3);
@@ -287,7 +293,7 @@ TEST_F(ResourceLimitTest, CheckpointAndStoreOnAFullDisk) {
     // start the store scenario on an emptied disk
     fs::remove_all(dir_ / "tiny" / "ckpt.0.pth");
     fs::remove_all(dir_ / "tiny" / "ckpt.1.pth");
-    storeScenario(r, dir_ / "tiny");
+    storeScenario(r, dir_ / "tiny", "the disk is full");
   });
   if (report.skipped) GTEST_SKIP() << ::testing::PrintToString(report.notes);
   expectClean(report);
