@@ -26,12 +26,15 @@
 #include "support/TestPaths.h"
 #include "train/Checkpoint.h"
 #include "train/ImitationLearner.h"
+#include "train/LearnerTestUtil.h"
 
 namespace vln::train {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using test::layoutOf;
+using test::tinyLearnerConfig;
 
 // a TCP port nobody listens on right now
 int freePort() {
@@ -429,28 +432,6 @@ TEST(DistributedTest, JoinsThroughTorchrunsAgentStore) {
 // ---------------------------------------------------------------------------
 // the learner on two ranks
 
-ExperimentConfig learnerConfig() {
-  ExperimentConfig c;
-  c.model.policy = models::PolicyType::kSeq2Seq;
-  c.model.rgb_encoder = models::EncoderType::kSmallCnn;
-  c.model.depth_encoder = models::EncoderType::kSmallCnn;
-  c.model.vocab_size = 11;
-  c.model.embedding_dim = 4;
-  c.model.instruction_hidden_size = 6;
-  c.model.hidden_size = 12;
-  c.model.rgb_projection_size = 5;
-  c.model.depth_projection_size = 7;
-  // the progress MSE averages over the batch's steps, the action loss over
-  // its episodes: the learner weights each rank's terms by its shares
-  c.model.progress_monitor = true;
-  c.model.rgb_height = c.model.rgb_width = 32;
-  c.model.depth_height = c.model.depth_width = 32;
-  c.trainer.batch_size = 2;
-  c.trainer.lr = 1e-2;
-  c.trainer.max_nonfinite_updates = 3;
-  return c;
-}
-
 // episodes of different lengths whose label is readable from the depth map
 void fillStore(FeatureStore& store, const ExperimentConfig& c, int first,
                int count) {
@@ -476,15 +457,6 @@ void fillStore(FeatureStore& store, const ExperimentConfig& c, int first,
     }
     store.append(e);
   }
-}
-
-StoreLayout layoutOf(const ExperimentConfig& c) {
-  StoreLayout l;
-  l.rgb_shape = models::rgbFeatureShape(c.model);
-  l.depth_shape = models::depthFeatureShape(c.model);
-  l.fp16 = false;
-  l.config_hash = "test";
-  return l;
 }
 
 std::vector<torch::Tensor> snapshot(models::PolicyImpl& policy) {
@@ -513,7 +485,7 @@ double maxAbsDifference(const std::vector<torch::Tensor>& a,
 
 TEST(DistributedTest, TwoRanksOnPartsOfBatchesMatchOneProcessOnTheWholeBatch) {
   torch::set_num_threads(1);
-  const ExperimentConfig c = learnerConfig();
+  const ExperimentConfig c = tinyLearnerConfig(2);
   vln::test::TempDir dir;
   FeatureStore store(dir / "store", layoutOf(c), 0.05);
   fillStore(store, c, 0, 12);
@@ -600,7 +572,7 @@ TEST(DistributedTest, TwoRanksOnPartsOfBatchesMatchOneProcessOnTheWholeBatch) {
 TEST(DistributedTest,
      UnevenShardsTrainEqualUpdatesAndNonFiniteLossesSkipEverywhere) {
   torch::set_num_threads(1);
-  const ExperimentConfig c = learnerConfig();
+  const ExperimentConfig c = tinyLearnerConfig(2);
   vln::test::TempDir dir;
   std::array<EpochResult, 2> epochs;
   std::array<int64_t, 2> updates{}, nonFinite{};

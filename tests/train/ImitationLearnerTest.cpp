@@ -9,31 +9,14 @@
 
 #include "common/Config.h"
 #include "support/TestPaths.h"
+#include "train/LearnerTestUtil.h"
 
 namespace vln::train {
 namespace {
 
 using ::testing::HasSubstr;
-
-ExperimentConfig tinyConfig() {
-  ExperimentConfig c;
-  c.model.policy = models::PolicyType::kSeq2Seq;
-  c.model.rgb_encoder = models::EncoderType::kSmallCnn;
-  c.model.depth_encoder = models::EncoderType::kSmallCnn;
-  c.model.vocab_size = 11;
-  c.model.embedding_dim = 4;
-  c.model.instruction_hidden_size = 6;
-  c.model.hidden_size = 12;
-  c.model.rgb_projection_size = 5;
-  c.model.depth_projection_size = 7;
-  c.model.progress_monitor = true;
-  c.model.rgb_height = c.model.rgb_width = 32;
-  c.model.depth_height = c.model.depth_width = 32;
-  c.trainer.batch_size = 4;
-  c.trainer.lr = 1e-2;
-  c.trainer.max_nonfinite_updates = 3;
-  return c;
-}
+using test::layoutOf;
+using test::tinyLearnerConfig;
 
 // episodes whose oracle action is readable from the features: the depth
 // map's channel `a` is bright where the label is a
@@ -61,15 +44,6 @@ void fillStore(FeatureStore& store, const ExperimentConfig& c, int episodes) {
   }
 }
 
-StoreLayout layoutOf(const ExperimentConfig& c) {
-  StoreLayout l;
-  l.rgb_shape = models::rgbFeatureShape(c.model);
-  l.depth_shape = models::depthFeatureShape(c.model);
-  l.fp16 = false;
-  l.config_hash = "test";
-  return l;
-}
-
 TEST(ImitationLearnerTest, InverseInflectionFrequencyOfHandMadeGroundTruth) {
   using sim::Action;
   data::GroundTruth a, b;
@@ -87,7 +61,7 @@ TEST(ImitationLearnerTest, InverseInflectionFrequencyOfHandMadeGroundTruth) {
 }
 
 TEST(ImitationLearnerTest, NonFiniteLossSkipsTheUpdateAndIsCounted) {
-  const ExperimentConfig c = tinyConfig();
+  const ExperimentConfig c = tinyLearnerConfig(4);
   vln::test::TempDir dir;
   FeatureStore store(dir / "store", layoutOf(c), 0.05);
   fillStore(store, c, 8);
@@ -130,7 +104,7 @@ TEST(ImitationLearnerTest, NonFiniteLossSkipsTheUpdateAndIsCounted) {
 }
 
 TEST(ImitationLearnerTest, TooManyConsecutiveNonFiniteLossesStopTraining) {
-  const ExperimentConfig c = tinyConfig();
+  const ExperimentConfig c = tinyLearnerConfig(4);
   vln::test::TempDir dir;
   FeatureStore store(dir / "store", layoutOf(c), 0.05);
   fillStore(store, c, 16);  // 4 batches, limit 3
@@ -151,7 +125,7 @@ TEST(ImitationLearnerTest, TooManyConsecutiveNonFiniteLossesStopTraining) {
 }
 
 TEST(ImitationLearnerTest, IsolatedNonFiniteLossesDoNotStopAnEpoch) {
-  const ExperimentConfig c = tinyConfig();
+  const ExperimentConfig c = tinyLearnerConfig(4);
   vln::test::TempDir dir;
   FeatureStore store(dir / "store", layoutOf(c), 0.05);
   fillStore(store, c, 16);
@@ -168,7 +142,7 @@ TEST(ImitationLearnerTest, IsolatedNonFiniteLossesDoNotStopAnEpoch) {
 }
 
 TEST(ImitationLearnerTest, LossFallsOnALearnableStore) {
-  ExperimentConfig c = tinyConfig();
+  ExperimentConfig c = tinyLearnerConfig(4);
   vln::test::TempDir dir;
   FeatureStore store(dir / "store", layoutOf(c), 0.05);
   fillStore(store, c, 12);
