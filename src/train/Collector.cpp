@@ -59,6 +59,8 @@ struct Collector::Slot {
   float startDistance = 0.0f;
   Vec3f goal = Vec3f::Zero();
   torch::Tensor hidden;  ///< [layers, H] policy state (beta < 1)
+  /// this episode's instruction alone (trainer.exact_resume, beta < 1)
+  models::EncodedInstruction instruction;
   int64_t prevAction = 0;
   std::vector<torch::Tensor> rgb,
       depth;  ///< per step [C, h, w] in the store dtype
@@ -80,6 +82,31 @@ Collector::Collector(const ExperimentConfig& config,
 
 Collector::~Collector() = default;
 
+models::VisualFeatures Collector::encode(const eval::ObservationBatch& obs,
+                                         torch::Device device) {
+  auto on = [&](const torch::Tensor& t) {
+    return t.defined() ? t.to(device) : t;
+  };
+  if (!config_.trainer.exact_resume)
+    return encoder_->forward(on(obs.rgb), on(obs.depth));
+  // one image at a time: batched convolutions and matrix products round
+  // differently for other batch shapes
+  const int64_t n = obs.rgb.defined() ? obs.rgb.size(0) : obs.depth.size(0);
+  std::vector<torch::Tensor> rgb, depth;
+  for (int64_t k = 0; k < n; ++k) {
+    auto row = [&](const torch::Tensor& t) {
+      return t.defined() ? on(t.slice(0, k, k + 1)) : t;
+    };
+    models::VisualFeatures f = encoder_->forward(row(obs.rgb), row(obs.depth));
+    if (f.rgb.defined()) rgb.push_back(f.rgb);
+    if (f.depth.defined()) depth.push_back(f.depth);
+  }
+  models::VisualFeatures features;
+  if (!rgb.empty()) features.rgb = torch::cat(rgb);
+  if (!depth.empty()) features.depth = torch::cat(depth);
+  return features;
+}
+
 CollectionStats Collector::collect(
     const CollectionRound& round, FeatureStore& store,
     models::PolicyImpl* policy, const data::GroundTruth* groundTruth,
@@ -95,6 +122,7 @@ CollectionStats Collector::collect(
   const torch::Device device = models::modelDevice(model);
   const torch::Dtype storeType =
       store.layout().fp16 ? torch::kHalf : torch::kFloat32;
+  const bool exact = config_.trainer.exact_resume;
   torch::NoGradGuard noGrad;
   encoder_->eval();
   if (policy) policy->eval();
@@ -170,6 +198,11 @@ CollectionStats Collector::collect(
       if (usePolicy)
         s.hidden = torch::zeros({model.numRecurrentLayers(), model.hidden_size},
                                 device);
+      if (usePolicy && exact)
+        s.instruction = policy->encodeInstruction(
+            eval::batchInstructions(std::span(&s.episode, 1),
+                                    config_.dataset.max_instruction_length)
+                .to(device));
     }
   };
   std::vector<int> all(static_cast<size_t>(numEnvs));
@@ -190,9 +223,7 @@ CollectionStats Collector::collect(
 
     // encode this step's observations once for the store and the policy
     eval::ObservationBatch obs = eval::batchObservations(*envs_, active, model);
-    models::VisualFeatures features = encoder_->forward(
-        obs.rgb.defined() ? obs.rgb.to(device) : obs.rgb,
-        obs.depth.defined() ? obs.depth.to(device) : obs.depth);
+    const models::VisualFeatures features = encode(obs, device);
     frames += n;
 
     // oracle labels and progress targets at the current poses
@@ -212,7 +243,25 @@ CollectionStats Collector::collect(
 
     // the policy's argmax, with its recurrent state carried along
     std::vector<int64_t> policyActions;
-    if (usePolicy) {
+    if (usePolicy && exact) {
+      // one environment at a time: the same numbers whatever runs beside it
+      for (int64_t k = 0; k < n; ++k) {
+        Slot& s = *slots[static_cast<size_t>(active[static_cast<size_t>(k)])];
+        models::PolicyInputs inputs;
+        if (features.rgb.defined())
+          inputs.rgb = features.rgb.slice(0, k, k + 1);
+        if (features.depth.defined())
+          inputs.depth = features.depth.slice(0, k, k + 1);
+        inputs.prev_actions =
+            torch::full({1}, s.prevAction, torch::kInt64).to(device);
+        inputs.not_done =
+            torch::full({1}, s.oracleActions.empty() ? 0.0f : 1.0f).to(device);
+        models::PolicyOutputs out =
+            policy->step(s.instruction, inputs, s.hidden.unsqueeze(0));
+        policyActions.push_back(out.logits.argmax(-1).item<int64_t>());
+        s.hidden = out.hidden[0];
+      }
+    } else if (usePolicy) {
       std::vector<const data::Episode*> episodes;
       for (int env : active)
         episodes.push_back(slots[static_cast<size_t>(env)]->episode);

@@ -16,9 +16,13 @@
 // DAgger (beta < 1): at each step the action taken is the oracle's with
 // probability beta, else the policy's argmax (the policy runs at every step
 // so that its recurrent state follows the trajectory). The coin of slot k
-// of round n is drawn from its own generator seeded by (seed, n, k), so the
-// collected data does not depend on the number of environments or on where
-// a run was interrupted.
+// of round n is drawn from its own generator seeded by (seed, n, k), so
+// which episodes are collected, and their coins, do not depend on the
+// number of environments or on where a run was interrupted. The features
+// and the policy's actions do, by float rounding, unless
+// trainer.exact_resume runs every environment through the encoder and the
+// policy on its own (batched arithmetic rounds differently for other batch
+// shapes).
 //
 // A round is a fixed list of episodes ("slots"). Slots already in the store
 // (from an interrupted run) are skipped, so resuming collects exactly the
@@ -34,6 +38,7 @@
 
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
+#include "eval/ObservationBatch.h"
 #include "eval/VectorEnv.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
@@ -124,6 +129,10 @@ class Collector {
 
  private:
   struct Slot;
+  // the encoder's features of `obs` on `device`: one batch, or one row at
+  // a time with trainer.exact_resume
+  models::VisualFeatures encode(const eval::ObservationBatch& obs,
+                                torch::Device device);
   ExperimentConfig config_;
   std::shared_ptr<eval::SceneCache> scenes_;
   models::ObservationEncoder encoder_;

@@ -32,6 +32,14 @@ struct TrainerConfig {
   int num_envs = 8;
   /// Threads stepping/rendering environments while collecting.
   int env_threads = 2;
+  /// Collection encodes observations and steps the policy one environment
+  /// at a time, so an episode's features and actions do not depend on the
+  /// episodes sharing its batch (batched float arithmetic rounds
+  /// differently for other batch shapes). A round resumed after a kill then
+  /// stores exactly what an uninterrupted run stores and training continues
+  /// bit for bit. Off: batched and faster; a resumed round's features
+  /// differ from an uninterrupted run's by float rounding (~1e-4).
+  bool exact_resume = false;
 
   /// Adam learning rate (paper: 2.5e-4).
   double lr = 2.5e-4;
@@ -40,7 +48,8 @@ struct TrainerConfig {
   /// Inflection weighting coefficient (paper: 3.2); <= 0 computes it as the
   /// inverse inflection frequency of the training ground truth.
   double inflection_weight = 3.2;
-  /// Weight alpha of the progress-monitor MSE (used when model.progress_monitor).
+  /// Weight alpha of the progress-monitor MSE (used when
+  /// model.progress_monitor).
   double progress_loss_weight = 1.0;
   /// Clip the gradient norm to this value (0: no clipping).
   double grad_clip = 0.0;
@@ -110,6 +119,8 @@ struct TrainerConfig {
             common::inRange(1, 1024));
     v.field("env_threads", env_threads, "Environment threads",
             common::inRange(1, 256));
+    v.field("exact_resume", exact_resume,
+            "Collect one environment at a time (bitwise-exact resume)");
     v.field("lr", lr, "Adam learning rate", common::inRange(0.0, 1.0));
     v.field("batch_size", batch_size, "Episodes per update",
             common::inRange(1, 100000));
@@ -120,7 +131,8 @@ struct TrainerConfig {
             "Progress-monitor loss weight alpha", common::inRange(0.0, 1000.0));
     v.field("grad_clip", grad_clip, "Gradient norm clip (0: none)",
             common::inRange(0.0, 1e6));
-    v.field("epochs", epochs, "Teacher-forcing epochs", common::inRange(0, 100000));
+    v.field("epochs", epochs, "Teacher-forcing epochs",
+            common::inRange(0, 100000));
     v.field("dagger_iterations", dagger_iterations,
             "DAgger iterations (0: teacher forcing only)",
             common::inRange(0, 100000));
@@ -133,7 +145,8 @@ struct TrainerConfig {
     v.field("fine_tune_dagger", fine_tune_dagger,
             "DA*: beta = dagger_beta^(n+1)");
     v.field("init_checkpoint", init_checkpoint,
-            "Checkpoint, run directory (its best checkpoint) or tensor file to start from (empty: fresh)");
+            "Checkpoint, run directory (its best checkpoint) or tensor file to "
+            "start from (empty: fresh)");
     v.field("use_aug", use_aug, "Mix the augmentation split into training");
     v.field("store_fp16", store_fp16, "Store features as fp16");
     v.field("store_max_gib", store_max_gib, "Feature store map size (GiB)",
@@ -148,8 +161,9 @@ struct TrainerConfig {
             common::inRange(1, 1000000));
     v.field("log_every_updates", log_every_updates, "Updates per log line",
             common::atLeast(1));
-    v.choice("distributed", distributed, {"auto", "off"},
-             "Multi-process training when WORLD_SIZE > 1 (auto) or never (off)");
+    v.choice(
+        "distributed", distributed, {"auto", "off"},
+        "Multi-process training when WORLD_SIZE > 1 (auto) or never (off)");
     v.choice("distributed_backend", distributed_backend,
              {"auto", "gloo", "nccl"}, "Collective backend");
     v.field("distributed_timeout_s", distributed_timeout_s,
@@ -158,7 +172,8 @@ struct TrainerConfig {
             "Wait for the other ranks after collection/evaluation (s)",
             common::inRange(0.1, 1e8));
     v.field("distributed_bucket_mib", distributed_bucket_mib,
-            "Gradient all-reduce bucket size (MiB)", common::inRange(0.001, 1e5));
+            "Gradient all-reduce bucket size (MiB)",
+            common::inRange(0.001, 1e5));
   }
   bool operator==(const TrainerConfig&) const = default;
 };
@@ -203,30 +218,41 @@ struct PretrainConfig {
   double max_memory_gib = 4.0;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("train_houses", train_houses, "Pretraining houses", common::inRange(1, 100000));
-    v.field("heldout_houses", heldout_houses, "Held-out houses", common::inRange(1, 100000));
-    v.field("house_seed", house_seed, "Seed of the first house", common::atLeast(0));
-    v.field("samples", samples, "Episodes (point-goal) or images (semantic) per iteration",
-            common::inRange(1, 100000000));
-    v.field("iterations", iterations, "DAgger iterations or epochs", common::inRange(1, 100000));
-    v.field("epochs_per_iteration", epochs_per_iteration, "Epochs per DAgger iteration",
+    v.field("train_houses", train_houses, "Pretraining houses",
             common::inRange(1, 100000));
-    v.field("eval_samples", eval_samples, "Held-out evaluation samples", common::inRange(1, 10000000));
-    v.field("success_distance", success_distance, "Point-goal success radius (m)",
-            common::inRange(0.01, 10.0));
+    v.field("heldout_houses", heldout_houses, "Held-out houses",
+            common::inRange(1, 100000));
+    v.field("house_seed", house_seed, "Seed of the first house",
+            common::atLeast(0));
+    v.field("samples", samples,
+            "Episodes (point-goal) or images (semantic) per iteration",
+            common::inRange(1, 100000000));
+    v.field("iterations", iterations, "DAgger iterations or epochs",
+            common::inRange(1, 100000));
+    v.field("epochs_per_iteration", epochs_per_iteration,
+            "Epochs per DAgger iteration", common::inRange(1, 100000));
+    v.field("eval_samples", eval_samples, "Held-out evaluation samples",
+            common::inRange(1, 10000000));
+    v.field("success_distance", success_distance,
+            "Point-goal success radius (m)", common::inRange(0.01, 10.0));
     v.field("min_goal_distance", min_goal_distance, "Nearest goal (geodesic m)",
             common::inRange(0.0, 100.0));
-    v.field("max_goal_distance", max_goal_distance, "Farthest goal (geodesic m)",
-            common::inRange(0.1, 1000.0));
-    v.field("encoder_out", encoder_out, "Output file of the trained encoder weights");
+    v.field("max_goal_distance", max_goal_distance,
+            "Farthest goal (geodesic m)", common::inRange(0.1, 1000.0));
+    v.field("encoder_out", encoder_out,
+            "Output file of the trained encoder weights");
     v.section("house", house, "Pretraining house generation");
     v.field("lr", lr, "Adam learning rate", common::inRange(0.0, 1.0));
-    v.field("batch_size", batch_size, "Episodes (point-goal) or images (semantic) per update",
+    v.field("batch_size", batch_size,
+            "Episodes (point-goal) or images (semantic) per update",
             common::inRange(1, 100000));
-    v.field("hidden_size", hidden_size, "Point-goal policy GRU size", common::inRange(1, 65536));
+    v.field("hidden_size", hidden_size, "Point-goal policy GRU size",
+            common::inRange(1, 65536));
     v.field("min_object_fraction", min_object_fraction,
-            "Smallest image fraction of an object labelled in view", common::inRange(0.0, 1.0));
-    v.field("max_memory_gib", max_memory_gib, "Memory bound of the aggregated point-goal frames (GiB)",
+            "Smallest image fraction of an object labelled in view",
+            common::inRange(0.0, 1.0));
+    v.field("max_memory_gib", max_memory_gib,
+            "Memory bound of the aggregated point-goal frames (GiB)",
             common::inRange(0.001, 1e6));
   }
   bool operator==(const PretrainConfig&) const = default;
@@ -245,8 +271,8 @@ struct OutputConfig {
 
   void visit(common::ConfigVisitor& v) {
     v.field("dir", dir, "Run directory");
-    v.choice("log_level", log_level, {"trace", "debug", "info", "warn", "error"},
-             "Log level");
+    v.choice("log_level", log_level,
+             {"trace", "debug", "info", "warn", "error"}, "Log level");
     v.field("tensorboard", tensorboard, "Write TensorBoard event files");
     v.field("keep_checkpoints", keep_checkpoints,
             "Checkpoints kept besides the best (-1: all)", common::atLeast(-1));
@@ -266,7 +292,8 @@ struct ExperimentConfig {
   OutputConfig output;
 
   void visit(common::ConfigVisitor& v) {
-    v.section("sim", sim, "Simulator: scenes, navmesh, agent, cameras, renderer");
+    v.section("sim", sim,
+              "Simulator: scenes, navmesh, agent, cameras, renderer");
     v.section("task", task, "Episode rules");
     v.section("dataset", dataset, "Episode splits and embeddings");
     v.section("model", model, "Policy and encoders");
@@ -285,8 +312,9 @@ struct ExperimentConfig {
 
 /// Loads a run config: the file, its `_base_` includes, then `overrides`
 /// ("section.key=value"), then validate(). Errors name the file and key.
-ExperimentConfig loadExperimentConfig(const std::filesystem::path& file,
-                                      const std::vector<std::string>& overrides = {});
+ExperimentConfig loadExperimentConfig(
+    const std::filesystem::path& file,
+    const std::vector<std::string>& overrides = {});
 
 /// The resolved config as documented YAML.
 std::string experimentConfigYaml(const ExperimentConfig& config);

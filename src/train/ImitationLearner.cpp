@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numeric>
+#include <tuple>
 
 #include "common/Check.h"
 #include "common/Progress.h"
@@ -165,11 +167,25 @@ EpochResult ImitationLearner::trainEpoch(
     const std::function<void(const UpdateResult&)>& onUpdate) {
   VLN_CHECK_ARG(store.size() > 0, "ImitationLearner::trainEpoch(): the store '",
                 store.dir().string(), "' holds no episodes");
+  // The store holds episodes in the order their collection finished, which
+  // depends on the slots a resumed round still had to collect; drawing the
+  // batches over the (round, slot) order instead makes a run resumed after a
+  // kill train on exactly the batches of an uninterrupted one.
+  std::vector<int64_t> canonical(static_cast<size_t>(store.size()));
+  std::iota(canonical.begin(), canonical.end(), int64_t{0});
+  std::stable_sort(canonical.begin(), canonical.end(),
+                   [&](int64_t a, int64_t b) {
+                     const StoredEpisodeKey& ka = store.key(a);
+                     const StoredEpisodeKey& kb = store.key(b);
+                     return std::tie(ka.iteration, ka.slot) <
+                            std::tie(kb.iteration, kb.slot);
+                   });
   std::vector<int32_t> lengths;
-  lengths.reserve(static_cast<size_t>(store.size()));
-  for (int64_t i = 0; i < store.size(); ++i)
-    lengths.push_back(store.key(i).length);
+  lengths.reserve(canonical.size());
+  for (const int64_t i : canonical) lengths.push_back(store.key(i).length);
   auto batches = epochBatches(lengths, config_.trainer.batch_size, seed, epoch);
+  for (auto& batch : batches)
+    for (int64_t& i : batch) i = canonical[static_cast<size_t>(i)];
   if (dist_) {
     // as many updates on every rank: the largest count; the others go on
     // with their own batches from the start of this epoch's order

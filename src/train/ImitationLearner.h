@@ -79,7 +79,9 @@ class ImitationLearner {
   /// One update on `batch` (CPU tensors from FeatureStore::loadBatch).
   UpdateResult update(const EpisodeBatch& batch);
 
-  /// One epoch over `store` in epochBatches(seed, epoch) order.
+  /// One epoch over `store` in epochBatches(seed, epoch) order, taken over
+  /// the episodes sorted by (round, slot), not by their place in the store:
+  /// the batches do not depend on the order in which collection finished.
   /// Multi-process: every rank runs U = the largest batch count over the
   /// ranks; a rank with fewer batches continues with its own batches from
   /// the start of the same order (batch i % count), so the all-reduces pair

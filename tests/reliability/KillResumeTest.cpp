@@ -14,7 +14,9 @@
 // that (round, slot),
 // and no checkpoint claims more episodes than the store holds. At the end:
 // the run completes, its store holds exactly the reference run's episodes
-// and its checkpoints are the reference run's indices. The random stream is
+// and its checkpoints are the reference run's indices, no temporary file is
+// left, and the final weights and Adam state equal the reference run's bit
+// for bit (trainer.exact_resume). The random stream is
 // $VLN_KILL_SEED (default 1); scripts/kill_test.sh passes a fresh one.
 
 #include <gmock/gmock.h>
@@ -104,6 +106,10 @@ std::optional<fs::file_time_type> mtime(const fs::path& file) {
 // finished after 8 kills on the CI machine)
 constexpr int kRounds = 6;
 
+// collection one environment at a time, so that a round resumed with other
+// episodes side by side computes the same features and actions
+const std::string kExact = "  exact_resume: true\n";
+
 bool exited(pid_t pid, int* status) { return ::waitpid(pid, status, WNOHANG) == pid; }
 
 class KillResumeTest : public ::testing::Test {
@@ -127,7 +133,7 @@ TEST_F(KillResumeTest, RandomKillsLoseAndDuplicateNothing) {
   // the reference run
   const fs::path refRun = dir_ / "reference";
   const fs::path refConfig =
-      vln::test::writeText(dir_ / "reference.yaml", daggerRunConfig(refRun, kRounds, 5));
+      vln::test::writeText(dir_ / "reference.yaml", daggerRunConfig(refRun, kRounds, 5, kExact));
   const auto refStart = Clock::now();
   {
     int status = 0;
@@ -145,7 +151,7 @@ TEST_F(KillResumeTest, RandomKillsLoseAndDuplicateNothing) {
 
   // the killed run
   const fs::path run = dir_ / "killed";
-  const fs::path config = vln::test::writeText(dir_ / "killed.yaml", daggerRunConfig(run, kRounds, 5));
+  const fs::path config = vln::test::writeText(dir_ / "killed.yaml", daggerRunConfig(run, kRounds, 5, kExact));
   const fs::path log = dir_ / "killed.log";
   int done = 0, duringCheckpointWrite = 0, nearStoreCommit = 0, attempts = 0;
   bool finished = false;
@@ -236,9 +242,11 @@ TEST_F(KillResumeTest, RandomKillsLoseAndDuplicateNothing) {
     ASSERT_EQ(::waitpid(pid, &status, 0), pid);
     ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "final resume failed, see " << log;
   }
+  // kills during checkpoint writes leave temporaries; resuming removes them
   const auto leftover = tempFiles(run / "checkpoints");
   std::cout << "temporary files left in checkpoints/: " << leftover.size() << "\n";
   RecordProperty("leftover_temp_files", static_cast<int>(leftover.size()));
+  EXPECT_TRUE(leftover.empty()) << *leftover.begin();
   std::cout << "kills " << done << ", during a checkpoint write " << duringCheckpointWrite
             << ", near a store commit " << nearStoreCommit << ", reference run " << refSeconds
             << " s\n";
@@ -252,6 +260,7 @@ TEST_F(KillResumeTest, RandomKillsLoseAndDuplicateNothing) {
   const int lengths = lengthDifferences(final, reference);
   std::cout << "stored episodes whose length differs from the reference run: " << lengths << "\n";
   RecordProperty("episode_length_differences", lengths);
+  EXPECT_EQ(lengths, 0);
   std::vector<int> indices;
   for (const auto& f : train::listCheckpoints(run / "checkpoints")) {
     indices.push_back(*train::checkpointIndex(f));
@@ -262,15 +271,20 @@ TEST_F(KillResumeTest, RandomKillsLoseAndDuplicateNothing) {
   const auto refLast = train::loadCheckpoint(train::listCheckpoints(refRun / "checkpoints").back());
   EXPECT_EQ(last.progress.episodes_collected, refLast.progress.episodes_collected);
   EXPECT_EQ(last.progress.dagger_iteration, refLast.progress.dagger_iteration);
-  // whether resumed training reproduces the reference weights exactly is
-  // reported, not required (an epoch cut by a kill restarts from the last
-  // checkpoint with its RNG state, which should make it so)
+  // an epoch cut by a kill restarts from the last checkpoint with its RNG
+  // state, a round cut by a kill collects the same features and actions
+  // (exact_resume) and batches are drawn in (round, slot) order: the
+  // resumed run ends bit for bit where the reference run ends
   bool sameWeights = last.policy.size() == refLast.policy.size();
   for (size_t i = 0; sameWeights && i < last.policy.size(); ++i)
-    sameWeights = torch::equal(last.policy[i].second, refLast.policy[i].second);
+    sameWeights = last.policy[i].first == refLast.policy[i].first &&
+                  torch::equal(last.policy[i].second, refLast.policy[i].second);
   std::cout << "final weights " << (sameWeights ? "equal" : "differ from")
             << " the reference run's\n";
   RecordProperty("final_weights_equal_reference", sameWeights ? 1 : 0);
+  EXPECT_TRUE(sameWeights) << "the resumed run's final weights differ from the reference run's";
+  EXPECT_EQ(last.optimizer_state, refLast.optimizer_state)
+      << "the resumed run's final Adam state differs from the reference run's";
 }
 
 }  // namespace

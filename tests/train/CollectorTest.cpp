@@ -1,7 +1,7 @@
 // Tests of src/train/Collector.cpp on the tiny procedural world: the oracle
 // reproduces the split's ground-truth actions, DAgger data does not depend
 // on the number of environments, and an interrupted round resumes without
-// losing or duplicating slots.
+// losing or duplicating slots (bit for bit with trainer.exact_resume).
 
 #include "train/Collector.h"
 
@@ -96,11 +96,19 @@ TEST(CollectorTest, TeacherForcingReproducesTheGroundTruthActions) {
 
 // DAgger with a random policy: same data whatever the environment count,
 // and an interrupted round completes without duplicates
-TEST(CollectorTest, DaggerRoundIsIndependentOfEnvCountAndResumes) {
+// One DAgger round (beta 0.5, 6 slots) collected twice: (a) in one go with
+// 2 environments, (b) with 3 environments by a run that had stored slots 1
+// and 4 before it was interrupted. Returns both stores' episodes by slot.
+struct TwoCollections {
+  std::map<int32_t, StoredEpisode> uninterrupted, resumed;
+};
+
+TwoCollections collectTwice(bool exactResume) {
   Fixture f;
   torch::manual_seed(4);
   ExperimentConfig c2 = worldConfig(f.world, 2);
   c2.task.max_episode_steps = 60;
+  c2.trainer.exact_resume = exactResume;
   ExperimentConfig c3 = c2;
   c3.trainer.num_envs = 3;
   auto policy = models::makePolicy(c2.model);
@@ -119,11 +127,7 @@ TEST(CollectorTest, DaggerRoundIsIndependentOfEnvCountAndResumes) {
   vln::test::TempDir dir;
   FeatureStore a(dir / "a", layoutOf(c2), 0.25);
   Collector(c2, scenes, encoder).collect(round, a, policy.get(), nullptr);
-  // b: an interrupted run that stored slots 1 and 4 first, then resumed
   FeatureStore b(dir / "b", layoutOf(c3), 0.25);
-  CollectionRound partial = round;
-  partial.episodes = {round.episodes[1], round.episodes[4]};
-  partial.sources = {0, 0};
   {
     FeatureStore scratch(dir / "scratch", layoutOf(c3), 0.25);
     Collector(c3, scenes, encoder)
@@ -133,32 +137,61 @@ TEST(CollectorTest, DaggerRoundIsIndependentOfEnvCountAndResumes) {
       if (e.key.slot == 1 || e.key.slot == 4) b.append(e);
     }
   }
-  ASSERT_EQ(b.size(), 2);
+  EXPECT_EQ(b.size(), 2);
   const CollectionStats resumed =
       Collector(c3, scenes, encoder).collect(round, b, policy.get(), nullptr);
   EXPECT_EQ(resumed.skipped, 2);
   EXPECT_EQ(resumed.episodes, 4);
-  ASSERT_EQ(b.size(), 6);
   EXPECT_EQ(b.slots(2), (std::set<int32_t>{0, 1, 2, 3, 4, 5}));
 
-  std::map<int32_t, StoredEpisode> bySlotA, bySlotB;
-  for (int64_t i = 0; i < 6; ++i) {
-    bySlotA[a.key(i).slot] = a.read(i);
-    bySlotB[b.key(i).slot] = b.read(i);
-  }
-  int64_t policySteps = 0;
+  TwoCollections out;
+  for (int64_t i = 0; i < a.size(); ++i)
+    out.uninterrupted[a.key(i).slot] = a.read(i);
+  for (int64_t i = 0; i < b.size(); ++i) out.resumed[b.key(i).slot] = b.read(i);
+  return out;
+}
+
+// steps whose action came from the policy rather than the oracle
+int64_t policySteps(const std::map<int32_t, StoredEpisode>& episodes) {
+  int64_t n = 0;
+  for (const auto& [slot, e] : episodes)
+    for (size_t t = 1; t < e.prev_actions.size(); ++t)
+      n += e.prev_actions[t] != e.oracle_actions[t - 1];
+  return n;
+}
+
+TEST(CollectorTest, DaggerRoundIsIndependentOfEnvCountAndResumes) {
+  const TwoCollections two = collectTwice(/*exactResume=*/false);
+  ASSERT_EQ(two.uninterrupted.size(), 6u);
+  ASSERT_EQ(two.resumed.size(), 6u);
   for (int32_t k = 0; k < 6; ++k) {
-    const StoredEpisode& x = bySlotA[k];
-    const StoredEpisode& y = bySlotB[k];
+    const StoredEpisode& x = two.uninterrupted.at(k);
+    const StoredEpisode& y = two.resumed.at(k);
     EXPECT_EQ(x.key.episode_id, y.key.episode_id);
     EXPECT_EQ(x.prev_actions, y.prev_actions) << "slot " << k;
     EXPECT_EQ(x.oracle_actions, y.oracle_actions) << "slot " << k;
+    // batched: equal up to the rounding of other batch shapes
     EXPECT_TRUE(torch::allclose(x.depth, y.depth, 1e-4, 1e-5)) << "slot " << k;
-    for (size_t t = 1; t < x.prev_actions.size(); ++t)
-      policySteps += x.prev_actions[t] != x.oracle_actions[t - 1];
   }
   // with beta = 0.5 some actions came from the (untrained) policy
-  EXPECT_GT(policySteps, 0);
+  EXPECT_GT(policySteps(two.uninterrupted), 0);
+}
+
+TEST(CollectorTest, ExactResumeStoresBitIdenticalFeatures) {
+  const TwoCollections two = collectTwice(/*exactResume=*/true);
+  ASSERT_EQ(two.uninterrupted.size(), 6u);
+  ASSERT_EQ(two.resumed.size(), 6u);
+  for (int32_t k = 0; k < 6; ++k) {
+    const StoredEpisode& x = two.uninterrupted.at(k);
+    const StoredEpisode& y = two.resumed.at(k);
+    EXPECT_EQ(x.key.episode_id, y.key.episode_id);
+    EXPECT_EQ(x.prev_actions, y.prev_actions) << "slot " << k;
+    EXPECT_EQ(x.oracle_actions, y.oracle_actions) << "slot " << k;
+    EXPECT_EQ(x.progress, y.progress) << "slot " << k;
+    EXPECT_TRUE(torch::equal(x.rgb, y.rgb)) << "slot " << k;
+    EXPECT_TRUE(torch::equal(x.depth, y.depth)) << "slot " << k;
+  }
+  EXPECT_GT(policySteps(two.uninterrupted), 0);
 }
 
 }  // namespace
