@@ -4,7 +4,9 @@
 # a tiny DAgger run once without interruption and once SIGKILLed at random
 # moments (timing, checkpoint writes, store commits) and resumed each time,
 # and checks that the run completes, every checkpoint loads, the store is
-# consistent and no collected episode was lost or duplicated.
+# consistent, no collected episode was lost or duplicated, no temporary file
+# is left and the final weights equal the uninterrupted run's bit for bit
+# (trainer.exact_resume).
 #
 #   scripts/kill_test.sh [KILLS] [SEED]     # defaults: 10 kills, random seed
 #
