@@ -1,10 +1,13 @@
 #include "eval/ScriptedPolicyAgent.h"
 
 #include <algorithm>
+#include <sstream>
 #include <string>
 
 #include "common/Check.h"
 #include "common/Config.h"
+#include "common/FileIo.h"
+#include "common/ZipIntegrity.h"
 #include "data/Vocabulary.h"
 #include "eval/ObservationBatch.h"
 #include "eval/RecurrentAgentState.h"
@@ -42,21 +45,35 @@ ScriptedPolicyAgent::ScriptedPolicyAgent(const std::filesystem::path& file,
                 numEnvs);
   VLN_CHECK_ARG(maxInstructionLength >= 1,
                 "ScriptedPolicyAgent: dataset.max_instruction_length must be "
-                ">= 1, got ", maxInstructionLength);
-  VLN_CHECK_IO(std::filesystem::is_regular_file(file),
-               "ScriptedPolicyAgent: '", file.string(), "' does not exist");
+                ">= 1, got ",
+                maxInstructionLength);
+  VLN_CHECK_IO(std::filesystem::is_regular_file(file), "ScriptedPolicyAgent: '",
+               file.string(), "' does not exist");
   try {
     device_ = torch::Device(device);
   } catch (const c10::Error&) {
-    throw std::invalid_argument(strCat("ScriptedPolicyAgent: device '", device,
-                                       "' cannot be parsed"));
+    throw std::invalid_argument(
+        strCat("ScriptedPolicyAgent: device '", device, "' cannot be parsed"));
+  }
+  // checked first: LibTorch reads damaged archives without checking their
+  // CRCs, and its TorchScript parser can crash on them
+  const std::string bytes = common::readFile(file);
+  try {
+    common::verifyZipIntegrity(bytes, file.string());
+  } catch (const std::runtime_error& error) {
+    throw std::runtime_error(strCat("ScriptedPolicyAgent: ", error.what()));
   }
   try {
-    module_ = torch::jit::load(file.string(), device_);
+    std::istringstream in(bytes);
+    module_ = torch::jit::load(in, device_);
   } catch (const c10::Error& error) {
-    throw std::runtime_error(strCat("ScriptedPolicyAgent: '", file.string(),
-                                    "' is not a TorchScript archive: ",
-                                    error.what_without_backtrace()));
+    throw std::runtime_error(strCat(
+        "ScriptedPolicyAgent: '", file.string(),
+        "' is not a TorchScript archive: ", error.what_without_backtrace()));
+  } catch (const std::exception& error) {
+    throw std::runtime_error(
+        strCat("ScriptedPolicyAgent: '", file.string(),
+               "' is not a TorchScript archive: ", error.what()));
   }
   module_.eval();
   config_ = exportedModelConfig(module_, file);
@@ -87,8 +104,8 @@ void ScriptedPolicyAgent::reset(int env, const data::Episode& episode) {
   s.tokens.clear();
   if (config_.usesInstruction()) {
     const auto& source = episode.instruction.instruction_tokens;
-    const int length = std::min(maxInstructionLength_,
-                                data::unpaddedLength(source));
+    const int length =
+        std::min(maxInstructionLength_, data::unpaddedLength(source));
     VLN_CHECK_ARG(length >= 1, "ScriptedPolicyAgent::reset(): episode ",
                   episode.episode_id, " has no instruction tokens");
     for (int j = 0; j < length; ++j)
@@ -110,14 +127,17 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
   // raw observations; ablated modalities get a placeholder the archive
   // ignores
   const ObservationBatch obs = batchObservations(envs, active, config_);
-  const torch::Tensor placeholder = torch::zeros({n}, torch::TensorOptions(device_));
-  const torch::Tensor rgb = obs.rgb.defined() ? obs.rgb.to(device_) : placeholder;
+  const torch::Tensor placeholder =
+      torch::zeros({n}, torch::TensorOptions(device_));
+  const torch::Tensor rgb =
+      obs.rgb.defined() ? obs.rgb.to(device_) : placeholder;
   const torch::Tensor depth =
       obs.depth.defined() ? obs.depth.to(device_) : placeholder;
 
   // instruction tokens [n, longest] with PAD 0 on the right
   size_t longest = 1;
-  for (const EnvState* s : states) longest = std::max(longest, s->tokens.size());
+  for (const EnvState* s : states)
+    longest = std::max(longest, s->tokens.size());
   torch::Tensor tokens =
       torch::zeros({n, static_cast<int64_t>(longest)}, torch::kInt64);
   if (!config_.usesInstruction()) tokens.fill_(1);
@@ -133,16 +153,18 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
                        recurrent.notDone, recurrent.hidden});
   const auto tuple = output.toTuple();
   VLN_CHECK_ARG(tuple->elements().size() == 3, "ScriptedPolicyAgent: '",
-                file_.string(), "' forward returned ",
-                tuple->elements().size(), " values, expected 3");
-  const torch::Tensor logits =
-      tuple->elements()[0].toTensor().to(torch::kCPU, torch::kFloat64).contiguous();
+                file_.string(), "' forward returned ", tuple->elements().size(),
+                " values, expected 3");
+  const torch::Tensor logits = tuple->elements()[0]
+                                   .toTensor()
+                                   .to(torch::kCPU, torch::kFloat64)
+                                   .contiguous();
   const torch::Tensor newHidden = tuple->elements()[2].toTensor();
   VLN_CHECK_ARG(logits.dim() == 2 && logits.size(0) == n &&
                     logits.size(1) == models::kNumActions,
                 "ScriptedPolicyAgent: '", file_.string(),
-                "' forward returned logits ", logits.sizes(), ", expected [",
-                n, ", ", models::kNumActions, "]");
+                "' forward returned logits ", logits.sizes(), ", expected [", n,
+                ", ", models::kNumActions, "]");
 
   // the same choice rule as PolicyAgent
   return chooseAndAdvance(logits, newHidden, states, sample_);

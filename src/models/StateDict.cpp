@@ -7,6 +7,7 @@
 
 #include "common/Check.h"
 #include "common/FileIo.h"
+#include "common/ZipIntegrity.h"
 
 namespace vln::models {
 namespace {
@@ -119,13 +120,26 @@ NamedTensors readTensorFile(const std::filesystem::path& file) {
   VLN_CHECK_IO(std::filesystem::is_regular_file(file),
                "readTensorFile(): weight file '", file.string(),
                "' does not exist");
+  // checked first: LibTorch reads damaged archives without checking their
+  // CRCs, and its TorchScript parser can crash on them
+  const std::string bytes = common::readFile(file);
+  try {
+    common::verifyZipIntegrity(bytes, file.string());
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(strCat("readTensorFile(): ", e.what()));
+  }
   torch::jit::Module archive;
   try {
-    archive = torch::jit::load(file.string(), torch::kCPU);
+    std::istringstream in(bytes);
+    archive = torch::jit::load(in, torch::kCPU);
   } catch (const c10::Error& e) {
     throw std::runtime_error(strCat("readTensorFile(): '", file.string(),
                                     "' is not a readable TorchScript archive: ",
                                     e.what_without_backtrace()));
+  } catch (const std::exception& e) {
+    throw std::runtime_error(
+        strCat("readTensorFile(): '", file.string(),
+               "' is not a readable TorchScript archive: ", e.what()));
   }
   NamedTensors out;
   for (const auto& item : archive.named_parameters(/*recurse=*/true))

@@ -7,6 +7,7 @@
 #include "common/Check.h"
 #include "common/FileIo.h"
 #include "common/Json.h"
+#include "common/ZipIntegrity.h"
 
 namespace vln::train {
 namespace {
@@ -96,6 +97,13 @@ std::string serializeCheckpoint(const Checkpoint& checkpoint) {
 
 Checkpoint deserializeCheckpoint(std::string_view bytes,
                                  const std::string& source) {
+  // LibTorch reads damaged archives without checking their CRCs, and its
+  // TorchScript parser can crash on them
+  try {
+    common::verifyZipIntegrity(bytes, source);
+  } catch (const std::runtime_error& error) {
+    throw std::runtime_error(strCat("loadCheckpoint(): ", error.what()));
+  }
   Checkpoint checkpoint;
   try {
     torch::serialize::InputArchive archive;
@@ -138,6 +146,14 @@ Checkpoint deserializeCheckpoint(std::string_view bytes,
                                     "' has corrupt metadata: ", error.what()));
   } catch (const std::invalid_argument& error) {
     throw std::runtime_error(strCat("loadCheckpoint(): ", error.what()));
+  } catch (const std::runtime_error&) {
+    throw;
+  } catch (const std::exception& error) {
+    // LibTorch's reader lets standard exceptions out of some inconsistent
+    // archives (std::out_of_range from a map lookup, found by fuzzing)
+    throw std::runtime_error(
+        strCat("loadCheckpoint(): '", source,
+               "' is not a readable checkpoint: ", error.what()));
   }
   return checkpoint;
 }
@@ -226,12 +242,12 @@ std::string serializeOptimizer(const torch::optim::Optimizer& optimizer) {
         dynamic_cast<const torch::optim::AdamOptions*>(&groups[g].options());
     VLN_CHECK_ARG(options != nullptr,
                   "serializeOptimizer(): only Adam is supported");
-    archive.write(strCat("g", g, "/options"),
-                  torch::tensor({options->lr(), std::get<0>(options->betas()),
-                                 std::get<1>(options->betas()), options->eps(),
-                                 options->weight_decay(),
-                                 options->amsgrad() ? 1.0 : 0.0},
-                                torch::kFloat64));
+    archive.write(
+        strCat("g", g, "/options"),
+        torch::tensor({options->lr(), std::get<0>(options->betas()),
+                       std::get<1>(options->betas()), options->eps(),
+                       options->weight_decay(), options->amsgrad() ? 1.0 : 0.0},
+                      torch::kFloat64));
     const auto& params = groups[g].params();
     archive.write(strCat("g", g, "/params"),
                   torch::tensor(static_cast<int64_t>(params.size())));
@@ -274,23 +290,28 @@ void loadOptimizerState(torch::optim::Optimizer& optimizer,
     auto& groups = optimizer.param_groups();
     VLN_CHECK_ARG(count.item<int64_t>() == static_cast<int64_t>(groups.size()),
                   "loadOptimizerState(): the optimizer state of '", source,
-                  "' has ", count.item<int64_t>(), " parameter groups, the optimizer ",
-                  groups.size());
+                  "' has ", count.item<int64_t>(),
+                  " parameter groups, the optimizer ", groups.size());
     std::vector<std::string> mismatches;
     for (size_t g = 0; g < groups.size(); ++g) {
-      auto* options = dynamic_cast<torch::optim::AdamOptions*>(&groups[g].options());
+      auto* options =
+          dynamic_cast<torch::optim::AdamOptions*>(&groups[g].options());
       VLN_CHECK_ARG(options != nullptr,
                     "loadOptimizerState(): only Adam is supported");
       torch::Tensor o;
       archive.read(strCat("g", g, "/options"), o);
       const auto v = o.accessor<double, 1>();
-      options->lr(v[0]).betas({v[1], v[2]}).eps(v[3]).weight_decay(v[4]).amsgrad(v[5] != 0.0);
+      options->lr(v[0])
+          .betas({v[1], v[2]})
+          .eps(v[3])
+          .weight_decay(v[4])
+          .amsgrad(v[5] != 0.0);
       archive.read(strCat("g", g, "/params"), count);
       const auto& params = groups[g].params();
-      VLN_CHECK_ARG(count.item<int64_t>() == static_cast<int64_t>(params.size()),
-                    "loadOptimizerState(): the optimizer state of '", source,
-                    "' is for ", count.item<int64_t>(), " parameters, the policy has ",
-                    params.size());
+      VLN_CHECK_ARG(
+          count.item<int64_t>() == static_cast<int64_t>(params.size()),
+          "loadOptimizerState(): the optimizer state of '", source, "' is for ",
+          count.item<int64_t>(), " parameters, the policy has ", params.size());
       for (size_t i = 0; i < params.size(); ++i) {
         torch::Tensor step, expAvg, expAvgSq, maxExpAvgSq;
         if (!archive.try_read(stateKey(g, i, "step"), step)) continue;
@@ -298,8 +319,9 @@ void loadOptimizerState(torch::optim::Optimizer& optimizer,
         archive.read(stateKey(g, i, "exp_avg_sq"), expAvgSq);
         if (!expAvg.sizes().equals(params[i].sizes()) ||
             !expAvgSq.sizes().equals(params[i].sizes())) {
-          mismatches.push_back(strCat("parameter ", i, " of group ", g, ": state ",
-                                      expAvg.sizes(), ", parameter ", params[i].sizes()));
+          mismatches.push_back(strCat("parameter ", i, " of group ", g,
+                                      ": state ", expAvg.sizes(),
+                                      ", parameter ", params[i].sizes()));
           continue;
         }
         auto state = std::make_unique<torch::optim::AdamParamState>();
@@ -314,8 +336,9 @@ void loadOptimizerState(torch::optim::Optimizer& optimizer,
     if (!mismatches.empty()) {
       std::string list;
       for (const auto& m : mismatches) list += "\n  " + m;
-      throw std::invalid_argument(strCat("loadOptimizerState(): the optimizer state of '",
-                                         source, "' does not fit this policy:", list));
+      throw std::invalid_argument(
+          strCat("loadOptimizerState(): the optimizer state of '", source,
+                 "' does not fit this policy:", list));
     }
   } catch (const std::invalid_argument& error) {
     // a checkpoint that does not fit is bad data, not a bad call

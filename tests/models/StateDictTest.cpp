@@ -5,6 +5,7 @@
 
 #include <fstream>
 
+#include "common/FileIo.h"
 #include "support/TestPaths.h"
 
 namespace vln::models {
@@ -115,7 +116,17 @@ TEST(StateDictTest, MissingAndCorruptFilesNameTheFile) {
               HasSubstr("none.pt' does not exist"));
   vln::test::writeText(dir / "bad.pt", "not a zip archive");
   EXPECT_THAT(errorOf([&] { readTensorFile(dir / "bad.pt"); }),
-              HasSubstr("bad.pt' is not a readable TorchScript archive"));
+              HasSubstr("bad.pt' is not an intact zip archive"));
+  // one flipped byte in a tensor: LibTorch would read it without a word
+  torch::manual_seed(1);
+  writeTensorFile(dir / "w.pt", {{"w", torch::randn({64})}});
+  std::string bytes = common::readFile(dir / "w.pt");
+  const size_t data = bytes.find("archive/data/0");
+  ASSERT_NE(data, std::string::npos);
+  bytes[data + 100] ^= 0x40;
+  vln::test::writeText(dir / "flipped.pt", bytes);
+  EXPECT_THAT(errorOf([&] { readTensorFile(dir / "flipped.pt"); }),
+              HasSubstr("flipped.pt' is not an intact zip archive"));
 }
 
 TEST(StateDictTest, WriteRejectsConflictingNames) {

@@ -185,6 +185,16 @@ TEST(CheckpointTest, TruncatedOrForeignFilesAreClearErrors) {
   EXPECT_THAT(
       [&] { loadCheckpoint(dir / "ckpt.1.pth"); },
       ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("ckpt.1.pth")));
+  // one flipped byte anywhere: LibTorch's reader does not check CRCs
+  for (const size_t at : {bytes.size() / 3, bytes.size() / 2}) {
+    std::string flipped = bytes;
+    flipped[at] ^= 0x01;
+    test::writeText(dir / "ckpt.3.pth", flipped);
+    EXPECT_THAT([&] { loadCheckpoint(dir / "ckpt.3.pth"); },
+                ::testing::ThrowsMessage<std::runtime_error>(
+                    HasSubstr("ckpt.3.pth' is not an intact zip archive")))
+        << "byte " << at;
+  }
   test::writeText(dir / "ckpt.2.pth", "not a checkpoint");
   EXPECT_THAT(
       [&] { loadCheckpoint(dir / "ckpt.2.pth"); },
