@@ -165,6 +165,10 @@ std::span<const float> WordVectors::vector(int index) const {
 // GloVe text files
 // =========================================================================
 
+// Word vectors beyond this size are not word vectors (GloVe has 300,
+// word2vec releases at most a few thousand); bounds what a header allocates.
+constexpr int64_t kMaxGloveDim = 65536;
+
 WordVectors readGloveText(const std::filesystem::path& file,
                           const GloveReadOptions& options) {
   VLN_CHECK_ARG(options.dim >= 0, "readGloveText(): dim must be >= 0, got ",
@@ -198,6 +202,10 @@ WordVectors readGloveText(const std::filesystem::path& file,
       if (fields.size() == 2 && parseInt(fields[0], count) &&
           parseInt(fields[1], headerDim) && headerDim >= 2 &&
           (dim == 0 || headerDim == dim)) {
+        // a row of that many values is allocated before any is read
+        VLN_CHECK_ARG(headerDim <= kMaxGloveDim, where(),
+                      ": the word2vec header declares ", headerDim,
+                      " dimensions, more than ", kMaxGloveDim);
         dim = static_cast<int>(headerDim);
         vectors = WordVectors(dim);
         continue;
