@@ -903,22 +903,43 @@ namespace {
 // and with a vertex element lacking x, y or z it corrupts the heap. Such
 // files are refused before assimp sees them. PLY is recognised by
 // extension or by its "ply" magic, as assimp does.
+// PLY's scalar type names (Paul Bourke's specification and the sized
+// aliases assimp and most writers use)
+bool isPlyType(std::string_view word) {
+  static const std::set<std::string_view> kTypes = {
+      "char",  "uchar",  "short",   "ushort", "int",   "uint",
+      "float", "double", "int8",    "uint8",  "int16", "uint16",
+      "int32", "uint32", "float32", "float64"};
+  return kTypes.count(word) > 0;
+}
+
+// an element count: decimal digits only
+bool isPlyCount(std::string_view word) {
+  return !word.empty() && word.size() <= 18 &&
+         std::all_of(word.begin(), word.end(),
+                     [](char c) { return c >= '0' && c <= '9'; });
+}
+
 void checkPlyHeader(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
   std::string line;
   bool first = true;
   size_t bytes = 0;
   constexpr size_t kMaxHeaderBytes = 1 << 20;
-  std::string element;                  // the element being declared
+  std::string element;  // the element being declared
   std::set<std::string> vertexProperties;
   bool hasVertexElement = false;
   while (bytes < kMaxHeaderBytes && std::getline(in, line)) {
     bytes += line.size() + 1;
     std::vector<std::string> words;
     for (size_t i = 0; i < line.size();) {
-      while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+      while (i < line.size() &&
+             std::isspace(static_cast<unsigned char>(line[i])))
+        ++i;
       size_t j = i;
-      while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
+      while (j < line.size() &&
+             !std::isspace(static_cast<unsigned char>(line[j])))
+        ++j;
       if (j > i) words.push_back(line.substr(i, j - i));
       i = j;
     }
@@ -936,18 +957,48 @@ void checkPlyHeader(const fs::path& file) {
                     " is a PLY file whose vertex element lacks x, y or z");
       return;
     }
+    // assimp 5.2 corrupts its heap on some malformed declarations (a
+    // property of an unknown type, found by fuzzing): every line must be
+    // one of the PLY header's own forms
+    auto bad = [&](std::string_view why) {
+      return std::invalid_argument(strCat("loadScene(): ", file,
+                                          " is a PLY file with a malformed "
+                                          "header line (",
+                                          why, "): '", line.substr(0, 80),
+                                          "'"));
+    };
     if (words[0] == "element") {
-      element = words.size() > 1 ? words[1] : "";
+      if (words.size() != 3 || !isPlyCount(words[2]))
+        throw bad("expected 'element <name> <count>'");
+      element = words[1];
       hasVertexElement |= element == "vertex";
-    } else if (words[0] == "property" && element == "vertex") {
-      vertexProperties.insert(words.back());
+    } else if (words[0] == "property") {
+      if (element.empty()) throw bad("a property before any element");
+      const bool list = words.size() == 5 && words[1] == "list" &&
+                        isPlyType(words[2]) && isPlyType(words[3]);
+      if (!list && !(words.size() == 3 && isPlyType(words[1])))
+        throw bad(
+            "expected 'property <type> <name>' or 'property list <type> "
+            "<type> <name>' with PLY's types");
+      if (element == "vertex") vertexProperties.insert(words.back());
+    } else if (words[0] == "format") {
+      if (words.size() != 3 ||
+          (words[1] != "ascii" && words[1] != "binary_little_endian" &&
+           words[1] != "binary_big_endian"))
+        throw bad(
+            "expected 'format ascii|binary_little_endian|"
+            "binary_big_endian <version>'");
+    } else if (words[0] != "ply" && words[0] != "comment" &&
+               words[0] != "obj_info") {
+      throw bad("not a PLY header keyword");
     }
   }
   // an empty file has no magic: only its extension can make it a PLY file
   if (first && lowerExtension(file) != ".ply") return;
-  throw std::invalid_argument(strCat(
-      "loadScene(): ", file, " is a PLY file whose header has no end_header "
-      "line (truncated?)"));
+  throw std::invalid_argument(
+      strCat("loadScene(): ", file,
+             " is a PLY file whose header has no end_header "
+             "line (truncated?)"));
 }
 
 // Debian's assimp 5.2 aborts in aiProcess_Triangulate (an ai_assert) on a
@@ -989,7 +1040,8 @@ LoadedScene loadScene(const fs::path& file, const MeshLoadConfig& config) {
   VLN_CHECK_IO(scene != nullptr, "loadScene(): assimp cannot read ", file, ": ",
                importer.GetErrorString());
   checkPrimitiveTypes(*scene, file);
-  scene = importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_FlipUVs);
+  scene =
+      importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_FlipUVs);
   VLN_CHECK_IO(scene != nullptr, "loadScene(): assimp cannot read ", file, ": ",
                importer.GetErrorString());
   VLN_CHECK_ARG(scene->mRootNode != nullptr && scene->mNumMeshes > 0,

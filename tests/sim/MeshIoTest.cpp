@@ -592,6 +592,43 @@ TEST(MeshIoTest, NanCoordinatesAreRejected) {
       [&] { loadScene(file, MeshLoadConfig{}); }, {"nan.ply", "non-finite"});
 }
 
+// The PLY header guard of loadScene (Debian's assimp hangs or corrupts its
+// heap on these; docs/reliability.md, fuzzing findings): each malformed
+// header is refused before assimp reads it, naming the file and the reason.
+TEST(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeAssimp) {
+  const std::string vertex =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n";
+  const std::string rest =
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {vertex + "property float y\nproperty float z\n", "no end_header"},
+      {vertex + "property float z\nend_header\n0 0\n", "lacks x, y or z"},
+      {vertex + "property flaot q\n" + rest, "malformed header line"},
+      {vertex + "property float\n" + rest, "malformed header line"},
+      {"ply\nformat ascii 1.0\nelement vertex\n" + rest,
+       "expected 'element <name> <count>'"},
+      {"ply\nformat ascii 1.0\nelement vertex -3\n" + rest,
+       "expected 'element <name> <count>'"},
+      {"ply\nformat utf8 1.0\nelement vertex 3\n" + rest, "expected 'format"},
+      {"ply\nproperty float x\n" + rest, "a property before any element"},
+      {vertex + "vertex_count 3\n" + rest, "not a PLY header keyword"},
+  };
+  test::TempDir dir;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const auto file = test::writeText(
+        dir / ("bad" + std::to_string(i) + ".ply"), cases[i].first);
+    SCOPED_TRACE(cases[i].first);
+    expectThrowWith<std::invalid_argument>(
+        [&] { loadScene(file, MeshLoadConfig{}); },
+        {"bad" + std::to_string(i) + ".ply", cases[i].second});
+  }
+  // the same lines in a well-formed order load
+  const auto good = test::writeText(dir / "good.ply", vertex + rest);
+  EXPECT_EQ(loadScene(good, MeshLoadConfig{}).mesh.triangleCount(), 1u);
+}
+
 TEST(MeshIoTest, SidecarWithAMissingFieldNamesFileAndField) {
   test::TempDir dir;
   const fs::path file = dir / "scene.glb";
