@@ -36,7 +36,7 @@ out=$root/fuzz-out
 
 all_targets=(fuzz_experiment_config fuzz_episodes fuzz_ground_truth
   fuzz_glove_text fuzz_embeddings_json fuzz_mesh_obj fuzz_mesh_ply
-  fuzz_navgraph fuzz_navmesh fuzz_checkpoint)
+  fuzz_navgraph fuzz_navmesh fuzz_checkpoint fuzz_zip)
 if (($#)); then targets=("$@"); else targets=("${all_targets[@]}"); fi
 
 # the targets that include LibTorch run under AFL++, the others libFuzzer
@@ -51,7 +51,7 @@ done
 max_len() {
   case $1 in
     fuzz_navmesh) echo 262144 ;;
-    fuzz_episodes | fuzz_ground_truth | fuzz_embeddings_json | fuzz_checkpoint) echo 65536 ;;
+    fuzz_episodes | fuzz_ground_truth | fuzz_embeddings_json | fuzz_checkpoint | fuzz_zip) echo 65536 ;;
     fuzz_navgraph | fuzz_experiment_config) echo 32768 ;;
     *) echo 16384 ;;
   esac
@@ -113,6 +113,7 @@ cp $data/tiny_split_gt.json "$seeds/fuzz_ground_truth/"
 # the GloVe target reads its first byte as options (0: defaults)
 { printf '\000'; cat $data/tiny_glove.txt; } >"$seeds/fuzz_glove_text/tiny_glove.txt"
 cp tests/data_files/meshes/house_small.glb.semantics.json "$seeds/fuzz_navgraph/" # JSON shape only
+cp tests/data_files/zip/*.zip "$seeds/fuzz_zip/"
 
 world=$out/world
 if ((${#lf_targets[@]})) && [[ ! -f $world/done ]]; then

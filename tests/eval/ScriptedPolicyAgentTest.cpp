@@ -86,7 +86,7 @@ TEST(ScriptedPolicyAgentTest, BadArchivesAreNamed) {
   const auto junk = vln::test::writeText(dir / "junk.pt", "not an archive");
   EXPECT_THAT([&] { ScriptedPolicyAgent a(junk, 1, false, 0, 200); },
               ::testing::Throws<std::runtime_error>(::testing::Property(
-                  &std::exception::what, HasSubstr("junk.pt' is not a TorchScript archive"))));
+                  &std::exception::what, HasSubstr("junk.pt' is not an intact zip archive"))));
   // an export without encoders takes features, not observations
   const auto model = test::tinyAgentModel(models::PolicyType::kSeq2Seq, 2);
   models::exportPolicy(*model.policy, nullptr, dir / "features.pt");

@@ -18,6 +18,7 @@
 #include <sstream>
 #include <typeinfo>
 
+#include "common/ZipIntegrity.h"
 #include "data/Episode.h"
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
@@ -137,6 +138,10 @@ const std::map<std::string, Reader>& readers() {
       {"fuzz_checkpoint",
        [](std::string_view in, const fs::path&) {
          (void)train::deserializeCheckpoint(in, "replay");
+       }},
+      {"fuzz_zip",
+       [](std::string_view in, const fs::path&) {
+         (void)common::verifyZipIntegrity(in, "replay");
        }},
   };
   return table;
