@@ -1005,13 +1005,32 @@ void checkPlyHeader(const fs::path& file) {
 // mesh whose primitive types call for triangulation while no face has more
 // than three corners, e.g. a PLY face list with a garbage count (found by
 // fuzzing): such meshes are refused before post-processing.
-void checkPrimitiveTypes(const aiScene& scene, const fs::path& file) {
+// Its post-processing also reads vertices through face indices without
+// checking them (a SEGV on a PLY face naming vertex 1503 of 8, found by
+// fuzzing): every index must name a vertex of its mesh.
+void checkFacesBeforePostProcessing(const aiScene& scene,
+                                    const fs::path& file) {
   for (unsigned m = 0; m < scene.mNumMeshes; ++m) {
+    VLN_CHECK_ARG(scene.mMeshes != nullptr && scene.mMeshes[m] != nullptr,
+                  "loadScene(): ", file, " mesh ", m, " is missing");
     const aiMesh& mesh = *scene.mMeshes[m];
+    VLN_CHECK_ARG((mesh.mNumFaces == 0 || mesh.mFaces != nullptr) &&
+                      (mesh.mNumVertices == 0 || mesh.mVertices != nullptr),
+                  "loadScene(): ", file, " mesh ", m,
+                  " declares faces or vertices it does not hold");
     bool polygon = false, allTriangles = true;
     for (unsigned f = 0; f < mesh.mNumFaces; ++f) {
-      polygon |= mesh.mFaces[f].mNumIndices > 3;
-      allTriangles &= mesh.mFaces[f].mNumIndices == 3;
+      const aiFace& face = mesh.mFaces[f];
+      VLN_CHECK_ARG(face.mNumIndices == 0 || face.mIndices != nullptr,
+                    "loadScene(): ", file, " mesh ", m, " face ", f,
+                    " declares indices it does not hold");
+      for (unsigned k = 0; k < face.mNumIndices; ++k)
+        VLN_CHECK_ARG(face.mIndices[k] < mesh.mNumVertices,
+                      "loadScene(): ", file, " mesh ", m, " face ", f,
+                      " names vertex ", face.mIndices[k], " of ",
+                      mesh.mNumVertices);
+      polygon |= face.mNumIndices > 3;
+      allTriangles &= face.mNumIndices == 3;
     }
     // the condition under which assimp's TriangulateProcess runs
     const bool triangulates =
@@ -1035,11 +1054,11 @@ LoadedScene loadScene(const fs::path& file, const MeshLoadConfig& config) {
   // degenerate triangles are dropped while copying (assimp's own filters
   // would turn a file without faces into a read error instead of "no
   // triangles"). FlipUVs: our uvs put v = 0 on the first image row (glTF).
-  // Post-processing runs separately, after checkPrimitiveTypes().
+  // Post-processing runs separately, after checkFacesBeforePostProcessing().
   const aiScene* scene = importer.ReadFile(file.string(), 0);
   VLN_CHECK_IO(scene != nullptr, "loadScene(): assimp cannot read ", file, ": ",
                importer.GetErrorString());
-  checkPrimitiveTypes(*scene, file);
+  checkFacesBeforePostProcessing(*scene, file);
   scene =
       importer.ApplyPostProcessing(aiProcess_Triangulate | aiProcess_FlipUVs);
   VLN_CHECK_IO(scene != nullptr, "loadScene(): assimp cannot read ", file, ": ",

@@ -629,6 +629,20 @@ TEST(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeAssimp) {
   EXPECT_EQ(loadScene(good, MeshLoadConfig{}).mesh.triangleCount(), 1u);
 }
 
+// assimp's post-processing would read vertex 7 of 3 (a SEGV, found by fuzzing)
+TEST(MeshIoTest, FaceNamingAMissingVertexIsRefused) {
+  test::TempDir dir;
+  const auto file = test::writeText(
+      dir / "far.ply",
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n");
+  expectThrowWith<std::invalid_argument>(
+      [&] { loadScene(file, MeshLoadConfig{}); },
+      {"far.ply", "face 0 names vertex 7 of 3"});
+}
+
 TEST(MeshIoTest, SidecarWithAMissingFieldNamesFileAndField) {
   test::TempDir dir;
   const fs::path file = dir / "scene.glb";
