@@ -931,15 +931,16 @@ void checkPlyHeader(const fs::path& file) {
   bool hasVertexElement = false;
   while (bytes < kMaxHeaderBytes && std::getline(in, line)) {
     bytes += line.size() + 1;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    // words are separated by blanks and tabs only: assimp does not take
+    // every isspace() character for a separator, and "end_header\v..."
+    // passed this check while assimp looped forever looking for the end
+    // (found by fuzzing)
     std::vector<std::string> words;
     for (size_t i = 0; i < line.size();) {
-      while (i < line.size() &&
-             std::isspace(static_cast<unsigned char>(line[i])))
-        ++i;
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
       size_t j = i;
-      while (j < line.size() &&
-             !std::isspace(static_cast<unsigned char>(line[j])))
-        ++j;
+      while (j < line.size() && line[j] != ' ' && line[j] != '\t') ++j;
       if (j > i) words.push_back(line.substr(i, j - i));
       i = j;
     }

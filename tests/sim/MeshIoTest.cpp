@@ -614,6 +614,9 @@ TEST(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeAssimp) {
       {"ply\nformat utf8 1.0\nelement vertex 3\n" + rest, "expected 'format"},
       {"ply\nproperty float x\n" + rest, "a property before any element"},
       {vertex + "vertex_count 3\n" + rest, "not a PLY header keyword"},
+      // assimp does not end the header at "end_header\v" and loops
+      {vertex + "property float y\nproperty float z\nend_header\v0 0 0\n",
+       "not a PLY header keyword"},
   };
   test::TempDir dir;
   for (size_t i = 0; i < cases.size(); ++i) {
