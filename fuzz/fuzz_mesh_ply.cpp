@@ -1,8 +1,5 @@
-// Fuzzes scene loading of PLY text (sim::loadScene through assimp, via a
-// file in a private directory). A mesh the loader accepts must pass
-// TriangleMesh::validate(): that is the contract every consumer relies on.
-#include "sim/MeshIo.h"
-#include "FuzzUtil.h"
+// Fuzzes scene loading of PLY text (fuzz/MeshFuzzing.h).
+#include "MeshFuzzing.h"
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
   vln::fuzz::quietLogging();
@@ -10,16 +7,6 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  auto file = vln::fuzz::writeInput("scene.ply", data, size);
-  vln::fuzz::expectDocumentedErrors([&] {
-    vln::sim::LoadedScene scene = vln::sim::loadScene(file, {});
-    try {
-      scene.mesh.validate("fuzz");
-    } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "vln fuzz: loadScene returned an invalid mesh: %s\n",
-                   e.what());
-      std::abort();
-    }
-  });
+  vln::fuzz::fuzzSceneFile("ply", data, size);
   return 0;
 }

@@ -26,6 +26,7 @@
 #include "common/Check.h"
 #include "common/FileIo.h"
 #include "common/Json.h"
+#include "sim/PlyCheck.h"
 
 namespace vln::sim {
 namespace fs = std::filesystem;
@@ -898,110 +899,6 @@ void saveSemantics(const fs::path& file, const SceneSemantics& semantics) {
 
 namespace {
 
-// Debian's assimp 5.2 PLY reader misbehaves on two kinds of broken header
-// (both found by fuzzing): without an end_header line it loops forever,
-// and with a vertex element lacking x, y or z it corrupts the heap. Such
-// files are refused before assimp sees them. PLY is recognised by
-// extension or by its "ply" magic, as assimp does.
-// PLY's scalar type names (Paul Bourke's specification and the sized
-// aliases assimp and most writers use)
-bool isPlyType(std::string_view word) {
-  static const std::set<std::string_view> kTypes = {
-      "char",  "uchar",  "short",   "ushort", "int",   "uint",
-      "float", "double", "int8",    "uint8",  "int16", "uint16",
-      "int32", "uint32", "float32", "float64"};
-  return kTypes.count(word) > 0;
-}
-
-// an element count: decimal digits only
-bool isPlyCount(std::string_view word) {
-  return !word.empty() && word.size() <= 18 &&
-         std::all_of(word.begin(), word.end(),
-                     [](char c) { return c >= '0' && c <= '9'; });
-}
-
-void checkPlyHeader(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::string line;
-  bool first = true;
-  size_t bytes = 0;
-  constexpr size_t kMaxHeaderBytes = 1 << 20;
-  std::string element;  // the element being declared
-  std::set<std::string> vertexProperties;
-  bool hasVertexElement = false;
-  while (bytes < kMaxHeaderBytes && std::getline(in, line)) {
-    bytes += line.size() + 1;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    // words are separated by blanks and tabs only: assimp does not take
-    // every isspace() character for a separator, and "end_header\v..."
-    // passed this check while assimp looped forever looking for the end
-    // (found by fuzzing)
-    std::vector<std::string> words;
-    for (size_t i = 0; i < line.size();) {
-      while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
-      size_t j = i;
-      while (j < line.size() && line[j] != ' ' && line[j] != '\t') ++j;
-      if (j > i) words.push_back(line.substr(i, j - i));
-      i = j;
-    }
-    if (first && (words.empty() || !words[0].starts_with("ply")) &&
-        lowerExtension(file) != ".ply")
-      return;  // not a PLY file
-    first = false;
-    if (words.empty()) continue;
-    // assimp's token rule: the keyword, then a blank or the line end
-    if (words[0] == "end_header") {
-      VLN_CHECK_ARG(!hasVertexElement || (vertexProperties.count("x") &&
-                                          vertexProperties.count("y") &&
-                                          vertexProperties.count("z")),
-                    "loadScene(): ", file,
-                    " is a PLY file whose vertex element lacks x, y or z");
-      return;
-    }
-    // assimp 5.2 corrupts its heap on some malformed declarations (a
-    // property of an unknown type, found by fuzzing): every line must be
-    // one of the PLY header's own forms
-    auto bad = [&](std::string_view why) {
-      return std::invalid_argument(strCat("loadScene(): ", file,
-                                          " is a PLY file with a malformed "
-                                          "header line (",
-                                          why, "): '", line.substr(0, 80),
-                                          "'"));
-    };
-    if (words[0] == "element") {
-      if (words.size() != 3 || !isPlyCount(words[2]))
-        throw bad("expected 'element <name> <count>'");
-      element = words[1];
-      hasVertexElement |= element == "vertex";
-    } else if (words[0] == "property") {
-      if (element.empty()) throw bad("a property before any element");
-      const bool list = words.size() == 5 && words[1] == "list" &&
-                        isPlyType(words[2]) && isPlyType(words[3]);
-      if (!list && !(words.size() == 3 && isPlyType(words[1])))
-        throw bad(
-            "expected 'property <type> <name>' or 'property list <type> "
-            "<type> <name>' with PLY's types");
-      if (element == "vertex") vertexProperties.insert(words.back());
-    } else if (words[0] == "format") {
-      if (words.size() != 3 ||
-          (words[1] != "ascii" && words[1] != "binary_little_endian" &&
-           words[1] != "binary_big_endian"))
-        throw bad(
-            "expected 'format ascii|binary_little_endian|"
-            "binary_big_endian <version>'");
-    } else if (words[0] != "ply" && words[0] != "comment" &&
-               words[0] != "obj_info") {
-      throw bad("not a PLY header keyword");
-    }
-  }
-  // an empty file has no magic: only its extension can make it a PLY file
-  if (first && lowerExtension(file) != ".ply") return;
-  throw std::invalid_argument(
-      strCat("loadScene(): ", file,
-             " is a PLY file whose header has no end_header "
-             "line (truncated?)"));
-}
-
 // Debian's assimp 5.2 aborts in aiProcess_Triangulate (an ai_assert) on a
 // mesh whose primitive types call for triangulation while no face has more
 // than three corners, e.g. a PLY face list with a garbage count (found by
@@ -1049,7 +946,7 @@ void checkFacesBeforePostProcessing(const aiScene& scene,
 LoadedScene loadScene(const fs::path& file, const MeshLoadConfig& config) {
   VLN_CHECK_IO(fs::is_regular_file(file), "loadScene(): scene file ", file,
                " does not exist");
-  checkPlyHeader(file);
+  checkPlyFile(file);
   Assimp::Importer importer;
   // Only triangulation and the uv flip are left to assimp: points, lines and
   // degenerate triangles are dropped while copying (assimp's own filters

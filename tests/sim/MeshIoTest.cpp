@@ -646,6 +646,124 @@ TEST(MeshIoTest, FaceNamingAMissingVertexIsRefused) {
       {"far.ply", "face 0 names vertex 7 of 3"});
 }
 
+// The PLY body walk of loadScene: a list count beyond its type or its line
+// made Debian's assimp allocate gigabytes (found by fuzzing), and truncated
+// bodies are refused rather than read as fewer rows.
+TEST(MeshIoTest, MalformedAsciiPlyBodiesAreRefusedBeforeAssimp) {
+  const std::string header =
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+      "property float y\nproperty float z\nelement face 1\n"
+      "property list uchar int vertex_indices\nend_header\n";
+  const std::string vertices = "0 0 0\n1 0 0\n0 1 0\n";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {header + vertices + "3666666666666666 0 1 2\n",
+       "row 0 property 'vertex_indices': list count '3666666666666666' is not "
+       "an integer its count type holds"},
+      {header + vertices + "256 0 1 2\n", "its count type holds"},
+      {header + vertices + "4 0 1 2\n",
+       "a list of 4 entries, but its line holds 3 more values"},
+      {header + vertices + "3 0 1\n2\n", "but its line holds 2 more values"},
+      {header + vertices, "element 'face' row 0: the file ends before it"},
+      {header + "0 0 0\n\n\n1 0 0\n0 1 0\n3 0 1 2\n",
+       "element 'vertex' row 1: a blank line where the row should be"},
+      {header + "0 0 0\n1 0\n0 1 0\n3 0 1 2\n",
+       "element 'vertex' row 1 property 'z': the row's line ends before its "
+       "value"},
+      {header + "0 0 0\n1 0x1 0\n0 1 0\n3 0 1 2\n", "'0x1' is not a number"},
+      {header + "0 0 0\n1 0\v0\n0 1 0\n3 0 1 2\n", "is not a number"},
+      {"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+       "property float y\nproperty float z\nelement junk 99999999999\n"
+       "end_header\n" + vertices,
+       "element 'junk' declares 99999999999 rows but no properties"},
+      {"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+       "property float y\nproperty float z\nelement face 1\n"
+       "property list float int vertex_indices\nend_header\n" + vertices +
+           "3 0 1 2\n",
+       "malformed header line"},
+  };
+  test::TempDir dir;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const auto file = test::writeText(
+        dir / ("body" + std::to_string(i) + ".ply"), cases[i].first);
+    SCOPED_TRACE(cases[i].first);
+    expectThrowWith<std::invalid_argument>(
+        [&] { loadScene(file, MeshLoadConfig{}); },
+        {"body" + std::to_string(i) + ".ply", cases[i].second});
+  }
+  // \r\n line ends, tabs, '+' signs, exponents, values a row leaves over
+  // and blank lines after the last row are all fine
+  const auto good = test::writeText(
+      dir / "good.ply",
+      header + "0 0 0\r\n+1\t0 0 9\r\n0 1e0 0\n3 0 1 2 \n\n\n");
+  EXPECT_EQ(loadScene(good, MeshLoadConfig{}).mesh.triangleCount(), 1u);
+}
+
+namespace {
+
+// A binary PLY triangle: three float vertices and one face whose list
+// count (uchar or uint) is `count`, in the given byte order; `cut` bytes
+// are dropped from the end.
+std::string binaryPlyTriangle(bool bigEndian, bool uintCount, uint32_t count,
+                              size_t cut = 0) {
+  std::string out = std::string("ply\nformat ") +
+                    (bigEndian ? "binary_big_endian" : "binary_little_endian") +
+                    " 1.0\nelement vertex 3\nproperty float x\n"
+                    "property float y\nproperty float z\nelement face 1\n"
+                    "property list " +
+                    (uintCount ? "uint" : "uchar") +
+                    " int vertex_indices\nend_header\n";
+  auto put = [&](const void* value, size_t bytes) {
+    std::string raw(static_cast<const char*>(value), bytes);
+    if (bigEndian) std::reverse(raw.begin(), raw.end());
+    out += raw;
+  };
+  const float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+  for (float v : xyz) put(&v, sizeof v);
+  if (uintCount) {
+    put(&count, sizeof count);
+  } else {
+    const auto small = static_cast<uint8_t>(count);
+    put(&small, 1);
+  }
+  for (int32_t i = 0; i < 3; ++i) put(&i, sizeof i);
+  out.resize(out.size() - cut);
+  return out;
+}
+
+}  // namespace
+
+TEST(MeshIoTest, BinaryPlyLoadsAndMalformedBodiesAreRefused) {
+  test::TempDir dir;
+  for (bool bigEndian : {false, true}) {
+    for (bool uintCount : {false, true}) {
+      SCOPED_TRACE(testing::Message() << "big endian " << bigEndian
+                                      << ", uint count " << uintCount);
+      const auto good = test::writeText(
+          dir / "good.ply", binaryPlyTriangle(bigEndian, uintCount, 3));
+      const TriangleMesh mesh = loadScene(good, MeshLoadConfig{}).mesh;
+      ASSERT_EQ(mesh.triangleCount(), 1u);
+      EXPECT_EQ(mesh.positions.size(), 3u);
+
+      const auto cut = test::writeText(
+          dir / "cut.ply", binaryPlyTriangle(bigEndian, uintCount, 3, 2));
+      expectThrowWith<std::invalid_argument>(
+          [&] { loadScene(cut, MeshLoadConfig{}); },
+          {"cut.ply", "a list of 3 entries is longer than the 10 bytes left"});
+    }
+  }
+  const auto huge = test::writeText(
+      dir / "huge.ply", binaryPlyTriangle(false, true, 0xF0000000u));
+  expectThrowWith<std::invalid_argument>(
+      [&] { loadScene(huge, MeshLoadConfig{}); },
+      {"huge.ply", "a list of 4026531840 entries is longer than the 12 bytes"});
+  const auto noFace = test::writeText(
+      dir / "noface.ply", binaryPlyTriangle(false, false, 3, 13));
+  expectThrowWith<std::invalid_argument>(
+      [&] { loadScene(noFace, MeshLoadConfig{}); },
+      {"noface.ply", "element 'face' row 0 property 'vertex_indices': the "
+                     "file ends before it"});
+}
+
 TEST(MeshIoTest, SidecarWithAMissingFieldNamesFileAndField) {
   test::TempDir dir;
   const fs::path file = dir / "scene.glb";
