@@ -98,8 +98,9 @@ std::string printable(std::string_view text, size_t limit = 40) {
 
 // The header, line by line. Debian's assimp 5.2 loops forever without an
 // end_header line, and corrupts its heap on a vertex element lacking x, y
-// or z and on a property of an unknown type: every line must be one of
-// the header's own forms. Returns nothing for a file that is not PLY.
+// or z, on a property of an unknown type and on an element declared twice:
+// every line must be one of the header's own forms, every element and
+// property name unique in its scope. Returns nothing for a file that is not PLY.
 std::optional<PlyLayout> readPlyHeader(const fs::path& file,
                                        std::string_view bytes,
                                        bool plyExtension) {
@@ -154,6 +155,10 @@ std::optional<PlyLayout> readPlyHeader(const fs::path& file,
       std::optional<uint64_t> count;
       if (words.size() != 3 || !(count = plyCount(words[2])))
         throw bad("expected 'element <name> <count>'");
+      // assimp sizes an element's arrays by its first declaration and
+      // fills them from every one: a heap overflow (found by fuzzing)
+      for (const PlyElement& earlier : layout.elements)
+        if (earlier.name == words[1]) throw bad("an element declared twice");
       layout.elements.push_back({words[1], *count, {}});
     } else if (words[0] == "property") {
       if (layout.elements.empty()) throw bad("a property before any element");
@@ -173,6 +178,10 @@ std::optional<PlyLayout> readPlyHeader(const fs::path& file,
             "expected 'property <type> <name>' or 'property list <integer "
             "type> <type> <name>' with PLY's types");
       }
+      // which of two same-named properties assimp reads is its choice
+      for (const PlyProperty& earlier : layout.elements.back().properties)
+        if (earlier.name == property.name)
+          throw bad("a property declared twice in its element");
       layout.elements.back().properties.push_back(property);
     } else if (words[0] == "format") {
       if (words.size() != 3) throw bad("expected 'format <format> <version>'");

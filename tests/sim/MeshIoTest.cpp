@@ -614,6 +614,12 @@ TEST(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeAssimp) {
       {"ply\nformat utf8 1.0\nelement vertex 3\n" + rest, "expected 'format"},
       {"ply\nproperty float x\n" + rest, "a property before any element"},
       {vertex + "vertex_count 3\n" + rest, "not a PLY header keyword"},
+      // assimp sizes the vertex arrays by the first declaration, fills them
+      // from both: a heap overflow
+      {vertex + "property float y\nproperty float z\n" + vertex + rest,
+       "an element declared twice"},
+      {vertex + "property float x\n" + rest,
+       "a property declared twice in its element"},
       // assimp does not end the header at "end_header\v" and loops
       {vertex + "property float y\nproperty float z\nend_header\v0 0 0\n",
        "not a PLY header keyword"},
