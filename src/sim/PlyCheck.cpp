@@ -229,13 +229,21 @@ class AsciiRows {
  public:
   explicit AsciiRows(std::string_view text) : text_(text) {}
 
-  /// The tokens of the next line; false at the end of the text.
-  bool next(std::vector<std::string_view>& tokens) {
-    tokens.clear();
+  /// The next line, without its '\n' and a '\r' before it; false at the
+  /// end of the text.
+  bool next(std::string_view& line) {
     if (pos_ >= text_.size()) return false;
     const size_t end = std::min(text_.find('\n', pos_), text_.size());
-    std::string_view line = text_.substr(pos_, end - pos_);
+    line = text_.substr(pos_, end - pos_);
     pos_ = end + 1;
+    if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+    return true;
+  }
+
+  /// The blank- and tab-separated words of a line.
+  static void split(std::string_view line,
+                    std::vector<std::string_view>& tokens) {
+    tokens.clear();
     for (size_t i = 0; i < line.size();) {
       while (i < line.size() && isBlank(line[i])) ++i;
       size_t j = i;
@@ -243,14 +251,23 @@ class AsciiRows {
       if (j > i) tokens.push_back(line.substr(i, j - i));
       i = j;
     }
-    return true;
   }
 
  private:
-  static bool isBlank(char c) { return c == ' ' || c == '\t' || c == '\r'; }
+  static bool isBlank(char c) { return c == ' ' || c == '\t'; }
   std::string_view text_;
   size_t pos_ = 0;
 };
+
+// assimp also ends a line at '\r', '\f' and NUL (a NUL in what a row left
+// over made it read the rest as a row with a list of 333333333355 entries:
+// 20 GB, found by fuzzing), so a row's line holds printable ASCII and tabs
+// only.
+std::optional<unsigned char> firstForeignByte(std::string_view line) {
+  for (unsigned char c : line)
+    if (!(c == '\t' || (c >= 0x20 && c < 0x7f))) return c;
+  return std::nullopt;
+}
 
 bool isNumber(std::string_view token) {
   if (!token.empty() && token[0] == '+') token.remove_prefix(1);
@@ -266,10 +283,18 @@ void checkAsciiBody(const fs::path& file, const PlyLayout& layout,
   std::vector<std::string_view> tokens;
   for (const PlyElement& element : layout.elements) {
     for (uint64_t row = 0; row < element.count; ++row) {
-      VLN_CHECK_ARG(rows.next(tokens), "loadScene(): ", file, " PLY element '",
+      std::string_view line;
+      VLN_CHECK_ARG(rows.next(line), "loadScene(): ", file, " PLY element '",
                     element.name, "' row ", row,
                     ": the file ends before it (truncated, or the header "
                     "declares more rows than there are)");
+      if (auto byte = firstForeignByte(line))
+        throw std::invalid_argument(strCat(
+            "loadScene(): ", file, " PLY element '", element.name, "' row ",
+            row, ": its line holds the byte ",
+            printable(std::string(1, static_cast<char>(*byte))),
+            " (only printable ASCII and tabs belong in an ASCII body)"));
+      AsciiRows::split(line, tokens);
       // assimp reads most blank lines as rows of zeros (and skips some)
       VLN_CHECK_ARG(!tokens.empty(), "loadScene(): ", file,
                     " PLY element '", element.name, "' row ", row,

@@ -676,7 +676,14 @@ TEST(MeshIoTest, MalformedAsciiPlyBodiesAreRefusedBeforeAssimp) {
        "element 'vertex' row 1 property 'z': the row's line ends before its "
        "value"},
       {header + "0 0 0\n1 0x1 0\n0 1 0\n3 0 1 2\n", "'0x1' is not a number"},
-      {header + "0 0 0\n1 0\v0\n0 1 0\n3 0 1 2\n", "is not a number"},
+      {header + "0 0 0\n1 0\v0\n0 1 0\n3 0 1 2\n",
+       "element 'vertex' row 1: its line holds the byte \\x0b"},
+      // assimp ends lines at a bare '\r' and at NUL too: after the NUL it
+      // read a list of 999999999999 entries (20 GB) where this sees a row
+      // with something left over
+      {header + "0 0 0\r1 0 0\n0 1 0\n3 0 1 2\n", "holds the byte \\x0d"},
+      {header + vertices + std::string("3 0 1 2\0" "999999999999 1\n", 22),
+       "element 'face' row 0: its line holds the byte \\x00"},
       {"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
        "property float y\nproperty float z\nelement junk 99999999999\n"
        "end_header\n" + vertices,
