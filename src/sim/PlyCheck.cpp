@@ -108,6 +108,7 @@ std::optional<PlyLayout> readPlyHeader(const fs::path& file,
   bool first = true;
   size_t pos = 0;
   constexpr size_t kMaxHeaderBytes = 1 << 20;
+  bool formatSeen = false;
   while (pos < bytes.size() && pos < kMaxHeaderBytes) {
     const size_t end = std::min(bytes.find('\n', pos), bytes.size());
     std::string line(bytes.substr(pos, end - pos));
@@ -128,6 +129,7 @@ std::optional<PlyLayout> readPlyHeader(const fs::path& file,
     if (first && (words.empty() || !words[0].starts_with("ply")) &&
         !plyExtension)
       return std::nullopt;
+    const bool firstLine = first;
     first = false;
     if (words.empty()) continue;
     auto bad = [&](std::string_view why) {
@@ -138,6 +140,8 @@ std::optional<PlyLayout> readPlyHeader(const fs::path& file,
                                           "'"));
     };
     if (words[0] == "end_header") {
+      VLN_CHECK_ARG(formatSeen, "loadScene(): ", file,
+                    " is a PLY file whose header has no format line");
       for (const PlyElement& element : layout.elements) {
         if (element.name != "vertex") continue;
         auto has = [&](std::string_view name) {
@@ -184,6 +188,10 @@ std::optional<PlyLayout> readPlyHeader(const fs::path& file,
           throw bad("a property declared twice in its element");
       layout.elements.back().properties.push_back(property);
     } else if (words[0] == "format") {
+      // assimp reads one format and a body of the other (6.9 GB for a
+      // header declaring ascii, then binary; found by fuzzing)
+      if (formatSeen) throw bad("a second format line");
+      formatSeen = true;
       if (words.size() != 3) throw bad("expected 'format <format> <version>'");
       if (words[1] == "ascii")
         layout.format = PlyFormat::kAscii;
@@ -195,8 +203,9 @@ std::optional<PlyLayout> readPlyHeader(const fs::path& file,
         throw bad(
             "expected 'format ascii|binary_little_endian|"
             "binary_big_endian <version>'");
-    } else if (words[0] != "ply" && words[0] != "comment" &&
-               words[0] != "obj_info") {
+    } else if (words[0] == "ply") {
+      if (!firstLine) throw bad("'ply' after the first line");
+    } else if (words[0] != "comment" && words[0] != "obj_info") {
       throw bad("not a PLY header keyword");
     }
   }

@@ -612,11 +612,18 @@ TEST(MeshIoTest, MalformedPlyHeadersAreRefusedBeforeAssimp) {
       {"ply\nformat ascii 1.0\nelement vertex -3\n" + rest,
        "expected 'element <name> <count>'"},
       {"ply\nformat utf8 1.0\nelement vertex 3\n" + rest, "expected 'format"},
+      // assimp read one format and a body of the other (6.9 GB)
+      {"ply\nformat ascii 1.0\nformat binary_little_endian 1.0\n"
+       "element vertex 3\nproperty float x\n" + rest,
+       "a second format line"},
+      {"ply\nelement vertex 3\nproperty float x\n" + rest, "no format line"},
+      {vertex + "ply\n" + rest, "'ply' after the first line"},
       {"ply\nproperty float x\n" + rest, "a property before any element"},
       {vertex + "vertex_count 3\n" + rest, "not a PLY header keyword"},
       // assimp sizes the vertex arrays by the first declaration, fills them
       // from both: a heap overflow
-      {vertex + "property float y\nproperty float z\n" + vertex + rest,
+      {vertex + "property float y\nproperty float z\n" +
+           "element vertex 3\nproperty float x\n" + rest,
        "an element declared twice"},
       {vertex + "property float x\n" + rest,
        "a property declared twice in its element"},
