@@ -15,6 +15,7 @@
 #include "common/Check.h"
 #include "common/FileIo.h"
 #include "common/Json.h"
+#include "common/Random.h"
 
 namespace vln::data {
 namespace {
@@ -420,19 +421,6 @@ std::vector<CooccurrenceEntry> countCooccurrences(
 
 namespace {
 
-// splitmix64: a portable, seedable generator (std distributions are not
-// specified bit-exactly across standard libraries)
-struct SplitMix64 {
-  uint64_t state;
-  uint64_t next() {
-    uint64_t z = (state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
-};
-
 // parameters of 2V rows (words, then contexts), each dim weights + a bias
 struct GloveParameters {
   int vocab = 0;
@@ -582,7 +570,7 @@ GloveFitResult fitGlove(const std::vector<std::vector<std::string>>& sentences,
                 ")");
 
   // glove.c's initialisation: uniform in [-0.5, 0.5] / dim, accumulators 1
-  SplitMix64 rng{static_cast<uint64_t>(config.seed)};
+  common::SplitMix64 rng{static_cast<uint64_t>(config.seed)};
   GloveParameters params;
   params.vocab = vocabSize;
   params.dim = config.dim;

@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "common/Check.h"
+#include "common/Random.h"
 
 namespace vln::data {
 
@@ -354,14 +355,14 @@ std::vector<std::string> colorWords(const std::string& color) {
 const char* pick(std::mt19937_64& rng,
                  std::initializer_list<const char*> options) {
   VLN_ASSERT(options.size() > 0);
-  return options.begin()[uniformIndex(rng, static_cast<int>(options.size()))];
+  return options.begin()[common::uniformIndex(rng, static_cast<int>(options.size()))];
 }
 
 const std::string& pick(std::mt19937_64& rng,
                         const std::vector<std::string>& options) {
   VLN_ASSERT(!options.empty());
   return options[static_cast<size_t>(
-      uniformIndex(rng, static_cast<int>(options.size())))];
+      common::uniformIndex(rng, static_cast<int>(options.size())))];
 }
 
 const char* sideWord(Side side) {
@@ -410,7 +411,7 @@ class Writer {
   }
 
  private:
-  bool chance(double p) { return bernoulli(rng_, p); }
+  bool chance(double p) { return common::bernoulli(rng_, p); }
 
   // --- names -------------------------------------------------------------
 
@@ -465,7 +466,7 @@ class Writer {
       case TurnKind::kRight: {
         const char* side = kind == TurnKind::kLeft ? "left" : "right";
         if (!human_) return strCat("turn ", side);
-        switch (uniformIndex(rng_, 7)) {
+        switch (common::uniformIndex(rng_, 7)) {
           case 0:
             return strCat("take a ", side);
           case 1:
@@ -484,7 +485,7 @@ class Writer {
       case TurnKind::kSlightRight: {
         const char* side = kind == TurnKind::kSlightLeft ? "left" : "right";
         if (!human_) return strCat("turn slightly ", side);
-        switch (uniformIndex(rng_, 5)) {
+        switch (common::uniformIndex(rng_, 5)) {
           case 0:
             return strCat("veer ", side);
           case 1:
@@ -501,7 +502,7 @@ class Writer {
       case TurnKind::kSharpRight: {
         const char* side = kind == TurnKind::kSharpLeft ? "left" : "right";
         if (!human_) return strCat("turn ", side);
-        switch (uniformIndex(rng_, 4)) {
+        switch (common::uniformIndex(rng_, 4)) {
           case 0:
             return strCat("make a sharp ", side);
           case 1:
@@ -781,7 +782,7 @@ class Writer {
       const std::string what =
           objectPhrase(stop.object, LandmarkRole::kStop, side, leg);
       std::string out;
-      switch (uniformIndex(rng_, 4)) {
+      switch (common::uniformIndex(rng_, 4)) {
         case 0:
           out = strCat(verb, " once you reach the ", what);
           break;
@@ -828,7 +829,7 @@ class Writer {
     std::vector<std::string> sentences;
     std::string current;
     int inSentence = 0;
-    int target = 1 + uniformIndex(rng_, 3);
+    int target = 1 + common::uniformIndex(rng_, 3);
     for (size_t i = 0; i < clauses.size(); ++i) {
       if (inSentence == 0) {
         current = clauses[i].text;
@@ -845,7 +846,7 @@ class Writer {
       if (inSentence >= target || i + 1 == clauses.size()) {
         sentences.push_back(current);
         inSentence = 0;
-        target = 1 + uniformIndex(rng_, 3);
+        target = 1 + common::uniformIndex(rng_, 3);
       }
     }
     std::string text;
@@ -966,7 +967,7 @@ std::vector<GeneratedInstruction> InstructionGenerator::generate(
     GeneratedInstruction instruction;
     for (int attempt = 0; attempt <= kRedraws; ++attempt) {
       Writer writer(semantics_, config_, facts, names, style,
-                    deriveSeed(seed, draw++));
+                    common::deriveSeed(seed, draw++));
       instruction = writer.write();
       const bool repeated = std::any_of(result.begin(), result.end(),
                                         [&](const GeneratedInstruction& r) {

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "common/Check.h"
+#include "common/Random.h"
 
 namespace vln::data {
 
@@ -26,7 +27,7 @@ constexpr int kMinHoleCells = 2;
 // shelves) and do not keep a tripod away.
 constexpr float kStandingObjectMaxBase = 0.5f;
 
-// Stream labels for deriveSeed(): each decision family draws from its own
+// Stream labels for common::deriveSeed(): each decision family draws from its own
 // generator so that changing one does not reshuffle the others.
 enum Stream : uint64_t {
   kDoorStream = 1,
@@ -184,14 +185,14 @@ class FurnitureMap {
     if (object == nullptr) return true;
     if (footprintXZ(object->bounds).contains(c.xz) &&
         isLargeFlat(*object, c.floor_y, config_) &&
-        bernoulli(rng, config_.furniture_node_probability)) {
+        common::bernoulli(rng, config_.furniture_node_probability)) {
       c.placement = NodePlacement::kFurniture;
       return true;
     }
     // the four ways out of the grown footprint, nearest first
     const float clearance =
         config_.object_clearance +
-        uniformRange(rng, 0.0f, config_.object_clearance_spread) + 0.01f;
+        common::uniformRange(rng, 0.0f, config_.object_clearance_spread) + 0.01f;
     const Eigen::AlignedBox2f box =
         grow(footprintXZ(object->bounds), clearance);
     std::array<std::pair<float, Vec2f>, 4> exits = {{
@@ -254,8 +255,8 @@ void markRemoved(std::vector<std::vector<std::pair<int, bool>>>& adj, int a,
 }
 
 std::string viewpointId(uint64_t seed, int index) {
-  const uint64_t hi = deriveSeed(seed, 2 * static_cast<uint64_t>(index));
-  const uint64_t lo = deriveSeed(seed, 2 * static_cast<uint64_t>(index) + 1);
+  const uint64_t hi = common::deriveSeed(seed, 2 * static_cast<uint64_t>(index));
+  const uint64_t lo = common::deriveSeed(seed, 2 * static_cast<uint64_t>(index) + 1);
   char buffer[33];
   std::snprintf(buffer, sizeof(buffer), "%016llx%016llx",
                 static_cast<unsigned long long>(hi),
@@ -298,10 +299,10 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
   };
 
   // doorways first: operators always captured the way between rooms
-  std::mt19937_64 doorRng(deriveSeed(seed, kDoorStream));
+  std::mt19937_64 doorRng(common::deriveSeed(seed, kDoorStream));
   for (const sim::Doorway& door : semantics.doors) {
     const bool interior = door.room_a >= 0 && door.room_b >= 0;
-    const bool take = bernoulli(doorRng, config.doorway_node_probability);
+    const bool take = common::bernoulli(doorRng, config.doorway_node_probability);
     if (!interior || !take) continue;
     Candidate c{Vec2f(door.center.x(), door.center.z()), door.center.y(),
                 door.room_a, NodePlacement::kDoorway};
@@ -310,9 +311,9 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
 
   // then holes in the floor, where the scan under a tripod failed
   const std::vector<Hole> holes = findHoles(semantics, tracer);
-  std::mt19937_64 holeRng(deriveSeed(seed, kHoleStream));
+  std::mt19937_64 holeRng(common::deriveSeed(seed, kHoleStream));
   for (const Hole& hole : holes) {
-    if (!bernoulli(holeRng, config.hole_node_probability)) continue;
+    if (!common::bernoulli(holeRng, config.hole_node_probability)) continue;
     Candidate c{hole.center, hole.floor_y, hole.room, NodePlacement::kHole};
     if (farFromAccepted(c) && furniture.blocking(c) == nullptr)
       accepted.push_back(c);
@@ -321,7 +322,7 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
   // then a jittered grid over every room, kept off furniture
   for (size_t r = 0; r < semantics.rooms.size(); ++r) {
     const sim::Room& room = semantics.rooms[r];
-    std::mt19937_64 rng(deriveSeed(seed, kRoomStream * 1000003ull + r));
+    std::mt19937_64 rng(common::deriveSeed(seed, kRoomStream * 1000003ull + r));
     const Eigen::AlignedBox2f inner =
         shrink(room.footprint, config.wall_margin);
     const Eigen::AlignedBox2f roomy =
@@ -343,7 +344,7 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
                                     static_cast<float>(n - 1);
           xz[k] =
               inner.min()[k] + t * inner.sizes()[k] +
-              uniformRange(rng, -config.spacing_jitter, config.spacing_jitter);
+              common::uniformRange(rng, -config.spacing_jitter, config.spacing_jitter);
           xz[k] = std::clamp(xz[k], inner.min()[k], inner.max()[k]);
         }
         Candidate c{xz, room.floor_y, static_cast<int>(r),
@@ -356,11 +357,11 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
 
   // nodes at tripod height with R2R-like ids
   BuiltNavGraph built;
-  std::mt19937_64 heightRng(deriveSeed(seed, kHeightStream));
-  const uint64_t idSeed = deriveSeed(seed, kIdStream);
+  std::mt19937_64 heightRng(common::deriveSeed(seed, kHeightStream));
+  const uint64_t idSeed = common::deriveSeed(seed, kIdStream);
   for (size_t i = 0; i < accepted.size(); ++i) {
     const Candidate& c = accepted[i];
-    const float height = uniformRange(heightRng, config.min_camera_height,
+    const float height = common::uniformRange(heightRng, config.min_camera_height,
                                       config.max_camera_height);
     built.graph.addNode(viewpointId(idSeed, static_cast<int>(i)),
                         Vec3f(c.xz.x(), c.floor_y + height, c.xz.y()));
@@ -387,9 +388,9 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
   }
 
   // annotators pruned some redundant edges, never one that disconnects
-  std::mt19937_64 edgeRng(deriveSeed(seed, kEdgeStream));
+  std::mt19937_64 edgeRng(common::deriveSeed(seed, kEdgeStream));
   for (const auto& [a, b] : visible) {
-    if (bernoulli(edgeRng, config.edge_drop_probability) &&
+    if (common::bernoulli(edgeRng, config.edge_drop_probability) &&
         connectedWithout(adjacency, a, b)) {
       markRemoved(adjacency, a, b);
       continue;

@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "common/Check.h"
+#include "common/Random.h"
 
 namespace vln::data {
 
@@ -80,7 +81,7 @@ std::vector<int> TrajectorySampler::shuffledOrder(uint64_t seed) const {
   std::vector<int> order(candidates_.size());
   for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
   std::mt19937_64 rng(seed);
-  deterministicShuffle(order, rng);
+  common::deterministicShuffle(order, rng);
   return order;
 }
 

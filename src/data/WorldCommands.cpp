@@ -8,6 +8,7 @@
 #include "common/Config.h"
 #include "common/Json.h"
 #include "common/Progress.h"
+#include "common/Random.h"
 #include "data/NavGraph.h"
 #include "data/NodeTransfer.h"
 #include "data/TrajectorySampler.h"
@@ -80,11 +81,11 @@ int runTransferCommand(const TransferCommandOptions& options,
   stats.addNodes(transferred, config.transfer);
   const TrajectorySampler sampler(graph, config.trajectories);
   const auto order = sampler.shuffledOrder(static_cast<uint64_t>(options.seed));
-  std::mt19937_64 rng(deriveSeed(static_cast<uint64_t>(options.seed), 1));
+  std::mt19937_64 rng(common::deriveSeed(static_cast<uint64_t>(options.seed), 1));
   const size_t count =
       std::min(order.size(), static_cast<size_t>(options.trajectories));
   for (size_t i = 0; i < count; ++i) {
-    const float heading = uniformRange(rng, -kPi, kPi);
+    const float heading = common::uniformRange(rng, -kPi, kPi);
     stats.addTrajectory(
         checkNavigability(navmesh, config.agent, config.transfer, transferred,
                           sampler.candidate(order[i]), heading));

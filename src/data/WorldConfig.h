@@ -5,10 +5,8 @@
 // R2R-like splits. One aggregate per stage; configs/world/default.yaml
 // mirrors WorldConfig key for key. Distances are metres, angles degrees.
 //
-// Also holds the deterministic random helpers every stage draws from:
-// std::mt19937_64's sequence is fixed by the C++ standard, std::
-// distributions are not, so the world is drawn through these helpers only
-// and comes out byte-identical on every platform.
+// Every stage draws through common/Random.h only, so the world comes out
+// byte-identical on every platform.
 
 #include <cstdint>
 #include <random>
@@ -17,58 +15,12 @@
 
 #include "common/Check.h"
 #include "common/Config.h"
+#include "common/Random.h"
 #include "data/Glove.h"
 #include "sim/HouseGenerator.h"
 #include "sim/SimConfig.h"
 
 namespace vln::data {
-
-// =========================================================================
-// deterministic randomness
-// =========================================================================
-
-/// SplitMix64 finaliser: a well-mixed 64-bit hash of `x`.
-inline uint64_t mixBits(uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-
-/// A seed derived from `seed` and a stream label `stream` (e.g. a house
-/// index or a purpose constant), so independent stages never share draws.
-inline uint64_t deriveSeed(uint64_t seed, uint64_t stream) {
-  return mixBits(mixBits(seed) ^ (stream * 0xD1B54A32D192ED03ull));
-}
-
-/// Uniform double in [0, 1) from the top 53 bits of one draw.
-inline double uniform01(std::mt19937_64& rng) {
-  return static_cast<double>(rng() >> 11) * 0x1.0p-53;
-}
-
-/// Uniform float in [lo, hi).
-inline float uniformRange(std::mt19937_64& rng, float lo, float hi) {
-  return lo + static_cast<float>(uniform01(rng)) * (hi - lo);
-}
-
-/// Uniform integer in [0, n); n must be positive.
-inline int uniformIndex(std::mt19937_64& rng, int n) {
-  VLN_ASSERT(n > 0);
-  return static_cast<int>(uniform01(rng) * n);
-}
-
-/// True with probability p.
-inline bool bernoulli(std::mt19937_64& rng, double p) {
-  return uniform01(rng) < p;
-}
-
-/// Fisher-Yates shuffle driven by uniformIndex().
-template <class T>
-void deterministicShuffle(std::vector<T>& values, std::mt19937_64& rng) {
-  for (int i = static_cast<int>(values.size()) - 1; i > 0; --i)
-    std::swap(values[static_cast<size_t>(i)],
-              values[static_cast<size_t>(uniformIndex(rng, i + 1))]);
-}
 
 // =========================================================================
 // stages

@@ -20,6 +20,7 @@
 #include "common/FileIo.h"
 #include "common/Json.h"
 #include "common/Progress.h"
+#include "common/Random.h"
 #include "data/Episode.h"
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
@@ -38,7 +39,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Stream labels for deriveSeed(): every stage of a house draws from its
+// Stream labels for common::deriveSeed(): every stage of a house draws from its
 // own generator.
 enum Stream : uint64_t {
   kHouseStream = 0x686f757365ull,  // "house"
@@ -197,7 +198,7 @@ CaptureDifferences applyCaptureDifferences(sim::House& house,
       std::min(kDoorTop, config.house.wall_height - kDoorTopBelowCeiling);
   const std::vector<sim::Doorway> doors = house.semantics.doors;
   for (const sim::Doorway& door : doors) {
-    const bool close = bernoulli(rng, rc.closed_door_probability);
+    const bool close = common::bernoulli(rng, rc.closed_door_probability);
     if (!close || door.room_a < 0 || door.room_b < 0) continue;
     const Vec3f normal = horizontal(door.normal).normalized();
     const Vec3f along(normal.z(), 0.0f, -normal.x());
@@ -223,7 +224,7 @@ CaptureDifferences applyCaptureDifferences(sim::House& house,
   }
   if (movable.empty()) return made;
   for (int n = 0; n < built.graph.numNodes(); ++n) {
-    if (!bernoulli(rng, rc.moved_object_probability)) continue;
+    if (!common::bernoulli(rng, rc.moved_object_probability)) continue;
     const int room = built.room[static_cast<size_t>(n)];
     std::vector<int> choices;
     for (const int i : movable)
@@ -231,11 +232,11 @@ CaptureDifferences applyCaptureDifferences(sim::House& house,
     if (choices.empty()) choices = movable;
     const sim::SemanticObject object =
         objects[static_cast<size_t>(choices[static_cast<size_t>(
-            uniformIndex(rng, static_cast<int>(choices.size())))])];
+            common::uniformIndex(rng, static_cast<int>(choices.size())))])];
     const Vec3f node = built.graph.node(n).position;
-    const float angle = uniformRange(rng, -kPi, kPi);
+    const float angle = common::uniformRange(rng, -kPi, kPi);
     const float radius =
-        rc.moved_object_offset * static_cast<float>(std::sqrt(uniform01(rng)));
+        rc.moved_object_offset * static_cast<float>(std::sqrt(common::uniform01(rng)));
     const Vec3f target(node.x() + radius * std::cos(angle), 0.0f,
                        node.z() + radius * std::sin(angle));
     const Vec3f center = object.bounds.center();
@@ -264,18 +265,9 @@ CaptureDifferences applyCaptureDifferences(sim::House& house,
   return made;
 }
 
-uint64_t fnv1a(const std::string& text) {
-  uint64_t hash = 0xcbf29ce484222325ull;
-  for (const unsigned char c : text) {
-    hash ^= c;
-    hash *= 0x100000001b3ull;
-  }
-  return hash;
-}
-
 uint64_t houseSeed(const WorldConfig& config, int index) {
-  return deriveSeed(
-      deriveSeed(static_cast<uint64_t>(config.seed), kHouseStream),
+  return common::deriveSeed(
+      common::deriveSeed(static_cast<uint64_t>(config.seed), kHouseStream),
       static_cast<uint64_t>(index));
 }
 
@@ -305,14 +297,14 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
   BuiltNavGraph built = [&] {
     const sim::RayTracer tracer(house.mesh);
     return buildNavGraph(house.semantics, tracer, config.nav_graph,
-                         deriveSeed(seed, kGraphStream));
+                         common::deriveSeed(seed, kGraphStream));
   }();
 
   // the reconstruction differs a little, and is what agents move in; it is
   // saved as a scene with its navmesh beside it (written after the scene so
   // that the cache is never older than the file it belongs to)
   const CaptureDifferences differences = applyCaptureDifferences(
-      house, built, config, deriveSeed(seed, kReconstructionStream));
+      house, built, config, common::deriveSeed(seed, kReconstructionStream));
   result.closed_doors = differences.closed_doors;
   result.moved_objects = differences.moved_objects;
   const fs::path sceneFile = output.scenes_dir / result.scene_id;
@@ -350,12 +342,12 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
   const InstructionGenerator instructions(scene->semantics(),
                                           config.instructions);
   for (const int candidate :
-       sampler.shuffledOrder(deriveSeed(seed, kOrderStream))) {
+       sampler.shuffledOrder(common::deriveSeed(seed, kOrderStream))) {
     if (wanted == 0) break;
     const GraphPath& path = sampler.candidate(candidate);
-    std::mt19937_64 headingRng(deriveSeed(deriveSeed(seed, kHeadingStream),
+    std::mt19937_64 headingRng(common::deriveSeed(common::deriveSeed(seed, kHeadingStream),
                                           static_cast<uint64_t>(candidate)));
-    const float heading = uniformRange(headingRng, -kPi, kPi);
+    const float heading = common::uniformRange(headingRng, -kPi, kPi);
     NavigabilityResult checked = checkNavigability(
         navmesh, config.agent, config.transfer, transferred, path, heading);
     result.transfer.addTrajectory(checked);
@@ -387,7 +379,7 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
         aug ? InstructionStyle::kSpeaker : InstructionStyle::kHuman,
         aug ? config.instructions.aug_per_trajectory
             : config.instructions.per_trajectory,
-        deriveSeed(deriveSeed(seed, kInstructionStream),
+        common::deriveSeed(common::deriveSeed(seed, kInstructionStream),
                    static_cast<uint64_t>(candidate)));
     for (const auto& g : generated) t.instructions.push_back(g.text);
     result.trajectories.push_back(std::move(t));
@@ -417,8 +409,8 @@ std::vector<std::string> assignRoles(const WorldConfig& config) {
   std::vector<int> order(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) order[static_cast<size_t>(i)] = i;
   std::mt19937_64 rng(
-      deriveSeed(static_cast<uint64_t>(config.seed), kSplitStream));
-  deterministicShuffle(order, rng);
+      common::deriveSeed(static_cast<uint64_t>(config.seed), kSplitStream));
+  common::deterministicShuffle(order, rng);
   std::vector<std::string> roles(static_cast<size_t>(n), kTrain);
   for (int k = 0; k < valUnseen + test; ++k)
     roles[static_cast<size_t>(order[static_cast<size_t>(k)])] =
@@ -473,9 +465,9 @@ const std::vector<std::string>& worldSplitNames() {
 }
 
 std::string worldHouseName(const WorldConfig& config, int index) {
-  const uint64_t hash = mixBits(
-      houseSeed(config, index) ^ fnv1a(common::configToYaml(config.house)) ^
-      mixBits(fnv1a(common::configToYaml(config.navmesh))));
+  const uint64_t hash = common::mixBits(
+      houseSeed(config, index) ^ common::fnv1a(common::configToYaml(config.house)) ^
+      common::mixBits(common::fnv1a(common::configToYaml(config.navmesh))));
   char buffer[64];
   std::snprintf(buffer, sizeof(buffer), "house_%03d_%08llx", index,
                 static_cast<unsigned long long>(hash >> 32));

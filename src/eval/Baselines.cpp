@@ -4,6 +4,7 @@
 #include <numeric>
 
 #include "common/Check.h"
+#include "common/Random.h"
 
 namespace vln::eval {
 
@@ -53,28 +54,6 @@ int handcraftedForwardSteps(std::span<const double> pathLengths,
 }
 
 // ---------------------------------------------------------------------------
-// seeding
-// ---------------------------------------------------------------------------
-
-uint64_t episodeSeed(uint64_t seed, std::string_view episodeId) {
-  // FNV-1a over the id bytes, then SplitMix64 finalisation of the mix so
-  // nearby seeds and ids give unrelated streams
-  uint64_t h = 0xcbf29ce484222325ULL;
-  for (unsigned char c : episodeId) {
-    h ^= c;
-    h *= 0x100000001b3ULL;
-  }
-  uint64_t z = h ^ (seed + 0x9e3779b97f4a7c15ULL);
-  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-  return z ^ (z >> 31);
-}
-
-double uniformUnit(std::mt19937_64& rng) {
-  return static_cast<double>(rng() >> 11) * 0x1.0p-53;
-}
-
-// ---------------------------------------------------------------------------
 // random agent
 // ---------------------------------------------------------------------------
 
@@ -94,13 +73,13 @@ RandomAgent::RandomAgent(ActionDistribution probabilities, uint64_t seed)
 }
 
 void RandomAgent::reset(std::string_view episodeId) {
-  rng_.seed(episodeSeed(seed_, episodeId));
+  rng_.seed(common::episodeSeed(seed_, episodeId));
 }
 
 sim::Action RandomAgent::act() {
   // inverse-CDF sampling; the last action with non-zero mass absorbs
   // rounding so a draw near 1 never falls off the end
-  const double u = uniformUnit(rng_);
+  const double u = common::uniform01(rng_);
   double cumulative = 0.0;
   int chosen = sim::kNumActions - 1;
   while (chosen > 0 && probabilities_[chosen] == 0.0) --chosen;
@@ -132,9 +111,9 @@ HandcraftedAgent::HandcraftedAgent(int forwardSteps, int maxTurns,
 }
 
 void HandcraftedAgent::reset(std::string_view episodeId) {
-  std::mt19937_64 rng(episodeSeed(seed_, episodeId));
+  std::mt19937_64 rng(common::episodeSeed(seed_, episodeId));
   // uniform in 0..maxTurns_ (inclusive) by scaling a [0, 1) draw
-  turns_ = static_cast<int>(uniformUnit(rng) * (maxTurns_ + 1));
+  turns_ = static_cast<int>(common::uniform01(rng) * (maxTurns_ + 1));
   turnsLeft_ = turns_;
   forwardLeft_ = forwardSteps_;
   started_ = true;

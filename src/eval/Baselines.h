@@ -117,13 +117,4 @@ std::unique_ptr<BaselineAgent> makeBaseline(
     std::string_view name, const ActionDistribution& distribution,
     int forwardSteps, uint64_t seed);
 
-/// A 64-bit seed for episode `episodeId` of an agent seeded with `seed`
-/// (FNV-1a of the id mixed with the seed by SplitMix64); stable across
-/// platforms and runs.
-uint64_t episodeSeed(uint64_t seed, std::string_view episodeId);
-
-/// A uniform double in [0, 1) from the top 53 bits of one draw (portable,
-/// unlike std::uniform_real_distribution whose algorithm is unspecified).
-double uniformUnit(std::mt19937_64& rng);
-
 }  // namespace vln::eval

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "common/Check.h"
+#include "common/Random.h"
 #include "eval/Baselines.h"
 #include "eval/ObservationBatch.h"
 #include "eval/RecurrentAgentState.h"
@@ -26,7 +27,7 @@ int sampleIndex(std::span<const double> probabilities, std::mt19937_64& rng) {
   VLN_CHECK_ARG(sum > 0.0, "sampleIndex(): probabilities sum to 0");
   // inverse CDF on the unnormalised masses; the last index with mass
   // absorbs rounding so a draw close to 1 never falls off the end
-  const double u = uniformUnit(rng) * sum;
+  const double u = common::uniform01(rng) * sum;
   int last = static_cast<int>(probabilities.size()) - 1;
   while (last > 0 && probabilities[static_cast<size_t>(last)] == 0.0) --last;
   double cumulative = 0.0;

@@ -8,7 +8,7 @@
 // padding, so padding rows to a common length changes nothing), recurrent
 // state and previous action are per environment, and sampling draws from a
 // per-episode generator seeded by (seed, episode id) (Baselines.h
-// episodeSeed()), so the actions of an episode are the same whichever
+// common::episodeSeed()), so the actions of an episode are the same whichever
 // episodes share its batch and whatever the thread count.
 
 #include <torch/torch.h>
@@ -55,7 +55,7 @@ class PolicyAgent : public Agent {
 };
 
 /// Draws an action index from `probabilities` (non-negative, any sum > 0) by
-/// inverse CDF with one uniformUnit() draw of `rng`, in double precision, so
+/// inverse CDF with one common::uniform01() draw of `rng`, in double precision, so
 /// a given generator state always picks the same action (portable, unlike
 /// std::discrete_distribution).
 int sampleIndex(std::span<const double> probabilities, std::mt19937_64& rng);

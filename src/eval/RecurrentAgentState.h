@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/Check.h"
+#include "common/Random.h"
 #include "data/Episode.h"
 #include "eval/Baselines.h"
 #include "eval/PolicyAgent.h"
@@ -33,13 +34,13 @@ struct RecurrentEnvState {
   std::mt19937_64 rng;
 
   /// Starts `episode` from `initialHidden` with no previous action and the
-  /// generator of (seed, episode id) (episodeSeed()).
+  /// generator of (seed, episode id) (common::episodeSeed()).
   void restart(torch::Tensor initialHidden, uint64_t seed,
                const data::Episode& episode) {
     hidden = std::move(initialHidden);
     prevAction = 0;
     first = true;
-    rng.seed(episodeSeed(seed, std::to_string(episode.episode_id)));
+    rng.seed(common::episodeSeed(seed, std::to_string(episode.episode_id)));
     started = true;
   }
 };

@@ -59,9 +59,6 @@ class Rng {
   uint64_t increment_ = 1;
 };
 
-/// splitmix64 finaliser: a well-mixed 64-bit hash of `x`.
-uint64_t mix64(uint64_t x);
-
 // ===========================================================================
 // floor plan (integer centimetres, so neighbouring walls meet exactly)
 // ===========================================================================

@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "common/Check.h"
+#include "common/Random.h"
 #include "sim/HouseBuilder.h"
 
 namespace vln::sim::house {
@@ -21,20 +22,12 @@ namespace vln::sim::house {
 // Rng
 // ===========================================================================
 
-uint64_t mix64(uint64_t x) {
-  // splitmix64 (Steele, Lea, Flood 2014)
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
-}
-
 Rng::Rng(uint64_t seed, uint64_t stream) {
   // PCG32 seeding: odd increment from the stream, state advanced once
-  increment_ = (mix64(stream ^ 0xDA3E39CB94B95BDBull) << 1u) | 1u;
+  increment_ = (common::mixBits(stream ^ 0xDA3E39CB94B95BDBull) << 1u) | 1u;
   state_ = 0;
   next();
-  state_ += mix64(seed);
+  state_ += common::mixBits(seed);
   next();
 }
 

@@ -16,6 +16,7 @@
 
 #include "common/Check.h"
 #include "common/FileIo.h"
+#include "common/Random.h"
 #include "sim/NavMeshBuild.h"
 
 namespace vln::sim {
@@ -74,12 +75,6 @@ using Triangle = std::array<Vec3f, 3>;
 // ===========================================================================
 // small helpers
 // ===========================================================================
-
-// Uniform in [0, 1) from the raw engine output (53 random mantissa bits), so
-// that sequences do not depend on the standard library's distributions.
-double uniform01(std::mt19937_64& rng) {
-  return static_cast<double>(rng() >> 11) * 0x1.0p-53;
-}
 
 Vec3f vec(const float* p) { return {p[0], p[1], p[2]}; }
 
@@ -857,15 +852,15 @@ Vec3f NavMesh::randomPoint(std::mt19937_64& rng, int island) const {
   const double high = cumulative[last - 1];
 
   // triangle by area, then a uniform point in it
-  const double target = low + uniform01(rng) * (high - low);
+  const double target = low + common::uniform01(rng) * (high - low);
   const auto it =
       std::upper_bound(cumulative.begin() + static_cast<long>(first),
                        cumulative.begin() + static_cast<long>(last), target);
   const size_t index =
       std::min(static_cast<size_t>(it - cumulative.begin()), last - 1);
   const Triangle& t = impl_->triangles[index];
-  const float s = static_cast<float>(std::sqrt(uniform01(rng)));
-  const float r = static_cast<float>(uniform01(rng));
+  const float s = static_cast<float>(std::sqrt(common::uniform01(rng)));
+  const float r = static_cast<float>(common::uniform01(rng));
   return (1.0f - s) * t[0] + s * (1.0f - r) * t[1] + s * r * t[2];
 }
 

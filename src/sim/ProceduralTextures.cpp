@@ -10,6 +10,7 @@
 #include <cmath>
 
 #include "common/Check.h"
+#include "common/Random.h"
 #include "sim/HouseBuilder.h"
 
 namespace vln::sim::house {
@@ -171,7 +172,7 @@ namespace {
 // hash of a lattice point to [0, 1)
 float latticeValue(int x, int y, uint64_t seed) {
   const uint64_t h =
-      mix64(seed ^ (static_cast<uint64_t>(static_cast<uint32_t>(x)) << 32) ^
+      common::mixBits(seed ^ (static_cast<uint64_t>(static_cast<uint32_t>(x)) << 32) ^
             static_cast<uint32_t>(y));
   return static_cast<float>(h >> 40) * (1.0f / 16777216.0f);
 }

@@ -7,6 +7,7 @@
 
 #include "common/Check.h"
 #include "common/Progress.h"
+#include "common/Random.h"
 #include "data/Vocabulary.h"
 #include "data/WorldConfig.h"
 #include "eval/ObservationBatch.h"
@@ -170,8 +171,8 @@ CollectionStats Collector::collect(
       s->slot = k;
       s->episode = round.episodes[static_cast<size_t>(k)];
       s->source = round.sources[static_cast<size_t>(k)];
-      s->coins.seed(data::deriveSeed(
-          data::deriveSeed(round.seed,
+      s->coins.seed(common::deriveSeed(
+          common::deriveSeed(round.seed,
                            1000003u + static_cast<uint64_t>(round.iteration)),
           static_cast<uint64_t>(k)));
       VLN_CHECK_ARG(
@@ -314,7 +315,7 @@ CollectionStats Collector::collect(
       s.progress.push_back(targets[static_cast<size_t>(k)]);
       sim::Action taken = label;
       if (usePolicy) {
-        const bool takeOracle = data::uniform01(s.coins) < round.beta;
+        const bool takeOracle = common::uniform01(s.coins) < round.beta;
         if (!takeOracle)
           taken = sim::actionFromInt(
               static_cast<int>(policyActions[static_cast<size_t>(k)]));

@@ -8,21 +8,13 @@
 
 #include "common/Check.h"
 #include "common/Json.h"
+#include "common/Random.h"
 #include "train/RunDirectory.h"
 
 namespace vln::train {
 namespace fs = std::filesystem;
 
 namespace {
-
-uint64_t fnv1a(std::string_view text) {
-  uint64_t h = 1469598103934665603ull;
-  for (char c : text) {
-    h ^= static_cast<uint8_t>(c);
-    h *= 1099511628211ull;
-  }
-  return h;
-}
 
 bool isRankLocal(const std::string& key) {
   const auto& keys = rankLocalConfigKeys();
@@ -50,13 +42,6 @@ std::map<std::string, std::string> parseLines(const std::string& text) {
     begin = end + 1;
   }
   return values;
-}
-
-std::string hashText(const std::string& text) {
-  char hex[17];
-  std::snprintf(hex, sizeof(hex), "%016llx",
-                static_cast<unsigned long long>(fnv1a(text)));
-  return hex;
 }
 
 }  // namespace
@@ -112,7 +97,7 @@ const std::vector<std::string>& rankLocalConfigKeys() {
 }
 
 std::string rankConfigHash(const ExperimentConfig& config) {
-  return hashText(sharedConfigText(config));
+  return common::fnv1aHex(sharedConfigText(config));
 }
 
 void checkSameConfigOnAllRanks(Distributed& dist,
@@ -137,13 +122,13 @@ void checkSameConfigOnAllRanks(Distributed& dist,
     for (const auto& key : rankLocalConfigKeys())
       local += (local.empty() ? "" : ", ") + key;
     throw std::invalid_argument(strCat(
-        "train: the config of rank ", dist.rank(), " (hash ", hashText(mine),
-        ") differs from rank 0's (hash ", hashText(master), ") in ", count,
+        "train: the config of rank ", dist.rank(), " (hash ", common::fnv1aHex(mine),
+        ") differs from rank 0's (hash ", common::fnv1aHex(master), ") in ", count,
         " key(s):", keys, "\nevery rank must train the same config; only ",
         local, " may differ"));
   });
   spdlog::info("distributed: all {} ranks run config {}", dist.worldSize(),
-               hashText(mine));
+               common::fnv1aHex(mine));
 }
 
 fs::path storeShardDir(const fs::path& runDir, int rank) {

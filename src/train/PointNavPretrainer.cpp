@@ -10,6 +10,7 @@
 #include "common/Check.h"
 #include "common/Json.h"
 #include "common/Progress.h"
+#include "common/Random.h"
 #include "common/ThreadPool.h"
 #include "data/WorldConfig.h"
 #include "models/Loss.h"
@@ -70,9 +71,9 @@ std::vector<PointGoalEpisode> samplePointGoalEpisodes(
   episodes.reserve(static_cast<size_t>(std::max(count, 0)));
   for (int k = 0; k < count; ++k) {
     // one generator per episode: episode k does not depend on `count`
-    std::mt19937_64 rng(data::deriveSeed(seed, static_cast<uint64_t>(k)));
+    std::mt19937_64 rng(common::deriveSeed(seed, static_cast<uint64_t>(k)));
     PointGoalEpisode episode;
-    episode.house = data::uniformIndex(rng, static_cast<int>(scenes.size()));
+    episode.house = common::uniformIndex(rng, static_cast<int>(scenes.size()));
     const sim::Scene& scene = *scenes[static_cast<size_t>(episode.house)];
     const sim::NavMesh& navmesh = scene.navmesh();
     bool found = false;
@@ -94,7 +95,7 @@ std::vector<PointGoalEpisode> samplePointGoalEpisodes(
                   kMaxEpisodeDraws,
                   " draws (pretrain.min_goal_distance / max_goal_distance "
                   "do not fit the house)");
-    episode.start.heading = data::uniformRange(rng, -kPi, kPi);
+    episode.start.heading = common::uniformRange(rng, -kPi, kPi);
     episodes.push_back(episode);
   }
   return episodes;
@@ -328,7 +329,7 @@ class EpisodeRunner {
         Env& env = envs[static_cast<size_t>(active[i])];
         switch (driver) {
           case Driver::kMixed: {
-            const bool takeOracle = data::uniform01(env.rng) < beta;
+            const bool takeOracle = common::uniform01(env.rng) < beta;
             actions[i] = takeOracle || !usePolicy
                              ? env.oracle
                              : sim::actionFromInt(static_cast<int>(policyActions[i]));
@@ -340,7 +341,7 @@ class EpisodeRunner {
           case Driver::kRandom:
             actions[i] = env.goal[0] <= config_.pretrain.success_distance
                              ? sim::Action::kStop
-                             : sim::actionFromInt(1 + data::uniformIndex(env.rng, 3));
+                             : sim::actionFromInt(1 + common::uniformIndex(env.rng, 3));
             break;
           case Driver::kOracle:
             actions[i] = env.oracle;
@@ -421,7 +422,7 @@ class EpisodeRunner {
     env.sim->reset(ep.start);
     // episode k's coins and random actions are its own: the result does
     // not depend on which environment runs it
-    env.rng.seed(data::deriveSeed(seed, static_cast<uint64_t>(index)));
+    env.rng.seed(common::deriveSeed(seed, static_cast<uint64_t>(index)));
     env.prev = 0;
     env.first = true;
     env.path = 0.0;
@@ -615,13 +616,13 @@ struct PointNavPretrainer::Impl : PretrainRun {
     const double beta = betaOf(iteration);
     const std::vector<PointGoalEpisode> episodes = samplePointGoalEpisodes(
         houses.train, p.samples, p.min_goal_distance, p.max_goal_distance,
-        data::deriveSeed(seed, kTrainEpisodeStream + static_cast<uint64_t>(iteration)));
+        common::deriveSeed(seed, kTrainEpisodeStream + static_cast<uint64_t>(iteration)));
     EpisodeRunner runner(config, houses.train, *pool, device);
     std::vector<RecordedEpisode> recorded;
     common::Stopwatch clock;
     const std::vector<Outcome> outcomes = runner.run(
         episodes, Driver::kMixed, depthLearner.policy.get(), beta,
-        data::deriveSeed(seed, kCoinStream + static_cast<uint64_t>(iteration)), &recorded,
+        common::deriveSeed(seed, kCoinStream + static_cast<uint64_t>(iteration)), &recorded,
         aggregateBytes, byteBudget(), "collect iteration " + std::to_string(iteration));
     const double seconds = clock.seconds();
     int64_t frames = 0;
@@ -735,7 +736,7 @@ struct PointNavPretrainer::Impl : PretrainRun {
     EpisodeRunner runner(config, houses.heldout, *pool, device);
     const std::vector<Outcome> outcomes = runner.run(
         episodes, driver, policy, /*beta=*/0.0,
-        data::deriveSeed(static_cast<uint64_t>(config.trainer.seed), kEvalCoinStream), nullptr,
+        common::deriveSeed(static_cast<uint64_t>(config.trainer.seed), kEvalCoinStream), nullptr,
         0, 0, "evaluate " + name);
     const PointNavMetrics m = summarise(outcomes);
     spdlog::info("held-out {}: {} episodes, success {:.3f}, SPL {:.3f}, distance to goal {:.2f} m, "
@@ -802,7 +803,7 @@ PointNavResult PointNavPretrainer::run() {
   // and the follower on the same episodes
   const std::vector<PointGoalEpisode> heldout = samplePointGoalEpisodes(
       s.houses.heldout, p.eval_samples, p.min_goal_distance, p.max_goal_distance,
-      data::deriveSeed(static_cast<uint64_t>(config.trainer.seed), kEvalEpisodeStream));
+      common::deriveSeed(static_cast<uint64_t>(config.trainer.seed), kEvalEpisodeStream));
   PointNavResult result;
   result.policy = s.evaluate(heldout, Driver::kPolicy, s.depthLearner.policy.get(), "policy");
   result.blind = s.evaluate(heldout, Driver::kPolicy, s.blindLearner.policy.get(), "blind");

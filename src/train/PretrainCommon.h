@@ -56,8 +56,8 @@ struct PretrainRun {
   void finish(const nlohmann::json& record,
               const std::vector<std::pair<std::string, double>>& scalars);
 
-  /// 0 .. count-1 in the order of data::deterministicShuffle() with the
-  /// generator of data::deriveSeed(trainer.seed, stream).
+  /// 0 .. count-1 in the order of common::deterministicShuffle() with the
+  /// generator of common::deriveSeed(trainer.seed, stream).
   std::vector<int64_t> shuffledOrder(size_t count, uint64_t stream) const;
 };
 

@@ -10,6 +10,7 @@
 #include "common/Check.h"
 #include "common/Json.h"
 #include "common/Progress.h"
+#include "common/Random.h"
 #include "common/ThreadPool.h"
 #include "data/WorldConfig.h"
 #include "models/Policy.h"
@@ -170,8 +171,8 @@ std::vector<int64_t> PretrainRun::shuffledOrder(size_t count,
   std::vector<int64_t> order(count);
   std::iota(order.begin(), order.end(), int64_t{0});
   std::mt19937_64 rng(
-      data::deriveSeed(static_cast<uint64_t>(config.trainer.seed), stream));
-  data::deterministicShuffle(order, rng);
+      common::deriveSeed(static_cast<uint64_t>(config.trainer.seed), stream));
+  common::deterministicShuffle(order, rng);
   return order;
 }
 

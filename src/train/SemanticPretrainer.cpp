@@ -14,6 +14,7 @@
 #include "common/Check.h"
 #include "common/Json.h"
 #include "common/Progress.h"
+#include "common/Random.h"
 #include "common/ThreadPool.h"
 #include "data/WorldConfig.h"
 #include "models/Policy.h"
@@ -213,9 +214,9 @@ std::vector<View> sampleViews(const std::vector<std::shared_ptr<const sim::Scene
                               int count, uint64_t seed) {
   std::vector<View> views(static_cast<size_t>(count));
   for (int k = 0; k < count; ++k) {
-    std::mt19937_64 rng(data::deriveSeed(seed, static_cast<uint64_t>(k)));
+    std::mt19937_64 rng(common::deriveSeed(seed, static_cast<uint64_t>(k)));
     View& view = views[static_cast<size_t>(k)];
-    view.house = data::uniformIndex(rng, static_cast<int>(scenes.size()));
+    view.house = common::uniformIndex(rng, static_cast<int>(scenes.size()));
     const sim::Scene& scene = *scenes[static_cast<size_t>(view.house)];
     bool found = false;
     for (int draw = 0; draw < kMaxViewDraws && !found; ++draw) {
@@ -224,7 +225,7 @@ std::vector<View> sampleViews(const std::vector<std::shared_ptr<const sim::Scene
     }
     VLN_CHECK_ARG(found, "rgb_semantic: scene '", scene.name(), "': ", kMaxViewDraws,
                   " navigable points in a row lie in no room");
-    view.pose.heading = data::uniformRange(rng, -kPi, kPi);
+    view.pose.heading = common::uniformRange(rng, -kPi, kPi);
   }
   return views;
 }
@@ -481,7 +482,7 @@ SemanticResult SemanticPretrainer::run() {
   common::Stopwatch clock;
 
   const ViewSet heldout = s.render(
-      sampleViews(s.houses.heldout, p.eval_samples, data::deriveSeed(seed, kEvalViewStream)),
+      sampleViews(s.houses.heldout, p.eval_samples, common::deriveSeed(seed, kEvalViewStream)),
       s.houses.heldout, "render held-out views");
 
   SemanticResult result;
@@ -489,7 +490,7 @@ SemanticResult SemanticPretrainer::run() {
     // fresh views every epoch
     const ViewSet train = s.render(
         sampleViews(s.houses.train, p.samples,
-                    data::deriveSeed(seed, kTrainViewStream + static_cast<uint64_t>(epoch))),
+                    common::deriveSeed(seed, kTrainViewStream + static_cast<uint64_t>(epoch))),
         s.houses.train, "render epoch " + std::to_string(epoch));
     s.countLabels(train);
     result.train_images += train.size();

@@ -14,6 +14,7 @@
 #include "common/FileIo.h"
 #include "common/Json.h"
 #include "common/Progress.h"
+#include "common/Random.h"
 #include "data/Episode.h"
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
@@ -39,15 +40,6 @@ namespace {
 
 constexpr const char* kTeacherForcing = "teacher_forcing";
 constexpr const char* kDagger = "dagger";
-
-uint64_t fnv1a(std::string_view text) {
-  uint64_t h = 1469598103934665603ull;
-  for (char c : text) {
-    h ^= static_cast<uint8_t>(c);
-    h *= 1099511628211ull;
-  }
-  return h;
-}
 
 // a split's episodes (capped) and its ground truth when the file exists
 struct Split {
@@ -183,10 +175,7 @@ std::string storeConfigHash(const ExperimentConfig& config) {
         break;
       }
   }
-  char hex[17];
-  std::snprintf(hex, sizeof(hex), "%016llx",
-                static_cast<unsigned long long>(fnv1a(text)));
-  return hex;
+  return common::fnv1aHex(text);
 }
 
 fs::path bestOrLatestCheckpoint(const fs::path& runDir) {
@@ -494,8 +483,8 @@ struct VlnTrainer::Impl {
     std::vector<size_t> order(episodes.size());
     for (size_t i = 0; i < order.size(); ++i) order[i] = i;
     std::mt19937_64 rng(
-        data::deriveSeed(round.seed, 7000u + static_cast<uint64_t>(iteration)));
-    data::deterministicShuffle(order, rng);
+        common::deriveSeed(round.seed, 7000u + static_cast<uint64_t>(iteration)));
+    common::deterministicShuffle(order, rng);
     size_t count = static_cast<size_t>(config.trainer.dagger_episodes);
     if (round.beta >= 1.0) count = std::min(count, order.size());
     for (size_t k = 0; k < count; ++k) {
@@ -794,7 +783,7 @@ struct VlnTrainer::Impl {
   void trainOneEpoch(int epoch, int iteration) {
     const EpochResult r = learner->trainEpoch(
         *store,
-        data::deriveSeed(static_cast<uint64_t>(config.trainer.seed),
+        common::deriveSeed(static_cast<uint64_t>(config.trainer.seed),
                          static_cast<uint64_t>(iteration)),
         epoch, [&](const UpdateResult& u) {
           if (u.skipped) {
