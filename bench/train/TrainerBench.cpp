@@ -169,7 +169,7 @@ void BM_DaggerCollection(benchmark::State& state) {
         torch::tensor({-10.0f, 10.0f, 0.0f, 0.0f}));
   }
   models::ObservationEncoder encoder(c.model);
-  auto scenes = std::make_shared<eval::SceneCache>(c.sim);
+  auto scenes = std::make_shared<rollout::SceneCache>(c.sim);
   train::Collector collector(c, scenes, encoder);
   train::CollectionRound round;
   round.beta = 0.5;

@@ -77,7 +77,7 @@ void BaselineAgentAdapter::reset(int env, const data::Episode& episode) {
 }
 
 std::vector<sim::Action> BaselineAgentAdapter::act(
-    VectorEnv& /*envs*/, std::span<const int> active) {
+    rollout::VectorEnv& /*envs*/, std::span<const int> active) {
   std::vector<sim::Action> actions;
   actions.reserve(active.size());
   for (int env : active) {

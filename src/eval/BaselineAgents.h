@@ -13,8 +13,8 @@
 #include <vector>
 
 #include "data/GroundTruth.h"
-#include "eval/Agent.h"
 #include "eval/Baselines.h"
+#include "rollout/Agent.h"
 
 namespace vln::eval {
 
@@ -43,13 +43,13 @@ BaselineStatistics baselineStatistics(const data::GroundTruth& train,
 /// environment's agent from (seed, episode id) (Baselines.h), so an
 /// episode's actions do not depend on the environment, the batch or the
 /// thread it runs in. Reads no observations.
-class BaselineAgentAdapter : public Agent {
+class BaselineAgentAdapter : public rollout::Agent {
  public:
   /// `name` is "random" or "handcrafted" (makeBaseline()); `numEnvs` >= 1.
   BaselineAgentAdapter(std::string_view name, const BaselineStatistics& stats,
                        int numEnvs, uint64_t seed);
   void reset(int env, const data::Episode& episode) override;
-  std::vector<sim::Action> act(VectorEnv& envs,
+  std::vector<sim::Action> act(rollout::VectorEnv& envs,
                                std::span<const int> active) override;
   bool needsObservations() const override { return false; }
   /// "random" or "handcrafted".

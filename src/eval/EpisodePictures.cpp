@@ -91,8 +91,9 @@ std::string videoFileName(const std::string& prefix, const std::string& episodeI
 }
 
 sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
-                               const EpisodeRecord& record, bool hasGoal,
-                               float successDistance, float metersPerPixel) {
+                               const rollout::EpisodeRecord& record,
+                               bool hasGoal, float successDistance,
+                               float metersPerPixel) {
   VLN_CHECK_ARG(!record.positions.empty(), "drawEpisodeMap(): episode ",
                 record.episode_id, " has no positions");
   sim::TopDownMap map(scene, metersPerPixel, record.positions.front().y());
@@ -351,7 +352,8 @@ float distanceToGoal(const sim::Simulator& simulator, const data::Episode& episo
 
 }  // namespace
 
-void EpisodePictures::episodeStarted(int index, VectorEnv& envs, int env) {
+void EpisodePictures::episodeStarted(int index, rollout::VectorEnv& envs,
+                                     int env) {
   if (!wantsFrames(index)) return;
   const sim::Simulator& simulator = envs.simulator(env);
   const data::Episode& episode = envs.episode(env);
@@ -370,8 +372,8 @@ void EpisodePictures::episodeStarted(int index, VectorEnv& envs, int env) {
   videos_[env] = std::move(video);
 }
 
-void EpisodePictures::episodeStepped(int /*index*/, VectorEnv& envs, int env,
-                                     sim::Action action) {
+void EpisodePictures::episodeStepped(int /*index*/, rollout::VectorEnv& envs,
+                                     int env, sim::Action action) {
   auto it = videos_.find(env);
   if (it == videos_.end()) return;
   const sim::Simulator& simulator = envs.simulator(env);
@@ -381,8 +383,10 @@ void EpisodePictures::episodeStepped(int /*index*/, VectorEnv& envs, int env,
                                       state.agent.position));
 }
 
-void EpisodePictures::episodeFinished(int index, VectorEnv& envs, int env,
-                                      const EpisodeResult& result, bool scored) {
+void EpisodePictures::episodeFinished(int index, rollout::VectorEnv& envs,
+                                      int env,
+                                      const rollout::EpisodeResult& result,
+                                      bool scored) {
   auto it = videos_.find(env);
   if (it != videos_.end()) {
     it->second->close();

@@ -20,8 +20,8 @@
 #include <vector>
 
 #include "data/Episode.h"
-#include "eval/Evaluator.h"
-#include "eval/Metrics.h"
+#include "rollout/Evaluator.h"
+#include "rollout/Metrics.h"
 #include "sim/Scene.h"
 #include "sim/Simulator.h"
 #include "sim/TopDownMap.h"
@@ -62,8 +62,8 @@ inline constexpr sim::Rgb8 kGoalColor = {220, 30, 30};
 /// reference path, the agent path, start, goal and success circle (goal
 /// and circle only when `hasGoal`) and the agent's final pose.
 sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
-                               const EpisodeRecord& record, bool hasGoal,
-                               float successDistance,
+                               const rollout::EpisodeRecord& record,
+                               bool hasGoal, float successDistance,
                                float metersPerPixel = 0.05f);
 
 /// File name of episode `episodeId`'s map: "<prefix>episode_<id>_map.png".
@@ -125,18 +125,20 @@ struct VideoSummary {
 /// naming the file when it cannot be opened or holds no frame.
 VideoSummary summarizeVideo(const std::filesystem::path& file);
 
-/// The EpisodeObserver that writes maps and videos during an evaluation.
-class EpisodePictures : public EpisodeObserver {
+/// The rollout::EpisodeObserver that writes maps and videos during an
+/// evaluation.
+class EpisodePictures : public rollout::EpisodeObserver {
  public:
   explicit EpisodePictures(PicturesConfig config);
   ~EpisodePictures() override;
 
   bool wantsFrames(int index) const override;
-  void episodeStarted(int index, VectorEnv& envs, int env) override;
-  void episodeStepped(int index, VectorEnv& envs, int env,
+  void episodeStarted(int index, rollout::VectorEnv& envs, int env) override;
+  void episodeStepped(int index, rollout::VectorEnv& envs, int env,
                       sim::Action action) override;
-  void episodeFinished(int index, VectorEnv& envs, int env,
-                       const EpisodeResult& result, bool scored) override;
+  void episodeFinished(int index, rollout::VectorEnv& envs, int env,
+                       const rollout::EpisodeResult& result,
+                       bool scored) override;
 
   /// Files written so far, in the order they were completed.
   const std::vector<std::filesystem::path>& files() const { return files_; }

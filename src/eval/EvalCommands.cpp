@@ -20,13 +20,13 @@
 #include "data/WorldConfig.h"
 #include "eval/BaselineAgents.h"
 #include "eval/EpisodePictures.h"
-#include "eval/Evaluator.h"
-#include "eval/PolicyAgent.h"
-#include "eval/ScriptedPolicyAgent.h"
 #include "eval/Tables.h"
-#include "eval/VectorEnv.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
+#include "rollout/Evaluator.h"
+#include "rollout/PolicyAgent.h"
+#include "rollout/ScriptedPolicyAgent.h"
+#include "rollout/VectorEnv.h"
 
 namespace vln::eval {
 namespace fs = std::filesystem;
@@ -71,9 +71,9 @@ struct Candidate {
   std::string baseline;    // set for baselines
 };
 
-std::unique_ptr<Agent> policyAgent(const EvalSettings& settings,
-                                   const models::NamedTensors& weights,
-                                   const std::string& source) {
+std::unique_ptr<rollout::Agent> policyAgent(const EvalSettings& settings,
+                                            const models::NamedTensors& weights,
+                                            const std::string& source) {
   // the trainer's construction order under its seed, so that encoders
   // without weight files get the initialisation the policy was trained with
   torch::manual_seed(static_cast<uint64_t>(settings.seed));
@@ -84,17 +84,16 @@ std::unique_ptr<Agent> policyAgent(const EvalSettings& settings,
   const torch::Device device = models::modelDevice(settings.model);
   policy->to(device);
   encoder->to(device);
-  return std::make_unique<PolicyAgent>(
+  return std::make_unique<rollout::PolicyAgent>(
       policy, encoder, settings.eval.num_envs, settings.eval.sample_actions,
       static_cast<uint64_t>(settings.eval.seed),
       settings.dataset.max_instruction_length);
 }
 
-std::unique_ptr<Agent> makeAgent(const Candidate& candidate,
-                                 const EvalSettings& settings,
-                                 const CheckpointReader& reader,
-                                 const BaselineStatistics* baselineStats) {
-  const EvalConfig& ec = settings.eval;
+std::unique_ptr<rollout::Agent> makeAgent(
+    const Candidate& candidate, const EvalSettings& settings,
+    const CheckpointReader& reader, const BaselineStatistics* baselineStats) {
+  const rollout::EvalConfig& ec = settings.eval;
   if (!candidate.baseline.empty()) {
     VLN_ASSERT(baselineStats != nullptr);
     return std::make_unique<BaselineAgentAdapter>(
@@ -102,7 +101,7 @@ std::unique_ptr<Agent> makeAgent(const Candidate& candidate,
         static_cast<uint64_t>(ec.seed));
   }
   if (!candidate.scripted.empty())
-    return std::make_unique<ScriptedPolicyAgent>(
+    return std::make_unique<rollout::ScriptedPolicyAgent>(
         candidate.scripted, ec.num_envs, ec.sample_actions,
         static_cast<uint64_t>(ec.seed), settings.dataset.max_instruction_length,
         settings.model.device);
@@ -122,7 +121,7 @@ class NavGraphs {
     data::NavGraph floor;
   };
   explicit NavGraphs(fs::path dir) : dir_(std::move(dir)) {}
-  const Entry& of(const std::string& sceneId, SceneCache& scenes) {
+  const Entry& of(const std::string& sceneId, rollout::SceneCache& scenes) {
     const std::string scan = data::sceneScanId(sceneId);
     auto it = graphs_.find(scan);
     if (it != graphs_.end()) return it->second;
@@ -143,12 +142,12 @@ class NavGraphs {
 struct SplitContext {
   const EvalSettings& settings;
   const EvalCommandOptions& options;
-  std::shared_ptr<SceneCache> scenes;
+  std::shared_ptr<rollout::SceneCache> scenes;
   fs::path outDir;
   NavGraphs* navgraphs = nullptr;
 };
 
-SplitReport evaluateSplit(Agent& agent, const Candidate& candidate,
+SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
                           const SplitData& split, const SplitContext& ctx) {
   const EvalSettings& s = ctx.settings;
   SplitReport report;
@@ -170,12 +169,13 @@ SplitReport evaluateSplit(Agent& agent, const Candidate& candidate,
     observer = std::make_unique<EpisodePictures>(pictures);
 
   // the rollouts
-  VectorEnv envs(s.eval.num_envs, s.sim, s.task, ctx.scenes, s.eval.threads);
+  rollout::VectorEnv envs(s.eval.num_envs, s.sim, s.task, ctx.scenes,
+                          s.eval.threads);
   common::ProgressLine line(
       "evaluate " + candidate.label + " " + split.name,
       static_cast<int64_t>(split.episodes.size()), "episodes");
   common::Stopwatch clock;
-  const EvaluationResult result = evaluateEpisodes(
+  const rollout::EvaluationResult result = rollout::evaluateEpisodes(
       agent, envs, split.episodes, split.groundTruth.get(), s.eval,
       [&](int, int) { line.advance(); }, observer.get());
   report.seconds = clock.seconds();
@@ -183,24 +183,24 @@ SplitReport evaluateSplit(Agent& agent, const Candidate& candidate,
 
   // files: stats over the scored episodes, the per-episode file, the
   // leaderboard predictions of the unscored ones
-  std::vector<EpisodeRecord> unscored;
+  std::vector<rollout::EpisodeRecord> unscored;
   for (size_t i = 0; i < result.episodes.size(); ++i)
     if (!result.scored[i]) unscored.push_back(result.episodes[i].record);
   report.scored = result.stats.num_episodes > 0;
   report.stats = result.stats;
   if (report.scored)
-    report.files.push_back(
-        writeStatsFile(ctx.outDir, candidate.index, split.name, result.stats));
+    report.files.push_back(rollout::writeStatsFile(ctx.outDir, candidate.index,
+                                                   split.name, result.stats));
   if (s.eval.save_episodes) {
     const fs::path file =
-        ctx.outDir / episodesFileName(candidate.index, split.name);
-    writeEpisodesFile(file, result.episodes);
+        ctx.outDir / rollout::episodesFileName(candidate.index, split.name);
+    rollout::writeEpisodesFile(file, result.episodes);
     report.files.push_back(file);
   }
   if (!unscored.empty()) {
     const fs::path file =
         ctx.outDir / predictionsFileName(candidate.index, split.name);
-    writeLeaderboardFile(file, unscored);
+    rollout::writeLeaderboardFile(file, unscored);
     report.files.push_back(file);
   }
 
@@ -212,7 +212,7 @@ SplitReport evaluateSplit(Agent& agent, const Candidate& candidate,
     for (size_t i = 0; i < result.episodes.size(); ++i) {
       if (!result.scored[i]) continue;
       const data::Episode& episode = split.episodes[i];
-      const EpisodeRecord& record = result.episodes[i].record;
+      const rollout::EpisodeRecord& record = result.episodes[i].record;
       const std::vector<Vec3f>& reference = episode.reference_path.empty()
                                                 ? record.reference_path
                                                 : episode.reference_path;
@@ -232,7 +232,7 @@ SplitReport evaluateSplit(Agent& agent, const Candidate& candidate,
 }
 
 // "TL 7.12 NE 8.01 nDTW 0.412 OS 0.300 SR 0.250 SPL 0.231"
-std::string metricsText(const EpisodeMetrics& m) {
+std::string metricsText(const rollout::EpisodeMetrics& m) {
   char text[160];
   std::snprintf(text, sizeof(text),
                 "TL %.2f NE %.2f nDTW %.3f OS %.3f SR %.3f SPL %.3f",
@@ -404,8 +404,8 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     navgraphs = std::make_unique<NavGraphs>(options.navgraph);
   }
   const SplitContext ctx{settings, options,
-                         std::make_shared<SceneCache>(settings.sim), outDir,
-                         navgraphs.get()};
+                         std::make_shared<rollout::SceneCache>(settings.sim),
+                         outDir, navgraphs.get()};
   fs::create_directories(outDir);
 
   EvalCommandResult result;
@@ -415,15 +415,16 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     std::vector<const SplitData*> todo;
     for (const SplitData& split : splits) {
       const fs::path done =
-          outDir / (split.hasGoals ? statsFileName(candidate.index, split.name)
-                                   : predictionsFileName(candidate.index, split.name));
+          outDir / (split.hasGoals
+                        ? rollout::statsFileName(candidate.index, split.name)
+                        : predictionsFileName(candidate.index, split.name));
       if (directoryMode && fs::exists(done)) {
         SplitReport skipped;
         skipped.checkpoint = candidate.index;
         skipped.split = split.name;
         skipped.skipped = true;
         skipped.scored = split.hasGoals;
-        if (split.hasGoals) skipped.stats = readStatsFile(done);
+        if (split.hasGoals) skipped.stats = rollout::readStatsFile(done);
         out << summaryLine(skipped) << "\n";
         result.reports.push_back(std::move(skipped));
         continue;
@@ -431,7 +432,7 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
       todo.push_back(&split);
     }
     if (todo.empty()) continue;
-    const std::unique_ptr<Agent> agent =
+    const std::unique_ptr<rollout::Agent> agent =
         makeAgent(candidate, settings, reader, baselineStats.get());
     for (const SplitData* split : todo) {
       SplitReport report = evaluateSplit(*agent, candidate, *split, ctx);
@@ -446,9 +447,10 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   if (directoryMode) {
     const std::string& selection = settings.eval.selection_split;
     for (const Candidate& candidate : candidates) {
-      const fs::path file = outDir / statsFileName(candidate.index, selection);
+      const fs::path file =
+          outDir / rollout::statsFileName(candidate.index, selection);
       if (!fs::exists(file)) continue;
-      const double spl = readStatsFile(file).mean.spl;
+      const double spl = rollout::readStatsFile(file).mean.spl;
       if (!result.best_checkpoint || spl > result.best_spl) {
         result.best_checkpoint = candidate.index;
         result.best_spl = spl;

@@ -41,11 +41,11 @@
 
 #include "data/DatasetConfig.h"
 #include "data/NavGraph.h"
-#include "eval/EvalConfig.h"
-#include "eval/Metrics.h"
 #include "eval/NavGraphEval.h"
 #include "models/ModelConfig.h"
 #include "models/StateDict.h"
+#include "rollout/EvalConfig.h"
+#include "rollout/Metrics.h"
 #include "sim/NavMesh.h"
 #include "sim/SimConfig.h"
 
@@ -57,7 +57,7 @@ struct EvalSettings {
   sim::TaskConfig task;
   data::DatasetConfig dataset;
   models::ModelConfig model;
-  EvalConfig eval;
+  rollout::EvalConfig eval;
   /// trainer.torch_threads: LibTorch intra-op threads.
   int torch_threads = 2;
   /// trainer.seed: encoders without weight files (model.rgb_weights /
@@ -112,7 +112,7 @@ struct SplitReport {
   std::string split;
   bool skipped = false;  ///< its stats file existed (directory mode)
   bool scored = false;   ///< the split had goals (stats written)
-  SplitStats stats;
+  rollout::SplitStats stats;
   std::optional<GraphSplitStats> graph;
   int episodes = 0;
   int64_t steps = 0;     ///< actions taken over all episodes

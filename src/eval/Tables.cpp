@@ -9,8 +9,8 @@
 #include "common/Check.h"
 #include "common/FileIo.h"
 #include "common/Json.h"
-#include "eval/Metrics.h"
 #include "eval/NavGraphEval.h"
+#include "rollout/Metrics.h"
 
 namespace vln::eval {
 namespace {
@@ -76,10 +76,10 @@ std::optional<std::vector<double>> splitValues(const RunInfo& run,
     stats = graphStatsToJson(s);
     *numEpisodes = s.num_episodes;
   } else {
-    const auto file = run.dir / statsFileName(run.checkpoint, split);
+    const auto file = run.dir / rollout::statsFileName(run.checkpoint, split);
     if (!std::filesystem::exists(file)) return std::nullopt;
-    const SplitStats s = readStatsFile(file);
-    stats = statsToJson(s);
+    const rollout::SplitStats s = rollout::readStatsFile(file);
+    stats = rollout::statsToJson(s);
     *numEpisodes = s.num_episodes;
   }
   std::vector<double> values;

@@ -10,7 +10,7 @@
 #include "common/Random.h"
 #include "data/Vocabulary.h"
 #include "data/WorldConfig.h"
-#include "eval/ObservationBatch.h"
+#include "rollout/ObservationBatch.h"
 
 namespace vln::train {
 
@@ -71,19 +71,19 @@ struct Collector::Slot {
 };
 
 Collector::Collector(const ExperimentConfig& config,
-                     std::shared_ptr<eval::SceneCache> scenes,
+                     std::shared_ptr<rollout::SceneCache> scenes,
                      models::ObservationEncoder encoder)
     : config_(config),
       scenes_(std::move(scenes)),
       encoder_(std::move(encoder)) {
-  envs_ = std::make_unique<eval::VectorEnv>(config_.trainer.num_envs,
-                                            config_.sim, config_.task, scenes_,
-                                            config_.trainer.env_threads);
+  envs_ = std::make_unique<rollout::VectorEnv>(
+      config_.trainer.num_envs, config_.sim, config_.task, scenes_,
+      config_.trainer.env_threads);
 }
 
 Collector::~Collector() = default;
 
-models::VisualFeatures Collector::encode(const eval::ObservationBatch& obs,
+models::VisualFeatures Collector::encode(const rollout::ObservationBatch& obs,
                                          torch::Device device) {
   auto on = [&](const torch::Tensor& t) {
     return t.defined() ? t.to(device) : t;
@@ -201,8 +201,8 @@ CollectionStats Collector::collect(
                                 device);
       if (usePolicy && exact)
         s.instruction = policy->encodeInstruction(
-            eval::batchInstructions(std::span(&s.episode, 1),
-                                    config_.dataset.max_instruction_length)
+            rollout::batchInstructions(std::span(&s.episode, 1),
+                                       config_.dataset.max_instruction_length)
                 .to(device));
     }
   };
@@ -223,7 +223,8 @@ CollectionStats Collector::collect(
     const auto n = static_cast<int64_t>(active.size());
 
     // encode this step's observations once for the store and the policy
-    eval::ObservationBatch obs = eval::batchObservations(*envs_, active, model);
+    rollout::ObservationBatch obs =
+        rollout::batchObservations(*envs_, active, model);
     const models::VisualFeatures features = encode(obs, device);
     frames += n;
 
@@ -268,8 +269,8 @@ CollectionStats Collector::collect(
         episodes.push_back(slots[static_cast<size_t>(env)]->episode);
       if (episodes != encodedFor) {
         instruction = policy->encodeInstruction(
-            eval::batchInstructions(episodes,
-                                    config_.dataset.max_instruction_length)
+            rollout::batchInstructions(episodes,
+                                       config_.dataset.max_instruction_length)
                 .to(device));
         encodedFor = episodes;
       }

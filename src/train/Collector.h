@@ -1,6 +1,6 @@
 #pragma once
 // Collection of imitation-learning episodes into the feature store (paper
-// Section 4.3): environments of an eval::VectorEnv each run one episode at
+// Section 4.3): environments of an rollout::VectorEnv each run one episode at
 // a time, driven either by the oracle or by a mixture of oracle and policy,
 // and every step's encoded observation, previous action, oracle action
 // (the label, always) and progress target is recorded.
@@ -38,10 +38,10 @@
 
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
-#include "eval/ObservationBatch.h"
-#include "eval/VectorEnv.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
+#include "rollout/ObservationBatch.h"
+#include "rollout/VectorEnv.h"
 #include "sim/Follower.h"
 #include "train/ExperimentConfig.h"
 #include "train/FeatureStore.h"
@@ -110,7 +110,7 @@ class Collector {
   /// `encoder` is used frozen under NoGradGuard on model.device. The
   /// environments are built here (trainer.num_envs, trainer.env_threads).
   Collector(const ExperimentConfig& config,
-            std::shared_ptr<eval::SceneCache> scenes,
+            std::shared_ptr<rollout::SceneCache> scenes,
             models::ObservationEncoder encoder);
   ~Collector();
 
@@ -131,12 +131,12 @@ class Collector {
   struct Slot;
   // the encoder's features of `obs` on `device`: one batch, or one row at
   // a time with trainer.exact_resume
-  models::VisualFeatures encode(const eval::ObservationBatch& obs,
+  models::VisualFeatures encode(const rollout::ObservationBatch& obs,
                                 torch::Device device);
   ExperimentConfig config_;
-  std::shared_ptr<eval::SceneCache> scenes_;
+  std::shared_ptr<rollout::SceneCache> scenes_;
   models::ObservationEncoder encoder_;
-  std::unique_ptr<eval::VectorEnv> envs_;
+  std::unique_ptr<rollout::VectorEnv> envs_;
 };
 
 }  // namespace vln::train

@@ -11,8 +11,8 @@
 
 #include "common/Config.h"
 #include "data/DatasetConfig.h"
-#include "eval/EvalConfig.h"
 #include "models/ModelConfig.h"
+#include "rollout/EvalConfig.h"
 #include "sim/HouseGenerator.h"
 #include "sim/SimConfig.h"
 
@@ -288,7 +288,7 @@ struct ExperimentConfig {
   models::ModelConfig model;
   TrainerConfig trainer;
   PretrainConfig pretrain;
-  eval::EvalConfig eval;
+  rollout::EvalConfig eval;
   OutputConfig output;
 
   void visit(common::ConfigVisitor& v) {

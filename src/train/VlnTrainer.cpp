@@ -19,12 +19,12 @@
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
 #include "data/WorldConfig.h"
-#include "eval/Evaluator.h"
-#include "eval/PolicyAgent.h"
 #include "models/Export.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
 #include "models/StateDict.h"
+#include "rollout/Evaluator.h"
+#include "rollout/PolicyAgent.h"
 #include "train/Collector.h"
 #include "train/Distributed.h"
 #include "train/DistributedTraining.h"
@@ -123,7 +123,7 @@ void restoreRngState(const std::string& bytes, const std::string& source) {
   }
 }
 
-nlohmann::json metricsJson(const eval::EpisodeMetrics& m) {
+nlohmann::json metricsJson(const rollout::EpisodeMetrics& m) {
   return {{"distance_to_goal", m.distance_to_goal},
           {"success", m.success},
           {"spl", m.spl},
@@ -221,7 +221,7 @@ struct VlnTrainer::Impl {
   models::ObservationEncoder encoder{nullptr};
   std::unique_ptr<ImitationLearner> learner;
   std::unique_ptr<FeatureStore> store;
-  std::shared_ptr<eval::SceneCache> scenes;
+  std::shared_ptr<rollout::SceneCache> scenes;
   std::unique_ptr<Collector> collector;
   std::unique_ptr<MetricsLog> metrics;
 
@@ -428,7 +428,7 @@ struct VlnTrainer::Impl {
 
     updateStoreTotals();
 
-    scenes = std::make_shared<eval::SceneCache>(config.sim);
+    scenes = std::make_shared<rollout::SceneCache>(config.sim);
     if (master())
       metrics = std::make_unique<MetricsLog>(
           runDir / "metrics.jsonl",
@@ -620,7 +620,7 @@ struct VlnTrainer::Impl {
 
   bool evaluated(int index) const {
     for (const auto& split : evalSplits)
-      if (!fs::exists(evalDir / eval::statsFileName(index, split.name)))
+      if (!fs::exists(evalDir / rollout::statsFileName(index, split.name)))
         return false;
     return true;
   }
@@ -628,7 +628,7 @@ struct VlnTrainer::Impl {
   // evaluates the policy in memory as checkpoint `index`; returns true when
   // training should stop early
   bool evaluate(int index) {
-    const eval::EvalConfig& ec = config.eval;
+    const rollout::EvalConfig& ec = config.eval;
     double selectionSpl = -1.0;
     for (const Split& split : evalSplits) {
       // multi-process: rank r runs episodes r, r + N, ... of the split
@@ -641,26 +641,26 @@ struct VlnTrainer::Impl {
           shard.push_back(split.dataset.episodes[i]);
         episodes = &shard;
       }
-      eval::VectorEnv envs(ec.num_envs, config.sim, config.task, scenes,
-                           ec.threads);
+      rollout::VectorEnv envs(ec.num_envs, config.sim, config.task, scenes,
+                              ec.threads);
       // on the heap: PolicyAgent.h declares no destructor, so one instantiated
       // here would need its private EnvState
-      std::unique_ptr<eval::Agent> agent(
-          new eval::PolicyAgent(policy, encoder, ec.num_envs, ec.sample_actions,
-                                static_cast<uint64_t>(ec.seed),
-                                config.dataset.max_instruction_length));
+      std::unique_ptr<rollout::Agent> agent(new rollout::PolicyAgent(
+          policy, encoder, ec.num_envs, ec.sample_actions,
+          static_cast<uint64_t>(ec.seed),
+          config.dataset.max_instruction_length));
       common::ProgressLine line("evaluate " + split.name,
                                 static_cast<int64_t>(episodes->size()),
                                 "episodes");
       common::Stopwatch clock;
-      const eval::EvaluationResult result = eval::evaluateEpisodes(
+      const rollout::EvaluationResult result = rollout::evaluateEpisodes(
           *agent, envs, *episodes, split.groundTruth.get(), ec,
           [&](int, int) { line.advance(); });
-      const eval::SplitStats stats =
+      const rollout::SplitStats stats =
           dist ? combineShards(result, strCat("the evaluation of checkpoint ",
                                               index, " on ", split.name))
                : result.stats;
-      if (master()) eval::writeStatsFile(evalDir, index, split.name, stats);
+      if (master()) rollout::writeStatsFile(evalDir, index, split.name, stats);
       const auto& m = stats.mean;
       spdlog::info(
           "ckpt {} {} ({} episodes, {:.1f} s): TL {:.2f} NE {:.2f} nDTW {:.3f} "
@@ -686,12 +686,12 @@ struct VlnTrainer::Impl {
 
   // the whole split's means from every rank's shard (after all finished):
   // the sums of the scored episodes' metrics over the ranks, divided by
-  // their count (as eval::aggregate() does in one process, up to the order
+  // their count (as rollout::aggregate() does in one process, up to the order
   // of the additions)
-  eval::SplitStats combineShards(const eval::EvaluationResult& mine,
-                                 const std::string& what) {
+  rollout::SplitStats combineShards(const rollout::EvaluationResult& mine,
+                                    const std::string& what) {
     dist->waitForAll(what);
-    using M = eval::EpisodeMetrics;
+    using M = rollout::EpisodeMetrics;
     static constexpr double M::*kFields[] = {&M::distance_to_goal,
                                              &M::success,
                                              &M::spl,
@@ -709,7 +709,7 @@ struct VlnTrainer::Impl {
       sums[kCount] += 1.0;
     }
     sums = dist->allReduceSum(sums);
-    eval::SplitStats all;
+    rollout::SplitStats all;
     all.num_episodes = static_cast<int>(sums[kCount]);
     if (all.num_episodes == 0) return all;
     for (size_t f = 0; f < kCount; ++f)
@@ -762,8 +762,8 @@ struct VlnTrainer::Impl {
       if (master())
         for (const auto& split : evalSplits)
           if (split.name == config.eval.selection_split)
-            spl = eval::readStatsFile(evalDir /
-                                      eval::statsFileName(index, split.name))
+            spl = rollout::readStatsFile(
+                      evalDir / rollout::statsFileName(index, split.name))
                       .mean.spl;
       if (dist) spl = dist->allReduceSum({master() ? spl : 0.0}).front();
       return recordEvaluation(index, spl);

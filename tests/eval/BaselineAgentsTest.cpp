@@ -9,14 +9,14 @@
 
 #include <set>
 
-#include "EvalTestWorld.h"
-#include "eval/Evaluator.h"
+#include "rollout/Evaluator.h"
+#include "rollout/RolloutTestWorld.h"
 
 namespace vln::eval {
 namespace {
 
+using rollout::test::rolloutTestWorld;
 using ::testing::HasSubstr;
-using test::evalTestWorld;
 
 data::GroundTruthPath path(std::vector<Vec3f> locations, std::vector<int> codes) {
   data::GroundTruthPath p;
@@ -40,7 +40,7 @@ TEST(BaselineAgentsTest, StatisticsComeFromTheGroundTruth) {
   EXPECT_DOUBLE_EQ(s.distribution[3], 2.0 / 10.0);
 
   // the house's follower ground truth: forward steps of about 0.25 m each
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   const BaselineStatistics h = baselineStatistics(w.groundTruth, 0.25);
   int forward = 0, total = 0;
   for (const auto& [id, p] : w.groundTruth) {
@@ -69,15 +69,16 @@ TEST(BaselineAgentsTest, BadGroundTruthIsNamed) {
 }
 
 TEST(BaselineAgentsTest, HandcraftedTurnsWalksAndStopsInTheHouse) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   BaselineStatistics stats;
   stats.forward_steps = 6;
   BaselineAgentAdapter agent("handcrafted", stats, 3, /*seed=*/4);
   EXPECT_FALSE(agent.needsObservations());
-  auto cache = std::make_shared<SceneCache>(w.sim);
-  VectorEnv envs(3, w.sim, w.task, cache, 2);
-  EvalConfig config;
-  const EvaluationResult r = evaluateEpisodes(agent, envs, w.episodes, nullptr, config);
+  auto cache = std::make_shared<rollout::SceneCache>(w.sim);
+  rollout::VectorEnv envs(3, w.sim, w.task, cache, 2);
+  rollout::EvalConfig config;
+  const rollout::EvaluationResult r =
+      rollout::evaluateEpisodes(agent, envs, w.episodes, nullptr, config);
   std::set<int> turnCounts;
   for (size_t i = 0; i < w.episodes.size(); ++i) {
     const auto& rec = r.episodes[i].record;
@@ -112,8 +113,9 @@ TEST(BaselineAgentsTest, RandomAgentFollowsItsDistribution) {
   b.episode_id = 2;
   agent.reset(0, a);
   agent.reset(1, b);
-  const auto& w = evalTestWorld();
-  VectorEnv envs(2, w.sim, w.task, std::make_shared<SceneCache>(w.sim), 1);
+  const auto& w = rolloutTestWorld();
+  rollout::VectorEnv envs(2, w.sim, w.task,
+                          std::make_shared<rollout::SceneCache>(w.sim), 1);
   const std::vector<int> active = {0, 1};
   int forward = 0;
   for (int t = 0; t < 500; ++t)

@@ -10,29 +10,30 @@
 #include <fstream>
 #include <map>
 
-#include "EvalTestWorld.h"
-#include "eval/Evaluator.h"
+#include "rollout/Evaluator.h"
+#include "rollout/RolloutTestWorld.h"
 
 namespace vln::eval {
 namespace {
 
 namespace fs = std::filesystem;
+using rollout::test::rolloutTestWorld;
 using ::testing::HasSubstr;
-using test::evalTestWorld;
 
 // Replays the ground truth; reads no observations, so every rendered frame
 // in a video was asked for by the observer.
-class ReplayAgent : public Agent {
+class ReplayAgent : public rollout::Agent {
  public:
   void reset(int env, const data::Episode& episode) override {
     cursor_[env] = {episode.episode_id, 0};
   }
-  std::vector<sim::Action> act(VectorEnv&, std::span<const int> active) override {
+  std::vector<sim::Action> act(rollout::VectorEnv&,
+                               std::span<const int> active) override {
     std::vector<sim::Action> actions;
     for (int env : active) {
       auto& [id, step] = cursor_.at(env);
-      actions.push_back(
-          evalTestWorld().groundTruth.at(id).actions.at(static_cast<size_t>(step++)));
+      actions.push_back(rolloutTestWorld().groundTruth.at(id).actions.at(
+          static_cast<size_t>(step++)));
     }
     return actions;
   }
@@ -64,20 +65,24 @@ int countColor(const sim::TopDownMap& map, const sim::Rgb8& color) {
   return n;
 }
 
-EvaluationResult evaluateWith(EpisodePictures& pictures, int numEnvs) {
-  const auto& w = evalTestWorld();
+rollout::EvaluationResult evaluateWith(EpisodePictures& pictures, int numEnvs) {
+  const auto& w = rolloutTestWorld();
   ReplayAgent agent;
-  VectorEnv envs(numEnvs, w.sim, w.task, std::make_shared<SceneCache>(w.sim), 2);
-  return evaluateEpisodes(agent, envs, w.episodes, &w.groundTruth, EvalConfig{}, {}, &pictures);
+  rollout::VectorEnv envs(numEnvs, w.sim, w.task,
+                          std::make_shared<rollout::SceneCache>(w.sim), 2);
+  return rollout::evaluateEpisodes(agent, envs, w.episodes, &w.groundTruth,
+                                   rollout::EvalConfig{}, {}, &pictures);
 }
 
 TEST(EpisodePicturesTest, MapShowsPathsStartGoalAndCircle) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   ReplayAgent agent;
-  VectorEnv envs(1, w.sim, w.task, std::make_shared<SceneCache>(w.sim), 1);
+  rollout::VectorEnv envs(1, w.sim, w.task,
+                          std::make_shared<rollout::SceneCache>(w.sim), 1);
   const std::vector<data::Episode> one = {w.episodes[0]};
-  const EvaluationResult r = evaluateEpisodes(agent, envs, one, &w.groundTruth, EvalConfig{});
-  const EpisodeRecord& record = r.episodes[0].record;
+  const rollout::EvaluationResult r = rollout::evaluateEpisodes(
+      agent, envs, one, &w.groundTruth, rollout::EvalConfig{});
+  const rollout::EpisodeRecord& record = r.episodes[0].record;
   const sim::TopDownMap map = drawEpisodeMap(*w.scene, record, /*hasGoal=*/true, 3.0f, 0.05f);
   const sim::TopDownMap bare = sim::TopDownMap(*w.scene, 0.05f, record.positions[0].y());
   EXPECT_GT(countColor(map, kAgentColor), countColor(bare, kAgentColor) + 40);
@@ -88,7 +93,7 @@ TEST(EpisodePicturesTest, MapShowsPathsStartGoalAndCircle) {
   const sim::TopDownMap noGoal = drawEpisodeMap(*w.scene, record, /*hasGoal=*/false, 3.0f, 0.05f);
   EXPECT_LT(countColor(noGoal, kGoalColor), countColor(bare, kGoalColor) + 10);
   // the reference runs under the agent's path; alone, it shows
-  EpisodeRecord standing = record;
+  rollout::EpisodeRecord standing = record;
   standing.positions.resize(1);
   standing.headings.resize(1);
   const sim::TopDownMap reference = drawEpisodeMap(*w.scene, standing, true, 3.0f, 0.05f);
@@ -96,7 +101,7 @@ TEST(EpisodePicturesTest, MapShowsPathsStartGoalAndCircle) {
 }
 
 TEST(EpisodePicturesTest, MapsAndVideosForTheFirstEpisodesDuringEvaluation) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   vln::test::TempDir dir;
   for (const std::string format : {"avi", "mp4"}) {
     SCOPED_TRACE(format);
@@ -108,7 +113,7 @@ TEST(EpisodePicturesTest, MapsAndVideosForTheFirstEpisodesDuringEvaluation) {
     config.video_format = format;
     config.video_height = 64;
     EpisodePictures pictures(config);
-    const EvaluationResult r = evaluateWith(pictures, /*numEnvs=*/3);
+    const rollout::EvaluationResult r = evaluateWith(pictures, /*numEnvs=*/3);
 
     // maps of episodes 0-2, videos of episodes 0-1, nothing else
     std::set<std::string> names;
@@ -152,7 +157,7 @@ TEST(EpisodePicturesTest, MapsAndVideosForTheFirstEpisodesDuringEvaluation) {
 }
 
 TEST(EpisodePicturesTest, VideoOfATestEpisodeWithoutGoal) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   vln::test::TempDir dir;
   PicturesConfig config;
   config.dir = dir.path();
@@ -189,7 +194,7 @@ TEST(EpisodePicturesTest, VideoOfATestEpisodeWithoutGoal) {
 }
 
 TEST(EpisodePicturesTest, AnAbandonedVideoLeavesNoFile) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   vln::test::TempDir dir;
   PicturesConfig config;
   config.video_height = 32;

@@ -14,25 +14,25 @@
 #include <regex>
 #include <sstream>
 
-#include "EvalTestPolicy.h"
-#include "EvalTestWorld.h"
 #include "common/FileIo.h"
 #include "common/Json.h"
 #include "data/NavGraph.h"
 #include "eval/BaselineAgents.h"
 #include "eval/EpisodePictures.h"
-#include "eval/Evaluator.h"
-#include "eval/PolicyAgent.h"
 #include "eval/Tables.h"
 #include "models/Export.h"
 #include "models/StateDict.h"
+#include "rollout/Evaluator.h"
+#include "rollout/PolicyAgent.h"
+#include "rollout/RolloutTestPolicy.h"
+#include "rollout/RolloutTestWorld.h"
 
 namespace vln::eval {
 namespace {
 
 namespace fs = std::filesystem;
+using rollout::test::rolloutTestWorld;
 using ::testing::HasSubstr;
-using test::evalTestWorld;
 
 constexpr int kSeed = 13;  // a policy seed whose argmax actions vary
 
@@ -63,12 +63,12 @@ CheckpointReader tensorFileReader() {
 class EvalCommandsTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    const auto& w = evalTestWorld();
-    test::writeDataset(w, dir_ / "data");
+    const auto& w = rolloutTestWorld();
+    rollout::test::writeDataset(w, dir_ / "data");
     settings_.sim = w.sim;
     settings_.task = w.task;
     settings_.dataset.data_path = (dir_ / "data").string();
-    settings_.model = test::tinyModel(models::PolicyType::kCma);
+    settings_.model = rollout::test::tinyModel(models::PolicyType::kCma);
     settings_.eval.num_envs = 2;
     settings_.eval.threads = 2;
     settings_.eval.map_episodes = 0;
@@ -77,7 +77,7 @@ class EvalCommandsTest : public ::testing::Test {
     settings_.output_dir = (dir_ / "run").string();
     // the trainer's construction under trainer.seed: the policy, then the
     // encoders, whose random weights the evaluation rebuilds
-    model_ = test::tinyAgentModel(models::PolicyType::kCma, kSeed);
+    model_ = rollout::test::tinyAgentModel(models::PolicyType::kCma, kSeed);
   }
 
   // a checkpoint: the policy with its action head scaled by `gain`
@@ -91,15 +91,17 @@ class EvalCommandsTest : public ::testing::Test {
     return file;
   }
 
-  // what evaluateEpisodes gives for the in-memory model on a split
-  SplitStats direct(const std::string& split) {
-    const auto& w = evalTestWorld();
+  // what rollout::evaluateEpisodes gives for the in-memory model on a split
+  rollout::SplitStats direct(const std::string& split) {
+    const auto& w = rolloutTestWorld();
     const auto root = dir_ / "data";
     const auto episodes = data::readEpisodes(data::splitEpisodesPath(root, split)).episodes;
     const auto gt = data::readGroundTruth(data::splitGroundTruthPath(root, split));
-    PolicyAgent agent(model_.policy, model_.encoder, 2, false, 0, 200);
-    VectorEnv envs(2, w.sim, w.task, std::make_shared<SceneCache>(w.sim), 1);
-    return evaluateEpisodes(agent, envs, episodes, &gt, settings_.eval).stats;
+    rollout::PolicyAgent agent(model_.policy, model_.encoder, 2, false, 0, 200);
+    rollout::VectorEnv envs(2, w.sim, w.task,
+                            std::make_shared<rollout::SceneCache>(w.sim), 1);
+    return rollout::evaluateEpisodes(agent, envs, episodes, &gt, settings_.eval)
+        .stats;
   }
 
   EvalCommandResult run(const EvalCommandOptions& options, std::string* printed = nullptr) {
@@ -111,7 +113,7 @@ class EvalCommandsTest : public ::testing::Test {
 
   vln::test::TempDir dir_;
   EvalSettings settings_;
-  test::TinyAgentModel model_;
+  rollout::test::TinyAgentModel model_;
 };
 
 TEST_F(EvalCommandsTest, OneCheckpointWritesStatsEpisodesAndSummaries) {
@@ -126,11 +128,13 @@ TEST_F(EvalCommandsTest, OneCheckpointWritesStatsEpisodesAndSummaries) {
   ASSERT_EQ(r.reports.size(), 2u);
   for (const std::string split : {"val_seen", "val_unseen"}) {
     SCOPED_TRACE(split);
-    const SplitStats stats = readStatsFile(out / statsFileName(4, split));
+    const rollout::SplitStats stats =
+        rollout::readStatsFile(out / rollout::statsFileName(4, split));
     // exactly what the in-memory policy scores
     EXPECT_EQ(stats, direct(split));
     EXPECT_EQ(stats.num_episodes, 5);
-    const auto episodes = readEpisodesFile(out / episodesFileName(4, split));
+    const auto episodes =
+        rollout::readEpisodesFile(out / rollout::episodesFileName(4, split));
     ASSERT_EQ(episodes.size(), 5u);
     EXPECT_GT(episodes[0].record.steps_taken, 0);
     EXPECT_THAT(printed, HasSubstr("ckpt 4 " + split + ": 5 episodes, "));
@@ -147,15 +151,15 @@ TEST_F(EvalCommandsTest, DirectorySkipsEvaluatedCheckpointsAndPicksTheBest) {
   for (int i : {1, 2, 3}) writeCheckpoint(ckpts / checkpointName(i), 1.0 + 0.5 * i);
   const fs::path out = dir_ / "out";
   // checkpoints 1 and 3 were evaluated before (by the trainer, say)
-  SplitStats seen1, unseen1, seen3, unseen3;
+  rollout::SplitStats seen1, unseen1, seen3, unseen3;
   seen1.num_episodes = unseen1.num_episodes = seen3.num_episodes = unseen3.num_episodes = 5;
   unseen1.mean.spl = 0.25;
   unseen3.mean.spl = 0.5;
   seen3.mean.spl = 0.9;
-  writeStatsFile(out, 1, "val_seen", seen1);
-  writeStatsFile(out, 1, "val_unseen", unseen1);
-  writeStatsFile(out, 3, "val_seen", seen3);
-  writeStatsFile(out, 3, "val_unseen", unseen3);
+  rollout::writeStatsFile(out, 1, "val_seen", seen1);
+  rollout::writeStatsFile(out, 1, "val_unseen", unseen1);
+  rollout::writeStatsFile(out, 3, "val_seen", seen3);
+  rollout::writeStatsFile(out, 3, "val_unseen", unseen3);
 
   EvalCommandOptions options;
   options.checkpoint = ckpts;
@@ -166,9 +170,11 @@ TEST_F(EvalCommandsTest, DirectorySkipsEvaluatedCheckpointsAndPicksTheBest) {
   for (const auto& report : r.reports)
     EXPECT_EQ(report.skipped, report.checkpoint != 2) << report.checkpoint << " " << report.split;
   EXPECT_THAT(printed, HasSubstr("ckpt 3 val_unseen: skipped (already evaluated): "));
-  EXPECT_TRUE(fs::exists(out / statsFileName(2, "val_seen")));
+  EXPECT_TRUE(fs::exists(out / rollout::statsFileName(2, "val_seen")));
   // the best by val_unseen SPL (the selection split), not val_seen
-  const double spl2 = readStatsFile(out / statsFileName(2, "val_unseen")).mean.spl;
+  const double spl2 =
+      rollout::readStatsFile(out / rollout::statsFileName(2, "val_unseen"))
+          .mean.spl;
   const int best = spl2 > 0.5 ? 2 : 3;
   ASSERT_TRUE(r.best_checkpoint.has_value());
   EXPECT_EQ(*r.best_checkpoint, best);
@@ -196,12 +202,14 @@ TEST_F(EvalCommandsTest, TorchScriptExportScoresLikeTheCheckpoint) {
   options.out = dir_ / "b";
   options.index = 7;
   run(options);
-  EXPECT_EQ(readStatsFile(dir_ / "b" / statsFileName(7, "val_unseen")),
-            readStatsFile(dir_ / "a" / statsFileName(0, "val_unseen")));
+  EXPECT_EQ(rollout::readStatsFile(dir_ / "b" /
+                                   rollout::statsFileName(7, "val_unseen")),
+            rollout::readStatsFile(dir_ / "a" /
+                                   rollout::statsFileName(0, "val_unseen")));
 }
 
 TEST_F(EvalCommandsTest, BaselinesUseTheTrainingGroundTruth) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   const BaselineStatistics expected = baselineStatistics(w.groundTruth, 0.25);
   for (const std::string agent : {"random", "handcrafted"}) {
     SCOPED_TRACE(agent);
@@ -212,7 +220,8 @@ TEST_F(EvalCommandsTest, BaselinesUseTheTrainingGroundTruth) {
     std::string printed;
     run(options, &printed);
     EXPECT_THAT(printed, HasSubstr("(" + std::to_string(expected.forward_steps) + " forward steps)"));
-    const auto episodes = readEpisodesFile(dir_ / agent / episodesFileName(0, "val_seen"));
+    const auto episodes = rollout::readEpisodesFile(
+        dir_ / agent / rollout::episodesFileName(0, "val_seen"));
     ASSERT_EQ(episodes.size(), 5u);
     if (agent == "handcrafted") {
       // turns, then the mean training path length in forward steps, STOP
@@ -223,7 +232,8 @@ TEST_F(EvalCommandsTest, BaselinesUseTheTrainingGroundTruth) {
         EXPECT_EQ(e.record.actions.back(), 0);
       }
     }
-    EXPECT_TRUE(fs::exists(dir_ / agent / statsFileName(0, "val_seen")));
+    EXPECT_TRUE(
+        fs::exists(dir_ / agent / rollout::statsFileName(0, "val_seen")));
   }
   // without the training ground truth there are no statistics
   fs::remove(data::splitGroundTruthPath(dir_ / "data", "train"));
@@ -245,13 +255,17 @@ TEST_F(EvalCommandsTest, TestSplitWritesLeaderboardPredictions) {
   const EvalCommandResult r = run(options, &printed);
   ASSERT_EQ(r.reports.size(), 1u);
   EXPECT_FALSE(r.reports[0].scored);
-  EXPECT_FALSE(fs::exists(dir_ / "out" / statsFileName(2, "test")));
-  const auto predictions = readLeaderboardFile(dir_ / "out" / predictionsFileName(2, "test"));
+  EXPECT_FALSE(fs::exists(dir_ / "out" / rollout::statsFileName(2, "test")));
+  const auto predictions = rollout::readLeaderboardFile(
+      dir_ / "out" / predictionsFileName(2, "test"));
   ASSERT_EQ(predictions.size(), 3u);  // --episodes 3
-  const auto episodes = readEpisodesFile(dir_ / "out" / episodesFileName(2, "test"));
+  const auto episodes = rollout::readEpisodesFile(
+      dir_ / "out" / rollout::episodesFileName(2, "test"));
   for (const auto& [id, steps] : predictions) {
     const auto it = std::find_if(episodes.begin(), episodes.end(),
-                                 [&](const EpisodeResult& e) { return e.record.episode_id == id; });
+                                 [&](const rollout::EpisodeResult& e) {
+                                   return e.record.episode_id == id;
+                                 });
     ASSERT_NE(it, episodes.end());
     EXPECT_EQ(steps.size(), it->record.positions.size());
     EXPECT_EQ(steps.back().stop, it->record.called_stop);
@@ -277,8 +291,9 @@ TEST_F(EvalCommandsTest, NavGraphComparisonAndPictures) {
   EXPECT_EQ(*r.reports[0].graph, g);
   // recomputed from the per-episode file with the same graph
   const data::NavGraph graph = data::readNavGraph(options.navgraph / "h5_connectivity.json");
-  const auto episodes = readEpisodesFile(dir_ / "out" / episodesFileName(5, "val_seen"));
-  const auto& w = evalTestWorld();
+  const auto episodes = rollout::readEpisodesFile(
+      dir_ / "out" / rollout::episodesFileName(5, "val_seen"));
+  const auto& w = rolloutTestWorld();
   const data::NavGraph floor = floorNavGraph(graph, w.scene->navmesh());
   std::vector<GraphEpisodeMetrics> metrics;
   for (size_t i = 0; i < episodes.size(); ++i)
@@ -299,8 +314,8 @@ TEST_F(EvalCommandsTest, NavGraphComparisonAndPictures) {
 // their floor waypoints and scoring on the viewpoints, so lifting every node
 // by a camera height changes nothing on a single floor.
 TEST(EvalNavGraphTest, CameraHeightViewpointsScoreLikeFloorNodes) {
-  const auto& w = evalTestWorld();
-  const data::NavGraph onFloor = test::referenceNavGraph(w);
+  const auto& w = rolloutTestWorld();
+  const data::NavGraph onFloor = rollout::test::referenceNavGraph(w);
   data::NavGraph lifted;
   for (int i = 0; i < onFloor.numNodes(); ++i)
     lifted.addNode(onFloor.node(i).id, onFloor.node(i).position + Vec3f(0.0f, 1.4f, 0.0f));

@@ -62,7 +62,7 @@ TEST(CollectorTest, TeacherForcingReproducesTheGroundTruthActions) {
   vln::test::TempDir dir;
   FeatureStore store(dir / "store", layoutOf(c), 0.25);
   models::ObservationEncoder encoder(c.model);
-  Collector collector(c, std::make_shared<eval::SceneCache>(c.sim), encoder);
+  Collector collector(c, std::make_shared<rollout::SceneCache>(c.sim), encoder);
   CollectionRound round;
   for (const auto& e : f.train.episodes) {
     round.episodes.push_back(&e);
@@ -113,7 +113,7 @@ TwoCollections collectTwice(bool exactResume) {
   c3.trainer.num_envs = 3;
   auto policy = models::makePolicy(c2.model);
   models::ObservationEncoder encoder(c2.model);
-  auto scenes = std::make_shared<eval::SceneCache>(c2.sim);
+  auto scenes = std::make_shared<rollout::SceneCache>(c2.sim);
 
   CollectionRound round;
   round.iteration = 2;

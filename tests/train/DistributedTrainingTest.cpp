@@ -33,8 +33,8 @@
 
 #include "TrainTestWorld.h"
 #include "common/Json.h"
-#include "eval/Metrics.h"
 #include "models/StateDict.h"
+#include "rollout/Metrics.h"
 #include "train/Checkpoint.h"
 #include "train/FeatureStore.h"
 
@@ -345,9 +345,9 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
       << output;
   for (const char* split : {"val_seen", "val_unseen"}) {
     const auto trainer =
-        eval::readStatsFile(run / "eval" / eval::statsFileName(1, split));
-    const auto alone =
-        eval::readStatsFile(dir_ / "evalcheck" / eval::statsFileName(1, split));
+        rollout::readStatsFile(run / "eval" / rollout::statsFileName(1, split));
+    const auto alone = rollout::readStatsFile(dir_ / "evalcheck" /
+                                              rollout::statsFileName(1, split));
     EXPECT_EQ(trainer.num_episodes, 2) << split;
     EXPECT_EQ(alone.num_episodes, 2) << split;
     EXPECT_NEAR(trainer.mean.distance_to_goal, alone.mean.distance_to_goal,

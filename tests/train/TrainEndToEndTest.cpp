@@ -20,7 +20,7 @@
 #include "TrainTestWorld.h"
 #include "common/Json.h"
 #include "data/Episode.h"
-#include "eval/Metrics.h"
+#include "rollout/Metrics.h"
 #include "train/Checkpoint.h"
 #include "train/FeatureStore.h"
 #include "train/TensorBoardWriter.h"
@@ -146,10 +146,10 @@ TEST_F(TrainEndToEndTest, TeacherForcingRunProducesEverything) {
   // eval stats files and the best checkpoint, which keep_checkpoints keeps
   for (int i : {0, 1})
     for (const char* split : {"val_seen", "val_unseen"})
-      EXPECT_EQ(
-          eval::readStatsFile(run / "eval" / eval::statsFileName(i, split))
-              .num_episodes,
-          2);
+      EXPECT_EQ(rollout::readStatsFile(run / "eval" /
+                                       rollout::statsFileName(i, split))
+                    .num_episodes,
+                2);
   const auto best = common::readJsonFile(run / "checkpoints" / "best.json");
   EXPECT_TRUE(
       fs::exists(run / "checkpoints" / best["checkpoint"].get<std::string>()));

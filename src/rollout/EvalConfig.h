@@ -7,7 +7,7 @@
 
 #include "common/Config.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 struct EvalConfig {
   /// Splits evaluated by default.
@@ -52,7 +52,8 @@ struct EvalConfig {
     v.field("sample_actions", sample_actions,
             "Sample actions instead of argmax");
     v.choice("dtw", dtw, {"exact", "fast"}, "DTW used by nDTW");
-    v.field("seed", seed, "Seed for sampling and baselines", common::atLeast(0));
+    v.field("seed", seed, "Seed for sampling and baselines",
+            common::atLeast(0));
     v.field("save_episodes", save_episodes, "Write the per-episode file");
     v.field("map_episodes", map_episodes, "Top-down maps per split",
             common::atLeast(0));
@@ -62,4 +63,4 @@ struct EvalConfig {
   bool operator==(const EvalConfig&) const = default;
 };
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -18,11 +18,11 @@
 #include "common/Random.h"
 #include "data/Episode.h"
 #include "eval/Baselines.h"
-#include "eval/PolicyAgent.h"
 #include "models/Policy.h"
+#include "rollout/PolicyAgent.h"
 #include "sim/Agent.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 /// What a policy agent keeps per environment; each agent's EnvState
 /// derives from it and adds its instruction.
@@ -122,4 +122,4 @@ std::vector<sim::Action> chooseAndAdvance(const torch::Tensor& logits,
   return actions;
 }
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

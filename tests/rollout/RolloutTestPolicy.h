@@ -9,13 +9,13 @@
 
 #include <memory>
 
-#include "EvalTestWorld.h"
 #include "models/ModelConfig.h"
 #include "models/ModelTestUtil.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
+#include "rollout/RolloutTestWorld.h"
 
-namespace vln::eval::test {
+namespace vln::rollout::test {
 
 /// The model tests' tiny model (models/ModelTestUtil.h) over the test
 /// house's vocabulary.
@@ -33,7 +33,8 @@ struct TinyAgentModel {
 /// A seeded random policy and encoder; action-head weights x `gain`, STOP
 /// bias lowered by `stopPenalty`.
 inline TinyAgentModel tinyAgentModel(models::PolicyType type, uint64_t seed,
-                                     double gain = 400.0, double stopPenalty = 3.0) {
+                                     double gain = 400.0,
+                                     double stopPenalty = 3.0) {
   torch::manual_seed(seed);
   TinyAgentModel m;
   const models::ModelConfig config = tinyModel(type);
@@ -47,4 +48,4 @@ inline TinyAgentModel tinyAgentModel(models::PolicyType type, uint64_t seed,
   return m;
 }
 
-}  // namespace vln::eval::test
+}  // namespace vln::rollout::test

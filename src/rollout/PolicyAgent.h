@@ -18,11 +18,11 @@
 #include <span>
 #include <vector>
 
-#include "eval/Agent.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
+#include "rollout/Agent.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 class PolicyAgent : public Agent {
  public:
@@ -35,7 +35,8 @@ class PolicyAgent : public Agent {
               bool sampleActions, uint64_t seed, int maxInstructionLength);
   ~PolicyAgent() override;
   void reset(int env, const data::Episode& episode) override;
-  std::vector<sim::Action> act(VectorEnv& envs, std::span<const int> active) override;
+  std::vector<sim::Action> act(VectorEnv& envs,
+                               std::span<const int> active) override;
 
   /// Action probabilities of the last act() call, float [active, 4] on the
   /// CPU (softmax of the logits), for tests and diagnostics.
@@ -55,8 +56,8 @@ class PolicyAgent : public Agent {
 };
 
 /// Draws an action index from `probabilities` (non-negative, any sum > 0) by
-/// inverse CDF with one common::uniform01() draw of `rng`, in double precision, so
-/// a given generator state always picks the same action (portable, unlike
+/// inverse CDF with one common::uniform01() draw of `rng`, in double precision,
+/// so a given generator state always picks the same action (portable, unlike
 /// std::discrete_distribution).
 int sampleIndex(std::span<const double> probabilities, std::mt19937_64& rng);
 
@@ -73,4 +74,4 @@ int chooseAction(std::span<const double> logits, bool sample,
 models::EncodedInstruction stackInstructions(
     std::span<const models::EncodedInstruction* const> rows);
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

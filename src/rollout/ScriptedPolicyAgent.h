@@ -16,10 +16,10 @@
 #include <span>
 #include <vector>
 
-#include "eval/Agent.h"
 #include "models/ModelConfig.h"
+#include "rollout/Agent.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 class ScriptedPolicyAgent : public Agent {
  public:
@@ -30,11 +30,13 @@ class ScriptedPolicyAgent : public Agent {
   /// modalities it uses (its forward then takes features, not images).
   ScriptedPolicyAgent(const std::filesystem::path& file, int numEnvs,
                       bool sampleActions, uint64_t seed,
-                      int maxInstructionLength, const std::string& device = "cpu");
+                      int maxInstructionLength,
+                      const std::string& device = "cpu");
   ~ScriptedPolicyAgent() override;
 
   void reset(int env, const data::Episode& episode) override;
-  std::vector<sim::Action> act(VectorEnv& envs, std::span<const int> active) override;
+  std::vector<sim::Action> act(VectorEnv& envs,
+                               std::span<const int> active) override;
 
   /// The model config stored in the archive.
   const models::ModelConfig& config() const { return config_; }
@@ -57,4 +59,4 @@ class ScriptedPolicyAgent : public Agent {
 models::ModelConfig exportedModelConfig(const torch::jit::Module& module,
                                         const std::filesystem::path& file);
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

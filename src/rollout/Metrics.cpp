@@ -1,4 +1,4 @@
-#include "eval/Metrics.h"
+#include "rollout/Metrics.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,7 +7,7 @@
 #include "common/Check.h"
 #include "common/Json.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
@@ -693,4 +693,4 @@ LeaderboardPredictions readLeaderboardFile(const std::filesystem::path& file) {
   return leaderboardFromJson(common::readJsonFile(file), file.string());
 }
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -1,8 +1,8 @@
-#include "eval/VectorEnv.h"
+#include "rollout/VectorEnv.h"
 
 #include "common/Check.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 // ---------------------------------------------------------------------------
 // SceneCache
@@ -89,16 +89,15 @@ void VectorEnv::forEach(std::span<const int> envs,
   for (int env : envs)
     VLN_CHECK_ARG(env >= 0 && env < size(), "VectorEnv: environment ", env,
                   " out of range [0, ", size(), ")");
-  pool_.parallelFor(envs.size(),
-                    [&](size_t k) { fn(envs[k]); });
+  pool_.parallelFor(envs.size(), [&](size_t k) { fn(envs[k]); });
 }
 
 void VectorEnv::reset(std::span<const int> envs,
                       std::span<const data::Episode* const> episodes,
                       bool render) {
-  VLN_CHECK_ARG(envs.size() == episodes.size(), "VectorEnv::reset(): ",
-                envs.size(), " environments for ", episodes.size(),
-                " episodes");
+  VLN_CHECK_ARG(envs.size() == episodes.size(),
+                "VectorEnv::reset(): ", envs.size(), " environments for ",
+                episodes.size(), " episodes");
   for (int env : envs)
     VLN_CHECK_ARG(env >= 0 && env < size(), "VectorEnv::reset(): environment ",
                   env, " out of range [0, ", size(), ")");
@@ -115,10 +114,9 @@ void VectorEnv::reset(std::span<const int> envs,
     try {
       e.simulator->reset(start);
     } catch (const std::exception& error) {
-      throw std::invalid_argument("episode " +
-                                  std::to_string(episode.episode_id) +
-                                  " (scene " + episode.scene_id +
-                                  "): start_position: " + error.what());
+      throw std::invalid_argument(
+          "episode " + std::to_string(episode.episode_id) + " (scene " +
+          episode.scene_id + "): start_position: " + error.what());
     }
     e.episode = &episode;
     if (render) e.simulator->observe(e.observation);
@@ -128,8 +126,9 @@ void VectorEnv::reset(std::span<const int> envs,
 std::vector<sim::StepResult> VectorEnv::step(
     std::span<const int> envs, std::span<const sim::Action> actions,
     bool render) {
-  VLN_CHECK_ARG(envs.size() == actions.size(), "VectorEnv::step(): ",
-                envs.size(), " environments for ", actions.size(), " actions");
+  VLN_CHECK_ARG(envs.size() == actions.size(),
+                "VectorEnv::step(): ", envs.size(), " environments for ",
+                actions.size(), " actions");
   std::vector<sim::StepResult> results(envs.size());
   pool_.parallelFor(envs.size(), [&](size_t k) {
     int env = envs[k];
@@ -178,4 +177,4 @@ sim::Simulator& VectorEnv::simulator(int env) {
   return *e.simulator;
 }
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -36,7 +36,7 @@
 
 #include "common/Math.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 /// VLN-CE's success radius: SUCCESS_DISTANCE 3.0 in
 /// habitat_extensions/config/vlnce_task.yaml, also the nDTW normaliser.
@@ -249,4 +249,4 @@ void writeLeaderboardFile(const std::filesystem::path& file,
 /// Reads a leaderboard predictions file.
 LeaderboardPredictions readLeaderboardFile(const std::filesystem::path& file);
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

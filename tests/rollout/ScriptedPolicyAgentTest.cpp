@@ -1,38 +1,41 @@
 // ScriptedPolicyAgent runs a models::exportPolicy() archive and chooses the
 // same actions as PolicyAgent on the module that was exported.
 
-#include "eval/ScriptedPolicyAgent.h"
+#include "rollout/ScriptedPolicyAgent.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <set>
 
-#include "EvalTestPolicy.h"
-#include "EvalTestWorld.h"
-#include "eval/Evaluator.h"
-#include "eval/PolicyAgent.h"
 #include "models/Export.h"
+#include "rollout/Evaluator.h"
+#include "rollout/PolicyAgent.h"
+#include "rollout/RolloutTestPolicy.h"
+#include "rollout/RolloutTestWorld.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 namespace {
 
+using test::rolloutTestWorld;
 using ::testing::HasSubstr;
-using test::evalTestWorld;
 
-std::vector<std::vector<int>> actionsOf(Agent& agent, int numEnvs,
-                                        const std::vector<data::Episode>& episodes) {
-  const auto& w = evalTestWorld();
-  VectorEnv envs(numEnvs, w.sim, w.task, std::make_shared<SceneCache>(w.sim), 2);
-  const EvaluationResult r = evaluateEpisodes(agent, envs, episodes, nullptr, EvalConfig{});
+std::vector<std::vector<int>> actionsOf(
+    Agent& agent, int numEnvs, const std::vector<data::Episode>& episodes) {
+  const auto& w = rolloutTestWorld();
+  VectorEnv envs(numEnvs, w.sim, w.task, std::make_shared<SceneCache>(w.sim),
+                 2);
+  const EvaluationResult r =
+      evaluateEpisodes(agent, envs, episodes, nullptr, EvalConfig{});
   std::vector<std::vector<int>> actions;
   for (const auto& e : r.episodes) actions.push_back(e.record.actions);
   return actions;
 }
 
 TEST(ScriptedPolicyAgentTest, ChoosesTheSameActionsAsThePolicyItExports) {
-  const auto& w = evalTestWorld();
-  const std::vector<data::Episode> episodes(w.episodes.begin(), w.episodes.begin() + 4);
+  const auto& w = rolloutTestWorld();
+  const std::vector<data::Episode> episodes(w.episodes.begin(),
+                                            w.episodes.begin() + 4);
   vln::test::TempDir dir;
   // seeds whose random policies change actions within episodes
   for (auto [type, seed] : {std::pair{models::PolicyType::kCma, 13},
@@ -45,7 +48,8 @@ TEST(ScriptedPolicyAgentTest, ChoosesTheSameActionsAsThePolicyItExports) {
 
     for (bool sample : {false, true}) {
       SCOPED_TRACE(sample ? "sampled" : "argmax");
-      PolicyAgent reference(model.policy, model.encoder, 3, sample, /*seed=*/5, 200);
+      PolicyAgent reference(model.policy, model.encoder, 3, sample, /*seed=*/5,
+                            200);
       ScriptedPolicyAgent scripted(file, 3, sample, /*seed=*/5, 200);
       EXPECT_EQ(scripted.config(), model.policy->config());
       const auto expected = actionsOf(reference, 3, episodes);
@@ -54,7 +58,8 @@ TEST(ScriptedPolicyAgentTest, ChoosesTheSameActionsAsThePolicyItExports) {
       size_t steps = 0, mostKinds = 0;
       for (const auto& a : expected) {
         steps += a.size();
-        mostKinds = std::max(mostKinds, std::set<int>(a.begin(), a.end()).size());
+        mostKinds =
+            std::max(mostKinds, std::set<int>(a.begin(), a.end()).size());
       }
       EXPECT_GT(steps, 100u);
       EXPECT_GE(mostKinds, 2u);
@@ -63,8 +68,9 @@ TEST(ScriptedPolicyAgentTest, ChoosesTheSameActionsAsThePolicyItExports) {
 }
 
 TEST(ScriptedPolicyAgentTest, AblatedModalitiesAndInstructionRun) {
-  const auto& w = evalTestWorld();
-  const std::vector<data::Episode> episodes(w.episodes.begin(), w.episodes.begin() + 3);
+  const auto& w = rolloutTestWorld();
+  const std::vector<data::Episode> episodes(w.episodes.begin(),
+                                            w.episodes.begin() + 3);
   vln::test::TempDir dir;
   models::ModelConfig config = test::tinyModel(models::PolicyType::kCma);
   config.no_rgb = true;
@@ -75,32 +81,39 @@ TEST(ScriptedPolicyAgentTest, AblatedModalitiesAndInstructionRun) {
   models::exportPolicy(*policy, encoder.get(), dir / "ablated.pt");
   PolicyAgent reference(policy, encoder, 2, false, 0, 200);
   ScriptedPolicyAgent scripted(dir / "ablated.pt", 2, false, 0, 200);
-  EXPECT_EQ(actionsOf(scripted, 2, episodes), actionsOf(reference, 2, episodes));
+  EXPECT_EQ(actionsOf(scripted, 2, episodes),
+            actionsOf(reference, 2, episodes));
 }
 
 TEST(ScriptedPolicyAgentTest, BadArchivesAreNamed) {
   vln::test::TempDir dir;
-  EXPECT_THAT([&] { ScriptedPolicyAgent a(dir / "missing.pt", 1, false, 0, 200); },
-              ::testing::Throws<std::runtime_error>(::testing::Property(
-                  &std::exception::what, HasSubstr("missing.pt' does not exist"))));
+  EXPECT_THAT(
+      [&] { ScriptedPolicyAgent a(dir / "missing.pt", 1, false, 0, 200); },
+      ::testing::Throws<std::runtime_error>(::testing::Property(
+          &std::exception::what, HasSubstr("missing.pt' does not exist"))));
   const auto junk = vln::test::writeText(dir / "junk.pt", "not an archive");
   EXPECT_THAT([&] { ScriptedPolicyAgent a(junk, 1, false, 0, 200); },
               ::testing::Throws<std::runtime_error>(::testing::Property(
-                  &std::exception::what, HasSubstr("junk.pt' is not an intact zip archive"))));
+                  &std::exception::what,
+                  HasSubstr("junk.pt' is not an intact zip archive"))));
   // an export without encoders takes features, not observations
   const auto model = test::tinyAgentModel(models::PolicyType::kSeq2Seq, 2);
   models::exportPolicy(*model.policy, nullptr, dir / "features.pt");
-  EXPECT_THAT([&] { ScriptedPolicyAgent a(dir / "features.pt", 1, false, 0, 200); },
-              ::testing::Throws<std::invalid_argument>(::testing::Property(
-                  &std::exception::what, HasSubstr("exported without its RGB encoder"))));
+  EXPECT_THAT(
+      [&] { ScriptedPolicyAgent a(dir / "features.pt", 1, false, 0, 200); },
+      ::testing::Throws<std::invalid_argument>(
+          ::testing::Property(&std::exception::what,
+                              HasSubstr("exported without its RGB encoder"))));
   // a tensor file is an archive without model_config
   torch::jit::Module plain("plain");
   plain.register_buffer("x", torch::zeros({1}));
   plain.save((dir / "plain.pt").string());
-  EXPECT_THAT([&] { ScriptedPolicyAgent a(dir / "plain.pt", 1, false, 0, 200); },
-              ::testing::Throws<std::invalid_argument>(::testing::Property(
-                  &std::exception::what, HasSubstr("has no 'model_config' attribute"))));
+  EXPECT_THAT(
+      [&] { ScriptedPolicyAgent a(dir / "plain.pt", 1, false, 0, 200); },
+      ::testing::Throws<std::invalid_argument>(
+          ::testing::Property(&std::exception::what,
+                              HasSubstr("has no 'model_config' attribute"))));
 }
 
 }  // namespace
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -6,10 +6,10 @@
 #include <vector>
 
 #include "data/Episode.h"
-#include "eval/VectorEnv.h"
+#include "rollout/VectorEnv.h"
 #include "sim/Agent.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 class Agent {
  public:
@@ -25,4 +25,4 @@ class Agent {
   virtual bool needsObservations() const { return true; }
 };
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -10,17 +10,17 @@
 
 #include <torch/torch.h>
 
-#include "TrainTestWorld.h"
 #include "common/Json.h"
 #include "eval/EvalCommands.h"
-#include "eval/Metrics.h"
 #include "eval/NavGraphEval.h"
 #include "models/Export.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
 #include "models/StateDict.h"
+#include "rollout/Metrics.h"
 #include "train/Checkpoint.h"
 #include "train/ExperimentConfig.h"
+#include "train/TrainTestWorld.h"
 
 namespace vln::train {
 namespace {
@@ -38,7 +38,8 @@ class EvalBinaryTest : public ::testing::Test {
     if (!fs::exists(bin("eval"))) GTEST_SKIP() << "build the eval binary first";
     world_ = &test::tinyWorld();
     configFile_ = vln::test::writeText(
-        dir_ / "config.yaml", test::tinyRunConfig(*world_, dir_ / "run", "  epochs: 1\n"));
+        dir_ / "config.yaml",
+        test::tinyRunConfig(*world_, dir_ / "run", "  epochs: 1\n"));
     config_ = loadExperimentConfig(configFile_);
   }
 
@@ -60,7 +61,8 @@ class EvalBinaryTest : public ::testing::Test {
   }
 
   int eval(const std::string& args, std::string* output) {
-    return vln::test::runCommand(bin("eval") + " --log-level warn " + args + " 2>&1", output);
+    return vln::test::runCommand(
+        bin("eval") + " --log-level warn " + args + " 2>&1", output);
   }
 
   const test::TinyWorld* world_ = nullptr;
@@ -81,21 +83,31 @@ TEST_F(EvalBinaryTest, CheckpointDirectoryWithSkippingAndBest) {
       << output;
   // default output <output.dir>/eval, both eval.splits
   const fs::path out = dir_ / "run" / "eval";
-  EXPECT_EQ(eval::readStatsFile(out / eval::statsFileName(0, "val_seen")).num_episodes, 2);
-  EXPECT_EQ(eval::readStatsFile(out / eval::statsFileName(0, "val_unseen")).num_episodes, 2);
+  EXPECT_EQ(rollout::readStatsFile(out / rollout::statsFileName(0, "val_seen"))
+                .num_episodes,
+            2);
+  EXPECT_EQ(
+      rollout::readStatsFile(out / rollout::statsFileName(0, "val_unseen"))
+          .num_episodes,
+      2);
   EXPECT_THAT(output, HasSubstr("ckpt 0 val_seen: 2 episodes"));
 
   // the directory: checkpoint 0 is skipped, 1 evaluated, the best picked
-  ASSERT_EQ(eval("--config " + configFile_.string() + " --checkpoint " + ckpts.string() +
-                     " --episodes 2",
+  ASSERT_EQ(eval("--config " + configFile_.string() + " --checkpoint " +
+                     ckpts.string() + " --episodes 2",
                  &output),
             0)
       << output;
-  EXPECT_THAT(output, HasSubstr("ckpt 0 val_seen: skipped (already evaluated)"));
+  EXPECT_THAT(output,
+              HasSubstr("ckpt 0 val_seen: skipped (already evaluated)"));
   EXPECT_THAT(output, HasSubstr("ckpt 1 val_unseen: 2 episodes"));
   const auto best = common::readJsonFile(out / "best.json");
-  const double spl0 = eval::readStatsFile(out / eval::statsFileName(0, "val_unseen")).mean.spl;
-  const double spl1 = eval::readStatsFile(out / eval::statsFileName(1, "val_unseen")).mean.spl;
+  const double spl0 =
+      rollout::readStatsFile(out / rollout::statsFileName(0, "val_unseen"))
+          .mean.spl;
+  const double spl1 =
+      rollout::readStatsFile(out / rollout::statsFileName(1, "val_unseen"))
+          .mean.spl;
   EXPECT_EQ(best["index"], spl1 > spl0 ? 1 : 0);
   EXPECT_DOUBLE_EQ(best["spl"].get<double>(), std::max(spl0, spl1));
   EXPECT_THAT(output, HasSubstr("best checkpoint: ckpt."));
@@ -111,37 +123,48 @@ TEST_F(EvalBinaryTest, TorchScriptExportMatchesItsCheckpoint) {
   models::exportPolicy(*policy, encoder.ptr().get(), dir_ / "policy.pt");
 
   std::string output;
-  const std::string common = "--config " + configFile_.string() + " --split val_unseen --episodes 3";
-  ASSERT_EQ(eval(common + " --checkpoint " + ckpt.string() + " --out " + (dir_ / "a").string(),
+  const std::string common =
+      "--config " + configFile_.string() + " --split val_unseen --episodes 3";
+  ASSERT_EQ(eval(common + " --checkpoint " + ckpt.string() + " --out " +
+                     (dir_ / "a").string(),
                  &output),
             0)
       << output;
-  ASSERT_EQ(eval(common + " --checkpoint " + (dir_ / "policy.pt").string() + " --index 3 --out " +
-                     (dir_ / "b").string(),
+  ASSERT_EQ(eval(common + " --checkpoint " + (dir_ / "policy.pt").string() +
+                     " --index 3 --out " + (dir_ / "b").string(),
                  &output),
             0)
       << output;
-  EXPECT_EQ(eval::readStatsFile(dir_ / "b" / eval::statsFileName(3, "val_unseen")),
-            eval::readStatsFile(dir_ / "a" / eval::statsFileName(3, "val_unseen")));
-  const auto a = eval::readEpisodesFile(dir_ / "a" / eval::episodesFileName(3, "val_unseen"));
-  const auto b = eval::readEpisodesFile(dir_ / "b" / eval::episodesFileName(3, "val_unseen"));
+  EXPECT_EQ(rollout::readStatsFile(dir_ / "b" /
+                                   rollout::statsFileName(3, "val_unseen")),
+            rollout::readStatsFile(dir_ / "a" /
+                                   rollout::statsFileName(3, "val_unseen")));
+  const auto a = rollout::readEpisodesFile(
+      dir_ / "a" / rollout::episodesFileName(3, "val_unseen"));
+  const auto b = rollout::readEpisodesFile(
+      dir_ / "b" / rollout::episodesFileName(3, "val_unseen"));
   ASSERT_EQ(a.size(), b.size());
-  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].record.actions, b[i].record.actions);
+  for (size_t i = 0; i < a.size(); ++i)
+    EXPECT_EQ(a[i].record.actions, b[i].record.actions);
 }
 
 TEST_F(EvalBinaryTest, BaselinesNavGraphPicturesAndTables) {
   std::string output;
   const fs::path out = dir_ / "handcrafted";
-  ASSERT_EQ(eval("--config " + configFile_.string() + " --agent handcrafted --split val_seen" +
-                     " --navgraph " + (world_->data / "connectivity").string() +
-                     " --maps 1 --videos 1 --video-format mp4 --out " + out.string(),
-                 &output),
-            0)
+  ASSERT_EQ(
+      eval("--config " + configFile_.string() +
+               " --agent handcrafted --split val_seen" + " --navgraph " +
+               (world_->data / "connectivity").string() +
+               " --maps 1 --videos 1 --video-format mp4 --out " + out.string(),
+           &output),
+      0)
       << output;
   EXPECT_THAT(output, HasSubstr("baseline handcrafted: "));
   EXPECT_THAT(output, HasSubstr("| nav-graph TL "));
-  const auto stats = eval::readStatsFile(out / eval::statsFileName(0, "val_seen"));
-  const auto graph = eval::readGraphStatsFile(out / eval::graphStatsFileName(0, "val_seen"));
+  const auto stats =
+      rollout::readStatsFile(out / rollout::statsFileName(0, "val_seen"));
+  const auto graph =
+      eval::readGraphStatsFile(out / eval::graphStatsFileName(0, "val_seen"));
   EXPECT_EQ(graph.num_episodes, stats.num_episodes);
   EXPECT_GT(stats.num_episodes, 0);
   size_t pictures = 0;
@@ -152,18 +175,22 @@ TEST_F(EvalBinaryTest, BaselinesNavGraphPicturesAndTables) {
   }
   EXPECT_EQ(pictures, 2u);
 
-  ASSERT_EQ(eval("--config " + configFile_.string() + " --agent random --split val_unseen --out " +
+  ASSERT_EQ(eval("--config " + configFile_.string() +
+                     " --agent random --split val_unseen --out " +
                      (dir_ / "random").string(),
                  &output),
             0)
       << output;
-  EXPECT_TRUE(fs::exists(dir_ / "random" / eval::statsFileName(0, "val_unseen")));
+  EXPECT_TRUE(
+      fs::exists(dir_ / "random" / rollout::statsFileName(0, "val_unseen")));
 
-  ASSERT_EQ(vln::test::runCommand(bin("eval") + " tables --runs " +
-                                      (vln::test::testDataPath() / "eval" / "results").string() +
-                                      " --out " + (dir_ / "docs" / "results.md").string() + " 2>&1",
-                                  &output),
-            0)
+  ASSERT_EQ(
+      vln::test::runCommand(
+          bin("eval") + " tables --runs " +
+              (vln::test::testDataPath() / "eval" / "results").string() +
+              " --out " + (dir_ / "docs" / "results.md").string() + " 2>&1",
+          &output),
+      0)
       << output;
   EXPECT_TRUE(fs::exists(dir_ / "docs" / "results.md"));
   EXPECT_TRUE(fs::exists(dir_ / "docs" / "results.tex"));
@@ -195,7 +222,8 @@ TEST_F(EvalBinaryTest, ErrorsAreReported) {
                  &output),
             1);
   EXPECT_THAT(output, HasSubstr("broken.pth"));
-  EXPECT_EQ(eval("--config " + configFile_.string() + " --set eval.num_envs=0 --agent random",
+  EXPECT_EQ(eval("--config " + configFile_.string() +
+                     " --set eval.num_envs=0 --agent random",
                  &output),
             1);
   EXPECT_THAT(output, HasSubstr("eval.num_envs"));
@@ -206,25 +234,29 @@ TEST_F(EvalBinaryTest, ErrorsAreReported) {
 TEST_F(EvalBinaryTest, ReproducesTheTrainersValidation) {
   if (!fs::exists(bin("train"))) GTEST_SKIP() << "build the train binary first";
   std::string output;
-  ASSERT_EQ(vln::test::runCommand(bin("train") + " --config " + configFile_.string() + " 2>&1",
-                                  &output),
+  ASSERT_EQ(vln::test::runCommand(
+                bin("train") + " --config " + configFile_.string() + " 2>&1",
+                &output),
             0)
       << output;
   const fs::path run = dir_ / "run";
   const auto checkpoints = listCheckpoints(run / "checkpoints");
   ASSERT_FALSE(checkpoints.empty()) << output;
   const int index = *checkpointIndex(checkpoints.back());
-  const fs::path trainerStats = run / "eval" / eval::statsFileName(index, "val_unseen");
+  const fs::path trainerStats =
+      run / "eval" / rollout::statsFileName(index, "val_unseen");
   ASSERT_TRUE(fs::exists(trainerStats)) << output;
-  ASSERT_EQ(eval("--config " + configFile_.string() + " --checkpoint " +
-                     checkpoints.back().string() + " --split val_unseen --episodes " +
-                     std::to_string(config_.eval.train_eval_episodes) + " --out " +
-                     (dir_ / "again").string(),
-                 &output),
-            0)
+  ASSERT_EQ(
+      eval("--config " + configFile_.string() + " --checkpoint " +
+               checkpoints.back().string() + " --split val_unseen --episodes " +
+               std::to_string(config_.eval.train_eval_episodes) + " --out " +
+               (dir_ / "again").string(),
+           &output),
+      0)
       << output;
-  EXPECT_EQ(eval::readStatsFile(dir_ / "again" / eval::statsFileName(index, "val_unseen")),
-            eval::readStatsFile(trainerStats));
+  EXPECT_EQ(rollout::readStatsFile(dir_ / "again" /
+                                   rollout::statsFileName(index, "val_unseen")),
+            rollout::readStatsFile(trainerStats));
 }
 
 }  // namespace

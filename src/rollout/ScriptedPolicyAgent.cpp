@@ -1,4 +1,4 @@
-#include "eval/ScriptedPolicyAgent.h"
+#include "rollout/ScriptedPolicyAgent.h"
 
 #include <algorithm>
 #include <sstream>
@@ -9,10 +9,10 @@
 #include "common/FileIo.h"
 #include "common/ZipIntegrity.h"
 #include "data/Vocabulary.h"
-#include "eval/ObservationBatch.h"
-#include "eval/RecurrentAgentState.h"
+#include "rollout/ObservationBatch.h"
+#include "rollout/RecurrentAgentState.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 struct ScriptedPolicyAgent::EnvState : RecurrentEnvState {
   std::vector<int64_t> tokens;  // real tokens, capped at the max length
@@ -170,4 +170,4 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
   return chooseAndAdvance(logits, newHidden, states, sample_);
 }
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -1,4 +1,4 @@
-#include "eval/VectorEnv.h"
+#include "rollout/VectorEnv.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -7,7 +7,7 @@
 #include "sim/MeshIo.h"
 #include "support/TestPaths.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 namespace {
 
 // A generated house saved as a scene file, and episodes starting in it.
@@ -23,7 +23,8 @@ class VectorEnvTest : public ::testing::Test {
     config_.scenes_dir = dir_.path().string();
     config_.rgb = {32, 32, 90.0f, 1.25f};
     config_.depth.camera = {32, 32, 90.0f, 1.25f};
-    auto scene = sim::Scene::load(dir_ / "procedural" / "h5" / "h5.glb", config_);
+    auto scene =
+        sim::Scene::load(dir_ / "procedural" / "h5" / "h5.glb", config_);
     std::mt19937_64 rng(3);
     for (int i = 0; i < 6; ++i) {
       data::Episode e;
@@ -77,14 +78,15 @@ TEST_F(VectorEnvTest, ErrorsNameTheEpisodeAndScene) {
   data::Episode offMesh = episodes_[0];
   offMesh.start_position = Vec3f(1000.0f, 0.0f, 1000.0f);
   eps = {&offMesh};
-  EXPECT_THAT([&] { env.reset(envs, eps); },
-              ::testing::Throws<std::invalid_argument>(::testing::Property(
-                  &std::exception::what,
-                  ::testing::HasSubstr("episode 0 (scene procedural/h5/h5.glb)"))));
+  EXPECT_THAT(
+      [&] { env.reset(envs, eps); },
+      ::testing::Throws<std::invalid_argument>(::testing::Property(
+          &std::exception::what,
+          ::testing::HasSubstr("episode 0 (scene procedural/h5/h5.glb)"))));
   std::vector<sim::Action> actions = {sim::Action::kStop};
   VectorEnv fresh(1, config_, sim::TaskConfig{}, cache, 1);
   EXPECT_THROW(fresh.step(envs, actions), std::invalid_argument);
 }
 
 }  // namespace
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -2,41 +2,43 @@
 // seeded sampling), the per-episode instruction encodings stack like a
 // batched encoding, and the action choice rules.
 
-#include "eval/PolicyAgent.h"
+#include "rollout/PolicyAgent.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <set>
 
-#include "EvalTestPolicy.h"
-#include "EvalTestWorld.h"
-#include "eval/Evaluator.h"
-#include "eval/ObservationBatch.h"
+#include "rollout/Evaluator.h"
+#include "rollout/ObservationBatch.h"
+#include "rollout/RolloutTestPolicy.h"
+#include "rollout/RolloutTestWorld.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 namespace {
 
+using test::rolloutTestWorld;
 using ::testing::HasSubstr;
-using test::evalTestWorld;
 
-std::vector<std::vector<int>> runActions(const test::TinyAgentModel& model,
-                                         const std::vector<data::Episode>& episodes,
-                                         int numEnvs, int threads, bool sample,
-                                         uint64_t seed) {
-  const auto& w = evalTestWorld();
+std::vector<std::vector<int>> runActions(
+    const test::TinyAgentModel& model,
+    const std::vector<data::Episode>& episodes, int numEnvs, int threads,
+    bool sample, uint64_t seed) {
+  const auto& w = rolloutTestWorld();
   PolicyAgent agent(model.policy, model.encoder, numEnvs, sample, seed,
                     /*maxInstructionLength=*/200);
-  VectorEnv envs(numEnvs, w.sim, w.task, std::make_shared<SceneCache>(w.sim), threads);
+  VectorEnv envs(numEnvs, w.sim, w.task, std::make_shared<SceneCache>(w.sim),
+                 threads);
   EvalConfig config;
-  const EvaluationResult r = evaluateEpisodes(agent, envs, episodes, nullptr, config);
+  const EvaluationResult r =
+      evaluateEpisodes(agent, envs, episodes, nullptr, config);
   std::vector<std::vector<int>> actions;
   for (const auto& e : r.episodes) actions.push_back(e.record.actions);
   return actions;
 }
 
 std::vector<data::Episode> firstEpisodes(size_t n) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   return {w.episodes.begin(), w.episodes.begin() + static_cast<long>(n)};
 }
 
@@ -68,14 +70,16 @@ TEST(PolicyAgentTest, BatchingDoesNotChangeArgmaxActions) {
     std::vector<std::vector<int>> alone;
     for (const auto& e : episodes)
       alone.push_back(runActions(model, {e}, 1, 1, false, 0).front());
-    const auto batched = runActions(model, episodes, /*numEnvs=*/3, /*threads=*/2, false, 0);
+    const auto batched =
+        runActions(model, episodes, /*numEnvs=*/3, /*threads=*/2, false, 0);
     EXPECT_EQ(batched, alone);
     expectVaried(batched);
   }
 }
 
 TEST(PolicyAgentTest, SamplingIsReproducibleBySeedAndIndependentOfBatching) {
-  const auto model = test::tinyAgentModel(models::PolicyType::kCma, 12, /*gain=*/30.0);
+  const auto model =
+      test::tinyAgentModel(models::PolicyType::kCma, 12, /*gain=*/30.0);
   const auto episodes = firstEpisodes(4);
   const auto a = runActions(model, episodes, 3, 2, true, /*seed=*/7);
   const auto b = runActions(model, episodes, 2, 1, true, /*seed=*/7);
@@ -96,11 +100,13 @@ TEST(PolicyAgentTest, StackedInstructionsMatchABatchedEncoding) {
     const auto episodes = firstEpisodes(3);
     std::vector<const data::Episode*> all;
     for (const auto& e : episodes) all.push_back(&e);
-    const auto batched = model.policy->encodeInstruction(batchInstructions(all, 200));
+    const auto batched =
+        model.policy->encodeInstruction(batchInstructions(all, 200));
     std::vector<models::EncodedInstruction> rows;
     for (const auto* e : all) {
       const data::Episode* one[] = {e};
-      rows.push_back(model.policy->encodeInstruction(batchInstructions(one, 200)));
+      rows.push_back(
+          model.policy->encodeInstruction(batchInstructions(one, 200)));
     }
     std::vector<const models::EncodedInstruction*> pointers;
     for (const auto& r : rows) pointers.push_back(&r);
@@ -115,7 +121,8 @@ TEST(PolicyAgentTest, StackedInstructionsMatchABatchedEncoding) {
     in.depth = torch::rand({3, ds[0], ds[1], ds[2]});
     in.prev_actions = torch::tensor({0, 2, 1}, torch::kInt64);
     in.not_done = torch::tensor({0.0f, 1.0f, 1.0f});
-    const torch::Tensor hidden = torch::randn({3, c.numRecurrentLayers(), c.hidden_size});
+    const torch::Tensor hidden =
+        torch::randn({3, c.numRecurrentLayers(), c.hidden_size});
     const auto x = model.policy->step(batched, in, hidden);
     const auto y = model.policy->step(stacked, in, hidden);
     EXPECT_TRUE(torch::allclose(x.logits, y.logits, 1e-5, 1e-6));
@@ -137,7 +144,8 @@ TEST(PolicyAgentTest, ChoiceRules) {
   // sampling never picks a zero-mass action and follows the masses
   std::vector<int> counts(4, 0);
   const std::vector<double> masses = {0.0, 0.25, 0.75, 0.0};
-  for (int i = 0; i < 4000; ++i) ++counts[static_cast<size_t>(sampleIndex(masses, rng))];
+  for (int i = 0; i < 4000; ++i)
+    ++counts[static_cast<size_t>(sampleIndex(masses, rng))];
   EXPECT_EQ(counts[0], 0);
   EXPECT_EQ(counts[3], 0);
   EXPECT_NEAR(counts[2] / 4000.0, 0.75, 0.03);  // > 4 sigma
@@ -148,29 +156,36 @@ TEST(PolicyAgentTest, ChoiceRules) {
   std::mt19937_64 g1(5), g2(5);
   for (int i = 0; i < 20; ++i)
     EXPECT_EQ(chooseAction(tie, true, g1), chooseAction(tie, true, g2));
-  EXPECT_THROW(sampleIndex(std::vector<double>{0.0, 0.0}, rng), std::invalid_argument);
-  EXPECT_THROW(sampleIndex(std::vector<double>{-1.0, 2.0}, rng), std::invalid_argument);
+  EXPECT_THROW(sampleIndex(std::vector<double>{0.0, 0.0}, rng),
+               std::invalid_argument);
+  EXPECT_THROW(sampleIndex(std::vector<double>{-1.0, 2.0}, rng),
+               std::invalid_argument);
 }
 
 TEST(PolicyAgentTest, MisuseIsReported) {
   const auto model = test::tinyAgentModel(models::PolicyType::kCma, 14);
   PolicyAgent agent(model.policy, model.encoder, 2, false, 0, 200);
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   VectorEnv envs(2, w.sim, w.task, std::make_shared<SceneCache>(w.sim), 1);
   const std::vector<int> active = {1};
-  EXPECT_THAT([&] { agent.act(envs, active); },
-              ::testing::Throws<std::invalid_argument>(::testing::Property(
-                  &std::exception::what, HasSubstr("environment 1 was never reset"))));
+  EXPECT_THAT(
+      [&] { agent.act(envs, active); },
+      ::testing::Throws<std::invalid_argument>(::testing::Property(
+          &std::exception::what, HasSubstr("environment 1 was never reset"))));
   EXPECT_THAT([&] { agent.reset(2, w.episodes[0]); },
               ::testing::Throws<std::invalid_argument>(::testing::Property(
-                  &std::exception::what, HasSubstr("environment 2 out of range [0, 2)"))));
+                  &std::exception::what,
+                  HasSubstr("environment 2 out of range [0, 2)"))));
   models::ModelConfig noDepth = test::tinyModel(models::PolicyType::kCma);
   noDepth.no_depth = true;
   EXPECT_THAT(
-      [&] { PolicyAgent bad(model.policy, models::ObservationEncoder(noDepth), 1, false, 0, 200); },
+      [&] {
+        PolicyAgent bad(model.policy, models::ObservationEncoder(noDepth), 1,
+                        false, 0, 200);
+      },
       ::testing::Throws<std::invalid_argument>(::testing::Property(
           &std::exception::what, HasSubstr("encoder's modalities"))));
 }
 
 }  // namespace
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -3,21 +3,21 @@
 // succeeds with SPL d0 / max(d0, TL) and reproduces its positions exactly;
 // an agent that never stops hits the step limit and fails.
 
-#include "eval/Evaluator.h"
+#include "rollout/Evaluator.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <map>
 
-#include "EvalTestWorld.h"
-#include "eval/BaselineAgents.h"
+#include "common/Random.h"
+#include "rollout/RolloutTestWorld.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 namespace {
 
+using test::rolloutTestWorld;
 using ::testing::HasSubstr;
-using test::evalTestWorld;
 
 // Replays the ground-truth actions of each episode; logs its resets.
 class ReplayAgent : public Agent {
@@ -27,7 +27,8 @@ class ReplayAgent : public Agent {
     cursor_[env] = {episode.episode_id, 0};
     resets.emplace_back(env, episode.episode_id);
   }
-  std::vector<sim::Action> act(VectorEnv& envs, std::span<const int> active) override {
+  std::vector<sim::Action> act(VectorEnv& envs,
+                               std::span<const int> active) override {
     std::vector<sim::Action> actions;
     for (int env : active) {
       auto& [id, step] = cursor_.at(env);
@@ -50,10 +51,43 @@ class ReplayAgent : public Agent {
 class SpinningAgent : public Agent {
  public:
   void reset(int, const data::Episode&) override {}
-  std::vector<sim::Action> act(VectorEnv& envs, std::span<const int> active) override {
-    for (int env : active) EXPECT_EQ(envs.observation(env).rgb.size(), 32u * 32u * 3u);
+  std::vector<sim::Action> act(VectorEnv& envs,
+                               std::span<const int> active) override {
+    for (int env : active)
+      EXPECT_EQ(envs.observation(env).rgb.size(), 32u * 32u * 3u);
     return std::vector<sim::Action>(active.size(), sim::Action::kTurnLeft);
   }
+};
+
+// Draws actions from a fixed distribution with a generator seeded by the
+// episode id (as the baselines and the policy agents do), so an episode's
+// actions do not depend on the environment that runs it.
+class RandomWalkAgent : public Agent {
+ public:
+  RandomWalkAgent(int numEnvs, uint64_t seed)
+      : rngs_(static_cast<size_t>(numEnvs)), seed_(seed) {}
+  void reset(int env, const data::Episode& episode) override {
+    rngs_.at(static_cast<size_t>(env))
+        .seed(common::episodeSeed(seed_, std::to_string(episode.episode_id)));
+  }
+  std::vector<sim::Action> act(VectorEnv&,
+                               std::span<const int> active) override {
+    // STOP 5%, forward 60%, left 20%, right 15%
+    static constexpr double kCumulative[] = {0.05, 0.65, 0.85};
+    std::vector<sim::Action> actions;
+    for (int env : active) {
+      const double u = common::uniform01(rngs_.at(static_cast<size_t>(env)));
+      int a = 0;
+      while (a < 3 && u >= kCumulative[a]) ++a;
+      actions.push_back(sim::actionFromInt(a));
+    }
+    return actions;
+  }
+  bool needsObservations() const override { return false; }
+
+ private:
+  std::vector<std::mt19937_64> rngs_;
+  uint64_t seed_;
 };
 
 EvalConfig evalConfig(int numEnvs, int threads) {
@@ -66,20 +100,21 @@ EvalConfig evalConfig(int numEnvs, int threads) {
 EvaluationResult run(Agent& agent, const std::vector<data::Episode>& episodes,
                      const data::GroundTruth* gt, int numEnvs, int threads,
                      const std::function<void(int, int)>& progress = {}) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   auto cache = std::make_shared<SceneCache>(w.sim);
   VectorEnv envs(numEnvs, w.sim, w.task, cache, threads);
-  return evaluateEpisodes(agent, envs, episodes, gt, evalConfig(numEnvs, threads), progress);
+  return evaluateEpisodes(agent, envs, episodes, gt,
+                          evalConfig(numEnvs, threads), progress);
 }
 
 TEST(EvaluatorTest, ReplayingTheGroundTruthSucceedsWithTheFollowersPath) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   ReplayAgent agent(w.groundTruth);
   std::vector<std::pair<int, int>> progress;
-  const EvaluationResult r = run(agent, w.episodes, &w.groundTruth, /*numEnvs=*/3,
-                                 /*threads=*/2, [&](int done, int total) {
-                                   progress.emplace_back(done, total);
-                                 });
+  const EvaluationResult r =
+      run(agent, w.episodes, &w.groundTruth, /*numEnvs=*/3,
+          /*threads=*/2,
+          [&](int done, int total) { progress.emplace_back(done, total); });
   ASSERT_EQ(r.episodes.size(), w.episodes.size());
   for (size_t i = 0; i < w.episodes.size(); ++i) {
     const auto& e = w.episodes[i];
@@ -104,7 +139,8 @@ TEST(EvaluatorTest, ReplayingTheGroundTruthSucceedsWithTheFollowersPath) {
     double tl = 0.0;
     for (size_t k = 1; k < rec.positions.size(); ++k)
       tl += (rec.positions[k] - rec.positions[k - 1]).norm();
-    const double d0 = w.scene->navmesh().geodesicDistance(rec.positions.front(), rec.goal);
+    const double d0 =
+        w.scene->navmesh().geodesicDistance(rec.positions.front(), rec.goal);
     EXPECT_NEAR(rec.start_distance, d0, 1e-6);
     EXPECT_NEAR(m.path_length, tl, 1e-5);
     EXPECT_EQ(m.success, 1.0);
@@ -132,23 +168,27 @@ TEST(EvaluatorTest, ReplayingTheGroundTruthSucceedsWithTheFollowersPath) {
   // the environment of the shortest of the first three episodes runs the 4th
   int shortest = 0;
   for (int k = 1; k < 3; ++k)
-    if (w.groundTruth.at(w.episodes[static_cast<size_t>(k)].episode_id).actions.size() <
-        w.groundTruth.at(w.episodes[static_cast<size_t>(shortest)].episode_id).actions.size())
+    if (w.groundTruth.at(w.episodes[static_cast<size_t>(k)].episode_id)
+            .actions.size() <
+        w.groundTruth.at(w.episodes[static_cast<size_t>(shortest)].episode_id)
+            .actions.size())
       shortest = k;
   EXPECT_EQ(agent.resets[3].first, shortest);
 }
 
 TEST(EvaluatorTest, AnAgentThatNeverStopsHitsTheStepLimitAndFails) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   SpinningAgent agent;
-  const std::vector<data::Episode> episodes(w.episodes.begin(), w.episodes.begin() + 4);
+  const std::vector<data::Episode> episodes(w.episodes.begin(),
+                                            w.episodes.begin() + 4);
   const EvaluationResult r = run(agent, episodes, nullptr, 2, 1);
   for (size_t i = 0; i < episodes.size(); ++i) {
     const auto& rec = r.episodes[i].record;
     const auto& m = r.episodes[i].metrics;
     EXPECT_FALSE(rec.called_stop);
     EXPECT_EQ(rec.steps_taken, w.task.max_episode_steps);
-    EXPECT_EQ(rec.positions.size(), static_cast<size_t>(w.task.max_episode_steps) + 1);
+    EXPECT_EQ(rec.positions.size(),
+              static_cast<size_t>(w.task.max_episode_steps) + 1);
     EXPECT_EQ(m.success, 0.0);
     EXPECT_EQ(m.spl, 0.0);
     EXPECT_EQ(m.path_length, 0.0);  // turning in place
@@ -166,20 +206,20 @@ TEST(EvaluatorTest, AnAgentThatNeverStopsHitsTheStepLimitAndFails) {
 }
 
 TEST(EvaluatorTest, ResultsDoNotDependOnThreadsOrEnvironmentCount) {
-  const auto& w = evalTestWorld();
-  BaselineStatistics stats;
-  stats.distribution = {0.05, 0.6, 0.2, 0.15};
-  BaselineAgentAdapter a1("random", stats, 1, /*seed=*/9);
-  BaselineAgentAdapter a2("random", stats, 4, /*seed=*/9);
-  BaselineAgentAdapter a3("random", stats, 3, /*seed=*/9);
+  const auto& w = rolloutTestWorld();
+  RandomWalkAgent a1(1, /*seed=*/9);
+  RandomWalkAgent a2(4, /*seed=*/9);
+  RandomWalkAgent a3(3, /*seed=*/9);
   const EvaluationResult serial = run(a1, w.episodes, &w.groundTruth, 1, 1);
   const EvaluationResult parallel = run(a2, w.episodes, &w.groundTruth, 4, 2);
   const EvaluationResult other = run(a3, w.episodes, &w.groundTruth, 3, 3);
   int moved = 0;
   for (size_t i = 0; i < w.episodes.size(); ++i) {
     for (const EvaluationResult* r : {&parallel, &other}) {
-      EXPECT_EQ(r->episodes[i].record.positions, serial.episodes[i].record.positions);
-      EXPECT_EQ(r->episodes[i].record.actions, serial.episodes[i].record.actions);
+      EXPECT_EQ(r->episodes[i].record.positions,
+                serial.episodes[i].record.positions);
+      EXPECT_EQ(r->episodes[i].record.actions,
+                serial.episodes[i].record.actions);
       EXPECT_EQ(r->episodes[i].metrics, serial.episodes[i].metrics);
     }
     if (serial.episodes[i].metrics.path_length > 0.0) ++moved;
@@ -190,8 +230,9 @@ TEST(EvaluatorTest, ResultsDoNotDependOnThreadsOrEnvironmentCount) {
 }
 
 TEST(EvaluatorTest, EpisodesWithoutGoalsAreRecordedButNotScored) {
-  const auto& w = evalTestWorld();
-  std::vector<data::Episode> episodes(w.episodes.begin(), w.episodes.begin() + 3);
+  const auto& w = rolloutTestWorld();
+  std::vector<data::Episode> episodes(w.episodes.begin(),
+                                      w.episodes.begin() + 3);
   episodes[0].goals.clear();
   episodes[2].goals.clear();
   ReplayAgent agent(w.groundTruth);
@@ -203,7 +244,8 @@ TEST(EvaluatorTest, EpisodesWithoutGoalsAreRecordedButNotScored) {
   EXPECT_TRUE(r.episodes[0].record.reference_path.empty());
   EXPECT_EQ(r.episodes[0].metrics, EpisodeMetrics{});
   // leaderboard steps of an unscored record: one per position
-  EXPECT_EQ(leaderboardSteps(r.episodes[2].record).size(), w.followerPositions[2].size());
+  EXPECT_EQ(leaderboardSteps(r.episodes[2].record).size(),
+            w.followerPositions[2].size());
 
   // a whole split without goals: nothing to average
   for (auto& e : episodes) e.goals.clear();
@@ -214,16 +256,17 @@ TEST(EvaluatorTest, EpisodesWithoutGoalsAreRecordedButNotScored) {
 }
 
 TEST(EvaluatorTest, AnEpisodeMissingFromTheGroundTruthIsNamed) {
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   data::GroundTruth partial = w.groundTruth;
   partial.erase(w.episodes[2].episode_id);
   ReplayAgent agent(w.groundTruth);
-  EXPECT_THAT([&] { run(agent, w.episodes, &partial, 2, 1); },
-              ::testing::Throws<std::invalid_argument>(::testing::Property(
-                  &std::exception::what,
-                  HasSubstr("episode " + std::to_string(w.episodes[2].episode_id) +
-                            " (scene procedural/h5/h5.glb) has no entry in the ground "
-                            "truth"))));
+  EXPECT_THAT(
+      [&] { run(agent, w.episodes, &partial, 2, 1); },
+      ::testing::Throws<std::invalid_argument>(::testing::Property(
+          &std::exception::what,
+          HasSubstr("episode " + std::to_string(w.episodes[2].episode_id) +
+                    " (scene procedural/h5/h5.glb) has no entry in the ground "
+                    "truth"))));
   EXPECT_TRUE(agent.resets.empty());  // checked before anything ran
 }
 
@@ -236,10 +279,11 @@ TEST(EvaluatorTest, AnAgentReturningTheWrongNumberOfActionsIsAnError) {
     }
     bool needsObservations() const override { return false; }
   } agent;
-  const auto& w = evalTestWorld();
+  const auto& w = rolloutTestWorld();
   EXPECT_THAT([&] { run(agent, w.episodes, nullptr, 3, 1); },
               ::testing::Throws<std::invalid_argument>(::testing::Property(
-                  &std::exception::what, HasSubstr("returned 1 actions for 3 environments"))));
+                  &std::exception::what,
+                  HasSubstr("returned 1 actions for 3 environments"))));
 }
 
 TEST(EvaluatorTest, FastDtwIsSelectedByTheConfig) {
@@ -260,4 +304,4 @@ TEST(EvaluatorTest, NoEpisodesGiveAnEmptyResult) {
 }
 
 }  // namespace
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -1,4 +1,4 @@
-#include "eval/PolicyAgent.h"
+#include "rollout/PolicyAgent.h"
 
 #include <algorithm>
 #include <cmath>
@@ -7,10 +7,10 @@
 #include "common/Check.h"
 #include "common/Random.h"
 #include "eval/Baselines.h"
-#include "eval/ObservationBatch.h"
-#include "eval/RecurrentAgentState.h"
+#include "rollout/ObservationBatch.h"
+#include "rollout/RecurrentAgentState.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 // ---------------------------------------------------------------------------
 // helpers
@@ -43,7 +43,8 @@ int chooseAction(std::span<const double> logits, bool sample,
   VLN_CHECK_ARG(!logits.empty(), "chooseAction(): no logits");
   int best = 0;
   for (size_t a = 1; a < logits.size(); ++a)
-    if (logits[a] > logits[static_cast<size_t>(best)]) best = static_cast<int>(a);
+    if (logits[a] > logits[static_cast<size_t>(best)])
+      best = static_cast<int>(a);
   if (!sample) return best;
   // softmax shifted by the maximum (no overflow)
   std::vector<double> probabilities(logits.size());
@@ -86,8 +87,10 @@ models::EncodedInstruction stackInstructions(
   models::EncodedInstruction out;
   if (first.states.defined())
     out.states = padTokens(&models::EncodedInstruction::states);
-  if (first.keys.defined()) out.keys = padTokens(&models::EncodedInstruction::keys);
-  if (first.mask.defined()) out.mask = padTokens(&models::EncodedInstruction::mask);
+  if (first.keys.defined())
+    out.keys = padTokens(&models::EncodedInstruction::keys);
+  if (first.mask.defined())
+    out.mask = padTokens(&models::EncodedInstruction::mask);
   if (first.summary.defined()) {
     std::vector<torch::Tensor> summaries;
     for (const auto* row : rows) summaries.push_back(row->summary);
@@ -130,7 +133,8 @@ PolicyAgent::PolicyAgent(std::shared_ptr<models::PolicyImpl> policy,
                 numEnvs);
   VLN_CHECK_ARG(maxInstructionLength >= 1,
                 "PolicyAgent: dataset.max_instruction_length must be >= 1, "
-                "got ", maxInstructionLength);
+                "got ",
+                maxInstructionLength);
   const models::ModelConfig& p = policy_->config();
   const models::ModelConfig& e = encoder_->config();
   VLN_CHECK_ARG(p.usesRgb() == e.usesRgb() && p.usesDepth() == e.usesDepth(),
@@ -198,4 +202,4 @@ std::vector<sim::Action> PolicyAgent::act(VectorEnv& envs,
   return chooseAndAdvance(logits, out.hidden, states, sample_);
 }
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -8,15 +8,16 @@
 #include <vector>
 
 #include "data/Episode.h"
-#include "eval/VectorEnv.h"
 #include "models/ModelConfig.h"
+#include "rollout/VectorEnv.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 /// Observations of a batch of environments, channels last as rendered.
 struct ObservationBatch {
-  torch::Tensor rgb;    ///< uint8 [N, H, W, 3]; undefined when model.no_rgb
-  torch::Tensor depth;  ///< float [N, H, W, 1] in [0, 1]; undefined when model.no_depth
+  torch::Tensor rgb;  ///< uint8 [N, H, W, 3]; undefined when model.no_rgb
+  torch::Tensor
+      depth;  ///< float [N, H, W, 1] in [0, 1]; undefined when model.no_depth
 };
 
 /// Stacks the current observations of `envs` (CPU tensors; the caller moves
@@ -31,4 +32,4 @@ ObservationBatch batchObservations(const VectorEnv& envs,
 torch::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
                                 int maxLength);
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

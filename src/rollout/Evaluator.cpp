@@ -1,10 +1,10 @@
-#include "eval/Evaluator.h"
+#include "rollout/Evaluator.h"
 
 #include <string>
 
 #include "common/Check.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 namespace {
 
 // One environment's running episode: which input episode it is and what
@@ -160,9 +160,11 @@ EvaluationResult evaluateEpisodes(Agent& agent, VectorEnv& envs,
 
     // one action per active environment, then one step of each
     const std::vector<sim::Action> actions = agent.act(envs, active);
-    VLN_CHECK_ARG(actions.size() == active.size(), "evaluateEpisodes(): the "
-                  "agent returned ", actions.size(), " actions for ",
-                  active.size(), " environments");
+    VLN_CHECK_ARG(actions.size() == active.size(),
+                  "evaluateEpisodes(): the "
+                  "agent returned ",
+                  actions.size(), " actions for ", active.size(),
+                  " environments");
     envs.step(active, actions, /*render=*/agentReads);
     renderForObserver(active);
 
@@ -192,4 +194,4 @@ EvaluationResult evaluateEpisodes(Agent& agent, VectorEnv& envs,
   return result;
 }
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

@@ -1,4 +1,4 @@
-#include "eval/Metrics.h"
+#include "rollout/Metrics.h"
 
 #include <cmath>
 #include <limits>
@@ -10,7 +10,7 @@
 #include "common/Json.h"
 #include "support/TestPaths.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 namespace {
 
 using ::testing::ElementsAre;
@@ -474,4 +474,4 @@ TEST(MetricsTest, SharedFixtureGroundTruthScoresPerfectly) {
 }
 
 }  // namespace
-}  // namespace vln::eval
+}  // namespace vln::rollout

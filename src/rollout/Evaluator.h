@@ -9,12 +9,12 @@
 
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
-#include "eval/Agent.h"
-#include "eval/EvalConfig.h"
-#include "eval/Metrics.h"
-#include "eval/VectorEnv.h"
+#include "rollout/Agent.h"
+#include "rollout/EvalConfig.h"
+#include "rollout/Metrics.h"
+#include "rollout/VectorEnv.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 /// Everything one evaluation produced.
 struct EvaluationResult {
@@ -75,4 +75,4 @@ EvaluationResult evaluateEpisodes(
 /// MetricsOptions of `config` (dtw) with `successDistance` metres.
 MetricsOptions metricsOptions(const EvalConfig& config, double successDistance);
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

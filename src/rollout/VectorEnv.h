@@ -16,7 +16,7 @@
 #include "data/Episode.h"
 #include "sim/Simulator.h"
 
-namespace vln::eval {
+namespace vln::rollout {
 
 /// Loads scenes by episode scene id under sim.scenes_dir, once, and shares
 /// them. Thread-safe; concurrent requests for one scene wait for one load.
@@ -86,4 +86,4 @@ class VectorEnv {
   common::ThreadPool pool_;
 };
 
-}  // namespace vln::eval
+}  // namespace vln::rollout

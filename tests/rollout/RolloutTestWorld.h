@@ -21,12 +21,12 @@
 #include "sim/Simulator.h"
 #include "support/TestPaths.h"
 
-namespace vln::eval::test {
+namespace vln::rollout::test {
 
 /// Vocabulary size of the tiny policies that read these instructions.
 inline constexpr int kTestVocab = 23;
 
-struct EvalTestWorld {
+struct RolloutTestWorld {
   std::unique_ptr<vln::test::TempDir> dir;
   sim::SimConfig sim;
   sim::TaskConfig task;
@@ -43,13 +43,14 @@ inline std::vector<int> randomTokens(std::mt19937_64& rng) {
   std::vector<int> tokens(12, 0);
   const int length = 3 + static_cast<int>(rng() % 8);
   for (int i = 0; i < length; ++i)
-    tokens[static_cast<size_t>(i)] = 1 + static_cast<int>(rng() % (kTestVocab - 1));
+    tokens[static_cast<size_t>(i)] =
+        1 + static_cast<int>(rng() % (kTestVocab - 1));
   return tokens;
 }
 
-inline const EvalTestWorld& evalTestWorld() {
-  static const EvalTestWorld world = [] {
-    EvalTestWorld w;
+inline const RolloutTestWorld& rolloutTestWorld() {
+  static const RolloutTestWorld world = [] {
+    RolloutTestWorld w;
     w.dir = std::make_unique<vln::test::TempDir>();
     sim::HouseConfig house;
     house.min_rooms = 3;
@@ -80,12 +81,13 @@ inline const EvalTestWorld& evalTestWorld() {
       e.trajectory_id = e.episode_id;
       e.scene_id = "procedural/h5/h5.glb";
       e.start_position = start;
-      e.start_rotation = headingToQuaternion(
-          static_cast<float>(rng() % 24) * degToRad(15.0f));
+      e.start_rotation =
+          headingToQuaternion(static_cast<float>(rng() % 24) * degToRad(15.0f));
       e.geodesic_distance = d;
       e.goals = {data::Goal{goal, 3.0f}};
       e.instruction.instruction_text =
-          "walk past the table and stop by the door " + std::to_string(e.episode_id);
+          "walk past the table and stop by the door " +
+          std::to_string(e.episode_id);
       e.instruction.instruction_tokens = randomTokens(rng);
       e.reference_path = navmesh.shortestPath(start, goal);
 
@@ -95,7 +97,8 @@ inline const EvalTestWorld& evalTestWorld() {
       std::vector<Vec3f> positions = {simulator.episode().agent.position};
       path.locations = {simulator.episode().agent.position};
       while (!simulator.episode().done) {
-        const sim::Action a = follower.nextAction(simulator.episode().agent, goal);
+        const sim::Action a =
+            follower.nextAction(simulator.episode().agent, goal);
         simulator.step(a);
         path.actions.push_back(a);
         positions.push_back(simulator.episode().agent.position);
@@ -117,7 +120,7 @@ inline const EvalTestWorld& evalTestWorld() {
 
 /// A nav-graph of the house: the corners of every episode's reference path
 /// as nodes (merged when closer than 0.3 m), joined along each path.
-inline data::NavGraph referenceNavGraph(const EvalTestWorld& w) {
+inline data::NavGraph referenceNavGraph(const RolloutTestWorld& w) {
   data::NavGraph graph;
   auto nodeOf = [&](const Vec3f& p) {
     for (int i = 0; i < graph.numNodes(); ++i)
@@ -145,7 +148,8 @@ inline data::NavGraph referenceNavGraph(const EvalTestWorld& w) {
 /// ground truth), test (5-9 without goals, reference paths or ground truth)
 /// and the train ground truth (all episodes); plus
 /// connectivity/h5_connectivity.json.
-inline void writeDataset(const EvalTestWorld& w, const std::filesystem::path& root) {
+inline void writeDataset(const RolloutTestWorld& w,
+                         const std::filesystem::path& root) {
   auto subset = [&](size_t from, size_t to, bool withGoals) {
     data::EpisodeDataset d;
     for (size_t i = from; i < to; ++i) {
@@ -165,15 +169,22 @@ inline void writeDataset(const EvalTestWorld& w, const std::filesystem::path& ro
       gt[w.episodes[i].episode_id] = w.groundTruth.at(w.episodes[i].episode_id);
     return gt;
   };
-  data::writeEpisodes(data::splitEpisodesPath(root, "val_seen"), subset(0, 5, true));
-  data::writeGroundTruth(data::splitGroundTruthPath(root, "val_seen"), truthOf(0, 5));
-  data::writeEpisodes(data::splitEpisodesPath(root, "val_unseen"), subset(5, 10, true));
-  data::writeGroundTruth(data::splitGroundTruthPath(root, "val_unseen"), truthOf(5, 10));
-  data::writeEpisodes(data::splitEpisodesPath(root, "test"), subset(5, 10, false));
-  data::writeEpisodes(data::splitEpisodesPath(root, "train"), subset(0, 10, true));
-  data::writeGroundTruth(data::splitGroundTruthPath(root, "train"), truthOf(0, 10));
+  data::writeEpisodes(data::splitEpisodesPath(root, "val_seen"),
+                      subset(0, 5, true));
+  data::writeGroundTruth(data::splitGroundTruthPath(root, "val_seen"),
+                         truthOf(0, 5));
+  data::writeEpisodes(data::splitEpisodesPath(root, "val_unseen"),
+                      subset(5, 10, true));
+  data::writeGroundTruth(data::splitGroundTruthPath(root, "val_unseen"),
+                         truthOf(5, 10));
+  data::writeEpisodes(data::splitEpisodesPath(root, "test"),
+                      subset(5, 10, false));
+  data::writeEpisodes(data::splitEpisodesPath(root, "train"),
+                      subset(0, 10, true));
+  data::writeGroundTruth(data::splitGroundTruthPath(root, "train"),
+                         truthOf(0, 10));
   data::writeNavGraph(root / "connectivity" / "h5_connectivity.json",
                       referenceNavGraph(w));
 }
 
-}  // namespace vln::eval::test
+}  // namespace vln::rollout::test

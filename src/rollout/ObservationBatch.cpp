@@ -1,0 +1,79 @@
+#include "rollout/ObservationBatch.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "common/Check.h"
+#include "data/Vocabulary.h"
+
+namespace vln::rollout {
+
+ObservationBatch batchObservations(const VectorEnv& envs,
+                                   std::span<const int> active,
+                                   const models::ModelConfig& model) {
+  const auto n = static_cast<int64_t>(active.size());
+  ObservationBatch batch;
+  if (model.usesRgb()) {
+    batch.rgb =
+        torch::empty({n, model.rgb_height, model.rgb_width, 3}, torch::kUInt8);
+    const size_t bytes =
+        static_cast<size_t>(model.rgb_height) * model.rgb_width * 3;
+    for (int64_t k = 0; k < n; ++k) {
+      const auto& obs = envs.observation(active[static_cast<size_t>(k)]);
+      VLN_CHECK_ARG(obs.rgb_width == model.rgb_width &&
+                        obs.rgb_height == model.rgb_height,
+                    "batchObservations(): RGB observation is ", obs.rgb_width,
+                    "x", obs.rgb_height,
+                    " but model.rgb_width x model.rgb_height is ",
+                    model.rgb_width, "x", model.rgb_height);
+      std::memcpy(
+          batch.rgb.data_ptr<uint8_t>() + k * static_cast<int64_t>(bytes),
+          obs.rgb.data(), bytes);
+    }
+  }
+  if (model.usesDepth()) {
+    batch.depth = torch::empty({n, model.depth_height, model.depth_width, 1},
+                               torch::kFloat32);
+    const size_t count =
+        static_cast<size_t>(model.depth_height) * model.depth_width;
+    for (int64_t k = 0; k < n; ++k) {
+      const auto& obs = envs.observation(active[static_cast<size_t>(k)]);
+      VLN_CHECK_ARG(obs.depth_width == model.depth_width &&
+                        obs.depth_height == model.depth_height,
+                    "batchObservations(): depth observation is ",
+                    obs.depth_width, "x", obs.depth_height,
+                    " but model.depth_width x model.depth_height is ",
+                    model.depth_width, "x", model.depth_height);
+      std::memcpy(
+          batch.depth.data_ptr<float>() + k * static_cast<int64_t>(count),
+          obs.depth.data(), count * sizeof(float));
+    }
+  }
+  return batch;
+}
+
+torch::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
+                                int maxLength) {
+  VLN_CHECK_ARG(maxLength >= 1, "batchInstructions(): maxLength must be >= 1");
+  int64_t longest = 1;
+  for (const auto* episode : episodes)
+    longest = std::max<int64_t>(
+        longest,
+        std::min(maxLength, data::unpaddedLength(
+                                episode->instruction.instruction_tokens)));
+  auto tokens = torch::zeros({static_cast<int64_t>(episodes.size()), longest},
+                             torch::kInt64);
+  auto access = tokens.accessor<int64_t, 2>();
+  for (size_t k = 0; k < episodes.size(); ++k) {
+    const auto& source = episodes[k]->instruction.instruction_tokens;
+    // R2R pads on the right; copy real tokens up to the first PAD
+    for (int64_t j = 0; j < longest && j < static_cast<int64_t>(source.size());
+         ++j) {
+      if (source[static_cast<size_t>(j)] == 0) break;
+      access[static_cast<int64_t>(k)][j] = source[static_cast<size_t>(j)];
+    }
+  }
+  return tokens;
+}
+
+}  // namespace vln::rollout
