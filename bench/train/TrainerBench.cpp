@@ -186,7 +186,7 @@ void BM_DaggerCollection(benchmark::State& state) {
     fs::remove_all(dir);
     train::FeatureStore store(dir, layoutOf(c), 4.0);
     round.iteration = iteration++;
-    const auto stats = collector.collect(round, store, policy.get(), nullptr);
+    const auto stats = collector.collect(round, store, policy, nullptr);
     episodes += stats.episodes;
     steps += stats.steps;
     seconds += stats.seconds;

@@ -3,16 +3,10 @@
 #include <string>
 
 #include "common/Check.h"
+#include "rollout/EpisodeScheduler.h"
 
 namespace vln::rollout {
 namespace {
-
-// One environment's running episode: which input episode it is and what
-// has been recorded so far.
-struct Slot {
-  int index = -1;  // position in the input list; -1 while idle
-  EpisodeRecord record;
-};
 
 // The reference path of a scored episode: ground-truth locations when a
 // ground truth is given (VLN-CE's nDTW reads them from *_gt.json.gz), else
@@ -40,17 +34,150 @@ MetricsOptions metricsOptions(const EvalConfig& config,
   return options;
 }
 
+namespace {
+
+// Runs an Agent on a list of episodes and records them (the evaluation
+// job of the episode scheduler).
+class EvaluationJob : public EpisodeJob {
+ public:
+  EvaluationJob(Agent& agent, VectorEnv& envs,
+                const std::vector<data::Episode>& episodes,
+                std::vector<std::vector<Vec3f>> references,
+                const EvalConfig& config,
+                const std::function<void(int, int)>& progress,
+                EpisodeObserver* observer, EvaluationResult& result)
+      : agent_(agent), envs_(envs), episodes_(episodes),
+        references_(std::move(references)), config_(config),
+        progress_(progress), observer_(observer), result_(result),
+        records_(static_cast<size_t>(envs.size())) {}
+
+  EpisodeStart startOf(int index) override {
+    return EpisodeStart::of(episodes_[static_cast<size_t>(index)]);
+  }
+
+  void started(const EnvBatch& batch) override {
+    renderForObserver(batch);
+    for (size_t k = 0; k < batch.size(); ++k) {
+      const int env = batch.envs[k];
+      const data::Episode& episode =
+          episodes_[static_cast<size_t>(batch.episodes[k])];
+      const sim::AgentState& pose = envs_.state(env).agent;
+      EpisodeRecord& record = records_[static_cast<size_t>(env)];
+      record = EpisodeRecord{};
+      record.episode_id = std::to_string(episode.episode_id);
+      record.positions = {pose.position};
+      record.headings = {pose.heading};
+      agent_.reset(env, episode);
+      if (observer_) observer_->episodeStarted(batch.episodes[k], envs_, env);
+    }
+  }
+
+  std::vector<sim::Action> act(const EnvBatch& running) override {
+    std::vector<sim::Action> actions = agent_.act(envs_, running.envs);
+    VLN_CHECK_ARG(actions.size() == running.size(), "evaluateEpisodes(): the "
+                  "agent returned ", actions.size(), " actions for ",
+                  running.size(), " environments");
+    return actions;
+  }
+
+  void stepped(const EnvBatch& running, std::span<const sim::Action> actions,
+               std::span<const sim::StepResult>) override {
+    renderForObserver(running);
+    for (size_t k = 0; k < running.size(); ++k) {
+      const int env = running.envs[k];
+      const sim::AgentState& pose = envs_.state(env).agent;
+      EpisodeRecord& record = records_[static_cast<size_t>(env)];
+      record.actions.push_back(static_cast<int>(actions[k]));
+      record.positions.push_back(pose.position);
+      record.headings.push_back(pose.heading);
+      if (observer_)
+        observer_->episodeStepped(running.episodes[k], envs_, env, actions[k]);
+    }
+  }
+
+  // metrics in parallel (each writes only its own result), then the
+  // callbacks in environment order
+  void finished(const EnvBatch& ended) override {
+    std::vector<size_t> slot(static_cast<size_t>(envs_.size()));
+    for (size_t k = 0; k < ended.size(); ++k)
+      slot[static_cast<size_t>(ended.envs[k])] =
+          static_cast<size_t>(ended.episodes[k]);
+    envs_.forEach(ended.envs, [&](int env) {
+      const size_t index = slot[static_cast<size_t>(env)];
+      score(index, envs_.simulator(env),
+            std::move(records_[static_cast<size_t>(env)]));
+    });
+    for (size_t k = 0; k < ended.size(); ++k) {
+      const auto index = static_cast<size_t>(ended.episodes[k]);
+      if (observer_)
+        observer_->episodeFinished(ended.episodes[k], envs_, ended.envs[k],
+                                   result_.episodes[index],
+                                   result_.scored[index]);
+      ++finishedCount_;
+      if (progress_)
+        progress_(finishedCount_, static_cast<int>(episodes_.size()));
+    }
+  }
+
+ private:
+  // observations the observer wants although the agent does not read them
+  void renderForObserver(const EnvBatch& batch) {
+    if (agent_.needsObservations() || observer_ == nullptr) return;
+    std::vector<int> wanted;
+    for (size_t k = 0; k < batch.size(); ++k)
+      if (observer_->wantsFrames(batch.episodes[k]))
+        wanted.push_back(batch.envs[k]);
+    if (!wanted.empty()) envs_.render(wanted);
+  }
+
+  void score(size_t index, const sim::Simulator& simulator,
+             EpisodeRecord record) {
+    const data::Episode& episode = episodes_[index];
+    const sim::EpisodeState& state = simulator.episode();
+    record.called_stop = state.called_stop;
+    record.steps_taken = state.steps;
+    EpisodeResult& out = result_.episodes[index];
+    if (!episode.goals.empty()) {
+      const sim::NavMesh& navmesh = simulator.scene().navmesh();
+      record.goal = episode.goals.front().position;
+      record.reference_path = references_[index];
+      record.start_distance =
+          navmesh.geodesicDistance(record.positions.front(), record.goal);
+      const GeodesicFn geodesic = [&navmesh](const Vec3f& a, const Vec3f& b) {
+        return navmesh.geodesicDistance(a, b);
+      };
+      out.metrics = computeEpisodeMetrics(
+          record, geodesic,
+          metricsOptions(config_, simulator.task().success_distance));
+      result_.scored[index] = true;
+    }
+    out.record = std::move(record);
+  }
+
+  Agent& agent_;
+  VectorEnv& envs_;
+  const std::vector<data::Episode>& episodes_;
+  std::vector<std::vector<Vec3f>> references_;
+  const EvalConfig& config_;
+  const std::function<void(int, int)>& progress_;
+  EpisodeObserver* observer_;
+  EvaluationResult& result_;
+  std::vector<EpisodeRecord> records_;  // per environment, while running
+  int finishedCount_ = 0;
+};
+
+}  // namespace
+
 EvaluationResult evaluateEpisodes(Agent& agent, VectorEnv& envs,
                                   const std::vector<data::Episode>& episodes,
                                   const data::GroundTruth* groundTruth,
                                   const EvalConfig& config,
                                   const std::function<void(int, int)>& progress,
                                   EpisodeObserver* observer) {
-  const int total = static_cast<int>(episodes.size());
   EvaluationResult result;
   result.episodes.resize(episodes.size());
   result.scored.assign(episodes.size(), false);
-  if (total == 0) return result;
+  if (episodes.empty()) return result;
 
   // reference paths up front, so a missing ground-truth entry fails before
   // any episode runs rather than after an hour of evaluation
@@ -63,128 +190,10 @@ EvaluationResult evaluateEpisodes(Agent& agent, VectorEnv& envs,
                   groundTruth ? " in the ground truth" : "");
   }
 
-  const bool agentReads = agent.needsObservations();
-  const int numEnvs = envs.size();
-  std::vector<Slot> slots(static_cast<size_t>(numEnvs));
-  int next = 0;
-  int finishedCount = 0;
-
-  // observations the observer wants although the agent does not read them
-  auto renderForObserver = [&](const std::vector<int>& list) {
-    if (agentReads || observer == nullptr) return;
-    std::vector<int> wanted;
-    for (int env : list)
-      if (observer->wantsFrames(slots[static_cast<size_t>(env)].index))
-        wanted.push_back(env);
-    if (!wanted.empty()) envs.render(wanted);
-  };
-
-  // gives the next episodes to the listed idle environments, lowest
-  // environment first, so the schedule depends on nothing but numEnvs
-  auto start = [&](const std::vector<int>& idle) {
-    std::vector<int> started;
-    std::vector<const data::Episode*> starting;
-    for (int env : idle) {
-      if (next >= total) break;
-      slots[static_cast<size_t>(env)].index = next;
-      started.push_back(env);
-      starting.push_back(&episodes[static_cast<size_t>(next)]);
-      ++next;
-    }
-    if (started.empty()) return;
-    envs.reset(started, starting, /*render=*/agentReads);
-    renderForObserver(started);
-    for (int env : started) {
-      Slot& slot = slots[static_cast<size_t>(env)];
-      const data::Episode& episode = episodes[static_cast<size_t>(slot.index)];
-      const sim::AgentState& pose = envs.state(env).agent;
-      slot.record = EpisodeRecord{};
-      slot.record.episode_id = std::to_string(episode.episode_id);
-      slot.record.positions = {pose.position};
-      slot.record.headings = {pose.heading};
-      agent.reset(env, episode);
-      if (observer) observer->episodeStarted(slot.index, envs, env);
-    }
-  };
-
-  // finishes the episodes of the listed environments: metrics in parallel
-  // (each writes only its own result), then callbacks in environment order
-  auto finish = [&](const std::vector<int>& ended) {
-    envs.forEach(ended, [&](int env) {
-      Slot& slot = slots[static_cast<size_t>(env)];
-      const auto index = static_cast<size_t>(slot.index);
-      const data::Episode& episode = episodes[index];
-      const sim::Simulator& simulator = envs.simulator(env);
-      const sim::EpisodeState& state = simulator.episode();
-      EpisodeRecord& record = slot.record;
-      record.called_stop = state.called_stop;
-      record.steps_taken = state.steps;
-      EpisodeResult& out = result.episodes[index];
-      if (!episode.goals.empty()) {
-        const sim::NavMesh& navmesh = simulator.scene().navmesh();
-        record.goal = episode.goals.front().position;
-        record.reference_path = references[index];
-        record.start_distance =
-            navmesh.geodesicDistance(record.positions.front(), record.goal);
-        const GeodesicFn geodesic = [&navmesh](const Vec3f& a, const Vec3f& b) {
-          return navmesh.geodesicDistance(a, b);
-        };
-        out.metrics = computeEpisodeMetrics(
-            record, geodesic,
-            metricsOptions(config, simulator.task().success_distance));
-        result.scored[index] = true;
-      }
-      out.record = std::move(record);
-    });
-    for (int env : ended) {
-      Slot& slot = slots[static_cast<size_t>(env)];
-      const auto index = static_cast<size_t>(slot.index);
-      if (observer)
-        observer->episodeFinished(slot.index, envs, env, result.episodes[index],
-                                  result.scored[index]);
-      slot.index = -1;
-      ++finishedCount;
-      if (progress) progress(finishedCount, total);
-    }
-  };
-
-  std::vector<int> all(static_cast<size_t>(numEnvs));
-  for (int env = 0; env < numEnvs; ++env) all[static_cast<size_t>(env)] = env;
-  start(all);
-
-  while (true) {
-    std::vector<int> active;
-    for (int env = 0; env < numEnvs; ++env)
-      if (slots[static_cast<size_t>(env)].index >= 0) active.push_back(env);
-    if (active.empty()) break;
-
-    // one action per active environment, then one step of each
-    const std::vector<sim::Action> actions = agent.act(envs, active);
-    VLN_CHECK_ARG(actions.size() == active.size(),
-                  "evaluateEpisodes(): the "
-                  "agent returned ",
-                  actions.size(), " actions for ", active.size(),
-                  " environments");
-    envs.step(active, actions, /*render=*/agentReads);
-    renderForObserver(active);
-
-    // record the new poses; the simulator ends an episode at STOP or at
-    // task.max_episode_steps
-    std::vector<int> ended;
-    for (size_t k = 0; k < active.size(); ++k) {
-      const int env = active[k];
-      Slot& slot = slots[static_cast<size_t>(env)];
-      const sim::EpisodeState& state = envs.state(env);
-      slot.record.actions.push_back(static_cast<int>(actions[k]));
-      slot.record.positions.push_back(state.agent.position);
-      slot.record.headings.push_back(state.agent.heading);
-      if (observer) observer->episodeStepped(slot.index, envs, env, actions[k]);
-      if (state.done) ended.push_back(env);
-    }
-    if (ended.empty()) continue;
-    finish(ended);
-    start(ended);
-  }
+  EvaluationJob job(agent, envs, episodes, std::move(references), config,
+                    progress, observer, result);
+  runEpisodes(envs, static_cast<int>(episodes.size()), job,
+              /*render=*/agent.needsObservations());
 
   // means over the scored episodes, in input order
   std::vector<EpisodeMetrics> scored;

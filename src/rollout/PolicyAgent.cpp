@@ -6,9 +6,8 @@
 
 #include "common/Check.h"
 #include "common/Random.h"
-#include "eval/Baselines.h"
 #include "rollout/ObservationBatch.h"
-#include "rollout/RecurrentAgentState.h"
+#include "rollout/RecurrentState.h"
 
 namespace vln::rollout {
 
@@ -51,6 +50,14 @@ int chooseAction(std::span<const double> logits, bool sample,
   for (size_t a = 0; a < logits.size(); ++a)
     probabilities[a] = std::exp(logits[a] - logits[static_cast<size_t>(best)]);
   return sampleIndex(probabilities, rng);
+}
+
+int chooseRow(const torch::Tensor& logits, int64_t row, bool sample,
+              std::mt19937_64& rng) {
+  const double* values = logits.data_ptr<double>() + row * logits.size(1);
+  return chooseAction(
+      std::span<const double>(values, static_cast<size_t>(logits.size(1))),
+      sample, rng);
 }
 
 models::EncodedInstruction stackInstructions(
@@ -102,104 +109,62 @@ models::EncodedInstruction stackInstructions(
 // ---------------------------------------------------------------------------
 // PolicyAgent
 
-struct PolicyAgent::EnvState : RecurrentEnvState {
-  models::EncodedInstruction instruction;  // one row, [1, L, ...]
-};
-
-namespace {
-
-// the device of the policy's parameters (config.device when it has none)
-torch::Device policyDevice(const models::PolicyImpl& policy) {
-  const auto parameters = policy.parameters();
-  if (!parameters.empty()) return parameters.front().device();
-  return models::modelDevice(policy.config());
-}
-
-}  // namespace
-
 PolicyAgent::PolicyAgent(std::shared_ptr<models::PolicyImpl> policy,
                          models::ObservationEncoder encoder, int numEnvs,
                          bool sampleActions, uint64_t seed,
                          int maxInstructionLength)
-    : policy_(std::move(policy)),
+    : stepper_(policy, numEnvs, maxInstructionLength,
+               InstructionBatching::kPerEpisode),
       encoder_(std::move(encoder)),
       sample_(sampleActions),
       seed_(seed),
-      maxInstructionLength_(maxInstructionLength),
-      device_(torch::kCPU) {
-  VLN_CHECK_ARG(policy_ != nullptr, "PolicyAgent: the policy is null");
+      draws_(static_cast<size_t>(numEnvs)) {
   VLN_CHECK_ARG(!encoder_.is_empty(), "PolicyAgent: the encoder is null");
-  VLN_CHECK_ARG(numEnvs >= 1, "PolicyAgent: numEnvs must be >= 1, got ",
-                numEnvs);
-  VLN_CHECK_ARG(maxInstructionLength >= 1,
-                "PolicyAgent: dataset.max_instruction_length must be >= 1, "
-                "got ",
-                maxInstructionLength);
-  const models::ModelConfig& p = policy_->config();
+  const models::ModelConfig& p = policy->config();
   const models::ModelConfig& e = encoder_->config();
   VLN_CHECK_ARG(p.usesRgb() == e.usesRgb() && p.usesDepth() == e.usesDepth(),
                 "PolicyAgent: the encoder's modalities (rgb ", e.usesRgb(),
                 ", depth ", e.usesDepth(), ") differ from the policy's (rgb ",
                 p.usesRgb(), ", depth ", p.usesDepth(), ")");
-  device_ = policyDevice(*policy_);
-  policy_->eval();
+  policy->eval();
   encoder_->eval();
-  for (int i = 0; i < numEnvs; ++i)
-    states_.push_back(std::make_unique<EnvState>());
 }
 
 PolicyAgent::~PolicyAgent() = default;
 
 void PolicyAgent::reset(int env, const data::Episode& episode) {
-  EnvState& s = stateAt(states_, env, "PolicyAgent", "reset");
-  torch::NoGradGuard noGrad;
-  // the instruction is encoded alone, so its encoding never depends on
-  // which episodes share the batch
-  s.instruction = {};
-  if (policy_->config().usesInstruction()) {
-    const data::Episode* one[] = {&episode};
-    s.instruction = policy_->encodeInstruction(
-        batchInstructions(one, maxInstructionLength_).to(device_));
-  }
-  s.restart(policy_->initialHidden(1)[0], seed_, episode);
+  stateAt(draws_, env, "PolicyAgent", "reset").restart(seed_, episode);
+  stepper_.start(env, episode);
 }
 
 std::vector<sim::Action> PolicyAgent::act(VectorEnv& envs,
                                           std::span<const int> active) {
-  const auto n = static_cast<int64_t>(active.size());
-  if (n == 0) return {};
-  const std::vector<EnvState*> states =
-      activeStates(states_, active, "PolicyAgent");
+  if (active.empty()) return {};
+  checkStarted(draws_, active, "PolicyAgent");
   torch::NoGradGuard noGrad;
 
-  // observations -> feature maps on the policy's device
-  const models::ModelConfig& model = policy_->config();
-  const ObservationBatch obs = batchObservations(envs, active, model);
+  // observations -> feature maps on the policy's device -> one step
+  const torch::Device device = stepper_.device();
+  const ObservationBatch obs =
+      batchObservations(envs, active, stepper_.policy().config());
   const models::VisualFeatures features = encoder_->forward(
-      obs.rgb.defined() ? obs.rgb.to(device_) : obs.rgb,
-      obs.depth.defined() ? obs.depth.to(device_) : obs.depth);
-
-  // per-environment state gathered into one batch
-  models::EncodedInstruction instruction;
-  if (model.usesInstruction()) {
-    std::vector<const models::EncodedInstruction*> rows;
-    for (const EnvState* s : states) rows.push_back(&s->instruction);
-    instruction = stackInstructions(rows);
-  }
-  const RecurrentInputs recurrent = recurrentInputs(states, device_);
-  models::PolicyInputs inputs;
-  inputs.rgb = features.rgb;
-  inputs.depth = features.depth;
-  inputs.prev_actions = recurrent.prevActions;
-  inputs.not_done = recurrent.notDone;
-  const models::PolicyOutputs out =
-      policy_->step(instruction, inputs, recurrent.hidden);
+      obs.rgb.defined() ? obs.rgb.to(device) : obs.rgb,
+      obs.depth.defined() ? obs.depth.to(device) : obs.depth);
+  const torch::Tensor logits = stepper_.step(active, features)
+                                   .to(torch::kCPU, torch::kFloat64)
+                                   .contiguous();
+  lastProbabilities_ = torch::softmax(logits, /*dim=*/-1).to(torch::kFloat32);
 
   // argmax (first maximum) or a draw from the episode's own generator
-  const torch::Tensor logits =
-      out.logits.to(torch::kCPU, torch::kFloat64).contiguous();
-  lastProbabilities_ = torch::softmax(logits, /*dim=*/-1).to(torch::kFloat32);
-  return chooseAndAdvance(logits, out.hidden, states, sample_);
+  std::vector<sim::Action> actions;
+  for (size_t k = 0; k < active.size(); ++k) {
+    const int chosen = chooseRow(
+        logits, static_cast<int64_t>(k), sample_,
+        draws_[static_cast<size_t>(active[k])].rng);
+    stepper_.took(active[k], chosen);
+    actions.push_back(sim::actionFromInt(chosen));
+  }
+  return actions;
 }
 
 }  // namespace vln::rollout

@@ -4,12 +4,11 @@
 // kept per environment) and picks argmax or sampled actions.
 //
 // Batching does not change behaviour: each episode's instruction is encoded
-// on its own at reset() (the encoder packs sequences, and attention masks
-// padding, so padding rows to a common length changes nothing), recurrent
-// state and previous action are per environment, and sampling draws from a
-// per-episode generator seeded by (seed, episode id) (Baselines.h
-// common::episodeSeed()), so the actions of an episode are the same whichever
-// episodes share its batch and whatever the thread count.
+// on its own at reset() (PolicyStepper's kPerEpisode), recurrent state and
+// previous action are per environment, and sampling draws from a
+// per-episode generator seeded by (seed, episode id)
+// (common::episodeSeed()), so the actions of an episode are the same
+// whichever episodes share its batch and whatever the thread count.
 
 #include <torch/torch.h>
 
@@ -21,6 +20,8 @@
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
 #include "rollout/Agent.h"
+#include "rollout/PolicyStepper.h"
+#include "rollout/RecurrentState.h"
 
 namespace vln::rollout {
 
@@ -35,23 +36,18 @@ class PolicyAgent : public Agent {
               bool sampleActions, uint64_t seed, int maxInstructionLength);
   ~PolicyAgent() override;
   void reset(int env, const data::Episode& episode) override;
-  std::vector<sim::Action> act(VectorEnv& envs,
-                               std::span<const int> active) override;
+  std::vector<sim::Action> act(VectorEnv& envs, std::span<const int> active) override;
 
   /// Action probabilities of the last act() call, float [active, 4] on the
   /// CPU (softmax of the logits), for tests and diagnostics.
   const torch::Tensor& lastProbabilities() const { return lastProbabilities_; }
 
  private:
-  struct EnvState;
-
-  std::shared_ptr<models::PolicyImpl> policy_;
+  PolicyStepper stepper_;
   models::ObservationEncoder encoder_;
   bool sample_;
   uint64_t seed_;
-  int maxInstructionLength_;
-  torch::Device device_;
-  std::vector<std::unique_ptr<EnvState>> states_;
+  std::vector<EpisodeDraws> draws_;
   torch::Tensor lastProbabilities_;
 };
 
@@ -66,6 +62,11 @@ int sampleIndex(std::span<const double> probabilities, std::mt19937_64& rng);
 /// Shared by PolicyAgent and ScriptedPolicyAgent so both choose alike.
 int chooseAction(std::span<const double> logits, bool sample,
                  std::mt19937_64& rng);
+
+/// chooseAction() on row `row` of `logits` (float64 [n, actions] on the
+/// CPU, contiguous).
+int chooseRow(const torch::Tensor& logits, int64_t row, bool sample,
+              std::mt19937_64& rng);
 
 /// Rows of one-episode encoded instructions ([1, L_i, ...] each) stacked
 /// into a batch [B, max L_i, ...]: states and keys padded with zeros, the

@@ -10,11 +10,13 @@
 #include "common/ZipIntegrity.h"
 #include "data/Vocabulary.h"
 #include "rollout/ObservationBatch.h"
-#include "rollout/RecurrentAgentState.h"
+#include "rollout/PolicyAgent.h"
+#include "rollout/RecurrentState.h"
 
 namespace vln::rollout {
 
-struct ScriptedPolicyAgent::EnvState : RecurrentEnvState {
+struct ScriptedPolicyAgent::EnvState : EpisodeDraws {
+  RecurrentState recurrent;
   std::vector<int64_t> tokens;  // real tokens, capped at the max length
 };
 
@@ -91,8 +93,7 @@ ScriptedPolicyAgent::ScriptedPolicyAgent(const std::filesystem::path& file,
                 "ScriptedPolicyAgent: '", file.string(),
                 "' was exported without its depth encoder (forward takes "
                 "features); export it with the encoders");
-  for (int i = 0; i < numEnvs; ++i)
-    states_.push_back(std::make_unique<EnvState>());
+  states_.resize(static_cast<size_t>(numEnvs));
 }
 
 ScriptedPolicyAgent::~ScriptedPolicyAgent() = default;
@@ -111,17 +112,23 @@ void ScriptedPolicyAgent::reset(int env, const data::Episode& episode) {
     for (int j = 0; j < length; ++j)
       s.tokens.push_back(source[static_cast<size_t>(j)]);
   }
-  s.restart(torch::zeros({config_.numRecurrentLayers(), config_.hidden_size},
-                         torch::TensorOptions(device_).dtype(torch::kFloat32)),
-            seed_, episode);
+  s.recurrent.restart(
+      torch::zeros({config_.numRecurrentLayers(), config_.hidden_size},
+                   torch::TensorOptions(device_).dtype(torch::kFloat32)));
+  s.restart(seed_, episode);
 }
 
 std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
                                                   std::span<const int> active) {
   const auto n = static_cast<int64_t>(active.size());
   if (n == 0) return {};
-  const std::vector<EnvState*> states =
-      activeStates(states_, active, "ScriptedPolicyAgent");
+  checkStarted(states_, active, "ScriptedPolicyAgent");
+  std::vector<EnvState*> states;
+  std::vector<RecurrentState*> recurrent;
+  for (int env : active) {
+    states.push_back(&states_[static_cast<size_t>(env)]);
+    recurrent.push_back(&states.back()->recurrent);
+  }
   torch::NoGradGuard noGrad;
 
   // raw observations; ablated modalities get a placeholder the archive
@@ -147,10 +154,10 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
       tokens[k][static_cast<int64_t>(j)] = row[j];
   }
 
-  const RecurrentInputs recurrent = recurrentInputs(states, device_);
+  const RecurrentInputs inputs = recurrentInputs(recurrent, device_);
   const c10::IValue output =
-      module_.forward({rgb, depth, tokens.to(device_), recurrent.prevActions,
-                       recurrent.notDone, recurrent.hidden});
+      module_.forward({rgb, depth, tokens.to(device_), inputs.prevActions,
+                       inputs.notDone, inputs.hidden});
   const auto tuple = output.toTuple();
   VLN_CHECK_ARG(tuple->elements().size() == 3, "ScriptedPolicyAgent: '",
                 file_.string(), "' forward returned ", tuple->elements().size(),
@@ -167,7 +174,15 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
                 ", ", models::kNumActions, "]");
 
   // the same choice rule as PolicyAgent
-  return chooseAndAdvance(logits, newHidden, states, sample_);
+  std::vector<sim::Action> actions;
+  for (int64_t k = 0; k < n; ++k) {
+    EnvState& s = *states[static_cast<size_t>(k)];
+    const int chosen = chooseRow(logits, k, sample_, s.rng);
+    s.recurrent.advance(newHidden[k]);
+    s.recurrent.prevAction = chosen;
+    actions.push_back(sim::actionFromInt(chosen));
+  }
+  return actions;
 }
 
 }  // namespace vln::rollout

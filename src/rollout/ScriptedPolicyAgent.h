@@ -51,7 +51,7 @@ class ScriptedPolicyAgent : public Agent {
   bool sample_;
   uint64_t seed_;
   int maxInstructionLength_;
-  std::vector<std::unique_ptr<EnvState>> states_;
+  std::vector<EnvState> states_;
 };
 
 /// The ModelConfig stored in an exported archive's `model_config` attribute;

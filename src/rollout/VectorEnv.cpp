@@ -66,7 +66,8 @@ int SceneCache::loads() const {
 
 struct VectorEnv::Env {
   std::unique_ptr<sim::Simulator> simulator;
-  const data::Episode* episode = nullptr;
+  bool started = false;                   ///< reset() at least once
+  const data::Episode* episode = nullptr;  ///< null for a scene and a pose
   sim::Observation observation;
 };
 
@@ -78,7 +79,6 @@ VectorEnv::VectorEnv(int numEnvs, const sim::SimConfig& sim,
       scenes_(std::move(scenes)),
       pool_(std::max(1, std::min(threads, numEnvs))) {
   VLN_CHECK_ARG(numEnvs >= 1, "VectorEnv: numEnvs must be >= 1, got ", numEnvs);
-  VLN_CHECK_ARG(scenes_ != nullptr, "VectorEnv: scene cache is null");
   for (int i = 0; i < numEnvs; ++i) envs_.push_back(std::make_unique<Env>());
 }
 
@@ -93,34 +93,59 @@ void VectorEnv::forEach(std::span<const int> envs,
 }
 
 void VectorEnv::reset(std::span<const int> envs,
-                      std::span<const data::Episode* const> episodes,
-                      bool render) {
-  VLN_CHECK_ARG(envs.size() == episodes.size(),
-                "VectorEnv::reset(): ", envs.size(), " environments for ",
-                episodes.size(), " episodes");
-  for (int env : envs)
-    VLN_CHECK_ARG(env >= 0 && env < size(), "VectorEnv::reset(): environment ",
-                  env, " out of range [0, ", size(), ")");
+                      std::span<const EpisodeStart> starts, bool render) {
+  VLN_CHECK_ARG(envs.size() == starts.size(), "VectorEnv::reset(): ",
+                envs.size(), " environments for ", starts.size(),
+                " episodes");
+  for (size_t k = 0; k < envs.size(); ++k) {
+    VLN_CHECK_ARG(envs[k] >= 0 && envs[k] < size(),
+                  "VectorEnv::reset(): environment ", envs[k],
+                  " out of range [0, ", size(), ")");
+    VLN_CHECK_ARG(starts[k].episode || starts[k].scene,
+                  "VectorEnv::reset(): environment ", envs[k],
+                  " was given neither an episode nor a scene");
+    VLN_CHECK_ARG(!starts[k].episode || scenes_,
+                  "VectorEnv::reset(): episode ",
+                  starts[k].episode->episode_id,
+                  " names its scene by id, but this VectorEnv has no scene "
+                  "cache");
+  }
   pool_.parallelFor(envs.size(), [&](size_t k) {
-    const int env = envs[k];
-    const data::Episode& episode = *episodes[k];
-    Env& e = *envs_[static_cast<size_t>(env)];
-    auto scene = scenes_->get(episode.scene_id);
+    const EpisodeStart& start = starts[k];
+    Env& e = *envs_[static_cast<size_t>(envs[k])];
+    const data::Episode* episode = start.episode;
+    auto scene = episode ? scenes_->get(episode->scene_id) : start.scene;
     if (!e.simulator)
       e.simulator = std::make_unique<sim::Simulator>(scene, sim_, task_);
     else if (e.simulator->scenePtr() != scene)
       e.simulator->setScene(scene);
-    sim::AgentState start{episode.start_position, episode.startHeading()};
-    try {
-      e.simulator->reset(start);
-    } catch (const std::exception& error) {
-      throw std::invalid_argument(
-          "episode " + std::to_string(episode.episode_id) + " (scene " +
-          episode.scene_id + "): start_position: " + error.what());
+    if (episode == nullptr) {
+      e.simulator->reset(start.agent);
+    } else {
+      try {
+        e.simulator->reset(
+            {episode->start_position, episode->startHeading()});
+      } catch (const std::exception& error) {
+        throw std::invalid_argument("episode " +
+                                    std::to_string(episode->episode_id) +
+                                    " (scene " + episode->scene_id +
+                                    "): start_position: " + error.what());
+      }
     }
-    e.episode = &episode;
+    e.episode = episode;
+    e.started = true;
     if (render) e.simulator->observe(e.observation);
   });
+}
+
+void VectorEnv::reset(std::span<const int> envs,
+                      std::span<const data::Episode* const> episodes,
+                      bool render) {
+  std::vector<EpisodeStart> starts;
+  starts.reserve(episodes.size());
+  for (const data::Episode* episode : episodes)
+    starts.push_back(EpisodeStart::of(*episode));
+  reset(envs, starts, render);
 }
 
 std::vector<sim::StepResult> VectorEnv::step(
@@ -135,8 +160,8 @@ std::vector<sim::StepResult> VectorEnv::step(
     VLN_CHECK_ARG(env >= 0 && env < size(), "VectorEnv::step(): environment ",
                   env, " out of range");
     Env& e = *envs_[static_cast<size_t>(env)];
-    VLN_CHECK_ARG(e.simulator && e.episode, "VectorEnv::step(): environment ",
-                  env, " was never reset");
+    VLN_CHECK_ARG(e.started, "VectorEnv::step(): environment ", env,
+                  " was never reset");
     results[k] = e.simulator->step(actions[k]);
     if (render) e.simulator->observe(e.observation);
   });
@@ -166,7 +191,7 @@ const sim::EpisodeState& VectorEnv::state(int env) const {
 const data::Episode& VectorEnv::episode(int env) const {
   const Env& e = *envs_.at(static_cast<size_t>(env));
   VLN_CHECK_ARG(e.episode, "VectorEnv::episode(): environment ", env,
-                " was never reset");
+                e.started ? " runs no dataset episode" : " was never reset");
   return *e.episode;
 }
 

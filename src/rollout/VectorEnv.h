@@ -41,19 +41,41 @@ class SceneCache {
   int loads_ = 0;
 };
 
+/// Where an episode starts: a dataset episode (its scene through the scene
+/// cache, its start pose), or a scene and a pose of the caller's (e.g. a
+/// point-goal pretraining episode).
+struct EpisodeStart {
+  /// Must outlive its use by the environment; null for a scene and pose.
+  const data::Episode* episode = nullptr;
+  std::shared_ptr<const sim::Scene> scene;
+  sim::AgentState agent;
+
+  static EpisodeStart of(const data::Episode& episode) {
+    EpisodeStart start;
+    start.episode = &episode;
+    return start;
+  }
+};
+
 /// A batch of environments. Environment i runs one episode at a time; the
 /// caller decides which environments to reset and step.
 class VectorEnv {
  public:
+  /// `scenes` may be null when every episode names its scene
+  /// (EpisodeStart::scene).
   VectorEnv(int numEnvs, const sim::SimConfig& sim, const sim::TaskConfig& task,
             std::shared_ptr<SceneCache> scenes, int threads);
   ~VectorEnv();
 
   int size() const { return static_cast<int>(envs_.size()); }
 
-  /// Starts episodes[k] in environment envs[k] (start pose from the
-  /// episode) and, when `render`, renders its first observation; in
-  /// parallel. The episodes must outlive their use by the environment.
+  /// Starts starts[k] in environment envs[k] and, when `render`, renders
+  /// its first observation; in parallel (scenes load in parallel too).
+  /// Throws std::invalid_argument naming a dataset episode whose start is
+  /// not on the navmesh.
+  void reset(std::span<const int> envs, std::span<const EpisodeStart> starts,
+             bool render = true);
+  /// reset() of the dataset episodes `episodes`.
   void reset(std::span<const int> envs,
              std::span<const data::Episode* const> episodes,
              bool render = true);
@@ -69,7 +91,8 @@ class VectorEnv {
   const sim::Observation& observation(int env) const;
   /// Episode state (agent pose, steps, done) of environment `env`.
   const sim::EpisodeState& state(int env) const;
-  /// The episode environment `env` is running.
+  /// The dataset episode environment `env` is running (an error when it
+  /// was started from a scene and a pose).
   const data::Episode& episode(int env) const;
   /// The simulator of environment `env` (its scene, navmesh, renderer).
   sim::Simulator& simulator(int env);

@@ -124,15 +124,16 @@ class Collector {
   /// the round).
   CollectionStats collect(
       const CollectionRound& round, FeatureStore& store,
-      models::PolicyImpl* policy, const data::GroundTruth* groundTruth,
+      const std::shared_ptr<models::PolicyImpl>& policy,
+      const data::GroundTruth* groundTruth,
       const std::function<void(int64_t, int64_t)>& progress = {});
 
  private:
   struct Slot;
-  // the encoder's features of `obs` on `device`: one batch, or one row at
-  // a time with trainer.exact_resume
-  models::VisualFeatures encode(const rollout::ObservationBatch& obs,
-                                torch::Device device);
+  class Job;
+  // the encoder's features of `obs` on model.device: one batch, or one row
+  // at a time with trainer.exact_resume
+  models::VisualFeatures encode(const rollout::ObservationBatch& obs);
   ExperimentConfig config_;
   std::shared_ptr<rollout::SceneCache> scenes_;
   models::ObservationEncoder encoder_;

@@ -17,6 +17,7 @@
 #include "models/Policy.h"
 #include "models/StateDict.h"
 #include "sim/Follower.h"
+#include "rollout/EpisodeScheduler.h"
 #include "sim/Simulator.h"
 #include "train/MetricsLog.h"
 #include "train/PretrainCommon.h"
@@ -249,221 +250,188 @@ nlohmann::json metricsJson(const PointNavMetrics& m) {
           {"path_length", m.path_length},   {"steps", m.steps}};
 }
 
-// Steps trainer.num_envs episodes at a time over a list of episodes, on a
-// thread pool (rendering, follower queries and moves run in parallel; the
-// policy runs batched on the calling thread).
-class EpisodeRunner {
+// The point-goal episodes of one rollout on the episode scheduler: who
+// drives, what is recorded, how each episode ended.
+struct RolloutSpec {
+  Driver driver = Driver::kOracle;
+  PointNavPolicyImpl* policy = nullptr;  // needed for kMixed and kPolicy
+  double beta = 0.0;                     // kMixed: the follower's probability
+  uint64_t seed = 0;                     // coins and random actions
+  // with `record`, every step goes to (*record)[k] for episode k; the
+  // recorded bytes plus `bytesBefore` must stay within `byteBudget`
+  std::vector<RecordedEpisode>* record = nullptr;
+  size_t bytesBefore = 0;
+  size_t byteBudget = 0;
+};
+
+class PointGoalJob : public rollout::EpisodeJob {
  public:
-  EpisodeRunner(const ExperimentConfig& config,
-                const std::vector<std::shared_ptr<const sim::Scene>>& scenes,
-                common::ThreadPool& pool, torch::Device device)
-      : config_(config), scenes_(scenes), pool_(pool), device_(device) {
+  PointGoalJob(const ExperimentConfig& config,
+               const std::vector<std::shared_ptr<const sim::Scene>>& scenes,
+               const std::vector<PointGoalEpisode>& episodes,
+               const RolloutSpec& spec, rollout::VectorEnv& envs,
+               torch::Device device, const std::string& label)
+      : config_(config), scenes_(scenes), episodes_(episodes), spec_(spec),
+        envs_(envs), device_(device),
+        // with beta = 1 the policy's actions are never taken: not run
+        usePolicy_(spec.driver == Driver::kPolicy ||
+                   (spec.driver == Driver::kMixed && spec.beta < 1.0)),
+        needOracle_(spec.record != nullptr || spec.driver == Driver::kMixed ||
+                    spec.driver == Driver::kOracle),
+        state_(static_cast<size_t>(envs.size())),
+        outcomes_(episodes.size()),
+        recordedBytes_(spec.bytesBefore),
+        line_(label, static_cast<int64_t>(episodes.size()), "episodes") {
+    VLN_ASSERT(!usePolicy_ || spec.policy != nullptr);
     for (const auto& scene : scenes_)
       followers_.emplace_back(scene->navmesh(), config_.sim.agent,
                               config_.pretrain.success_distance);
-    depthScale_ =
-        config_.sim.depth.normalize_depth ? 1.0f : config_.sim.depth.max_depth;
+    if (usePolicy_) {
+      spec.policy->eval();
+      hidden_ = spec.policy->initialHidden(envs.size());
+    }
+    if (spec.record) spec.record->assign(episodes.size(), RecordedEpisode{});
   }
 
-  // Runs `episodes`; returns their outcomes in order. `policy` is needed
-  // for kMixed and kPolicy. With `record`, every step is recorded into
-  // (*record)[k] for episode k; the recorded bytes plus `bytesBefore` must
-  // stay within `byteBudget`.
-  std::vector<Outcome> run(const std::vector<PointGoalEpisode>& episodes,
-                           Driver driver, PointNavPolicyImpl* policy,
-                           double beta, uint64_t seed,
-                           std::vector<RecordedEpisode>* record,
-                           size_t bytesBefore, size_t byteBudget,
-                           const std::string& label) {
-    // with beta = 1 the policy's actions are never taken, so it is not run
-    const bool usePolicy =
-        driver == Driver::kPolicy || (driver == Driver::kMixed && beta < 1.0);
-    VLN_ASSERT(!usePolicy || policy != nullptr);
-    const bool render = record != nullptr || (usePolicy && policy->usesDepth());
-    const bool needOracle =
-        record != nullptr || driver == Driver::kMixed || driver == Driver::kOracle;
-    const int64_t width = config_.sim.depth.camera.width;
-    const int64_t height = config_.sim.depth.camera.height;
-    const size_t pixels = static_cast<size_t>(width * height);
+  // observations are needed to record frames or feed the depth policy
+  bool renders() const {
+    return spec_.record != nullptr || (usePolicy_ && spec_.policy->usesDepth());
+  }
+  std::vector<Outcome> outcomes() { return std::move(outcomes_); }
 
-    std::vector<Outcome> outcomes(episodes.size());
-    if (record != nullptr) record->assign(episodes.size(), RecordedEpisode{});
-    const size_t envCount = std::min(
-        episodes.size(), static_cast<size_t>(config_.trainer.num_envs));
-    std::vector<Env> envs(envCount);
-    torch::Tensor hidden;
-    if (usePolicy) {
-      policy->eval();
-      hidden = policy->initialHidden(static_cast<int64_t>(envCount));
+  rollout::EpisodeStart startOf(int index) override {
+    const PointGoalEpisode& ep = episodes_[static_cast<size_t>(index)];
+    rollout::EpisodeStart start;
+    start.scene = scenes_[static_cast<size_t>(ep.house)];
+    start.agent = ep.start;
+    return start;
+  }
+
+  void started(const rollout::EnvBatch& batch) override {
+    for (size_t k = 0; k < batch.size(); ++k) {
+      // episode k's coins and random actions are its own: the result does
+      // not depend on which environment runs it
+      Env& env = state_[static_cast<size_t>(batch.envs[k])];
+      env = Env{};
+      env.rng.seed(common::deriveSeed(
+          spec_.seed, static_cast<uint64_t>(batch.episodes[k])));
     }
-    size_t nextEpisode = 0;
-    size_t recordedBytes = bytesBefore;
-    std::vector<int> active;
-    for (size_t e = 0; e < envCount; ++e) {
-      start(envs[e], episodes, nextEpisode++, seed);
-      active.push_back(static_cast<int>(e));
-    }
-    common::ProgressLine line(label, static_cast<int64_t>(episodes.size()),
-                              "episodes");
-    std::vector<sim::Action> actions;
-    while (!active.empty()) {
-      // sensors, the follower's action and the depth frame
-      pool_.parallelFor(active.size(), [&](size_t i) {
-        Env& env = envs[static_cast<size_t>(active[i])];
-        const PointGoalEpisode& ep = episodes[env.episode];
-        const sim::AgentState& agent = env.sim->episode().agent;
-        env.goal = pointGoalObservation(agent, ep.goal);
-        if (needOracle)
-          env.oracle = followers_[static_cast<size_t>(ep.house)].nextAction(
-              agent, ep.goal);
-        if (render) env.sim->observe(env.obs);
-      });
+  }
 
-      // the policy, batched over the active environments
-      std::vector<int64_t> policyActions;
-      if (usePolicy) policyActions = act(*policy, envs, active, hidden, pixels);
+  std::vector<sim::Action> act(const rollout::EnvBatch& running) override {
+    // sensors and the follower's action, in parallel
+    std::vector<size_t> episodeOf(static_cast<size_t>(envs_.size()));
+    for (size_t k = 0; k < running.size(); ++k)
+      episodeOf[static_cast<size_t>(running.envs[k])] =
+          static_cast<size_t>(running.episodes[k]);
+    envs_.forEach(running.envs, [&](int e) {
+      Env& env = state_[static_cast<size_t>(e)];
+      const PointGoalEpisode& ep = episodes_[episodeOf[static_cast<size_t>(e)]];
+      const sim::AgentState& agent = envs_.state(e).agent;
+      env.goal = pointGoalObservation(agent, ep.goal);
+      if (needOracle_)
+        env.oracle = followers_[static_cast<size_t>(ep.house)].nextAction(
+            agent, ep.goal);
+    });
+    std::vector<int64_t> policyActions;
+    if (usePolicy_) policyActions = policyStep(running.envs);
 
-      // pick and record the actions
-      actions.assign(active.size(), sim::Action::kStop);
-      for (size_t i = 0; i < active.size(); ++i) {
-        Env& env = envs[static_cast<size_t>(active[i])];
-        switch (driver) {
-          case Driver::kMixed: {
-            const bool takeOracle = common::uniform01(env.rng) < beta;
-            actions[i] = takeOracle || !usePolicy
-                             ? env.oracle
-                             : sim::actionFromInt(static_cast<int>(policyActions[i]));
-            break;
-          }
-          case Driver::kPolicy:
-            actions[i] = sim::actionFromInt(static_cast<int>(policyActions[i]));
-            break;
-          case Driver::kRandom:
-            actions[i] = env.goal[0] <= config_.pretrain.success_distance
-                             ? sim::Action::kStop
-                             : sim::actionFromInt(1 + common::uniformIndex(env.rng, 3));
-            break;
-          case Driver::kOracle:
-            actions[i] = env.oracle;
-            break;
+    // pick and record the actions
+    std::vector<sim::Action> actions(running.size(), sim::Action::kStop);
+    for (size_t i = 0; i < running.size(); ++i) {
+      Env& env = state_[static_cast<size_t>(running.envs[i])];
+      switch (spec_.driver) {
+        case Driver::kMixed: {
+          const bool takeOracle = common::uniform01(env.rng) < spec_.beta;
+          actions[i] = takeOracle || !usePolicy_
+                           ? env.oracle
+                           : sim::actionFromInt(static_cast<int>(policyActions[i]));
+          break;
         }
-        if (record != nullptr) {
-          RecordedEpisode& rec = (*record)[env.episode];
-          const size_t before = rec.bytes();
-          const size_t offset = rec.depth.size();
-          rec.depth.resize(offset + pixels);
-          for (size_t p = 0; p < pixels; ++p) {
-            const float v = std::clamp(env.obs.depth[p] / depthScale_, 0.0f, 1.0f);
-            rec.depth[offset + p] =
-                static_cast<uint16_t>(std::lround(v * kDepthCodeMax));
-          }
-          rec.goal.insert(rec.goal.end(), env.goal.begin(), env.goal.end());
-          rec.prev.push_back(static_cast<int8_t>(env.prev));
-          rec.label.push_back(static_cast<int8_t>(env.oracle));
-          recordedBytes += rec.bytes() - before;
-        }
+        case Driver::kPolicy:
+          actions[i] = sim::actionFromInt(static_cast<int>(policyActions[i]));
+          break;
+        case Driver::kRandom:
+          actions[i] = env.goal[0] <= config_.pretrain.success_distance
+                           ? sim::Action::kStop
+                           : sim::actionFromInt(1 + common::uniformIndex(env.rng, 3));
+          break;
+        case Driver::kOracle:
+          actions[i] = env.oracle;
+          break;
       }
-      if (record != nullptr) checkBudget(recordedBytes, byteBudget);
-
-      // move
-      pool_.parallelFor(active.size(), [&](size_t i) {
-        Env& env = envs[static_cast<size_t>(active[i])];
-        const sim::StepResult result = env.sim->step(actions[i]);
-        env.path += result.distance;
-        env.prev = static_cast<int>(actions[i]);
-        env.first = false;
-      });
-
-      // finished episodes hand their environment to the next one
-      std::vector<int> still;
-      for (int e : active) {
-        Env& env = envs[static_cast<size_t>(e)];
-        if (!env.sim->episode().done) {
-          still.push_back(e);
-          continue;
-        }
-        outcomes[env.episode] = finish(env, episodes[env.episode]);
-        line.advance();
-        if (nextEpisode < episodes.size()) {
-          start(env, episodes, nextEpisode++, seed);
-          still.push_back(e);
-        }
-      }
-      active = std::move(still);
+      if (spec_.record != nullptr)
+        record((*spec_.record)[static_cast<size_t>(running.episodes[i])], env,
+               envs_.observation(running.envs[i]));
     }
-    return outcomes;
+    if (spec_.record != nullptr) checkBudget();
+    return actions;
+  }
+
+  void stepped(const rollout::EnvBatch& running,
+               std::span<const sim::Action> actions,
+               std::span<const sim::StepResult> results) override {
+    for (size_t i = 0; i < running.size(); ++i) {
+      Env& env = state_[static_cast<size_t>(running.envs[i])];
+      env.path += results[i].distance;
+      env.prev = static_cast<int>(actions[i]);
+      env.first = false;
+    }
+  }
+
+  void finished(const rollout::EnvBatch& ended) override {
+    for (size_t k = 0; k < ended.size(); ++k) {
+      const auto index = static_cast<size_t>(ended.episodes[k]);
+      const PointGoalEpisode& ep = episodes_[index];
+      const sim::EpisodeState& state = envs_.state(ended.envs[k]);
+      Outcome& o = outcomes_[index];
+      o.distance = scenes_[static_cast<size_t>(ep.house)]->navmesh().geodesicDistance(
+          state.agent.position, ep.goal);
+      o.success = state.called_stop && o.distance <= config_.pretrain.success_distance;
+      o.path = state_[static_cast<size_t>(ended.envs[k])].path;
+      o.steps = state.steps;
+      const double d0 = ep.geodesic_distance;
+      o.spl = o.success ? d0 / std::max(d0, o.path) : 0.0;
+      line_.advance();
+    }
   }
 
  private:
   struct Env {
-    std::unique_ptr<sim::Simulator> sim;
-    int house = -1;
-    size_t episode = 0;
     std::mt19937_64 rng;
     int prev = 0;
     bool first = true;
     double path = 0.0;
     std::array<float, 3> goal{};
     sim::Action oracle = sim::Action::kStop;
-    sim::Observation obs;
   };
 
-  void start(Env& env, const std::vector<PointGoalEpisode>& episodes,
-             size_t index, uint64_t seed) {
-    const PointGoalEpisode& ep = episodes[index];
-    const auto& scene = scenes_[static_cast<size_t>(ep.house)];
-    if (!env.sim) {
-      env.sim = std::make_unique<sim::Simulator>(scene, config_.sim, config_.task);
-    } else if (env.house != ep.house) {
-      env.sim->setScene(scene);
-    }
-    env.house = ep.house;
-    env.episode = index;
-    env.sim->reset(ep.start);
-    // episode k's coins and random actions are its own: the result does
-    // not depend on which environment runs it
-    env.rng.seed(common::deriveSeed(seed, static_cast<uint64_t>(index)));
-    env.prev = 0;
-    env.first = true;
-    env.path = 0.0;
-  }
-
-  Outcome finish(const Env& env, const PointGoalEpisode& ep) const {
-    const sim::EpisodeState& state = env.sim->episode();
-    Outcome o;
-    o.distance = scenes_[static_cast<size_t>(ep.house)]->navmesh().geodesicDistance(
-        state.agent.position, ep.goal);
-    o.success = state.called_stop && o.distance <= config_.pretrain.success_distance;
-    o.path = env.path;
-    o.steps = state.steps;
-    const double d0 = ep.geodesic_distance;
-    o.spl = o.success ? d0 / std::max(d0, o.path) : 0.0;
-    return o;
-  }
-
-  // argmax actions of `policy` for the active environments, one step
-  std::vector<int64_t> act(PointNavPolicyImpl& policy, std::vector<Env>& envs,
-                           const std::vector<int>& active, torch::Tensor& hidden,
-                           size_t pixels) {
+  // one step of the policy for `active`; returns its argmax actions
+  std::vector<int64_t> policyStep(const std::vector<int>& active) {
     torch::NoGradGuard noGrad;
+    PointNavPolicyImpl& policy = *spec_.policy;
     const int64_t n = static_cast<int64_t>(active.size());
     const int64_t width = config_.sim.depth.camera.width;
     const int64_t height = config_.sim.depth.camera.height;
+    const auto pixels = static_cast<size_t>(width * height);
     std::vector<float> goal(static_cast<size_t>(n) * kPointGoalDims);
     std::vector<int64_t> prev(static_cast<size_t>(n)), rows(static_cast<size_t>(n));
     std::vector<float> notDone(static_cast<size_t>(n));
     torch::Tensor depth;
     if (policy.usesDepth()) depth = torch::empty({n, height, width, 1});
     for (int64_t i = 0; i < n; ++i) {
-      const Env& env = envs[static_cast<size_t>(active[static_cast<size_t>(i)])];
+      const int e = active[static_cast<size_t>(i)];
+      const Env& env = state_[static_cast<size_t>(e)];
       std::copy(env.goal.begin(), env.goal.end(),
                 goal.begin() + i * kPointGoalDims);
       prev[static_cast<size_t>(i)] = env.prev;
       notDone[static_cast<size_t>(i)] = env.first ? 0.0f : 1.0f;
-      rows[static_cast<size_t>(i)] = active[static_cast<size_t>(i)];
-      if (depth.defined())
-        std::copy(env.obs.depth.begin(), env.obs.depth.begin() + pixels,
+      rows[static_cast<size_t>(i)] = e;
+      if (depth.defined()) {
+        const std::vector<float>& frame = envs_.observation(e).depth;
+        std::copy(frame.begin(), frame.begin() + static_cast<std::ptrdiff_t>(pixels),
                   depth.data_ptr<float>() + i * static_cast<int64_t>(pixels));
+      }
     }
     PointNavInputs inputs;
     if (depth.defined()) {
@@ -475,26 +443,70 @@ class EpisodeRunner {
     inputs.not_done = torch::from_blob(notDone.data(), {1, n}).to(device_);
     const torch::Tensor rowIndex =
         torch::from_blob(rows.data(), {n}, torch::kLong).to(device_);
-    auto [logits, next] = policy.forward(inputs, hidden.index_select(0, rowIndex));
-    hidden.index_copy_(0, rowIndex, next);
+    auto [logits, next] = policy.forward(inputs, hidden_.index_select(0, rowIndex));
+    hidden_.index_copy_(0, rowIndex, next);
     const torch::Tensor best = logits[0].argmax(-1).to(torch::kCPU).contiguous();
     return std::vector<int64_t>(best.data_ptr<int64_t>(), best.data_ptr<int64_t>() + n);
   }
 
-  void checkBudget(size_t bytes, size_t budget) const {
-    VLN_CHECK_IO(bytes <= budget, "depth_pointnav: the aggregated DAgger frames need more than "
-                 "pretrain.max_memory_gib = ", config_.pretrain.max_memory_gib,
+  // appends one step (depth as uint16 codes of the sensor range)
+  void record(RecordedEpisode& rec, const Env& env, const sim::Observation& obs) {
+    const float depthScale =
+        config_.sim.depth.normalize_depth ? 1.0f : config_.sim.depth.max_depth;
+    const size_t pixels = static_cast<size_t>(config_.sim.depth.camera.width *
+                                              config_.sim.depth.camera.height);
+    const size_t before = rec.bytes();
+    const size_t offset = rec.depth.size();
+    rec.depth.resize(offset + pixels);
+    for (size_t p = 0; p < pixels; ++p) {
+      const float v = std::clamp(obs.depth[p] / depthScale, 0.0f, 1.0f);
+      rec.depth[offset + p] = static_cast<uint16_t>(std::lround(v * kDepthCodeMax));
+    }
+    rec.goal.insert(rec.goal.end(), env.goal.begin(), env.goal.end());
+    rec.prev.push_back(static_cast<int8_t>(env.prev));
+    rec.label.push_back(static_cast<int8_t>(env.oracle));
+    recordedBytes_ += rec.bytes() - before;
+  }
+
+  void checkBudget() const {
+    VLN_CHECK_IO(recordedBytes_ <= spec_.byteBudget, "depth_pointnav: the aggregated DAgger "
+                 "frames need more than pretrain.max_memory_gib = ",
+                 config_.pretrain.max_memory_gib,
                  " GiB; lower pretrain.samples, pretrain.iterations or "
                  "task.max_episode_steps, or raise pretrain.max_memory_gib");
   }
 
   const ExperimentConfig& config_;
   const std::vector<std::shared_ptr<const sim::Scene>>& scenes_;
-  common::ThreadPool& pool_;
+  const std::vector<PointGoalEpisode>& episodes_;
+  const RolloutSpec& spec_;
+  rollout::VectorEnv& envs_;
   torch::Device device_;
-  std::vector<sim::ShortestPathFollower> followers_;
-  float depthScale_ = 1.0f;
+  bool usePolicy_, needOracle_;
+  std::vector<sim::ShortestPathFollower> followers_;  // per house
+  std::vector<Env> state_;                            // per environment
+  torch::Tensor hidden_;                              // [environments, H]
+  std::vector<Outcome> outcomes_;
+  size_t recordedBytes_;
+  common::ProgressLine line_;
 };
+
+// Runs `episodes` in `scenes` with trainer.num_envs environments on
+// trainer.env_threads threads; returns their outcomes in order.
+std::vector<Outcome> runPointGoalEpisodes(
+    const ExperimentConfig& config,
+    const std::vector<std::shared_ptr<const sim::Scene>>& scenes,
+    const std::vector<PointGoalEpisode>& episodes, const RolloutSpec& spec,
+    torch::Device device, const std::string& label) {
+  const int numEnvs = std::max(
+      1, std::min(static_cast<int>(episodes.size()), config.trainer.num_envs));
+  rollout::VectorEnv envs(numEnvs, config.sim, config.task, nullptr,
+                          config.trainer.env_threads);
+  PointGoalJob job(config, scenes, episodes, spec, envs, device, label);
+  rollout::runEpisodes(envs, static_cast<int>(episodes.size()), job,
+                       job.renders());
+  return job.outcomes();
+}
 
 // ===========================================================================
 // training batches
@@ -617,13 +629,19 @@ struct PointNavPretrainer::Impl : PretrainRun {
     const std::vector<PointGoalEpisode> episodes = samplePointGoalEpisodes(
         houses.train, p.samples, p.min_goal_distance, p.max_goal_distance,
         common::deriveSeed(seed, kTrainEpisodeStream + static_cast<uint64_t>(iteration)));
-    EpisodeRunner runner(config, houses.train, *pool, device);
     std::vector<RecordedEpisode> recorded;
+    RolloutSpec spec;
+    spec.driver = Driver::kMixed;
+    spec.policy = depthLearner.policy.get();
+    spec.beta = beta;
+    spec.seed = common::deriveSeed(seed, kCoinStream + static_cast<uint64_t>(iteration));
+    spec.record = &recorded;
+    spec.bytesBefore = aggregateBytes;
+    spec.byteBudget = byteBudget();
     common::Stopwatch clock;
-    const std::vector<Outcome> outcomes = runner.run(
-        episodes, Driver::kMixed, depthLearner.policy.get(), beta,
-        common::deriveSeed(seed, kCoinStream + static_cast<uint64_t>(iteration)), &recorded,
-        aggregateBytes, byteBudget(), "collect iteration " + std::to_string(iteration));
+    const std::vector<Outcome> outcomes = runPointGoalEpisodes(
+        config, houses.train, episodes, spec, device,
+        "collect iteration " + std::to_string(iteration));
     const double seconds = clock.seconds();
     int64_t frames = 0;
     for (RecordedEpisode& e : recorded) {
@@ -733,11 +751,12 @@ struct PointNavPretrainer::Impl : PretrainRun {
 
   PointNavMetrics evaluate(const std::vector<PointGoalEpisode>& episodes, Driver driver,
                            PointNavPolicyImpl* policy, const std::string& name) {
-    EpisodeRunner runner(config, houses.heldout, *pool, device);
-    const std::vector<Outcome> outcomes = runner.run(
-        episodes, driver, policy, /*beta=*/0.0,
-        common::deriveSeed(static_cast<uint64_t>(config.trainer.seed), kEvalCoinStream), nullptr,
-        0, 0, "evaluate " + name);
+    RolloutSpec spec;
+    spec.driver = driver;
+    spec.policy = policy;
+    spec.seed = common::deriveSeed(static_cast<uint64_t>(config.trainer.seed), kEvalCoinStream);
+    const std::vector<Outcome> outcomes =
+        runPointGoalEpisodes(config, houses.heldout, episodes, spec, device, "evaluate " + name);
     const PointNavMetrics m = summarise(outcomes);
     spdlog::info("held-out {}: {} episodes, success {:.3f}, SPL {:.3f}, distance to goal {:.2f} m, "
                  "path {:.2f} m, {:.1f} steps",

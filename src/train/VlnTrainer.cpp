@@ -504,7 +504,7 @@ struct VlnTrainer::Impl {
     if (!collector)
       collector = std::make_unique<Collector>(config, scenes, encoder);
     CollectionStats stats = collector->collect(
-        round, *store, round.beta < 1.0 ? policy.get() : nullptr,
+        round, *store, round.beta < 1.0 ? policy : nullptr,
         round.beta >= 1.0 ? train.groundTruth.get() : nullptr);
     if (dist) {
       // every shard is complete before anyone trains; the record covers

@@ -126,12 +126,12 @@ TwoCollections collectTwice(bool exactResume) {
 
   vln::test::TempDir dir;
   FeatureStore a(dir / "a", layoutOf(c2), 0.25);
-  Collector(c2, scenes, encoder).collect(round, a, policy.get(), nullptr);
+  Collector(c2, scenes, encoder).collect(round, a, policy, nullptr);
   FeatureStore b(dir / "b", layoutOf(c3), 0.25);
   {
     FeatureStore scratch(dir / "scratch", layoutOf(c3), 0.25);
     Collector(c3, scenes, encoder)
-        .collect(round, scratch, policy.get(), nullptr);
+        .collect(round, scratch, policy, nullptr);
     for (int64_t i = 0; i < scratch.size(); ++i) {
       const StoredEpisode e = scratch.read(i);
       if (e.key.slot == 1 || e.key.slot == 4) b.append(e);
@@ -139,7 +139,7 @@ TwoCollections collectTwice(bool exactResume) {
   }
   EXPECT_EQ(b.size(), 2);
   const CollectionStats resumed =
-      Collector(c3, scenes, encoder).collect(round, b, policy.get(), nullptr);
+      Collector(c3, scenes, encoder).collect(round, b, policy, nullptr);
   EXPECT_EQ(resumed.skipped, 2);
   EXPECT_EQ(resumed.episodes, 4);
   EXPECT_EQ(b.slots(2), (std::set<int32_t>{0, 1, 2, 3, 4, 5}));

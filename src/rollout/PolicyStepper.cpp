@@ -1,0 +1,149 @@
+#include "rollout/PolicyStepper.h"
+
+#include <torch/torch.h>
+
+#include "common/Check.h"
+#include "rollout/ObservationBatch.h"
+#include "rollout/PolicyAgent.h"
+
+namespace vln::rollout {
+
+RecurrentInputs recurrentInputs(std::span<RecurrentState* const> states,
+                                c10::Device device) {
+  std::vector<torch::Tensor> hidden;
+  std::vector<int64_t> prev;
+  std::vector<float> notDone;
+  for (const RecurrentState* s : states) {
+    hidden.push_back(s->hidden);
+    prev.push_back(s->prevAction);
+    notDone.push_back(s->first ? 0.0f : 1.0f);
+  }
+  return {torch::stack(hidden), torch::tensor(prev, torch::kInt64).to(device),
+          torch::tensor(notDone, torch::kFloat32).to(device)};
+}
+
+struct PolicyStepper::EnvState {
+  const data::Episode* episode = nullptr;
+  RecurrentState recurrent;
+  models::EncodedInstruction instruction;  ///< one row (not kJoint)
+};
+
+namespace {
+
+// the device of the policy's parameters (config.device when it has none)
+torch::Device policyDevice(const models::PolicyImpl& policy) {
+  const auto parameters = policy.parameters();
+  if (!parameters.empty()) return parameters.front().device();
+  return models::modelDevice(policy.config());
+}
+
+// rows `k` of defined feature tensors
+models::VisualFeatures featureRow(const models::VisualFeatures& features,
+                                  int64_t k) {
+  models::VisualFeatures row;
+  if (features.rgb.defined()) row.rgb = features.rgb.slice(0, k, k + 1);
+  if (features.depth.defined()) row.depth = features.depth.slice(0, k, k + 1);
+  return row;
+}
+
+}  // namespace
+
+PolicyStepper::PolicyStepper(std::shared_ptr<models::PolicyImpl> policy,
+                             int numEnvs, int maxInstructionLength,
+                             InstructionBatching batching)
+    : policy_(std::move(policy)),
+      maxInstructionLength_(maxInstructionLength),
+      batching_(batching),
+      device_(torch::kCPU) {
+  VLN_CHECK_ARG(policy_ != nullptr, "PolicyStepper: the policy is null");
+  VLN_CHECK_ARG(numEnvs >= 1, "PolicyStepper: numEnvs must be >= 1, got ",
+                numEnvs);
+  VLN_CHECK_ARG(maxInstructionLength >= 1,
+                "PolicyStepper: dataset.max_instruction_length must be >= 1, "
+                "got ", maxInstructionLength);
+  device_ = policyDevice(*policy_);
+  for (int i = 0; i < numEnvs; ++i)
+    states_.push_back(std::make_unique<EnvState>());
+}
+
+PolicyStepper::~PolicyStepper() = default;
+
+void PolicyStepper::start(int env, const data::Episode& episode) {
+  VLN_CHECK_ARG(env >= 0 && env < static_cast<int>(states_.size()),
+                "PolicyStepper::start(): environment ", env,
+                " out of range [0, ", states_.size(), ")");
+  EnvState& s = *states_[static_cast<size_t>(env)];
+  torch::NoGradGuard noGrad;
+  s.episode = &episode;
+  // alone, so that the encoding never depends on the batch
+  s.instruction = {};
+  if (batching_ != InstructionBatching::kJoint &&
+      policy_->config().usesInstruction()) {
+    const data::Episode* one[] = {&episode};
+    s.instruction = policy_->encodeInstruction(
+        batchInstructions(one, maxInstructionLength_).to(device_));
+  }
+  s.recurrent.restart(policy_->initialHidden(1)[0]);
+}
+
+torch::Tensor PolicyStepper::step(std::span<const int> envs,
+                                  const models::VisualFeatures& features) {
+  for (int env : envs)
+    VLN_CHECK_ARG(env >= 0 && env < static_cast<int>(states_.size()) &&
+                      states_[static_cast<size_t>(env)]->episode,
+                  "PolicyStepper::step(): environment ", env,
+                  " was never started");
+  torch::NoGradGuard noGrad;
+  if (batching_ != InstructionBatching::kOneByOne)
+    return stepTogether(envs, features);
+  // one environment at a time: the same numbers whatever runs beside it
+  std::vector<torch::Tensor> logits;
+  for (size_t k = 0; k < envs.size(); ++k)
+    logits.push_back(stepTogether(envs.subspan(k, 1),
+                                  featureRow(features, static_cast<int64_t>(k))));
+  return torch::cat(logits);
+}
+
+torch::Tensor PolicyStepper::stepTogether(
+    std::span<const int> envs, const models::VisualFeatures& features) {
+  std::vector<RecurrentState*> recurrent;
+  std::vector<const models::EncodedInstruction*> rows;
+  std::vector<const data::Episode*> episodes;
+  for (int env : envs) {
+    EnvState& s = *states_[static_cast<size_t>(env)];
+    recurrent.push_back(&s.recurrent);
+    rows.push_back(&s.instruction);
+    episodes.push_back(s.episode);
+  }
+  models::EncodedInstruction instruction;
+  if (batching_ == InstructionBatching::kJoint) {
+    if (episodes != jointFor_) {
+      joint_ = policy_->encodeInstruction(
+          batchInstructions(episodes, maxInstructionLength_).to(device_));
+      jointFor_ = episodes;
+    }
+    instruction = joint_;
+  } else if (policy_->config().usesInstruction()) {
+    instruction = stackInstructions(rows);
+  }
+  const RecurrentInputs inputs = recurrentInputs(recurrent, device_);
+  models::PolicyInputs step;
+  step.rgb = features.rgb;
+  step.depth = features.depth;
+  step.prev_actions = inputs.prevActions;
+  step.not_done = inputs.notDone;
+  const models::PolicyOutputs out =
+      policy_->step(instruction, step, inputs.hidden);
+  for (size_t k = 0; k < recurrent.size(); ++k)
+    recurrent[k]->advance(out.hidden[static_cast<int64_t>(k)]);
+  return out.logits;
+}
+
+void PolicyStepper::took(int env, int64_t action) {
+  VLN_CHECK_ARG(env >= 0 && env < static_cast<int>(states_.size()),
+                "PolicyStepper::took(): environment ", env,
+                " out of range [0, ", states_.size(), ")");
+  states_[static_cast<size_t>(env)]->recurrent.prevAction = action;
+}
+
+}  // namespace vln::rollout
