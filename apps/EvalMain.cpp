@@ -8,41 +8,7 @@
 
 #include "common/App.h"
 #include "eval/EvalCommands.h"
-#include "train/Checkpoint.h"
 #include "train/ExperimentConfig.h"
-
-namespace {
-
-// the sections of the run config that evaluation reads
-vln::eval::EvalSettings evalSettings(const vln::train::ExperimentConfig& config) {
-  vln::eval::EvalSettings s;
-  s.sim = config.sim;
-  s.task = config.task;
-  s.dataset = config.dataset;
-  s.model = config.model;
-  s.eval = config.eval;
-  s.torch_threads = config.trainer.torch_threads;
-  s.seed = config.trainer.seed;
-  s.output_dir = config.output.dir;
-  return s;
-}
-
-// checkpoints are this project's training checkpoints (train/Checkpoint.h)
-vln::eval::CheckpointReader checkpointReader() {
-  vln::eval::CheckpointReader reader;
-  reader.list = [](const std::filesystem::path& dir) {
-    return vln::train::listCheckpoints(dir);
-  };
-  reader.index = [](const std::filesystem::path& file) {
-    return vln::train::checkpointIndex(file);
-  };
-  reader.policy = [](const std::filesystem::path& file) {
-    return vln::train::loadCheckpoint(file).policy;
-  };
-  return reader;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   // OpenMP threads that busy-wait between LibTorch ops take the cores from
@@ -100,7 +66,6 @@ int main(int argc, char** argv) {
     if (*videosOption) options.videos = videos;
     if (*indexOption) options.index = index;
     const auto experiment = vln::train::loadExperimentConfig(config, overrides);
-    return vln::eval::runEvalCommand(options, evalSettings(experiment), checkpointReader(),
-                                     std::cout);
+    return vln::eval::runEvalCommand(options, experiment, std::cout);
   });
 }

@@ -15,6 +15,7 @@
 #include "common/Progress.h"
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
+#include "data/Split.h"
 #include "data/NavGraph.h"
 #include "data/NodeTransfer.h"
 #include "data/WorldConfig.h"
@@ -27,6 +28,7 @@
 #include "rollout/PolicyAgent.h"
 #include "rollout/ScriptedPolicyAgent.h"
 #include "rollout/VectorEnv.h"
+#include "train/Checkpoint.h"
 
 namespace vln::eval {
 namespace fs = std::filesystem;
@@ -36,29 +38,13 @@ namespace {
 // ---------------------------------------------------------------------------
 // inputs
 
-// one split's episodes (capped) and its ground truth when the file exists
-struct SplitData {
-  std::string name;
-  std::vector<data::Episode> episodes;
-  std::unique_ptr<data::GroundTruth> groundTruth;
-  bool hasGoals = false;  // any episode can be scored
-};
-
-SplitData loadSplit(const EvalSettings& settings, const std::string& name,
-                    int cap) {
-  SplitData split;
-  split.name = name;
-  const fs::path root = settings.dataset.data_path;
-  split.episodes = data::readEpisodes(data::splitEpisodesPath(root, name)).episodes;
-  data::keepEvenlySpaced(split.episodes, cap);
+// one split's episodes (capped) and, with goals, its ground truth
+data::Split loadSplit(const train::ExperimentConfig& config,
+                      const std::string& name, int cap) {
+  const fs::path root = config.dataset.data_path;
+  data::Split split = data::loadSplit(root, name, cap);
   VLN_CHECK_ARG(!split.episodes.empty(), "eval: split '", name, "' under '",
                 root.string(), "' has no episodes");
-  for (const auto& e : split.episodes)
-    if (!e.goals.empty()) split.hasGoals = true;
-  const fs::path gt = data::splitGroundTruthPath(root, name);
-  if (split.hasGoals && fs::exists(gt))
-    split.groundTruth =
-        std::make_unique<data::GroundTruth>(data::readGroundTruth(gt));
   return split;
 }
 
@@ -71,29 +57,29 @@ struct Candidate {
   std::string baseline;    // set for baselines
 };
 
-std::unique_ptr<rollout::Agent> policyAgent(const EvalSettings& settings,
-                                            const models::NamedTensors& weights,
-                                            const std::string& source) {
+std::unique_ptr<rollout::Agent> policyAgent(
+    const train::ExperimentConfig& config, const fs::path& checkpoint) {
+  const models::NamedTensors weights = train::loadCheckpoint(checkpoint).policy;
   // the trainer's construction order under its seed, so that encoders
   // without weight files get the initialisation the policy was trained with
-  torch::manual_seed(static_cast<uint64_t>(settings.seed));
-  auto policy = models::makePolicy(settings.model);
-  models::ObservationEncoder encoder(settings.model);
+  torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
+  auto policy = models::makePolicy(config.model);
+  models::ObservationEncoder encoder(config.model);
   encoder->loadPretrained();
-  models::loadStateStrict(*policy, weights, source);
-  const torch::Device device = models::modelDevice(settings.model);
+  models::loadStateStrict(*policy, weights, checkpoint.string());
+  const torch::Device device = models::modelDevice(config.model);
   policy->to(device);
   encoder->to(device);
   return std::make_unique<rollout::PolicyAgent>(
-      policy, encoder, settings.eval.num_envs, settings.eval.sample_actions,
-      static_cast<uint64_t>(settings.eval.seed),
-      settings.dataset.max_instruction_length);
+      policy, encoder, config.eval.num_envs, config.eval.sample_actions,
+      static_cast<uint64_t>(config.eval.seed),
+      config.dataset.max_instruction_length);
 }
 
 std::unique_ptr<rollout::Agent> makeAgent(
-    const Candidate& candidate, const EvalSettings& settings,
-    const CheckpointReader& reader, const BaselineStatistics* baselineStats) {
-  const rollout::EvalConfig& ec = settings.eval;
+    const Candidate& candidate, const train::ExperimentConfig& config,
+    const BaselineStatistics* baselineStats) {
+  const rollout::EvalConfig& ec = config.eval;
   if (!candidate.baseline.empty()) {
     VLN_ASSERT(baselineStats != nullptr);
     return std::make_unique<BaselineAgentAdapter>(
@@ -103,11 +89,9 @@ std::unique_ptr<rollout::Agent> makeAgent(
   if (!candidate.scripted.empty())
     return std::make_unique<rollout::ScriptedPolicyAgent>(
         candidate.scripted, ec.num_envs, ec.sample_actions,
-        static_cast<uint64_t>(ec.seed), settings.dataset.max_instruction_length,
-        settings.model.device);
-  VLN_CHECK_ARG(reader.policy, "eval: no checkpoint reader was given");
-  return policyAgent(settings, reader.policy(candidate.checkpoint),
-                     candidate.checkpoint.string());
+        static_cast<uint64_t>(ec.seed), config.dataset.max_instruction_length,
+        config.model.device);
+  return policyAgent(config, candidate.checkpoint);
 }
 
 // ---------------------------------------------------------------------------
@@ -140,7 +124,7 @@ class NavGraphs {
 };
 
 struct SplitContext {
-  const EvalSettings& settings;
+  const train::ExperimentConfig& config;
   const EvalCommandOptions& options;
   std::shared_ptr<rollout::SceneCache> scenes;
   fs::path outDir;
@@ -148,65 +132,36 @@ struct SplitContext {
 };
 
 SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
-                          const SplitData& split, const SplitContext& ctx) {
-  const EvalSettings& s = ctx.settings;
-  SplitReport report;
-  report.checkpoint = candidate.index;
-  report.split = split.name;
-  report.episodes = static_cast<int>(split.episodes.size());
+                          const data::Split& split, const SplitContext& ctx) {
+  const train::ExperimentConfig& c = ctx.config;
 
   // pictures of the first episodes, when asked for
   PicturesConfig pictures;
   pictures.dir = ctx.outDir / "pictures";
   pictures.prefix =
       "ckpt_" + std::to_string(candidate.index) + "_" + split.name + "_";
-  pictures.map_episodes = ctx.options.maps.value_or(s.eval.map_episodes);
-  pictures.video_episodes = ctx.options.videos.value_or(s.eval.video_episodes);
+  pictures.map_episodes = ctx.options.maps.value_or(c.eval.map_episodes);
+  pictures.video_episodes = ctx.options.videos.value_or(c.eval.video_episodes);
   pictures.video_format = ctx.options.video_format;
-  pictures.success_distance = s.task.success_distance;
+  pictures.success_distance = c.task.success_distance;
   std::unique_ptr<EpisodePictures> observer;
   if (pictures.map_episodes > 0 || pictures.video_episodes > 0)
     observer = std::make_unique<EpisodePictures>(pictures);
 
-  // the rollouts
-  rollout::VectorEnv envs(s.eval.num_envs, s.sim, s.task, ctx.scenes,
-                          s.eval.threads);
-  common::ProgressLine line(
-      "evaluate " + candidate.label + " " + split.name,
-      static_cast<int64_t>(split.episodes.size()), "episodes");
-  common::Stopwatch clock;
-  const rollout::EvaluationResult result = rollout::evaluateEpisodes(
-      agent, envs, split.episodes, split.groundTruth.get(), s.eval,
-      [&](int, int) { line.advance(); }, observer.get());
-  report.seconds = clock.seconds();
-  for (const auto& e : result.episodes) report.steps += e.record.steps_taken;
-
-  // files: stats over the scored episodes, the per-episode file, the
-  // leaderboard predictions of the unscored ones
-  std::vector<rollout::EpisodeRecord> unscored;
-  for (size_t i = 0; i < result.episodes.size(); ++i)
-    if (!result.scored[i]) unscored.push_back(result.episodes[i].record);
-  report.scored = result.stats.num_episodes > 0;
-  report.stats = result.stats;
-  if (report.scored)
-    report.files.push_back(rollout::writeStatsFile(ctx.outDir, candidate.index,
-                                                   split.name, result.stats));
-  if (s.eval.save_episodes) {
-    const fs::path file =
-        ctx.outDir / rollout::episodesFileName(candidate.index, split.name);
-    rollout::writeEpisodesFile(file, result.episodes);
-    report.files.push_back(file);
-  }
-  if (!unscored.empty()) {
-    const fs::path file =
-        ctx.outDir / predictionsFileName(candidate.index, split.name);
-    rollout::writeLeaderboardFile(file, unscored);
-    report.files.push_back(file);
-  }
+  rollout::SplitEvaluationOptions options;
+  options.checkpoint = candidate.index;
+  options.label = candidate.label;
+  options.out_dir = ctx.outDir;
+  options.save_episodes = c.eval.save_episodes;
+  options.observer = observer.get();
+  SplitReport report;
+  static_cast<rollout::SplitEvaluation&>(report) = rollout::evaluateSplit(
+      agent, split, ctx.scenes, c.sim, c.task, c.eval, options);
 
   // the nav-graph comparison (Table 3) of the scored episodes; the R2R
   // viewpoints on the floor are the episode's reference path (ground-truth
   // locations stop short of the last viewpoint)
+  const rollout::EvaluationResult& result = report.result;
   if (ctx.navgraphs != nullptr && report.scored) {
     std::vector<GraphEpisodeMetrics> graphMetrics;
     for (size_t i = 0; i < result.episodes.size(); ++i) {
@@ -231,16 +186,6 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   return report;
 }
 
-// "TL 7.12 NE 8.01 nDTW 0.412 OS 0.300 SR 0.250 SPL 0.231"
-std::string metricsText(const rollout::EpisodeMetrics& m) {
-  char text[160];
-  std::snprintf(text, sizeof(text),
-                "TL %.2f NE %.2f nDTW %.3f OS %.3f SR %.3f SPL %.3f",
-                m.path_length, m.distance_to_goal, m.ndtw, m.oracle_success,
-                m.success, m.spl);
-  return text;
-}
-
 std::string graphText(const GraphSplitStats& g) {
   char text[160];
   std::snprintf(text, sizeof(text),
@@ -256,70 +201,21 @@ std::string graphText(const GraphSplitStats& g) {
 // ---------------------------------------------------------------------------
 // public
 
-data::NavGraph floorNavGraph(const data::NavGraph& graph,
-                             const sim::NavMesh& navmesh) {
-  const std::vector<data::NodeTransferResult> transferred =
-      data::transferGraph(graph, navmesh, data::TransferConfig{});
-  data::NavGraph floor;
-  for (int i = 0; i < graph.numNodes(); ++i) {
-    const auto& t = transferred[static_cast<size_t>(i)];
-    floor.addNode(graph.node(i).id, t.valid ? t.waypoint : graph.node(i).position);
-  }
-  for (const auto& [a, b] : graph.edges())
-    floor.addEdge(graph.node(a).id, graph.node(b).id);
-  return floor;
-}
-
-GraphEpisodeMetrics scoreOnNavGraph(const data::NavGraph& graph,
-                                    const data::NavGraph& floorGraph,
-                                    std::span<const Vec3f> positions,
-                                    std::span<const Vec3f> referencePath,
-                                    std::string_view episodeId) {
-  VLN_CHECK_ARG(graph.numNodes() == floorGraph.numNodes(),
-                "scoreOnNavGraph(): episode ", episodeId, ": the floor graph has ",
-                floorGraph.numNodes(), " nodes, the graph ", graph.numNodes());
-  // matching on the floor, where the agent and the reference path are
-  const EpisodeNodes nodes = episodeNodes(floorGraph, referencePath, episodeId);
-  const std::vector<int> path = snapPathToGraph(floorGraph, nodes.start, positions);
-  // scoring on the viewpoints themselves (node indices are shared)
-  return scoreGraphPath(graph, path, nodes.goal);
-}
-
-std::string predictionsFileName(int checkpoint, std::string_view split) {
-  return "predictions_ckpt_" + std::to_string(checkpoint) + "_" +
-         std::string(split) + ".json";
-}
-
 std::string summaryLine(const SplitReport& report) {
-  std::string line =
-      "ckpt " + std::to_string(report.checkpoint) + " " + report.split + ": ";
-  if (report.skipped)
-    return line + "skipped (already evaluated): " + metricsText(report.stats.mean);
-  char head[200];
-  const double seconds = std::max(report.seconds, 1e-9);
-  std::snprintf(head, sizeof(head),
-                "%d episodes, %lld steps in %.1f s (%.2f episodes/s, %.0f "
-                "steps/s): ",
-                report.episodes, static_cast<long long>(report.steps),
-                report.seconds, report.episodes / seconds,
-                static_cast<double>(report.steps) / seconds);
-  line += head;
-  if (!report.scored) return line + "no goals (leaderboard predictions written)";
-  line += metricsText(report.stats.mean);
+  std::string line = rollout::summaryLine(report);
   if (report.graph) line += " | nav-graph " + graphText(*report.graph);
   return line;
 }
 
 EvalCommandResult runEvaluation(const EvalCommandOptions& options,
-                                const EvalSettings& settings,
-                                const CheckpointReader& reader,
+                                const train::ExperimentConfig& settings,
                                 std::ostream& out) {
   // threads before any model is built
-  common::setBlasThreadsEnv(settings.torch_threads);
-  torch::set_num_threads(settings.torch_threads);
+  common::setBlasThreadsEnv(settings.trainer.torch_threads);
+  torch::set_num_threads(settings.trainer.torch_threads);
 
   const fs::path outDir = options.out.empty()
-                              ? fs::path(settings.output_dir) / "eval"
+                              ? fs::path(settings.output.dir) / "eval"
                               : options.out;
   std::vector<std::string> splitNames =
       options.splits.empty() ? settings.eval.splits : options.splits;
@@ -370,20 +266,17 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     VLN_CHECK_IO(fs::exists(path), "eval: --checkpoint '", path.string(),
                  "' does not exist");
     if (fs::is_directory(path)) {
-      VLN_CHECK_ARG(reader.list && reader.index,
-                    "eval: no checkpoint reader was given");
       directoryMode = true;
-      const auto files = reader.list(path);
+      const auto files = train::listCheckpoints(path);
       VLN_CHECK_IO(!files.empty(), "eval: --checkpoint directory '",
                    path.string(), "' holds no ckpt.<i>.pth");
       for (const auto& file : files) {
-        const std::optional<int> index = reader.index(file);
+        const std::optional<int> index = train::checkpointIndex(file);
         VLN_ASSERT(index.has_value());
         candidates.push_back({*index, file.filename().string(), file, {}, {}});
       }
     } else {
-      const std::optional<int> parsed =
-          reader.index ? reader.index(path) : std::nullopt;
+      const std::optional<int> parsed = train::checkpointIndex(path);
       const int index = options.index.value_or(parsed.value_or(0));
       if (path.extension() == ".pt") {
         candidates.push_back({index, path.filename().string(), {}, path, {}});
@@ -394,7 +287,7 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   }
 
   // the splits, loaded once
-  std::vector<SplitData> splits;
+  std::vector<data::Split> splits;
   for (const auto& name : splitNames) splits.push_back(loadSplit(settings, name, cap));
 
   std::unique_ptr<NavGraphs> navgraphs;
@@ -412,12 +305,12 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   for (const Candidate& candidate : candidates) {
     // a directory's checkpoints that were already evaluated are skipped
     // split by split (the trainer writes the same files into <run>/eval)
-    std::vector<const SplitData*> todo;
-    for (const SplitData& split : splits) {
+    std::vector<const data::Split*> todo;
+    for (const data::Split& split : splits) {
       const fs::path done =
           outDir / (split.hasGoals
                         ? rollout::statsFileName(candidate.index, split.name)
-                        : predictionsFileName(candidate.index, split.name));
+                        : rollout::predictionsFileName(candidate.index, split.name));
       if (directoryMode && fs::exists(done)) {
         SplitReport skipped;
         skipped.checkpoint = candidate.index;
@@ -433,8 +326,8 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     }
     if (todo.empty()) continue;
     const std::unique_ptr<rollout::Agent> agent =
-        makeAgent(candidate, settings, reader, baselineStats.get());
-    for (const SplitData* split : todo) {
+        makeAgent(candidate, settings, baselineStats.get());
+    for (const data::Split* split : todo) {
       SplitReport report = evaluateSplit(*agent, candidate, *split, ctx);
       out << summaryLine(report) << "\n";
       out.flush();
@@ -480,9 +373,8 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
 }
 
 int runEvalCommand(const EvalCommandOptions& options,
-                   const EvalSettings& settings, const CheckpointReader& reader,
-                   std::ostream& out) {
-  runEvaluation(options, settings, reader, out);
+                   const train::ExperimentConfig& config, std::ostream& out) {
+  runEvaluation(options, config, out);
   return 0;
 }
 

@@ -11,73 +11,28 @@
 //   eval --config C --agent random|handcrafted       a no-learning baseline
 //   eval tables --runs results/ --out docs/results.md
 //
-// Per evaluated (checkpoint i, split) the output directory receives (see
-// Metrics.h and NavGraphEval.h for the formats):
-//   stats_ckpt_<i>_<split>.json          means, when the split has goals
-//   episodes_ckpt_<i>_<split>.json.gz    per-episode paths and metrics
-//                                        (eval.save_episodes)
-//   predictions_ckpt_<i>_<split>.json    R2R leaderboard trajectories, for
-//                                        episodes without goals (test split)
+// Per evaluated (checkpoint i, split) the output directory receives the
+// files of rollout::evaluateSplit() (stats, per-episode file with
+// eval.save_episodes, leaderboard predictions for a split without goals),
+// and:
 //   navgraph_stats_ckpt_<i>_<split>.json with a nav-graph directory (Table 3;
 //                                        see scoreOnNavGraph())
 //   pictures/ckpt_<i>_<split>_episode_<id>_map.png and .avi/.mp4
 //                                        (eval.map_episodes / video_episodes)
-// and stdout one summary line per split.
-//
-// This module sits below train, so checkpoints are read through a
-// CheckpointReader that the binary fills in from train/Checkpoint.h, and the
-// run config arrives as the EvalSettings sections of train's
-// ExperimentConfig.
+// and stdout one summary line per split. Checkpoints are the trainer's
+// (train/Checkpoint.h), read with the run config's model.
 
-#include <cstdint>
 #include <filesystem>
-#include <functional>
 #include <optional>
 #include <ostream>
-#include <span>
 #include <string>
-#include <string_view>
 #include <vector>
 
-#include "data/DatasetConfig.h"
-#include "data/NavGraph.h"
 #include "eval/NavGraphEval.h"
-#include "models/ModelConfig.h"
-#include "models/StateDict.h"
-#include "rollout/EvalConfig.h"
-#include "rollout/Metrics.h"
-#include "sim/NavMesh.h"
-#include "sim/SimConfig.h"
+#include "rollout/SplitEvaluation.h"
+#include "train/ExperimentConfig.h"
 
 namespace vln::eval {
-
-/// The sections of a run config that evaluation reads.
-struct EvalSettings {
-  sim::SimConfig sim;
-  sim::TaskConfig task;
-  data::DatasetConfig dataset;
-  models::ModelConfig model;
-  rollout::EvalConfig eval;
-  /// trainer.torch_threads: LibTorch intra-op threads.
-  int torch_threads = 2;
-  /// trainer.seed: encoders without weight files (model.rgb_weights /
-  /// depth_weights empty) are rebuilt with the trainer's seeded
-  /// initialisation (manual_seed(seed), then the policy, then the encoders).
-  int seed = 0;
-  /// output.dir: results go to <output.dir>/eval unless --out is given.
-  std::string output_dir = "runs/default";
-};
-
-/// How policy checkpoints are found and read (train/Checkpoint.h).
-struct CheckpointReader {
-  /// The ckpt.<i>.pth files of a directory by increasing index.
-  std::function<std::vector<std::filesystem::path>(const std::filesystem::path&)>
-      list;
-  /// The index of a checkpoint file name, nullopt when it is not one.
-  std::function<std::optional<int>(const std::filesystem::path&)> index;
-  /// The policy tensors of a checkpoint file.
-  std::function<models::NamedTensors(const std::filesystem::path&)> policy;
-};
 
 /// Options of the evaluation command.
 struct EvalCommandOptions {
@@ -107,17 +62,8 @@ struct EvalCommandOptions {
 };
 
 /// What one (checkpoint, split) evaluation produced.
-struct SplitReport {
-  int checkpoint = 0;
-  std::string split;
-  bool skipped = false;  ///< its stats file existed (directory mode)
-  bool scored = false;   ///< the split had goals (stats written)
-  rollout::SplitStats stats;
-  std::optional<GraphSplitStats> graph;
-  int episodes = 0;
-  int64_t steps = 0;     ///< actions taken over all episodes
-  double seconds = 0.0;  ///< wall time of the rollouts and metrics
-  std::vector<std::filesystem::path> files;  ///< files written
+struct SplitReport : rollout::SplitEvaluation {
+  std::optional<GraphSplitStats> graph;  ///< with a nav-graph directory
 };
 
 /// Everything the command did.
@@ -129,46 +75,24 @@ struct EvalCommandResult {
   double best_spl = -1.0;
 };
 
-/// Runs the evaluation described by `options` with `settings`; prints one
-/// summary line per split (and the best checkpoint) to `out`. Throws
+/// Runs the evaluation described by `options` with the run config
+/// `config` (its sim, task, dataset, model and eval sections,
+/// trainer.torch_threads, trainer.seed and output.dir); prints one summary
+/// line per split (and the best checkpoint) to `out`. Throws
 /// std::invalid_argument / std::runtime_error naming the file, option or
 /// field on bad input (a policy whose tensors do not match model.* lists
 /// every mismatched tensor).
 EvalCommandResult runEvaluation(const EvalCommandOptions& options,
-                                const EvalSettings& settings,
-                                const CheckpointReader& reader,
+                                const train::ExperimentConfig& config,
                                 std::ostream& out);
 
 /// runEvaluation(); returns the exit code.
 int runEvalCommand(const EvalCommandOptions& options,
-                   const EvalSettings& settings, const CheckpointReader& reader,
-                   std::ostream& out);
+                   const train::ExperimentConfig& config, std::ostream& out);
 
-/// "predictions_ckpt_<checkpoint>_<split>.json".
-std::string predictionsFileName(int checkpoint, std::string_view split);
-
-/// The summary line of one split ("ckpt 3 val_seen: 20 episodes ...").
+/// The summary line of one split (rollout::summaryLine(), then the
+/// nav-graph metrics when there are any).
 std::string summaryLine(const SplitReport& report);
-
-/// A copy of `graph` (same ids, order and edges) whose nodes are moved to
-/// their Section 3.2 waypoints on `navmesh` (data::transferGraph() with the
-/// paper's TransferConfig); nodes that do not transfer keep their position.
-/// Connectivity files hold R2R viewpoints at camera height (1.2-1.6 m above
-/// the floor), while agent positions and R2R_VLNCE reference paths are on
-/// the floor, so the agent's path is matched against this copy.
-data::NavGraph floorNavGraph(const data::NavGraph& graph,
-                             const sim::NavMesh& navmesh);
-
-/// The supplement's conversion of one continuous episode: start and goal
-/// nodes from the reference path and the agent's path snapped node by node,
-/// both on `floorGraph` (floorNavGraph() of `graph`), then scored with R2R's
-/// eval.py on `graph` itself (the viewpoints' own geometry, as the VLN
-/// leaderboard scores them).
-GraphEpisodeMetrics scoreOnNavGraph(const data::NavGraph& graph,
-                                    const data::NavGraph& floorGraph,
-                                    std::span<const Vec3f> positions,
-                                    std::span<const Vec3f> referencePath,
-                                    std::string_view episodeId);
 
 /// Options of `eval tables`.
 struct TablesCommandOptions {

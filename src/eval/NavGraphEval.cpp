@@ -7,6 +7,7 @@
 
 #include "common/Check.h"
 #include "common/Json.h"
+#include "data/NodeTransfer.h"
 
 namespace vln::eval {
 namespace {
@@ -178,6 +179,35 @@ std::filesystem::path writeGraphStatsFile(const std::filesystem::path& dir,
 
 GraphSplitStats readGraphStatsFile(const std::filesystem::path& file) {
   return graphStatsFromJson(common::readJsonFile(file), file.string());
+}
+
+data::NavGraph floorNavGraph(const data::NavGraph& graph,
+                             const sim::NavMesh& navmesh) {
+  const std::vector<data::NodeTransferResult> transferred =
+      data::transferGraph(graph, navmesh, data::TransferConfig{});
+  data::NavGraph floor;
+  for (int i = 0; i < graph.numNodes(); ++i) {
+    const auto& t = transferred[static_cast<size_t>(i)];
+    floor.addNode(graph.node(i).id, t.valid ? t.waypoint : graph.node(i).position);
+  }
+  for (const auto& [a, b] : graph.edges())
+    floor.addEdge(graph.node(a).id, graph.node(b).id);
+  return floor;
+}
+
+GraphEpisodeMetrics scoreOnNavGraph(const data::NavGraph& graph,
+                                    const data::NavGraph& floorGraph,
+                                    std::span<const Vec3f> positions,
+                                    std::span<const Vec3f> referencePath,
+                                    std::string_view episodeId) {
+  VLN_CHECK_ARG(graph.numNodes() == floorGraph.numNodes(),
+                "scoreOnNavGraph(): episode ", episodeId, ": the floor graph has ",
+                floorGraph.numNodes(), " nodes, the graph ", graph.numNodes());
+  // matching on the floor, where the agent and the reference path are
+  const EpisodeNodes nodes = episodeNodes(floorGraph, referencePath, episodeId);
+  const std::vector<int> path = snapPathToGraph(floorGraph, nodes.start, positions);
+  // scoring on the viewpoints themselves (node indices are shared)
+  return scoreGraphPath(graph, path, nodes.goal);
 }
 
 }  // namespace vln::eval

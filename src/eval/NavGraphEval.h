@@ -16,6 +16,7 @@
 
 #include "common/Math.h"
 #include "data/NavGraph.h"
+#include "sim/NavMesh.h"
 
 namespace vln::eval {
 
@@ -106,5 +107,25 @@ std::filesystem::path writeGraphStatsFile(const std::filesystem::path& dir,
                                           const GraphSplitStats& stats);
 /// Reads a nav-graph stats file.
 GraphSplitStats readGraphStatsFile(const std::filesystem::path& file);
+
+/// A copy of `graph` (same ids, order and edges) whose nodes are moved to
+/// their Section 3.2 waypoints on `navmesh` (data::transferGraph() with the
+/// paper's TransferConfig); nodes that do not transfer keep their position.
+/// Connectivity files hold R2R viewpoints at camera height (1.2-1.6 m above
+/// the floor), while agent positions and R2R_VLNCE reference paths are on
+/// the floor, so the agent's path is matched against this copy.
+data::NavGraph floorNavGraph(const data::NavGraph& graph,
+                             const sim::NavMesh& navmesh);
+
+/// The supplement's conversion of one continuous episode: start and goal
+/// nodes from the reference path and the agent's path snapped node by node,
+/// both on `floorGraph` (floorNavGraph() of `graph`), then scored with R2R's
+/// eval.py on `graph` itself (the viewpoints' own geometry, as the VLN
+/// leaderboard scores them).
+GraphEpisodeMetrics scoreOnNavGraph(const data::NavGraph& graph,
+                                    const data::NavGraph& floorGraph,
+                                    std::span<const Vec3f> positions,
+                                    std::span<const Vec3f> referencePath,
+                                    std::string_view episodeId);
 
 }  // namespace vln::eval

@@ -304,34 +304,23 @@ double numberField(const nlohmann::json& object, const char* key,
   return it->get<double>();
 }
 
-// The metric keys of EpisodeMetrics with VLN-CE's names.
-constexpr std::array<std::pair<const char*, double EpisodeMetrics::*>, 8>
-    kMetricKeys{{{"distance_to_goal", &EpisodeMetrics::distance_to_goal},
-                 {"success", &EpisodeMetrics::success},
-                 {"spl", &EpisodeMetrics::spl},
-                 {"ndtw", &EpisodeMetrics::ndtw},
-                 {"sdtw", &EpisodeMetrics::sdtw},
-                 {"path_length", &EpisodeMetrics::path_length},
-                 {"oracle_success", &EpisodeMetrics::oracle_success},
-                 {"steps_taken", &EpisodeMetrics::steps_taken}}};
-
-nlohmann::json metricsToJson(const EpisodeMetrics& m) {
-  nlohmann::json out = nlohmann::json::object();
-  for (const auto& [key, member] : kMetricKeys) out[key] = m.*member;
-  return out;
-}
-
 EpisodeMetrics metricsFromJson(const nlohmann::json& j,
                                const std::string& where) {
   VLN_CHECK_ARG(j.is_object(), where, ": expected a JSON object, got ",
                 j.type_name());
   EpisodeMetrics m;
-  for (const auto& [key, member] : kMetricKeys)
+  for (const auto& [key, member] : kMetricFields)
     m.*member = numberField(j, key, where);
   return m;
 }
 
 }  // namespace
+
+nlohmann::json metricsToJson(const EpisodeMetrics& m) {
+  nlohmann::json out = nlohmann::json::object();
+  for (const auto& [key, member] : kMetricFields) out[key] = m.*member;
+  return out;
+}
 
 // ---------------------------------------------------------------------------
 // single metrics
@@ -488,7 +477,7 @@ SplitStats aggregate(std::span<const EpisodeMetrics> episodes) {
   VLN_CHECK_ARG(!episodes.empty(), "aggregate(): no episodes to average");
   SplitStats stats;
   stats.num_episodes = static_cast<int>(episodes.size());
-  for (const auto& [key, member] : kMetricKeys) {
+  for (const auto& [key, member] : kMetricFields) {
     double sum = 0.0;
     for (const auto& e : episodes) sum += e.*member;
     stats.mean.*member = sum / static_cast<double>(episodes.size());

@@ -100,6 +100,22 @@ struct EpisodeMetrics {
   bool operator==(const EpisodeMetrics&) const = default;
 };
 
+/// Every metric of EpisodeMetrics with its VLN-CE name, in declaration
+/// order: the one list the files, the logs and the multi-process sums use.
+inline constexpr std::array<std::pair<const char*, double EpisodeMetrics::*>,
+                            8>
+    kMetricFields{{{"distance_to_goal", &EpisodeMetrics::distance_to_goal},
+                   {"success", &EpisodeMetrics::success},
+                   {"spl", &EpisodeMetrics::spl},
+                   {"ndtw", &EpisodeMetrics::ndtw},
+                   {"sdtw", &EpisodeMetrics::sdtw},
+                   {"path_length", &EpisodeMetrics::path_length},
+                   {"oracle_success", &EpisodeMetrics::oracle_success},
+                   {"steps_taken", &EpisodeMetrics::steps_taken}}};
+
+/// {"distance_to_goal": ..., ..., "steps_taken": ...} (kMetricFields).
+nlohmann::json metricsToJson(const EpisodeMetrics& metrics);
+
 /// Means of EpisodeMetrics over a split (the stats_ckpt file).
 struct SplitStats {
   EpisodeMetrics mean;

@@ -1,17 +1,15 @@
 // The eval command's functions on a dataset written from the test house:
 // a checkpoint, a directory of checkpoints (skipping and best selection), a
 // TorchScript export, the baselines, the test split's leaderboard file, the
-// nav-graph comparison, error reports, and the tables subcommand. Training
-// checkpoints live in train (above eval), so this test reads "checkpoints"
-// that are plain tensor files through its own CheckpointReader; the real
-// binary is exercised in tests/train/EvalBinaryTest.cpp.
+// nav-graph comparison, error reports, and the tables subcommand, on
+// checkpoints in the trainer's format; the binary itself is exercised in
+// EvalBinaryTest.cpp.
 
 #include "eval/EvalCommands.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <regex>
 #include <sstream>
 
 #include "common/FileIo.h"
@@ -26,6 +24,7 @@
 #include "rollout/PolicyAgent.h"
 #include "rollout/RolloutTestPolicy.h"
 #include "rollout/RolloutTestWorld.h"
+#include "train/Checkpoint.h"
 
 namespace vln::eval {
 namespace {
@@ -38,26 +37,11 @@ constexpr int kSeed = 13;  // a policy seed whose argmax actions vary
 
 std::string checkpointName(int i) { return "ckpt." + std::to_string(i) + ".pth"; }
 
-// "checkpoints" are tensor files named ckpt.<i>.pth
-CheckpointReader tensorFileReader() {
-  CheckpointReader r;
-  r.index = [](const fs::path& file) -> std::optional<int> {
-    std::smatch m;
-    const std::string name = file.filename().string();
-    if (std::regex_match(name, m, std::regex(R"(ckpt\.(\d+)\.pth)"))) return std::stoi(m[1]);
-    return std::nullopt;
-  };
-  r.list = [index = r.index](const fs::path& dir) {
-    std::vector<std::pair<int, fs::path>> found;
-    for (const auto& e : fs::directory_iterator(dir))
-      if (auto i = index(e.path())) found.emplace_back(*i, e.path());
-    std::sort(found.begin(), found.end());
-    std::vector<fs::path> files;
-    for (auto& f : found) files.push_back(f.second);
-    return files;
-  };
-  r.policy = [](const fs::path& file) { return models::readTensorFile(file); };
-  return r;
+// a checkpoint of the trainer's format holding `policy`'s weights
+void writePolicyCheckpoint(const fs::path& file, models::PolicyImpl& policy) {
+  train::Checkpoint checkpoint;
+  checkpoint.policy = models::namedState(policy);
+  train::saveCheckpoint(file, checkpoint);
 }
 
 class EvalCommandsTest : public ::testing::Test {
@@ -72,9 +56,9 @@ class EvalCommandsTest : public ::testing::Test {
     settings_.eval.num_envs = 2;
     settings_.eval.threads = 2;
     settings_.eval.map_episodes = 0;
-    settings_.torch_threads = 1;
-    settings_.seed = kSeed;
-    settings_.output_dir = (dir_ / "run").string();
+    settings_.trainer.torch_threads = 1;
+    settings_.trainer.seed = kSeed;
+    settings_.output.dir = (dir_ / "run").string();
     // the trainer's construction under trainer.seed: the policy, then the
     // encoders, whose random weights the evaluation rebuilds
     model_ = rollout::test::tinyAgentModel(models::PolicyType::kCma, kSeed);
@@ -87,7 +71,7 @@ class EvalCommandsTest : public ::testing::Test {
     torch::NoGradGuard noGrad;
     for (auto& p : copy->named_parameters())
       if (p.key() == "action_head.bias") p.value().mul_(gain);
-    models::writeTensorFile(file, models::namedState(*copy));
+    writePolicyCheckpoint(file, *copy);
     return file;
   }
 
@@ -106,13 +90,13 @@ class EvalCommandsTest : public ::testing::Test {
 
   EvalCommandResult run(const EvalCommandOptions& options, std::string* printed = nullptr) {
     std::ostringstream out;
-    EvalCommandResult r = runEvaluation(options, settings_, tensorFileReader(), out);
+    EvalCommandResult r = runEvaluation(options, settings_, out);
     if (printed) *printed = out.str();
     return r;
   }
 
   vln::test::TempDir dir_;
-  EvalSettings settings_;
+  train::ExperimentConfig settings_;
   rollout::test::TinyAgentModel model_;
 };
 
@@ -257,7 +241,7 @@ TEST_F(EvalCommandsTest, TestSplitWritesLeaderboardPredictions) {
   EXPECT_FALSE(r.reports[0].scored);
   EXPECT_FALSE(fs::exists(dir_ / "out" / rollout::statsFileName(2, "test")));
   const auto predictions = rollout::readLeaderboardFile(
-      dir_ / "out" / predictionsFileName(2, "test"));
+      dir_ / "out" / rollout::predictionsFileName(2, "test"));
   ASSERT_EQ(predictions.size(), 3u);  // --episodes 3
   const auto episodes = rollout::readEpisodesFile(
       dir_ / "out" / rollout::episodesFileName(2, "test"));
@@ -385,7 +369,7 @@ TEST_F(EvalCommandsTest, BadInputIsNamed) {
   // a checkpoint of another architecture: every mismatched tensor listed
   models::ModelConfig wide = settings_.model;
   wide.hidden_size = 12;
-  models::writeTensorFile(dir_ / "ckpt.9.pth", models::namedState(*models::makePolicy(wide)));
+  writePolicyCheckpoint(dir_ / "ckpt.9.pth", *models::makePolicy(wide));
   EvalCommandOptions mismatch;
   mismatch.checkpoint = dir_ / "ckpt.9.pth";
   try {

@@ -1,0 +1,101 @@
+#pragma once
+// Evaluating one split: the environments, a progress line, the rollouts
+// (evaluateEpisodes()), the stats and the files, and the summary line. The
+// trainer's periodic validation and the eval binary both evaluate through
+// evaluateSplit(), so the two write the same files in the same way.
+//
+// Files written into `out_dir` (Metrics.h has the formats):
+//   stats_ckpt_<i>_<split>.json          means, when the split has goals
+//   episodes_ckpt_<i>_<split>.json.gz    per-episode paths and metrics
+//                                        (save_episodes)
+//   predictions_ckpt_<i>_<split>.json    R2R leaderboard trajectories of
+//                                        the episodes without goals
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "data/Split.h"
+#include "rollout/Agent.h"
+#include "rollout/EvalConfig.h"
+#include "rollout/Evaluator.h"
+#include "rollout/Metrics.h"
+#include "rollout/VectorEnv.h"
+#include "sim/SimConfig.h"
+
+namespace vln::rollout {
+
+/// Sums vectors over all processes of a multi-process run (an all-reduce);
+/// every process calls it with vectors of the same length.
+using SumOverProcesses =
+    std::function<std::vector<double>(const std::vector<double>&)>;
+
+/// How a split is evaluated and where its results go.
+struct SplitEvaluationOptions {
+  /// Index of the evaluated checkpoint, in file names and the summary line.
+  int checkpoint = 0;
+  /// What is evaluated, for the progress line ("evaluate <label> <split>");
+  /// may be empty.
+  std::string label;
+  /// Where the files go; nothing is written when empty.
+  std::filesystem::path out_dir;
+  /// Also write the per-episode file.
+  bool save_episodes = false;
+  /// Watches the episodes (maps, videos); may be null.
+  EpisodeObserver* observer = nullptr;
+  /// Multi-process evaluation: this process runs episodes shard,
+  /// shard + num_shards, ... of the split, and `sum` (required when
+  /// num_shards > 1) combines the metric sums so that the stats cover the
+  /// whole split.
+  int shard = 0;
+  int num_shards = 1;
+  SumOverProcesses sum;
+};
+
+/// What one split's evaluation produced.
+struct SplitEvaluation {
+  int checkpoint = 0;
+  std::string split;
+  bool skipped = false;  ///< not run: its results existed (eval's directory mode)
+  bool scored = false;   ///< episodes had goals (stats written)
+  SplitStats stats;      ///< over the whole split (all processes)
+  /// This process's episodes, in the split's order (every num_shards-th).
+  EvaluationResult result;
+  int episodes = 0;      ///< episodes this process ran
+  int64_t steps = 0;     ///< actions they took
+  double seconds = 0.0;  ///< wall time of the rollouts and metrics
+  std::vector<std::filesystem::path> files;  ///< files written
+};
+
+/// Runs `agent` on `split` (eval.num_envs environments on eval.threads
+/// threads, scenes from `scenes`) and writes the files of the file comment.
+/// Throws what evaluateEpisodes() throws.
+SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
+                              const std::shared_ptr<SceneCache>& scenes,
+                              const sim::SimConfig& sim,
+                              const sim::TaskConfig& task,
+                              const EvalConfig& eval,
+                              const SplitEvaluationOptions& options);
+
+/// The means of `mine` (the scored episodes of one process) combined with
+/// those of every other process by `sum`: the sums of every metric over all
+/// scored episodes divided by their count (eval::aggregate() of one
+/// process, up to the order of the additions).
+SplitStats combineStats(const EvaluationResult& mine,
+                        const SumOverProcesses& sum);
+
+/// "TL 7.12 NE 8.01 nDTW 0.412 OS 0.300 SR 0.250 SPL 0.231".
+std::string metricsText(const EpisodeMetrics& metrics);
+
+/// "ckpt 3 val_seen: 20 episodes, 1234 steps in 5.0 s (4.00 episodes/s,
+/// 247 steps/s): TL ...", or "... skipped (already evaluated): TL ...",
+/// or "...: no goals (leaderboard predictions written)".
+std::string summaryLine(const SplitEvaluation& evaluation);
+
+/// "predictions_ckpt_<checkpoint>_<split>.json".
+std::string predictionsFileName(int checkpoint, std::string_view split);
+
+}  // namespace vln::rollout
