@@ -28,7 +28,8 @@ RolloutCounts runEpisodes(VectorEnv& envs, int count, EpisodeJob& job,
   };
 
   std::vector<int> all(static_cast<size_t>(envs.size()));
-  for (int env = 0; env < envs.size(); ++env) all[static_cast<size_t>(env)] = env;
+  for (int env = 0; env < envs.size(); ++env)
+    all[static_cast<size_t>(env)] = env;
   start(all);
 
   while (true) {
@@ -42,8 +43,10 @@ RolloutCounts runEpisodes(VectorEnv& envs, int count, EpisodeJob& job,
     if (running.empty()) break;
 
     const std::vector<sim::Action> actions = job.act(running);
-    VLN_CHECK_ARG(actions.size() == running.size(), "runEpisodes(): the job "
-                  "chose ", actions.size(), " actions for ", running.size(),
+    VLN_CHECK_ARG(actions.size() == running.size(),
+                  "runEpisodes(): the job "
+                  "chose ",
+                  actions.size(), " actions for ", running.size(),
                   " environments");
     const std::vector<sim::StepResult> results =
         envs.step(running.envs, actions, render);

@@ -60,7 +60,8 @@ PolicyStepper::PolicyStepper(std::shared_ptr<models::PolicyImpl> policy,
                 numEnvs);
   VLN_CHECK_ARG(maxInstructionLength >= 1,
                 "PolicyStepper: dataset.max_instruction_length must be >= 1, "
-                "got ", maxInstructionLength);
+                "got ",
+                maxInstructionLength);
   device_ = policyDevice(*policy_);
   for (int i = 0; i < numEnvs; ++i)
     states_.push_back(std::make_unique<EnvState>());
@@ -99,8 +100,8 @@ torch::Tensor PolicyStepper::step(std::span<const int> envs,
   // one environment at a time: the same numbers whatever runs beside it
   std::vector<torch::Tensor> logits;
   for (size_t k = 0; k < envs.size(); ++k)
-    logits.push_back(stepTogether(envs.subspan(k, 1),
-                                  featureRow(features, static_cast<int64_t>(k))));
+    logits.push_back(stepTogether(
+        envs.subspan(k, 1), featureRow(features, static_cast<int64_t>(k))));
   return torch::cat(logits);
 }
 

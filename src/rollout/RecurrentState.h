@@ -21,9 +21,10 @@ namespace vln::rollout {
 
 /// A recurrent policy's state in one environment between two steps.
 struct RecurrentState {
-  at::Tensor hidden;      ///< [layers, hidden_size]
-  int64_t prevAction = 0;  ///< the action taken at the last step (0 at the start)
-  bool first = true;       ///< not_done = 0 on the episode's first step
+  at::Tensor hidden;  ///< [layers, hidden_size]
+  int64_t prevAction =
+      0;              ///< the action taken at the last step (0 at the start)
+  bool first = true;  ///< not_done = 0 on the episode's first step
 
   /// Starts an episode from `initialHidden` with no previous action.
   void restart(at::Tensor initialHidden) {

@@ -27,7 +27,8 @@ SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
   const std::vector<data::Episode>* episodes = &split.episodes;
   if (options.num_shards > 1) {
     for (size_t i = static_cast<size_t>(options.shard);
-         i < split.episodes.size(); i += static_cast<size_t>(options.num_shards))
+         i < split.episodes.size();
+         i += static_cast<size_t>(options.num_shards))
       shard.push_back(split.episodes[i]);
     episodes = &shard;
   }
@@ -53,8 +54,8 @@ SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
   // stats over the scored episodes, the per-episode file, the leaderboard
   // predictions of the unscored ones
   if (out.scored)
-    out.files.push_back(writeStatsFile(options.out_dir, out.checkpoint,
-                                       split.name, out.stats));
+    out.files.push_back(
+        writeStatsFile(options.out_dir, out.checkpoint, split.name, out.stats));
   if (options.save_episodes) {
     const fs::path file =
         options.out_dir / episodesFileName(out.checkpoint, split.name);
@@ -106,8 +107,8 @@ std::string summaryLine(const SplitEvaluation& evaluation) {
   std::string line = "ckpt " + std::to_string(evaluation.checkpoint) + " " +
                      evaluation.split + ": ";
   if (evaluation.skipped)
-    return line + "skipped (already evaluated): " +
-           metricsText(evaluation.stats.mean);
+    return line +
+           "skipped (already evaluated): " + metricsText(evaluation.stats.mean);
   char head[200];
   const double seconds = std::max(evaluation.seconds, 1e-9);
   std::snprintf(head, sizeof(head),

@@ -59,9 +59,10 @@ struct SplitEvaluationOptions {
 struct SplitEvaluation {
   int checkpoint = 0;
   std::string split;
-  bool skipped = false;  ///< not run: its results existed (eval's directory mode)
-  bool scored = false;   ///< episodes had goals (stats written)
-  SplitStats stats;      ///< over the whole split (all processes)
+  bool skipped =
+      false;  ///< not run: its results existed (eval's directory mode)
+  bool scored = false;  ///< episodes had goals (stats written)
+  SplitStats stats;     ///< over the whole split (all processes)
   /// This process's episodes, in the split's order (every num_shards-th).
   EvaluationResult result;
   int episodes = 0;      ///< episodes this process ran

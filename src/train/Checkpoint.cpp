@@ -1,5 +1,8 @@
 #include "train/Checkpoint.h"
 
+#include <ATen/CPUGeneratorImpl.h>
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <charconv>
 #include <cstring>
@@ -8,6 +11,7 @@
 #include "common/FileIo.h"
 #include "common/Json.h"
 #include "common/ZipIntegrity.h"
+#include "models/StateDict.h"
 
 namespace vln::train {
 namespace {
@@ -347,6 +351,71 @@ void loadOptimizerState(torch::optim::Optimizer& optimizer,
     throw std::runtime_error(
         strCat("loadOptimizerState(): the optimizer state of '", source,
                "' does not fit this policy: ", error.what_without_backtrace()));
+  }
+}
+
+// ---------------------------------------------------------------------------
+// finding and restoring
+
+std::filesystem::path bestOrLatestCheckpoint(const std::filesystem::path& runDir) {
+  const std::filesystem::path dir = runDir / "checkpoints";
+  const std::filesystem::path best = dir / "best.json";
+  if (std::filesystem::exists(best)) {
+    const auto json = common::readJsonFile(best);
+    const std::filesystem::path file = dir / common::requireField<std::string>(
+                                    json, "checkpoint", best.string());
+    VLN_CHECK_IO(std::filesystem::exists(file), "train: ", best.string(), " names '",
+                 file.string(), "', which does not exist");
+    return file;
+  }
+  const auto all = listCheckpoints(dir);
+  VLN_CHECK_IO(!all.empty(), "train: '", dir.string(), "' holds no checkpoint");
+  return all.back();
+}
+
+// policy tensors from one of our checkpoints, from a run directory or from
+// a TorchScript tensor file
+models::NamedTensors readPolicyWeights(const std::filesystem::path& given) {
+  std::filesystem::path file = given;
+  if (std::filesystem::is_directory(given)) {
+    file = bestOrLatestCheckpoint(given);
+    spdlog::info("trainer.init_checkpoint: run directory {} -> {}", given.string(),
+                 file.string());
+  }
+  try {
+    return loadCheckpoint(file).policy;
+  } catch (const std::runtime_error& checkpointError) {
+    try {
+      return models::readTensorFile(file);
+    } catch (const std::runtime_error&) {
+      throw std::runtime_error("trainer.init_checkpoint: '" + file.string() +
+                               "' is neither a checkpoint nor a tensor file: " +
+                               checkpointError.what());
+    }
+  }
+}
+
+std::string captureRngState() {
+  auto generator = at::detail::getDefaultCPUGenerator();
+  std::lock_guard<std::mutex> lock(generator.mutex());
+  const torch::Tensor state = generator.get_state().contiguous();
+  return std::string(static_cast<const char*>(state.data_ptr()),
+                     static_cast<size_t>(state.numel()));
+}
+
+void restoreRngState(const std::string& bytes, const std::string& source) {
+  if (bytes.empty()) return;
+  auto generator = at::detail::getDefaultCPUGenerator();
+  std::lock_guard<std::mutex> lock(generator.mutex());
+  torch::Tensor state =
+      torch::empty({static_cast<int64_t>(bytes.size())}, torch::kUInt8);
+  std::memcpy(state.data_ptr(), bytes.data(), bytes.size());
+  try {
+    generator.set_state(state);
+  } catch (const c10::Error& error) {
+    throw std::runtime_error(
+        "train --resume: '" + source +
+        "' holds an invalid RNG state: " + error.what_without_backtrace());
   }
 }
 

@@ -82,4 +82,23 @@ std::vector<std::filesystem::path> listCheckpoints(
 /// Index parsed from a checkpoint file name, or nullopt.
 std::optional<int> checkpointIndex(const std::filesystem::path& file);
 
+/// checkpoints/best.json's checkpoint when present, else the newest
+/// checkpoint of `runDir`. Throws std::runtime_error naming the directory
+/// when there is none.
+std::filesystem::path bestOrLatestCheckpoint(
+    const std::filesystem::path& runDir);
+
+/// The policy tensors trainer.init_checkpoint names: one of our
+/// checkpoints, a run directory (bestOrLatestCheckpoint(): how a DA*
+/// config names the run it fine-tunes) or a TorchScript tensor file
+/// (models/StateDict.h). Throws std::runtime_error naming the file when it
+/// is none of them.
+models::NamedTensors readPolicyWeights(const std::filesystem::path& given);
+
+/// LibTorch's default CPU generator state as bytes (Checkpoint::rng_state).
+std::string captureRngState();
+/// Restores captureRngState() bytes (nothing when empty); throws
+/// std::runtime_error naming `source` when they are not a generator state.
+void restoreRngState(const std::string& bytes, const std::string& source);
+
 }  // namespace vln::train

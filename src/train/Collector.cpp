@@ -13,6 +13,8 @@
 #include "rollout/EpisodeScheduler.h"
 #include "rollout/ObservationBatch.h"
 #include "rollout/PolicyStepper.h"
+#include "train/Distributed.h"
+#include "train/RunDirectory.h"
 
 namespace vln::train {
 
@@ -372,6 +374,147 @@ CollectionStats Collector::collect(
       stats.cut_at_limit, config_.task.max_episode_steps, store.size(),
       store.bytesPerStep());
   return stats;
+}
+
+// ---------------------------------------------------------------------------
+// the store and the records
+
+CollectionStats CollectionStats::overRanks(
+    const std::function<std::vector<double>(const std::vector<double>&)>& sum,
+    const std::function<int64_t(int64_t)>& max) const {
+  CollectionStats all = *this;
+  int64_t* fields[] = {&all.episodes,     &all.skipped,      &all.steps,
+                       &all.oracle_steps, &all.cut_at_limit, &all.gt_episodes,
+                       &all.gt_identical, &all.gt_steps,     &all.gt_equal_steps};
+  std::vector<double> values;
+  for (const int64_t* field : fields) values.push_back(static_cast<double>(*field));
+  values = sum(values);
+  for (size_t i = 0; i < std::size(fields); ++i)
+    *fields[i] = static_cast<int64_t>(values[i]);
+  all.seconds =
+      static_cast<double>(max(static_cast<int64_t>(seconds * 1000.0))) / 1000.0;
+  return all;
+}
+
+std::string storeConfigHash(const ExperimentConfig& config) {
+  static const std::vector<std::string> prefixes = {
+      "sim.",
+      "task.",
+      "dataset.data_path",
+      "dataset.train_split",
+      "dataset.aug_split",
+      "dataset.max_train_episodes",
+      "dataset.max_aug_episodes",
+      "dataset.max_instruction_length",
+      "model.rgb_encoder",
+      "model.depth_encoder",
+      "model.rgb_weights",
+      "model.depth_weights",
+      "model.no_rgb",
+      "model.no_depth",
+      "model.rgb_height",
+      "model.rgb_width",
+      "model.depth_height",
+      "model.depth_width",
+      "model.depth_resnet_base_planes",
+      "trainer.seed",
+      "trainer.use_aug",
+      "trainer.dagger_episodes",
+      "trainer.dagger_beta",
+      "trainer.fine_tune_dagger",
+      "trainer.store_fp16"};
+  // env_threads and num_envs are left out on purpose: collection does not
+  // depend on them (per-slot coins)
+  std::string text;
+  for (const auto& [key, value] : flattenConfig(config)) {
+    if (key == "sim.scenes_dir")
+      continue;  // where scenes live, not what they are
+    for (const auto& prefix : prefixes)
+      if (key.rfind(prefix, 0) == 0) {
+        text += key + "=" + value + "\n";
+        break;
+      }
+  }
+  return common::fnv1aHex(text);
+}
+
+std::unique_ptr<FeatureStore> openFeatureStore(const ExperimentConfig& config,
+                                               const std::filesystem::path& dir) {
+  StoreLayout layout;
+  if (config.model.usesRgb())
+    layout.rgb_shape = models::rgbFeatureShape(config.model);
+  if (config.model.usesDepth())
+    layout.depth_shape = models::depthFeatureShape(config.model);
+  layout.fp16 = config.trainer.store_fp16;
+  layout.config_hash = storeConfigHash(config);
+  auto store = std::make_unique<FeatureStore>(dir, layout,
+                                              config.trainer.store_max_gib);
+  spdlog::info(
+      "feature store {}: {} episodes, {} steps, {:.0f} bytes/step ({} feature "
+      "bytes per step, {})",
+      store->dir().string(), store->size(), store->totalSteps(),
+      store->bytesPerStep(), layout.featureBytesPerStep(),
+      layout.fp16 ? "float16" : "float32");
+  return store;
+}
+
+StoreTotals totalsOverRanks(const FeatureStore& store, Distributed* dist) {
+  StoreTotals totals{store.size(), store.bytesPerStep()};
+  if (!dist) return totals;
+  const std::vector<double> sums =
+      dist->allReduceSum({static_cast<double>(store.size()),
+                          static_cast<double>(store.totalBytes()),
+                          static_cast<double>(store.totalSteps())});
+  totals.episodes = static_cast<int64_t>(sums[0]);
+  totals.bytes_per_step = sums[2] > 0.0 ? sums[1] / sums[2] : 0.0;
+  return totals;
+}
+
+void logCollection(const CollectionStats& stats, const CollectionRound& round,
+                   const StoreTotals& totals, const std::string& trainSplit,
+                   MetricsLog* metrics) {
+  const int iteration = round.iteration;
+  nlohmann::json record = {{"iteration", iteration},
+                           {"beta", round.beta},
+                           {"episodes", stats.episodes},
+                           {"skipped", stats.skipped},
+                           {"steps", stats.steps},
+                           {"seconds", stats.seconds},
+                           {"oracle_steps", stats.oracle_steps},
+                           {"cut_at_limit", stats.cut_at_limit},
+                           {"store_episodes", totals.episodes},
+                           {"store_bytes_per_step", totals.bytes_per_step}};
+  std::vector<std::pair<std::string, double>> scalars = {
+      {"collect/beta", round.beta},
+      {"collect/store_episodes", static_cast<double>(totals.episodes)},
+      {"collect/bytes_per_step", totals.bytes_per_step}};
+  if (stats.seconds > 0 && stats.episodes > 0) {
+    record["episodes_per_minute"] =
+        60.0 * static_cast<double>(stats.episodes) / stats.seconds;
+    record["frames_per_second"] =
+        static_cast<double>(stats.steps) / stats.seconds;
+    scalars.emplace_back("collect/frames_per_second",
+                         static_cast<double>(stats.steps) / stats.seconds);
+  }
+  if (stats.gt_episodes > 0) {
+    const double identical = static_cast<double>(stats.gt_identical) /
+                             static_cast<double>(stats.gt_episodes);
+    const double steps =
+        static_cast<double>(stats.gt_equal_steps) /
+        static_cast<double>(std::max<int64_t>(1, stats.gt_steps));
+    record["gt_episodes"] = stats.gt_episodes;
+    record["gt_identical_rate"] = identical;
+    record["gt_step_agreement"] = steps;
+    scalars.emplace_back("collect/gt_identical_rate", identical);
+    auto level = identical < 1.0 ? spdlog::level::warn : spdlog::level::info;
+    spdlog::log(level,
+                "oracle vs ground truth ({}): {}/{} episodes identical "
+                "({:.1f}%), {:.1f}% of "
+                "steps agree",
+                trainSplit, stats.gt_identical, stats.gt_episodes,
+                100.0 * identical, 100.0 * steps);
+  }
+  if (metrics) metrics->write("collect", record, scalars, iteration);
 }
 
 }  // namespace vln::train

@@ -31,9 +31,11 @@
 // at that step).
 
 #include <cstdint>
+#include <filesystem>
 #include <functional>
 #include <memory>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "data/Episode.h"
@@ -45,8 +47,11 @@
 #include "sim/Follower.h"
 #include "train/ExperimentConfig.h"
 #include "train/FeatureStore.h"
+#include "train/MetricsLog.h"
 
 namespace vln::train {
+
+class Distributed;
 
 /// The ground-truth follower over an episode's reference-path waypoints.
 class WaypointOracle {
@@ -90,6 +95,13 @@ struct CollectionRound {
 
 /// What a round collected.
 struct CollectionStats {
+  /// These counts summed over the processes of a multi-process run by
+  /// `sum` (an all-reduce), the wall time the slowest one's by `max`.
+  CollectionStats overRanks(
+      const std::function<std::vector<double>(const std::vector<double>&)>&
+          sum,
+      const std::function<int64_t(int64_t)>& max) const;
+
   int64_t episodes = 0;      ///< episodes appended by this call
   int64_t skipped = 0;       ///< slots already in the store
   int64_t steps = 0;         ///< steps appended
@@ -139,5 +151,33 @@ class Collector {
   models::ObservationEncoder encoder_;
   std::unique_ptr<rollout::VectorEnv> envs_;
 };
+
+/// Hash (16 hex digits) of everything that determines what the feature
+/// store holds: sim, task, dataset (splits and caps), the encoders
+/// (architecture, weight files, image sizes, ablations), the seed and the
+/// collection settings (use_aug, dagger_episodes, dagger_beta,
+/// fine_tune_dagger, store_fp16).
+std::string storeConfigHash(const ExperimentConfig& config);
+
+/// The feature store of `config` in `dir` (created, or reopened when its
+/// layout and storeConfigHash() match; FeatureStore.h), logged.
+std::unique_ptr<FeatureStore> openFeatureStore(const ExperimentConfig& config,
+                                               const std::filesystem::path& dir);
+
+/// Episodes and bytes per step of the stores of all processes together.
+struct StoreTotals {
+  int64_t episodes = 0;
+  double bytes_per_step = 0.0;
+};
+/// `store`'s totals, summed over the ranks of `dist` (a collective) when
+/// it is not null.
+StoreTotals totalsOverRanks(const FeatureStore& store, Distributed* dist);
+
+/// Logs what collection round `round` collected and writes its "collect"
+/// record to `metrics` (may be null); the oracle's agreement with the
+/// ground truth of split `trainSplit` is a warning when not perfect.
+void logCollection(const CollectionStats& stats, const CollectionRound& round,
+                   const StoreTotals& totals, const std::string& trainSplit,
+                   MetricsLog* metrics);
 
 }  // namespace vln::train

@@ -27,6 +27,7 @@
 #include "common/Check.h"
 #include "common/Progress.h"
 #include "train/Checkpoint.h"
+#include "models/StateDict.h"
 
 namespace vln::train {
 namespace {
@@ -498,6 +499,17 @@ std::vector<int64_t> Distributed::allReduceMax(
   t = t.to(torch::kCPU).contiguous();
   return std::vector<int64_t>(t.data_ptr<int64_t>(),
                               t.data_ptr<int64_t>() + t.numel());
+}
+
+void Distributed::checkIdentical(const torch::nn::Module& module,
+                                 std::string_view what) {
+  std::vector<torch::Tensor> tensors;
+  std::vector<std::string> names;
+  for (const auto& [name, tensor] : models::namedState(module)) {
+    names.push_back(name);
+    tensors.push_back(tensor);
+  }
+  checkIdentical(tensors, names, what);
 }
 
 void Distributed::checkIdentical(const std::vector<torch::Tensor>& tensors,

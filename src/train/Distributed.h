@@ -161,6 +161,9 @@ class Distributed {
   void checkIdentical(const std::vector<torch::Tensor>& tensors,
                       const std::vector<std::string>& names,
                       std::string_view what);
+  /// checkIdentical() of the parameters and buffers of `module`
+  /// (models::namedState()).
+  void checkIdentical(const torch::nn::Module& module, std::string_view what);
 
   /// Runs `step` on this rank, then waits for every rank to finish its own
   /// (waitForAll). When it threw on any rank, every rank throws: a failing

@@ -234,4 +234,69 @@ EpochResult ImitationLearner::trainEpoch(
   return result;
 }
 
+// ---------------------------------------------------------------------------
+// logs
+
+void logUpdate(const UpdateResult& u, int64_t update, int64_t epoch,
+               int iteration, const ExperimentConfig& config,
+               MetricsLog* metrics) {
+  if (u.skipped) {
+    if (metrics)
+      metrics->write("nonfinite", {{"update", update}, {"loss", u.loss}}, {},
+                     update);
+    return;
+  }
+  if (update % config.trainer.log_every_updates != 0) return;
+  spdlog::info(
+      "update {}: loss {:.4f} (action {:.4f}, progress {:.4f}), grad norm "
+      "{:.3f}",
+      update, u.loss, u.action_loss, u.progress_loss, u.grad_norm);
+  if (metrics)
+    metrics->write("update",
+                   {{"update", update},
+                    {"epoch", epoch},
+                    {"iteration", iteration},
+                    {"loss", u.loss},
+                    {"action_loss", u.action_loss},
+                    {"progress_loss", u.progress_loss},
+                    {"grad_norm", u.grad_norm},
+                    {"steps", u.steps}},
+                   {{"train/loss", u.loss},
+                    {"train/action_loss", u.action_loss},
+                    {"train/progress_loss", u.progress_loss},
+                    {"train/grad_norm", u.grad_norm}},
+                   update);
+}
+
+void logEpoch(const EpochResult& r, int64_t epoch, int iteration,
+              int64_t storeEpisodes, double inflectionCoef,
+              MetricsLog* metrics) {
+  const double rate =
+      r.seconds > 0 ? static_cast<double>(r.updates) / r.seconds : 0.0;
+  spdlog::info(
+      "epoch {} (iteration {}): {} updates ({} skipped) in {:.1f} s ({:.2f} "
+      "updates/s), mean loss {:.4f} (action {:.4f}, progress {:.4f}), {} "
+      "episodes in the store",
+      epoch, iteration, r.updates, r.skipped, r.seconds, rate, r.mean.loss,
+      r.mean.action_loss, r.mean.progress_loss, storeEpisodes);
+  if (metrics)
+    metrics->write("epoch",
+                   {{"epoch", epoch},
+                    {"iteration", iteration},
+                    {"updates", r.updates},
+                    {"skipped", r.skipped},
+                    {"seconds", r.seconds},
+                    {"updates_per_second", rate},
+                    {"loss", r.mean.loss},
+                    {"action_loss", r.mean.action_loss},
+                    {"progress_loss", r.mean.progress_loss},
+                    {"store_episodes", storeEpisodes},
+                    {"inflection_coef", inflectionCoef}},
+                   {{"epoch/loss", r.mean.loss},
+                    {"epoch/action_loss", r.mean.action_loss},
+                    {"epoch/progress_loss", r.mean.progress_loss},
+                    {"epoch/updates_per_second", rate}},
+                   epoch);
+}
+
 }  // namespace vln::train

@@ -21,6 +21,7 @@
 #include "models/Policy.h"
 #include "train/ExperimentConfig.h"
 #include "train/FeatureStore.h"
+#include "train/MetricsLog.h"
 
 namespace vln::train {
 
@@ -125,5 +126,19 @@ class ImitationLearner {
   std::function<torch::Tensor(const torch::Tensor&)> lossHook_;
   Distributed* dist_ = nullptr;
 };
+
+/// Logs update `update` of epoch `epoch` (epochs done before it) of
+/// iteration `iteration`: a skipped update as a "nonfinite" record, every
+/// trainer.log_every_updates-th as a log line and an "update" record.
+/// `metrics` may be null (log lines only).
+void logUpdate(const UpdateResult& result, int64_t update, int64_t epoch,
+               int iteration, const ExperimentConfig& config,
+               MetricsLog* metrics);
+
+/// Logs a finished epoch (`epoch` counts the epochs done, this one
+/// included) as a log line and an "epoch" record; `metrics` may be null.
+void logEpoch(const EpochResult& result, int64_t epoch, int iteration,
+              int64_t storeEpisodes, double inflectionCoef,
+              MetricsLog* metrics);
 
 }  // namespace vln::train

@@ -10,6 +10,10 @@
 #include "common/Config.h"
 #include "common/FileIo.h"
 #include "train/Checkpoint.h"
+#include "models/Export.h"
+#include "models/ObservationEncoder.h"
+#include "models/Policy.h"
+#include "models/StateDict.h"
 #include "train/DistributedTraining.h"
 #include "train/PretrainTasks.h"
 #include "train/RunDirectory.h"
@@ -18,12 +22,30 @@
 namespace vln::train {
 namespace fs = std::filesystem;
 
+namespace {
+
+// `checkpoint` with `config`'s model (policy strictly loaded, the
+// observation encoders with their pretrained weights) as TorchScript
+void exportCheckpoint(const fs::path& checkpoint,
+                      const ExperimentConfig& config, const fs::path& out) {
+  const Checkpoint ckpt = loadCheckpoint(checkpoint);
+  auto policy = models::makePolicy(config.model);
+  models::loadStateStrict(*policy, ckpt.policy, checkpoint.string());
+  models::ObservationEncoder encoder(config.model);
+  encoder->loadPretrained();
+  models::exportPolicy(*policy, encoder.get(), out);
+  spdlog::info("exported {} to {}", checkpoint.string(), out.string());
+}
+
+}  // namespace
+
 TaskRunner taskRunner(const std::string& task) {
   // one entry per trainer.task. Pretraining runs are minutes long and keep
   // no resumable state: --resume on them is refused rather than silently
   // restarting from scratch.
   auto pretraining = [](void (*run)(const ExperimentConfig&, const fs::path&)) {
-    return [run](const ExperimentConfig& config, bool resume) {
+    // one process only: runTrain() refuses WORLD_SIZE > 1 for them
+    return [run](const ExperimentConfig& config, bool resume, Distributed*) {
       VLN_CHECK_ARG(!resume, "train --resume: trainer.task '", config.trainer.task,
                     "' cannot resume; delete ", config.output.dir,
                     " and start again");
@@ -33,8 +55,8 @@ TaskRunner taskRunner(const std::string& task) {
   };
   static const std::map<std::string, TaskRunner> runners = {
       {"vln",
-       [](const ExperimentConfig& config, bool resume) {
-         VlnTrainer trainer(config, resume);
+       [](const ExperimentConfig& config, bool resume, Distributed* dist) {
+         VlnTrainer trainer(config, resume, dist);
          trainer.run();
        }},
       {"depth_pointnav", pretraining(&runDepthPointNavPretraining)},
@@ -119,17 +141,12 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   torch::set_num_threads(config.trainer.torch_threads);
   torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
 
-  if (dist) {
-    try {
-      VlnTrainer trainer(rankConfig, options.resume, dist.get());
-      trainer.run();
-    } catch (const std::exception& error) {
-      // the other ranks stop at their next wait instead of timing out
-      dist->abort(error.what());
-      throw;
-    }
-  } else {
-    taskRunner(config.trainer.task)(config, options.resume);
+  try {
+    taskRunner(config.trainer.task)(rankConfig, options.resume, dist.get());
+  } catch (const std::exception& error) {
+    // the other ranks stop at their next wait instead of timing out
+    if (dist) dist->abort(error.what());
+    throw;
   }
 
   if (!options.export_path.empty() && master) {

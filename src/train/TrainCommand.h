@@ -22,15 +22,18 @@ struct TrainOptions {
       export_path;  ///< --export: TorchScript of the best checkpoint
 };
 
-/// Trains one trainer.task in an initialised run directory (config.yaml
-/// written, logging and threads set up). `resume` as in TrainOptions.
-using TaskRunner =
-    std::function<void(const ExperimentConfig& config, bool resume)>;
+class Distributed;
 
-/// The runner of `task`: "vln" is VlnTrainer; the encoder pretraining tasks
-/// (depth_pointnav, rgb_semantic) register theirs here when they land.
-/// Throws std::invalid_argument naming trainer.task for a task this build
-/// cannot train.
+/// Trains one trainer.task in an initialised run directory (config.yaml
+/// written, logging and threads set up). `resume` as in TrainOptions;
+/// `dist` makes this process one rank of a multi-process run (null: alone).
+using TaskRunner = std::function<void(const ExperimentConfig& config,
+                                      bool resume, Distributed* dist)>;
+
+/// The runner of `task`: "vln" is VlnTrainer (one process or a rank of
+/// several); the encoder pretraining tasks (depth_pointnav, rgb_semantic)
+/// train in one process only. Throws std::invalid_argument naming
+/// trainer.task for a task this build cannot train.
 TaskRunner taskRunner(const std::string& task);
 
 /// `train`: loads the config strictly (file, --set overrides), prints it

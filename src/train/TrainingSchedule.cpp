@@ -37,9 +37,9 @@ std::vector<size_t> TrainingSchedule::roundEpisodes(int iteration,
   std::vector<size_t> order(poolSize);
   for (size_t i = 0; i < poolSize; ++i) order[i] = i;
   if (!dagger() || poolSize == 0) return order;
-  std::mt19937_64 rng(common::deriveSeed(
-      static_cast<uint64_t>(trainer_.seed),
-      kRoundStream + static_cast<uint64_t>(iteration)));
+  std::mt19937_64 rng(
+      common::deriveSeed(static_cast<uint64_t>(trainer_.seed),
+                         kRoundStream + static_cast<uint64_t>(iteration)));
   common::deterministicShuffle(order, rng);
   size_t count = static_cast<size_t>(trainer_.dagger_episodes);
   if (beta(iteration) >= 1.0) count = std::min(count, poolSize);

@@ -52,7 +52,6 @@
 #include <memory>
 #include <string>
 
-#include "train/Checkpoint.h"
 #include "train/ExperimentConfig.h"
 
 namespace vln::train {
@@ -77,25 +76,5 @@ class VlnTrainer {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
-
-/// Hash (16 hex digits) of everything that determines what the feature
-/// store holds: sim, task, dataset (splits and caps), the encoders
-/// (architecture, weight files, image sizes, ablations), the seed and the
-/// collection settings (use_aug, dagger_episodes, dagger_beta,
-/// fine_tune_dagger, store_fp16).
-std::string storeConfigHash(const ExperimentConfig& config);
-
-/// checkpoints/best.json's checkpoint when present, else the newest
-/// checkpoint of `runDir`. Throws std::runtime_error naming the directory
-/// when there is none.
-std::filesystem::path bestOrLatestCheckpoint(
-    const std::filesystem::path& runDir);
-
-/// Exports `checkpoint` with `config`'s model (policy strictly loaded, and
-/// the observation encoders with their pretrained weights) as TorchScript
-/// to `out` (models::exportPolicy).
-void exportCheckpoint(const std::filesystem::path& checkpoint,
-                      const ExperimentConfig& config,
-                      const std::filesystem::path& out);
 
 }  // namespace vln::train

@@ -107,18 +107,17 @@ TEST(EpisodeSchedulerTest, EpisodesFillTheLowestIdleEnvironmentsInOrder) {
   RolloutCounts counts;
   const std::vector<std::string> trace =
       runTrace(/*numEnvs=*/3, /*threads=*/2, {2, 0, 1, 0, 3}, false, &counts);
-  EXPECT_THAT(trace, ElementsAre(
-      "start 0", "start 1", "start 2",
-      "env 0 <- 0", "env 1 <- 1", "env 2 <- 2",
-      "act 0:0 1:1 2:2",
-      "finish 1:1",  // episode 1 STOPs at once
-      "start 3", "env 1 <- 3",
-      "act 0:0 1:3 2:2",
-      "finish 1:3 2:2",  // both STOP at this step, in environment order
-      "start 4", "env 1 <- 4",
-      "act 0:0 1:4",     // environment 2 stays idle: nothing is pending
-      "finish 0:0",
-      "act 1:4", "act 1:4", "act 1:4", "finish 1:4"));
+  EXPECT_THAT(
+      trace,
+      ElementsAre(
+          "start 0", "start 1", "start 2", "env 0 <- 0", "env 1 <- 1",
+          "env 2 <- 2", "act 0:0 1:1 2:2",
+          "finish 1:1",  // episode 1 STOPs at once
+          "start 3", "env 1 <- 3", "act 0:0 1:3 2:2",
+          "finish 1:3 2:2",  // both STOP at this step, in environment order
+          "start 4", "env 1 <- 4",
+          "act 0:0 1:4",  // environment 2 stays idle: nothing is pending
+          "finish 0:0", "act 1:4", "act 1:4", "act 1:4", "finish 1:4"));
   EXPECT_EQ(counts.episodes, 5);
   EXPECT_EQ(counts.steps, 3 + 1 + 2 + 1 + 4);
 }
@@ -134,9 +133,9 @@ TEST(EpisodeSchedulerTest, TheOrderDependsOnTheEnvironmentCountOnly) {
 
 TEST(EpisodeSchedulerTest, MoreEnvironmentsThanEpisodesLeavesTheRestIdle) {
   RolloutCounts counts;
-  EXPECT_THAT(runTrace(4, 2, {1}, false, &counts),
-              ElementsAre("start 0", "env 0 <- 0", "act 0:0", "act 0:0",
-                          "finish 0:0"));
+  EXPECT_THAT(
+      runTrace(4, 2, {1}, false, &counts),
+      ElementsAre("start 0", "env 0 <- 0", "act 0:0", "act 0:0", "finish 0:0"));
   EXPECT_EQ(counts.episodes, 1);
   EXPECT_EQ(counts.steps, 2);
 }

@@ -22,8 +22,9 @@ std::vector<std::string> describe(const std::vector<ScheduledIteration>& todo) {
     if (it.collect) out.push_back("collect " + std::to_string(it.iteration));
     for (const ScheduledEpoch& e : it.epochs)
       out.push_back("train " + std::to_string(it.iteration) + "." +
-                    std::to_string(e.epoch) + (e.evaluate_after ? " eval" : "") +
-                    " -> (" + std::to_string(e.iterations_done) + "," +
+                    std::to_string(e.epoch) +
+                    (e.evaluate_after ? " eval" : "") + " -> (" +
+                    std::to_string(e.iterations_done) + "," +
                     std::to_string(e.epochs_done) + ")");
   }
   return out;
@@ -50,9 +51,10 @@ TEST(TrainingScheduleTest, TeacherForcingCollectsOnceAndValidatesEveryEpoch) {
   EXPECT_FALSE(s.dagger());
   EXPECT_EQ(s.iterations(), 1);
   EXPECT_EQ(s.beta(0), 1.0);
-  EXPECT_THAT(describe(s.remaining(0, 0)),
-              ElementsAre("collect 0", "train 0.0 eval -> (0,1)",
-                          "train 0.1 eval -> (0,2)", "train 0.2 eval -> (0,3)"));
+  EXPECT_THAT(
+      describe(s.remaining(0, 0)),
+      ElementsAre("collect 0", "train 0.0 eval -> (0,1)",
+                  "train 0.1 eval -> (0,2)", "train 0.2 eval -> (0,3)"));
 }
 
 TEST(TrainingScheduleTest, DaggerValidatesAfterEachIterationsLastEpoch) {
@@ -71,9 +73,11 @@ TEST(TrainingScheduleTest, WithoutValidationNothingIsEvaluated) {
                           "train 1.0 -> (2,0)"));
 }
 
-TEST(TrainingScheduleTest, ResumingSkipsWhatIsDoneAndCollectsOnlyAtARoundsStart) {
+TEST(TrainingScheduleTest,
+     ResumingSkipsWhatIsDoneAndCollectsOnlyAtARoundsStart) {
   const TrainingSchedule tf(teacherForcing(3));
-  EXPECT_THAT(describe(tf.remaining(0, 2)), ElementsAre("train 0.2 eval -> (0,3)"));
+  EXPECT_THAT(describe(tf.remaining(0, 2)),
+              ElementsAre("train 0.2 eval -> (0,3)"));
   EXPECT_TRUE(describe(tf.remaining(0, 3)).empty());
   const TrainingSchedule da(dagger(3, 2, 10, 0.75));
   // mid-iteration: no collection, the rest of its epochs, then the next
@@ -83,7 +87,8 @@ TEST(TrainingScheduleTest, ResumingSkipsWhatIsDoneAndCollectsOnlyAtARoundsStart)
   // at an iteration's start its round is (re)collected: the collector
   // skips the episodes already stored
   EXPECT_THAT(describe(da.remaining(2, 0)),
-              ElementsAre("collect 2", "train 2.0 -> (2,1)", "train 2.1 eval -> (3,0)"));
+              ElementsAre("collect 2", "train 2.0 -> (2,1)",
+                          "train 2.1 eval -> (3,0)"));
   EXPECT_TRUE(da.remaining(3, 0).empty());
 }
 
@@ -121,13 +126,16 @@ TEST(TrainingScheduleTest, DaggerRoundsShuffleAndRepeatThePool) {
   // beta < 1: dagger_episodes slots, the shuffled pool repeated
   const auto second = s.roundEpisodes(1, 4);
   ASSERT_EQ(second.size(), 10u);
-  for (size_t k = 4; k < second.size(); ++k) EXPECT_EQ(second[k], second[k - 4]);
+  for (size_t k = 4; k < second.size(); ++k)
+    EXPECT_EQ(second[k], second[k - 4]);
   // rounds differ and depend on the seed only
   EXPECT_NE(s.roundEpisodes(1, 50), s.roundEpisodes(2, 50));
-  EXPECT_EQ(s.roundEpisodes(1, 50), TrainingSchedule(dagger(3, 1, 10, 0.5)).roundEpisodes(1, 50));
+  EXPECT_EQ(s.roundEpisodes(1, 50),
+            TrainingSchedule(dagger(3, 1, 10, 0.5)).roundEpisodes(1, 50));
   TrainerConfig reseeded = dagger(3, 1, 10, 0.5);
   reseeded.seed = 1;
-  EXPECT_NE(TrainingSchedule(reseeded).roundEpisodes(1, 50), s.roundEpisodes(1, 50));
+  EXPECT_NE(TrainingSchedule(reseeded).roundEpisodes(1, 50),
+            s.roundEpisodes(1, 50));
   EXPECT_EQ(s.smallestRound(4), 4u);
   EXPECT_EQ(s.smallestRound(40), 10u);
 }

@@ -1,0 +1,95 @@
+#include "train/PeriodicEvaluator.h"
+
+#include <spdlog/spdlog.h>
+
+#include "common/Check.h"
+#include "rollout/PolicyAgent.h"
+#include "rollout/SplitEvaluation.h"
+#include "train/Distributed.h"
+
+namespace vln::train {
+namespace fs = std::filesystem;
+
+PeriodicEvaluator::PeriodicEvaluator(
+    const ExperimentConfig& config, std::shared_ptr<rollout::SceneCache> scenes,
+    Distributed* dist)
+    : config_(config),
+      dir_(fs::path(config.output.dir) / "eval"),
+      scenes_(std::move(scenes)),
+      dist_(dist) {
+  const rollout::EvalConfig& ec = config.eval;
+  const int cap =
+      ec.train_eval_episodes >= 0 ? ec.train_eval_episodes : ec.episodes;
+  for (const auto& name : ec.splits) {
+    splits_.push_back(data::loadSplit(config.dataset.data_path, name, cap));
+    VLN_CHECK_ARG(splits_.back().hasGoals || splits_.back().episodes.empty(),
+                  "train: eval.splits: split '", name, "' under '",
+                  config.dataset.data_path,
+                  "' has no goals to validate on (leave it to the eval "
+                  "binary)");
+  }
+}
+
+double PeriodicEvaluator::evaluate(
+    int index, const std::shared_ptr<models::PolicyImpl>& policy,
+    const models::ObservationEncoder& encoder, MetricsLog* metrics) {
+  const rollout::EvalConfig& ec = config_.eval;
+  const bool writes = !dist_ || dist_->isMaster();
+  double selectionSpl = -1.0;
+  for (const data::Split& split : splits_) {
+    rollout::PolicyAgent agent(policy, encoder, ec.num_envs, ec.sample_actions,
+                               static_cast<uint64_t>(ec.seed),
+                               config_.dataset.max_instruction_length);
+    rollout::SplitEvaluationOptions options;
+    options.checkpoint = index;
+    if (writes) options.out_dir = dir_;
+    if (dist_) {
+      options.shard = dist_->rank();
+      options.num_shards = dist_->worldSize();
+      const std::string what =
+          strCat("the evaluation of checkpoint ", index, " on ", split.name);
+      options.sum = [this, what](const std::vector<double>& values) {
+        dist_->waitForAll(what);
+        return dist_->allReduceSum(values);
+      };
+    }
+    const rollout::SplitEvaluation result = rollout::evaluateSplit(
+        agent, split, scenes_, config_.sim, config_.task, ec, options);
+    spdlog::info("{}", rollout::summaryLine(result));
+    if (metrics) {
+      const nlohmann::json values = rollout::metricsToJson(result.stats.mean);
+      nlohmann::json record = values;
+      record["checkpoint"] = index;
+      record["split"] = split.name;
+      record["num_episodes"] = result.stats.num_episodes;
+      std::vector<std::pair<std::string, double>> scalars;
+      for (const auto& [key, value] : values.items())
+        scalars.emplace_back("eval/" + split.name + "/" + key,
+                             value.get<double>());
+      metrics->write("eval", record, scalars, index);
+    }
+    if (split.name == ec.selection_split) selectionSpl = result.stats.mean.spl;
+  }
+  policy->train();
+  return selectionSpl;
+}
+
+std::optional<double> PeriodicEvaluator::recorded(int index) {
+  const bool master = !dist_ || dist_->isMaster();
+  bool done = master;
+  for (const data::Split& split : splits_)
+    done = done && fs::exists(dir_ / rollout::statsFileName(index, split.name));
+  if (dist_) done = dist_->broadcastBytes(done ? "1" : "0") == "1";
+  if (!done) return std::nullopt;
+  double spl = -1.0;
+  if (master)
+    for (const data::Split& split : splits_)
+      if (split.name == config_.eval.selection_split)
+        spl = rollout::readStatsFile(dir_ /
+                                     rollout::statsFileName(index, split.name))
+                  .mean.spl;
+  if (dist_) spl = dist_->allReduceSum({master ? spl : 0.0}).front();
+  return spl;
+}
+
+}  // namespace vln::train

@@ -1,0 +1,56 @@
+#pragma once
+// The trainer's validation (trainer.eval_during_training): the policy in
+// memory, evaluated as checkpoint i on eval.splits (eval.train_eval_episodes
+// each, else eval.episodes) through rollout::evaluateSplit(), writing
+// <output.dir>/eval/stats_ckpt_<i>_<split>.json as the eval binary does, a
+// summary line per split in the log and an "eval" record in the metrics.
+//
+// In a multi-process run rank r evaluates episodes r, r + N, ... of each
+// split and the metric sums are all-reduced, so every rank gets the whole
+// split's stats; rank 0 writes the files.
+
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <vector>
+
+#include "data/Split.h"
+#include "models/ObservationEncoder.h"
+#include "models/Policy.h"
+#include "rollout/VectorEnv.h"
+#include "train/ExperimentConfig.h"
+#include "train/MetricsLog.h"
+
+namespace vln::train {
+
+class Distributed;
+
+class PeriodicEvaluator {
+ public:
+  /// Loads the splits. Throws std::invalid_argument naming a split without
+  /// goals (there is nothing to validate on). `dist` may be null.
+  PeriodicEvaluator(const ExperimentConfig& config,
+                    std::shared_ptr<rollout::SceneCache> scenes,
+                    Distributed* dist);
+
+  /// Evaluates `policy` (left in train mode afterwards) with `encoder` as
+  /// checkpoint `index`; `metrics` (may be null) receives the records.
+  /// Returns eval.selection_split's SPL (-1 when it is not evaluated).
+  double evaluate(int index, const std::shared_ptr<models::PolicyImpl>& policy,
+                  const models::ObservationEncoder& encoder,
+                  MetricsLog* metrics);
+
+  /// When every split's stats file of checkpoint `index` exists (rank 0's
+  /// eval/ directory decides for all ranks): the selection split's SPL in
+  /// them (-1 when it is not evaluated). nullopt otherwise.
+  std::optional<double> recorded(int index);
+
+ private:
+  ExperimentConfig config_;
+  std::filesystem::path dir_;
+  std::shared_ptr<rollout::SceneCache> scenes_;
+  Distributed* dist_;
+  std::vector<data::Split> splits_;
+};
+
+}  // namespace vln::train
