@@ -1,5 +1,7 @@
 #include "models/Loss.h"
 
+#include <torch/torch.h>
+
 namespace vln::models {
 
 torch::Tensor inflectionWeights(const torch::Tensor& actions,

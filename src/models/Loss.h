@@ -5,7 +5,7 @@
 // [T, B] layouts, as produced by PolicyImpl::forwardSequence(); episodes
 // shorter than T are padded and `valid` marks their real steps.
 
-#include <torch/torch.h>
+#include <ATen/core/Tensor.h>
 
 namespace vln::models {
 
@@ -13,22 +13,22 @@ namespace vln::models {
 /// whose action differs from the previous step's), 1 elsewhere, 0 where
 /// valid is false. actions int64 [T, B], valid bool [T, B]. VLN-CE's
 /// coefficient for R2R is 3.2 (inverse inflection frequency).
-torch::Tensor inflectionWeights(const torch::Tensor& actions,
-                                const torch::Tensor& valid, double coef);
+at::Tensor inflectionWeights(const at::Tensor& actions,
+                                const at::Tensor& valid, double coef);
 
 /// Inflection-weighted cross-entropy: for each episode
 /// sum_t w * CE(logits_t, action_t) / sum_t w, then the mean over episodes.
 /// logits [T, B, A] float, actions int64 [T, B] (any value where w = 0),
 /// weights [T, B] float. Returns a scalar.
-torch::Tensor weightedActionLoss(const torch::Tensor& logits,
-                                 const torch::Tensor& actions,
-                                 const torch::Tensor& weights);
+at::Tensor weightedActionLoss(const at::Tensor& logits,
+                                 const at::Tensor& actions,
+                                 const at::Tensor& weights);
 
 /// Mean squared error between predicted and true progress over the valid
 /// steps of the whole batch (VLN-CE's AuxLosses reduction). progress and
 /// target [T, B] float, valid bool [T, B]. Returns a scalar.
-torch::Tensor progressLoss(const torch::Tensor& progress,
-                           const torch::Tensor& target,
-                           const torch::Tensor& valid);
+at::Tensor progressLoss(const at::Tensor& progress,
+                           const at::Tensor& target,
+                           const at::Tensor& valid);
 
 }  // namespace vln::models

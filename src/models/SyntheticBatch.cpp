@@ -1,5 +1,7 @@
 #include "models/SyntheticBatch.h"
 
+#include <torch/torch.h>
+
 #include <ATen/CPUGeneratorImpl.h>
 
 #include "common/Check.h"

@@ -6,7 +6,7 @@
 // exactly `instr_len`), non-negative features like pooled post-ReLU CNN
 // outputs, expert actions that are mostly MOVE_FORWARD and end in STOP.
 
-#include <torch/torch.h>
+#include <ATen/core/Tensor.h>
 
 #include <cstdint>
 
@@ -17,12 +17,12 @@ namespace vln::models {
 
 /// One padded batch, time-major, on the CPU.
 struct TeacherForcingBatch {
-  torch::Tensor tokens;    ///< int64 [B, instr_len], PAD 0 at the end
+  at::Tensor tokens;    ///< int64 [B, instr_len], PAD 0 at the end
   PolicyInputs inputs;     ///< [T, B, ...] features, previous actions, masks
-  torch::Tensor actions;   ///< int64 [T, B] expert actions
-  torch::Tensor weights;   ///< float [T, B] inflection weights (3.2), 0 pad
-  torch::Tensor valid;     ///< bool [T, B] real steps
-  torch::Tensor progress;  ///< float [T, B] (t + 1) / length
+  at::Tensor actions;   ///< int64 [T, B] expert actions
+  at::Tensor weights;   ///< float [T, B] inflection weights (3.2), 0 pad
+  at::Tensor valid;     ///< bool [T, B] real steps
+  at::Tensor progress;  ///< float [T, B] (t + 1) / length
 };
 
 /// A reproducible batch for `config`'s feature shapes (seeded by `seed`).

@@ -1,5 +1,7 @@
 #include "rollout/ObservationBatch.h"
 
+#include <torch/torch.h>
+
 #include <algorithm>
 #include <cstring>
 

@@ -2,7 +2,7 @@
 // Turns the environments' observations and instructions into the tensors
 // the encoders and policies read.
 
-#include <torch/torch.h>
+#include <ATen/core/Tensor.h>
 
 #include <span>
 #include <vector>
@@ -15,8 +15,8 @@ namespace vln::rollout {
 
 /// Observations of a batch of environments, channels last as rendered.
 struct ObservationBatch {
-  torch::Tensor rgb;  ///< uint8 [N, H, W, 3]; undefined when model.no_rgb
-  torch::Tensor
+  at::Tensor rgb;  ///< uint8 [N, H, W, 3]; undefined when model.no_rgb
+  at::Tensor
       depth;  ///< float [N, H, W, 1] in [0, 1]; undefined when model.no_depth
 };
 
@@ -29,7 +29,7 @@ ObservationBatch batchObservations(const VectorEnv& envs,
 
 /// Instruction tokens int64 [N, L] (PAD 0 on the right), L = the longest
 /// unpadded instruction in the batch, capped at `maxLength` (at least 1).
-torch::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
+at::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
                                 int maxLength);
 
 }  // namespace vln::rollout

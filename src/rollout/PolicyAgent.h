@@ -10,7 +10,7 @@
 // (common::episodeSeed()), so the actions of an episode are the same
 // whichever episodes share its batch and whatever the thread count.
 
-#include <torch/torch.h>
+#include <ATen/core/Tensor.h>
 
 #include <memory>
 #include <random>
@@ -40,7 +40,7 @@ class PolicyAgent : public Agent {
 
   /// Action probabilities of the last act() call, float [active, 4] on the
   /// CPU (softmax of the logits), for tests and diagnostics.
-  const torch::Tensor& lastProbabilities() const { return lastProbabilities_; }
+  const at::Tensor& lastProbabilities() const { return lastProbabilities_; }
 
  private:
   PolicyStepper stepper_;
@@ -48,7 +48,7 @@ class PolicyAgent : public Agent {
   bool sample_;
   uint64_t seed_;
   std::vector<EpisodeDraws> draws_;
-  torch::Tensor lastProbabilities_;
+  at::Tensor lastProbabilities_;
 };
 
 /// Draws an action index from `probabilities` (non-negative, any sum > 0) by
@@ -65,7 +65,7 @@ int chooseAction(std::span<const double> logits, bool sample,
 
 /// chooseAction() on row `row` of `logits` (float64 [n, actions] on the
 /// CPU, contiguous).
-int chooseRow(const torch::Tensor& logits, int64_t row, bool sample,
+int chooseRow(const at::Tensor& logits, int64_t row, bool sample,
               std::mt19937_64& rng);
 
 /// Rows of one-episode encoded instructions ([1, L_i, ...] each) stacked

@@ -1,5 +1,7 @@
 #include "train/FeatureStore.h"
 
+#include <torch/torch.h>
+
 #include <lmdb.h>
 #include <sys/resource.h>
 #include <sys/stat.h>

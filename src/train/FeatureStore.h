@@ -20,7 +20,7 @@
 // Layout on disk: <dir>/data.mdb and <dir>/lock.mdb (LMDB's directory
 // mode). Keys: "e<12-digit index>" per episode, "meta" (JSON).
 
-#include <torch/torch.h>
+#include <ATen/core/Tensor.h>
 
 #include <cstdint>
 #include <filesystem>
@@ -78,9 +78,9 @@ struct StoredEpisode {
   std::vector<uint8_t>
       oracle_actions;           ///< [T] oracle action at step t (the label)
   std::vector<float> progress;  ///< [T] progress target at step t
-  torch::Tensor
+  at::Tensor
       rgb;  ///< [T, C, h, w] CPU float16/float32; undefined without RGB
-  torch::Tensor
+  at::Tensor
       depth;  ///< [T, C, h, w] CPU float16/float32; undefined without depth
 
   int64_t length() const { return static_cast<int64_t>(oracle_actions.size()); }
@@ -89,14 +89,14 @@ struct StoredEpisode {
 /// Whole episodes padded to the longest one, time-major (PolicyImpl's
 /// sequence mode), on the CPU.
 struct EpisodeBatch {
-  torch::Tensor rgb;    ///< [T, B, C, h, w] float32; undefined without RGB
-  torch::Tensor depth;  ///< [T, B, C, h, w] float32; undefined without depth
-  torch::Tensor prev_actions;    ///< [T, B] int64 (0 at padding)
-  torch::Tensor oracle_actions;  ///< [T, B] int64 (0 at padding)
-  torch::Tensor progress;        ///< [T, B] float32 (0 at padding)
-  torch::Tensor valid;           ///< [T, B] bool, true at real steps
-  torch::Tensor not_done;        ///< [T, B] float32, 0 at t = 0 else 1
-  torch::Tensor tokens;          ///< [B, L] int64, PAD 0 on the right (L >= 1)
+  at::Tensor rgb;    ///< [T, B, C, h, w] float32; undefined without RGB
+  at::Tensor depth;  ///< [T, B, C, h, w] float32; undefined without depth
+  at::Tensor prev_actions;    ///< [T, B] int64 (0 at padding)
+  at::Tensor oracle_actions;  ///< [T, B] int64 (0 at padding)
+  at::Tensor progress;        ///< [T, B] float32 (0 at padding)
+  at::Tensor valid;           ///< [T, B] bool, true at real steps
+  at::Tensor not_done;        ///< [T, B] float32, 0 at t = 0 else 1
+  at::Tensor tokens;          ///< [B, L] int64, PAD 0 on the right (L >= 1)
   std::vector<int64_t> indices;  ///< store indices of the B episodes
   int64_t steps = 0;             ///< real (valid) steps in the batch
 };

@@ -28,11 +28,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// DD-PPO's goal and previous-action embedding widths
-// (habitat_baselines PointNavResNetNet: tgt_embeding and
-// prev_action_embedding are both 32 wide)
-constexpr int64_t kGoalEmbeddingDim = 32;
-constexpr int64_t kPrevActionEmbeddingDim = 32;
 // uint16 depth code of the top of the sensor range
 constexpr float kDepthCodeMax = 65535.0f;
 // stream labels of data::deriveSeed, so that no two uses share draws
@@ -102,91 +97,6 @@ std::vector<PointGoalEpisode> samplePointGoalEpisodes(
   return episodes;
 }
 
-// ===========================================================================
-// the policy
-// ===========================================================================
-
-PointNavPolicyImpl::PointNavPolicyImpl(const models::ModelConfig& model,
-                                       int64_t hiddenSize, bool useDepth)
-    : hiddenSize_(hiddenSize) {
-  int64_t inputSize = kGoalEmbeddingDim + kPrevActionEmbeddingDim;
-  if (useDepth) {
-    depth = register_module("depth", models::DepthEncoder(model));
-    const models::FeatureShape shape = models::depthFeatureShape(model);
-    depth_fc = register_module(
-        "depth_fc", torch::nn::Linear(shape[0] * shape[1] * shape[2],
-                                      model.depth_projection_size));
-    inputSize += model.depth_projection_size;
-  }
-  goal_embedding = register_module(
-      "goal_embedding", torch::nn::Linear(kPointGoalDims, kGoalEmbeddingDim));
-  // index 0 is "episode start", actions are shifted by one (VLN-CE, DD-PPO)
-  prev_action_embedding = register_module(
-      "prev_action_embedding",
-      torch::nn::Embedding(models::kNumActions + 1, kPrevActionEmbeddingDim));
-  gru = register_module("gru", models::MaskedGru(inputSize, hiddenSize));
-  action = register_module("action",
-                           torch::nn::Linear(hiddenSize, models::kNumActions));
-  // habitat's CategoricalNet: near-uniform initial action distribution
-  torch::NoGradGuard noGrad;
-  torch::nn::init::orthogonal_(action->weight, /*gain=*/0.01);
-  torch::nn::init::zeros_(action->bias);
-}
-
-std::pair<torch::Tensor, torch::Tensor> PointNavPolicyImpl::forward(
-    const PointNavInputs& inputs, const torch::Tensor& hidden) {
-  TORCH_CHECK(inputs.goal.dim() == 3 && inputs.goal.size(2) == kPointGoalDims,
-              "PointNavPolicy::forward(): expected goal [T, B, 3], got ",
-              inputs.goal.sizes());
-  const int64_t steps = inputs.goal.size(0), batch = inputs.goal.size(1);
-  TORCH_CHECK(inputs.prev_actions.sizes() == inputs.not_done.sizes() &&
-                  inputs.prev_actions.dim() == 2 &&
-                  inputs.prev_actions.size(0) == steps &&
-                  inputs.prev_actions.size(1) == batch,
-              "PointNavPolicy::forward(): expected prev_actions and not_done "
-              "[T, B] = [",
-              steps, ", ", batch, "], got ", inputs.prev_actions.sizes(),
-              " and ", inputs.not_done.sizes());
-  TORCH_CHECK(hidden.dim() == 2 && hidden.size(0) == batch &&
-                  hidden.size(1) == hiddenSize_,
-              "PointNavPolicy::forward(): expected hidden [", batch, ", ",
-              hiddenSize_, "], got ", hidden.sizes());
-
-  std::vector<torch::Tensor> parts;
-  if (depth) {
-    TORCH_CHECK(inputs.depth.defined() && inputs.frame_index.defined() &&
-                    inputs.frame_index.dim() == 1 &&
-                    inputs.depth.size(0) == inputs.frame_index.size(0),
-                "PointNavPolicy::forward(): expected depth [N, H, W, 1] and "
-                "frame_index [N], got ",
-                inputs.depth.defined() ? inputs.depth.sizes()
-                                       : torch::IntArrayRef{},
-                " and ",
-                inputs.frame_index.defined() ? inputs.frame_index.sizes()
-                                             : torch::IntArrayRef{});
-    // the CNN runs on the real frames only, then they go to their (t, b)
-    const torch::Tensor features =
-        torch::relu(depth_fc->forward(depth->forward(inputs.depth).flatten(1)));
-    const torch::Tensor placed =
-        torch::zeros({steps * batch, features.size(1)}, features.options())
-            .index_copy(0, inputs.frame_index, features);
-    parts.push_back(placed.view({steps, batch, -1}));
-  }
-  parts.push_back(goal_embedding->forward(inputs.goal));
-  const torch::Tensor prevIndex =
-      (inputs.prev_actions + 1) * inputs.not_done.to(torch::kLong);
-  parts.push_back(prev_action_embedding->forward(prevIndex));
-
-  auto [out, last] = gru->forward(torch::cat(parts, /*dim=*/-1), hidden,
-                                  inputs.not_done);
-  return {action->forward(out), last};
-}
-
-torch::Tensor PointNavPolicyImpl::initialHidden(int64_t batch) const {
-  return torch::zeros({batch, hiddenSize_},
-                      action->weight.options().requires_grad(false));
-}
-
 namespace {
 
 // ===========================================================================
@@ -254,7 +164,7 @@ nlohmann::json metricsJson(const PointNavMetrics& m) {
 // drives, what is recorded, how each episode ended.
 struct RolloutSpec {
   Driver driver = Driver::kOracle;
-  PointNavPolicyImpl* policy = nullptr;  // needed for kMixed and kPolicy
+  models::PointNavPolicyImpl* policy = nullptr;  // needed for kMixed and kPolicy
   double beta = 0.0;                     // kMixed: the follower's probability
   uint64_t seed = 0;                     // coins and random actions
   // with `record`, every step goes to (*record)[k] for episode k; the
@@ -409,12 +319,12 @@ class PointGoalJob : public rollout::EpisodeJob {
   // one step of the policy for `active`; returns its argmax actions
   std::vector<int64_t> policyStep(const std::vector<int>& active) {
     torch::NoGradGuard noGrad;
-    PointNavPolicyImpl& policy = *spec_.policy;
+    models::PointNavPolicyImpl& policy = *spec_.policy;
     const int64_t n = static_cast<int64_t>(active.size());
     const int64_t width = config_.sim.depth.camera.width;
     const int64_t height = config_.sim.depth.camera.height;
     const auto pixels = static_cast<size_t>(width * height);
-    std::vector<float> goal(static_cast<size_t>(n) * kPointGoalDims);
+    std::vector<float> goal(static_cast<size_t>(n) * models::kPointGoalDims);
     std::vector<int64_t> prev(static_cast<size_t>(n)), rows(static_cast<size_t>(n));
     std::vector<float> notDone(static_cast<size_t>(n));
     torch::Tensor depth;
@@ -423,7 +333,7 @@ class PointGoalJob : public rollout::EpisodeJob {
       const int e = active[static_cast<size_t>(i)];
       const Env& env = state_[static_cast<size_t>(e)];
       std::copy(env.goal.begin(), env.goal.end(),
-                goal.begin() + i * kPointGoalDims);
+                goal.begin() + i * models::kPointGoalDims);
       prev[static_cast<size_t>(i)] = env.prev;
       notDone[static_cast<size_t>(i)] = env.first ? 0.0f : 1.0f;
       rows[static_cast<size_t>(i)] = e;
@@ -433,12 +343,12 @@ class PointGoalJob : public rollout::EpisodeJob {
                   depth.data_ptr<float>() + i * static_cast<int64_t>(pixels));
       }
     }
-    PointNavInputs inputs;
+    models::PointNavInputs inputs;
     if (depth.defined()) {
       inputs.depth = depth.to(device_);
       inputs.frame_index = torch::arange(n, torch::TensorOptions(torch::kLong).device(device_));
     }
-    inputs.goal = torch::from_blob(goal.data(), {1, n, kPointGoalDims}).to(device_);
+    inputs.goal = torch::from_blob(goal.data(), {1, n, models::kPointGoalDims}).to(device_);
     inputs.prev_actions = torch::from_blob(prev.data(), {1, n}, torch::kLong).to(device_);
     inputs.not_done = torch::from_blob(notDone.data(), {1, n}).to(device_);
     const torch::Tensor rowIndex =
@@ -513,7 +423,7 @@ std::vector<Outcome> runPointGoalEpisodes(
 // ===========================================================================
 
 struct Batch {
-  PointNavInputs inputs;
+  models::PointNavInputs inputs;
   torch::Tensor labels;  // [T, B] int64
   torch::Tensor valid;   // [T, B] bool
   int64_t steps = 0;
@@ -531,7 +441,7 @@ Batch makeBatch(const std::vector<const RecordedEpisode*>& episodes,
   const int64_t pixels = height * width;
   torch::Tensor depth = torch::empty({frames, height, width, 1});
   torch::Tensor frameIndex = torch::empty({frames}, torch::kLong);
-  torch::Tensor goal = torch::zeros({steps, batch, kPointGoalDims});
+  torch::Tensor goal = torch::zeros({steps, batch, models::kPointGoalDims});
   torch::Tensor prev = torch::zeros({steps, batch}, torch::kLong);
   torch::Tensor notDone = torch::zeros({steps, batch});
   torch::Tensor labels = torch::zeros({steps, batch}, torch::kLong);
@@ -552,8 +462,8 @@ Batch makeBatch(const std::vector<const RecordedEpisode*>& episodes,
       float* out = depthData + frame * pixels;
       for (int64_t p = 0; p < pixels; ++p) out[p] = static_cast<float>(codes[p]) * decode;
       indexData[frame] = t * batch + b;
-      for (int64_t k = 0; k < kPointGoalDims; ++k)
-        goalA[t][b][k] = e.goal[static_cast<size_t>(t * kPointGoalDims + k)];
+      for (int64_t k = 0; k < models::kPointGoalDims; ++k)
+        goalA[t][b][k] = e.goal[static_cast<size_t>(t * models::kPointGoalDims + k)];
       prevA[t][b] = e.prev[static_cast<size_t>(t)];
       notDoneA[t][b] = t == 0 ? 0.0f : 1.0f;
       labelsA[t][b] = e.label[static_cast<size_t>(t)];
@@ -590,7 +500,7 @@ double labelInflectionFrequency(const std::vector<RecordedEpisode>& episodes) {
 // One trained model with its optimizer and loss bookkeeping.
 struct Learner {
   std::string name;
-  PointNavPolicy policy{nullptr};
+  models::PointNavPolicy policy{nullptr};
   std::unique_ptr<torch::optim::Adam> optimizer;
   NonFiniteLosses nonFinite;
   double epochLoss = 0.0;
@@ -675,7 +585,7 @@ struct PointNavPretrainer::Impl : PretrainRun {
   // one update of `learner` on `batch`; returns the loss (NaN when skipped)
   double update(Learner& learner, const Batch& batch, bool withDepth) {
     learner.policy->train();
-    PointNavInputs inputs = batch.inputs;
+    models::PointNavInputs inputs = batch.inputs;
     if (!withDepth) {
       inputs.depth = torch::Tensor();
       inputs.frame_index = torch::Tensor();
@@ -750,7 +660,7 @@ struct PointNavPretrainer::Impl : PretrainRun {
   // --- evaluation -------------------------------------------------------------
 
   PointNavMetrics evaluate(const std::vector<PointGoalEpisode>& episodes, Driver driver,
-                           PointNavPolicyImpl* policy, const std::string& name) {
+                           models::PointNavPolicyImpl* policy, const std::string& name) {
     RolloutSpec spec;
     spec.driver = driver;
     spec.policy = policy;
@@ -779,13 +689,13 @@ PointNavPretrainer::PointNavPretrainer(const ExperimentConfig& config, fs::path 
   // the two learners: same architecture but for the depth input
   const int64_t hidden = config.pretrain.hidden_size;
   s.depthLearner.name = "depth policy";
-  s.depthLearner.policy = PointNavPolicy(config.model, hidden, /*useDepth=*/true);
+  s.depthLearner.policy = models::PointNavPolicy(config.model, hidden, /*useDepth=*/true);
   if (!config.model.depth_weights.empty()) {
     models::loadModule(s.depthLearner.policy->depth->cnnModule(), config.model.depth_weights);
     spdlog::info("depth CNN initialised from {}", config.model.depth_weights);
   }
   s.blindLearner.name = "blind control";
-  s.blindLearner.policy = PointNavPolicy(config.model, hidden, /*useDepth=*/false);
+  s.blindLearner.policy = models::PointNavPolicy(config.model, hidden, /*useDepth=*/false);
   for (Learner* l : {&s.depthLearner, &s.blindLearner}) {
     l->policy->to(s.device);
     l->optimizer = std::make_unique<torch::optim::Adam>(

@@ -11,7 +11,7 @@
 // island at a geodesic distance in [pretrain.min_goal_distance,
 // pretrain.max_goal_distance].
 //
-// The policy (PointNavPolicy) is small and recurrent: depth CNN
+// The policy (models::PointNavPolicy) is small and recurrent: depth CNN
 // (model.depth_encoder, trained here) -> linear + ReLU projection
 // (model.depth_projection_size), a linear goal embedding (32, as DD-PPO),
 // a previous-action embedding (32, as DD-PPO), a GRU (pretrain.hidden_size)
@@ -43,8 +43,6 @@
 // max_episode_steps, sim.* (depth camera, agent, navmesh, renderer),
 // model.depth_* and output.tensorboard.
 
-#include <torch/torch.h>
-
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -52,16 +50,12 @@
 #include <utility>
 #include <vector>
 
-#include "models/MaskedGru.h"
-#include "models/ObservationEncoder.h"
+#include "models/PointNavPolicy.h"
 #include "sim/Agent.h"
 #include "sim/Scene.h"
 #include "train/ExperimentConfig.h"
 
 namespace vln::train {
-
-/// Width of the goal observation.
-inline constexpr int64_t kPointGoalDims = 3;
 
 /// DD-PPO's pointgoal_with_gps_compass as its policy embeds it:
 /// [rho, cos(phi), sin(phi)] with rho the horizontal Euclidean distance from
@@ -87,47 +81,6 @@ struct PointGoalEpisode {
 std::vector<PointGoalEpisode> samplePointGoalEpisodes(
     const std::vector<std::shared_ptr<const sim::Scene>>& scenes, int count,
     float minDistance, float maxDistance, uint64_t seed);
-
-/// Inputs of PointNavPolicy, time-major over T steps of B episodes; only
-/// the N real (unpadded) steps carry a depth frame.
-struct PointNavInputs {
-  torch::Tensor depth;        ///< [N, H, W, 1] float in the sensor's range;
-                              ///< undefined for a blind policy
-  torch::Tensor frame_index;  ///< [N] int64: t * B + b of each frame
-  torch::Tensor goal;         ///< [T, B, 3] float, pointGoalObservation()
-  torch::Tensor prev_actions; ///< [T, B] int64, the action before this step
-                              ///< (any value where not_done = 0)
-  torch::Tensor not_done;     ///< [T, B] float 0/1, 0 at an episode's start
-};
-
-/// The point-goal policy (see the file comment).
-class PointNavPolicyImpl : public torch::nn::Module {
- public:
-  /// The depth CNN is model.depth_encoder at model.depth_width x
-  /// depth_height; `useDepth` = false builds the blind control.
-  PointNavPolicyImpl(const models::ModelConfig& model, int64_t hiddenSize,
-                     bool useDepth);
-
-  /// inputs over [T, B], hidden [B, hidden_size] before step 0 (reset
-  /// where not_done is 0) -> (logits [T, B, 4], hidden after step T-1).
-  std::pair<torch::Tensor, torch::Tensor> forward(const PointNavInputs& inputs,
-                                                  const torch::Tensor& hidden);
-
-  /// Zeros [batch, hidden_size].
-  torch::Tensor initialHidden(int64_t batch) const;
-  bool usesDepth() const { return !depth.is_empty(); }
-
-  models::DepthEncoder depth{nullptr};  ///< undefined for the blind control
-  torch::nn::Linear depth_fc{nullptr};
-  torch::nn::Linear goal_embedding{nullptr};
-  torch::nn::Embedding prev_action_embedding{nullptr};
-  models::MaskedGru gru{nullptr};
-  torch::nn::Linear action{nullptr};
-
- private:
-  int64_t hiddenSize_;
-};
-TORCH_MODULE(PointNavPolicy);
 
 /// Held-out point-goal results of one agent (means over episodes).
 struct PointNavMetrics {

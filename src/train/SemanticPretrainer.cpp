@@ -94,26 +94,6 @@ ViewLabels labelView(const sim::SceneSemantics& semantics,
   return out;
 }
 
-SemanticNetImpl::SemanticNetImpl(const models::ModelConfig& model) {
-  rgb = register_module("rgb", models::RgbEncoder(model));
-  const models::FeatureShape shape = models::rgbFeatureShape(model);
-  const int64_t features = shape[0] * shape[1] * shape[2];
-  categories = register_module(
-      "categories",
-      torch::nn::Linear(features, static_cast<int64_t>(sim::houseObjectCategories().size())));
-  colors = register_module(
-      "colors", torch::nn::Linear(features, static_cast<int64_t>(sim::houseColorNames().size())));
-  room = register_module(
-      "room", torch::nn::Linear(features, static_cast<int64_t>(sim::houseRoomTypes().size())));
-}
-
-SemanticLogits SemanticNetImpl::forward(const torch::Tensor& images) {
-  TORCH_CHECK(images.dim() == 4, "SemanticNet::forward(): expected rgb [N, H, W, 3], got ",
-              images.sizes());
-  const torch::Tensor features = rgb->forward(images).flatten(1);
-  return {categories->forward(features), colors->forward(features), room->forward(features)};
-}
-
 double averagePrecision(std::span<const float> scores, std::span<const uint8_t> labels) {
   VLN_CHECK_ARG(scores.size() == labels.size(), "averagePrecision(): ", scores.size(),
                 " scores but ", labels.size(), " labels");
@@ -243,7 +223,7 @@ struct LabelCounts {
 // ===========================================================================
 
 struct SemanticPretrainer::Impl : PretrainRun {
-  SemanticNet net{nullptr};
+  models::SemanticNet net{nullptr};
   std::unique_ptr<torch::optim::Adam> optimizer;
   LabelCounts counts;
   NonFiniteLosses nonFinite;
@@ -322,7 +302,7 @@ struct SemanticPretrainer::Impl : PretrainRun {
   // label is a decision of its own; a mean over 29 labels would shrink the
   // rare ones' gradients next to the room's) plus the room cross-entropy;
   // then the mean over the batch
-  torch::Tensor loss(const SemanticLogits& logits, const torch::Tensor& categories,
+  torch::Tensor loss(const models::SemanticLogits& logits, const torch::Tensor& categories,
                      const torch::Tensor& colors, const torch::Tensor& room) const {
     const double images = static_cast<double>(room.size(0));
     return (torch::binary_cross_entropy_with_logits(logits.categories, categories, {}, {},
@@ -383,7 +363,7 @@ struct SemanticPretrainer::Impl : PretrainRun {
     std::vector<torch::Tensor> cat, col, room;
     for (int64_t first = 0; first < set.size(); first += kEvalChunk) {
       const int64_t n = std::min(kEvalChunk, set.size() - first);
-      const SemanticLogits logits = net->forward(set.rgb.narrow(0, first, n).to(device));
+      const models::SemanticLogits logits = net->forward(set.rgb.narrow(0, first, n).to(device));
       cat.push_back(torch::sigmoid(logits.categories).to(torch::kCPU));
       col.push_back(torch::sigmoid(logits.colors).to(torch::kCPU));
       room.push_back(logits.room.argmax(-1).to(torch::kCPU));
@@ -458,7 +438,10 @@ SemanticPretrainer::SemanticPretrainer(const ExperimentConfig& config, fs::path 
   Impl& s = *impl_;
   s.start(config, std::move(runDir), "rgb_semantic", "SemanticPretrainer");
 
-  s.net = SemanticNet(config.model);
+  s.net = models::SemanticNet(
+      config.model, static_cast<int64_t>(sim::houseObjectCategories().size()),
+      static_cast<int64_t>(sim::houseColorNames().size()),
+      static_cast<int64_t>(sim::houseRoomTypes().size()));
   if (!config.model.rgb_weights.empty()) {
     models::loadModule(s.net->rgb->cnnModule(), config.model.rgb_weights);
     spdlog::info("RGB CNN initialised from {}", config.model.rgb_weights);

@@ -36,15 +36,13 @@
 // max_nonfinite_updates, trainer.log_every_updates, sim.* (RGB camera,
 // navmesh, renderer), model.rgb_* and output.tensorboard.
 
-#include <torch/torch.h>
-
 #include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <span>
 #include <vector>
 
-#include "models/ObservationEncoder.h"
+#include "models/SemanticNet.h"
 #include "sim/Mesh.h"
 #include "train/ExperimentConfig.h"
 
@@ -67,27 +65,6 @@ struct ViewLabels {
 ViewLabels labelView(const sim::SceneSemantics& semantics,
                      std::span<const int32_t> objectIds,
                      const Vec3f& position, float minFraction);
-
-/// Logits of SemanticNet for a batch of N images.
-struct SemanticLogits {
-  torch::Tensor categories;  ///< [N, categories] float
-  torch::Tensor colors;      ///< [N, colours] float
-  torch::Tensor room;        ///< [N, room types] float
-};
-
-/// RGB CNN plus one linear head per output (see the file comment).
-class SemanticNetImpl : public torch::nn::Module {
- public:
-  explicit SemanticNetImpl(const models::ModelConfig& model);
-  /// rgb uint8 [N, H, W, 3] -> logits.
-  SemanticLogits forward(const torch::Tensor& rgb);
-
-  models::RgbEncoder rgb{nullptr};
-  torch::nn::Linear categories{nullptr};
-  torch::nn::Linear colors{nullptr};
-  torch::nn::Linear room{nullptr};
-};
-TORCH_MODULE(SemanticNet);
 
 /// Average precision of `scores` for the 0/1 `labels` of one label: the
 /// mean, over the positives, of the precision at their score. Equal scores

@@ -1,5 +1,7 @@
 #include "models/Loss.h"
 
+#include <torch/torch.h>
+
 #include <gtest/gtest.h>
 
 #include <cmath>

@@ -3,6 +3,8 @@
 
 #include "train/FeatureStore.h"
 
+#include <torch/torch.h>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <sys/wait.h>
