@@ -20,9 +20,9 @@ PointNavPolicyImpl::PointNavPolicyImpl(const ModelConfig& model,
   if (useDepth) {
     depth = register_module("depth", DepthEncoder(model));
     const FeatureShape shape = depthFeatureShape(model);
-    depth_fc = register_module(
-        "depth_fc", torch::nn::Linear(shape[0] * shape[1] * shape[2],
-                                      model.depth_projection_size));
+    depth_fc = register_module("depth_fc",
+                               torch::nn::Linear(shape[0] * shape[1] * shape[2],
+                                                 model.depth_projection_size));
     inputSize += model.depth_projection_size;
   }
   goal_embedding = register_module(
@@ -32,8 +32,8 @@ PointNavPolicyImpl::PointNavPolicyImpl(const ModelConfig& model,
       "prev_action_embedding",
       torch::nn::Embedding(kNumActions + 1, kPrevActionEmbeddingDim));
   gru = register_module("gru", MaskedGru(inputSize, hiddenSize));
-  action = register_module("action",
-                           torch::nn::Linear(hiddenSize, kNumActions));
+  action =
+      register_module("action", torch::nn::Linear(hiddenSize, kNumActions));
   // habitat's CategoricalNet: near-uniform initial action distribution
   torch::NoGradGuard noGrad;
   torch::nn::init::orthogonal_(action->weight, /*gain=*/0.01);
@@ -61,16 +61,16 @@ std::pair<torch::Tensor, torch::Tensor> PointNavPolicyImpl::forward(
 
   std::vector<torch::Tensor> parts;
   if (depth) {
-    TORCH_CHECK(inputs.depth.defined() && inputs.frame_index.defined() &&
-                    inputs.frame_index.dim() == 1 &&
-                    inputs.depth.size(0) == inputs.frame_index.size(0),
-                "PointNavPolicy::forward(): expected depth [N, H, W, 1] and "
-                "frame_index [N], got ",
-                inputs.depth.defined() ? inputs.depth.sizes()
-                                       : torch::IntArrayRef{},
-                " and ",
-                inputs.frame_index.defined() ? inputs.frame_index.sizes()
-                                             : torch::IntArrayRef{});
+    TORCH_CHECK(
+        inputs.depth.defined() && inputs.frame_index.defined() &&
+            inputs.frame_index.dim() == 1 &&
+            inputs.depth.size(0) == inputs.frame_index.size(0),
+        "PointNavPolicy::forward(): expected depth [N, H, W, 1] and "
+        "frame_index [N], got ",
+        inputs.depth.defined() ? inputs.depth.sizes() : torch::IntArrayRef{},
+        " and ",
+        inputs.frame_index.defined() ? inputs.frame_index.sizes()
+                                     : torch::IntArrayRef{});
     // the CNN runs on the real frames only, then they go to their (t, b)
     const torch::Tensor features =
         torch::relu(depth_fc->forward(depth->forward(inputs.depth).flatten(1)));
@@ -84,8 +84,8 @@ std::pair<torch::Tensor, torch::Tensor> PointNavPolicyImpl::forward(
       (inputs.prev_actions + 1) * inputs.not_done.to(torch::kLong);
   parts.push_back(prev_action_embedding->forward(prevIndex));
 
-  auto [out, last] = gru->forward(torch::cat(parts, /*dim=*/-1), hidden,
-                                  inputs.not_done);
+  auto [out, last] =
+      gru->forward(torch::cat(parts, /*dim=*/-1), hidden, inputs.not_done);
   return {action->forward(out), last};
 }
 

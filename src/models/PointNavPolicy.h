@@ -24,13 +24,13 @@ inline constexpr int64_t kPointGoalDims = 3;
 /// Inputs of PointNavPolicy, time-major over T steps of B episodes; only
 /// the N real (unpadded) steps carry a depth frame.
 struct PointNavInputs {
-  torch::Tensor depth;        ///< [N, H, W, 1] float in the sensor's range;
-                              ///< undefined for a blind policy
-  torch::Tensor frame_index;  ///< [N] int64: t * B + b of each frame
-  torch::Tensor goal;         ///< [T, B, 3] float, pointGoalObservation()
-  torch::Tensor prev_actions; ///< [T, B] int64, the action before this step
-                              ///< (any value where not_done = 0)
-  torch::Tensor not_done;     ///< [T, B] float 0/1, 0 at an episode's start
+  torch::Tensor depth;         ///< [N, H, W, 1] float in the sensor's range;
+                               ///< undefined for a blind policy
+  torch::Tensor frame_index;   ///< [N] int64: t * B + b of each frame
+  torch::Tensor goal;          ///< [T, B, 3] float, pointGoalObservation()
+  torch::Tensor prev_actions;  ///< [T, B] int64, the action before this step
+                               ///< (any value where not_done = 0)
+  torch::Tensor not_done;      ///< [T, B] float 0/1, 0 at an episode's start
 };
 
 /// The point-goal policy (see the file comment).

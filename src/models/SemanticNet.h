@@ -25,8 +25,8 @@ class SemanticNetImpl : public torch::nn::Module {
  public:
   /// Heads of `categories`, `colors` and `rooms` outputs (the sizes of the
   /// world's vocabularies).
-  SemanticNetImpl(const ModelConfig& model, int64_t categories,
-                  int64_t colors, int64_t rooms);
+  SemanticNetImpl(const ModelConfig& model, int64_t categories, int64_t colors,
+                  int64_t rooms);
   /// rgb uint8 [N, H, W, 3] -> logits.
   SemanticLogits forward(const torch::Tensor& rgb);
 

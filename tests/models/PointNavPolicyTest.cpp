@@ -23,12 +23,14 @@ ModelConfig tinyDepthModel() {
   return model;
 }
 
-PointNavInputs randomInputs(int64_t steps, const std::vector<int64_t>& lengths, int64_t size) {
+PointNavInputs randomInputs(int64_t steps, const std::vector<int64_t>& lengths,
+                            int64_t size) {
   const int64_t batch = static_cast<int64_t>(lengths.size());
   PointNavInputs in;
   std::vector<int64_t> index;
   for (int64_t b = 0; b < batch; ++b)
-    for (int64_t t = 0; t < lengths[static_cast<size_t>(b)]; ++t) index.push_back(t * batch + b);
+    for (int64_t t = 0; t < lengths[static_cast<size_t>(b)]; ++t)
+      index.push_back(t * batch + b);
   in.frame_index = torch::tensor(index, torch::kLong);
   in.depth = torch::rand({static_cast<int64_t>(index.size()), size, size, 1});
   in.goal = torch::randn({steps, batch, 3});
@@ -50,15 +52,17 @@ TEST(PointNavPolicyTest, PaddedBatchEqualsEpisodesRunAlone) {
 
   // episode 1 alone: its frames, goals and actions at T = 2, B = 1
   PointNavInputs alone;
-  const torch::Tensor frames = torch::tensor(std::vector<int64_t>{5, 6});  // after episode 0's five
+  const torch::Tensor frames =
+      torch::tensor(std::vector<int64_t>{5, 6});  // after episode 0's five
   alone.depth = in.depth.index_select(0, frames);
   alone.frame_index = torch::arange(2, torch::kLong);
   alone.goal = in.goal.slice(0, 0, 2).slice(1, 1, 2);
   alone.prev_actions = in.prev_actions.slice(0, 0, 2).slice(1, 1, 2);
   alone.not_done = in.not_done.slice(0, 0, 2).slice(1, 1, 2);
-  auto [aloneLogits, aloneLast] = policy->forward(alone, policy->initialHidden(1));
-  EXPECT_TRUE(torch::allclose(aloneLogits.squeeze(1), logits.slice(0, 0, 2).select(1, 1),
-                              1e-5, 1e-6));
+  auto [aloneLogits, aloneLast] =
+      policy->forward(alone, policy->initialHidden(1));
+  EXPECT_TRUE(torch::allclose(aloneLogits.squeeze(1),
+                              logits.slice(0, 0, 2).select(1, 1), 1e-5, 1e-6));
 }
 
 TEST(PointNavPolicyTest, BlindControlHasNoDepthInput) {

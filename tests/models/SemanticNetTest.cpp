@@ -29,9 +29,9 @@ TEST(SemanticNetTest, OneLogitPerOutputOfEachHead) {
     if (item.key().rfind("rgb.", 0) == 0) ++encoderTensors;
   EXPECT_GT(encoderTensors, 0);
   EXPECT_THAT([&] { net->forward(images[0]); },
-              ::testing::Throws<c10::Error>(::testing::Property(
-                  &c10::Error::what_without_backtrace,
-                  HasSubstr("expected rgb [N, H, W, 3]"))));
+              ::testing::Throws<c10::Error>(
+                  ::testing::Property(&c10::Error::what_without_backtrace,
+                                      HasSubstr("expected rgb [N, H, W, 3]"))));
 }
 
 }  // namespace
