@@ -1,8 +1,16 @@
 #include "rollout/EpisodeScheduler.h"
 
+#include <algorithm>
+
 #include "common/Check.h"
 
 namespace vln::rollout {
+
+size_t EnvBatch::indexOf(int env) const {
+  const auto it = std::lower_bound(envs.begin(), envs.end(), env);
+  VLN_ASSERT(it != envs.end() && *it == env);
+  return static_cast<size_t>(it - envs.begin());
+}
 
 RolloutCounts runEpisodes(VectorEnv& envs, int count, EpisodeJob& job,
                           bool render) {

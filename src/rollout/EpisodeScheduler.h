@@ -35,6 +35,10 @@ struct EnvBatch {
   std::vector<int> episodes;
   size_t size() const { return envs.size(); }
   bool empty() const { return envs.empty(); }
+  /// The position of environment `env` in the batch (envs[k] == env);
+  /// `env` must be in it. For hooks that work per environment in parallel
+  /// (VectorEnv::forEach()).
+  size_t indexOf(int env) const;
 };
 
 /// What a rollout does at each point of the loop.

@@ -36,6 +36,33 @@ MetricsOptions metricsOptions(const EvalConfig& config,
 
 namespace {
 
+// The record of an episode that ended in `simulator`, with its metrics when
+// the episode has a goal.
+EpisodeResult finishRecord(EpisodeRecord record, const data::Episode& episode,
+                           const std::vector<Vec3f>& reference,
+                           const sim::Simulator& simulator,
+                           const EvalConfig& config) {
+  const sim::EpisodeState& state = simulator.episode();
+  record.called_stop = state.called_stop;
+  record.steps_taken = state.steps;
+  EpisodeResult out;
+  if (!episode.goals.empty()) {
+    const sim::NavMesh& navmesh = simulator.scene().navmesh();
+    record.goal = episode.goals.front().position;
+    record.reference_path = reference;
+    record.start_distance =
+        navmesh.geodesicDistance(record.positions.front(), record.goal);
+    const GeodesicFn geodesic = [&navmesh](const Vec3f& a, const Vec3f& b) {
+      return navmesh.geodesicDistance(a, b);
+    };
+    out.metrics = computeEpisodeMetrics(
+        record, geodesic,
+        metricsOptions(config, simulator.task().success_distance));
+  }
+  out.record = std::move(record);
+  return out;
+}
+
 // Runs an Agent on a list of episodes and records them (the evaluation
 // job of the episode scheduler).
 class EvaluationJob : public EpisodeJob {
@@ -62,11 +89,10 @@ class EvaluationJob : public EpisodeJob {
       const data::Episode& episode =
           episodes_[static_cast<size_t>(batch.episodes[k])];
       const sim::AgentState& pose = envs_.state(env).agent;
-      EpisodeRecord& record = records_[static_cast<size_t>(env)];
-      record = EpisodeRecord{};
-      record.episode_id = std::to_string(episode.episode_id);
-      record.positions = {pose.position};
-      record.headings = {pose.heading};
+      records_[static_cast<size_t>(env)] =
+          EpisodeRecord{.episode_id = std::to_string(episode.episode_id),
+                        .positions = {pose.position},
+                        .headings = {pose.heading}};
       agent_.reset(env, episode);
       if (observer_) observer_->episodeStarted(batch.episodes[k], envs_, env);
     }
@@ -98,14 +124,13 @@ class EvaluationJob : public EpisodeJob {
   // metrics in parallel (each writes only its own result), then the
   // callbacks in environment order
   void finished(const EnvBatch& ended) override {
-    std::vector<size_t> slot(static_cast<size_t>(envs_.size()));
-    for (size_t k = 0; k < ended.size(); ++k)
-      slot[static_cast<size_t>(ended.envs[k])] =
-          static_cast<size_t>(ended.episodes[k]);
     envs_.forEach(ended.envs, [&](int env) {
-      const size_t index = slot[static_cast<size_t>(env)];
-      score(index, envs_.simulator(env),
-            std::move(records_[static_cast<size_t>(env)]));
+      const auto index =
+          static_cast<size_t>(ended.episodes[ended.indexOf(env)]);
+      result_.episodes[index] = finishRecord(
+          std::move(records_[static_cast<size_t>(env)]), episodes_[index],
+          references_[index], envs_.simulator(env), config_);
+      result_.scored[index] = !episodes_[index].goals.empty();
     });
     for (size_t k = 0; k < ended.size(); ++k) {
       const auto index = static_cast<size_t>(ended.episodes[k]);
@@ -128,30 +153,6 @@ class EvaluationJob : public EpisodeJob {
       if (observer_->wantsFrames(batch.episodes[k]))
         wanted.push_back(batch.envs[k]);
     if (!wanted.empty()) envs_.render(wanted);
-  }
-
-  void score(size_t index, const sim::Simulator& simulator,
-             EpisodeRecord record) {
-    const data::Episode& episode = episodes_[index];
-    const sim::EpisodeState& state = simulator.episode();
-    record.called_stop = state.called_stop;
-    record.steps_taken = state.steps;
-    EpisodeResult& out = result_.episodes[index];
-    if (!episode.goals.empty()) {
-      const sim::NavMesh& navmesh = simulator.scene().navmesh();
-      record.goal = episode.goals.front().position;
-      record.reference_path = references_[index];
-      record.start_distance =
-          navmesh.geodesicDistance(record.positions.front(), record.goal);
-      const GeodesicFn geodesic = [&navmesh](const Vec3f& a, const Vec3f& b) {
-        return navmesh.geodesicDistance(a, b);
-      };
-      out.metrics = computeEpisodeMetrics(
-          record, geodesic,
-          metricsOptions(config_, simulator.task().success_distance));
-      result_.scored[index] = true;
-    }
-    out.record = std::move(record);
   }
 
   Agent& agent_;

@@ -67,22 +67,94 @@ uint64_t coinSeed(const CollectionRound& round, int32_t slot) {
 
 }  // namespace
 
-/// One environment's episode in progress.
+/// One environment's episode in progress and what it has recorded.
 struct Collector::Slot {
-  int32_t slot = -1;
-  const data::Episode* episode = nullptr;
-  uint8_t source = 0;
-  std::unique_ptr<WaypointOracle> oracle;
+  Slot(const CollectionRound& round, int32_t index,
+       const sim::NavMesh& navmesh, const ExperimentConfig& config)
+      : slot(index),
+        episode(round.episodes[static_cast<size_t>(index)]),
+        source(round.sources[static_cast<size_t>(index)]),
+        oracle(navmesh, config.sim.agent, config.task.follower_goal_radius,
+               episode->reference_path),
+        coins(coinSeed(round, index)),
+        goal(episode->goals.front().position),
+        startDistance(episode->geodesic_distance
+                          ? *episode->geodesic_distance
+                          : navmesh.geodesicDistance(episode->start_position,
+                                                     goal)) {}
+
+  // one step: row k of the features (store dtype), the action before it,
+  // the oracle's label and the progress target
+  void record(const torch::Tensor& rgbRows, const torch::Tensor& depthRows,
+              int64_t k, sim::Action label, float target) {
+    if (rgbRows.defined()) rgb.push_back(rgbRows[k].clone());
+    if (depthRows.defined()) depth.push_back(depthRows[k].clone());
+    prevActions.push_back(static_cast<uint8_t>(prevAction));
+    oracleActions.push_back(static_cast<uint8_t>(label));
+    progress.push_back(target);
+  }
+
+  // the finished episode as the store keeps it
+  StoredEpisode stored(int32_t iteration, int maxInstructionLength) {
+    StoredEpisode e;
+    e.key.episode_id = episode->episode_id;
+    e.key.iteration = iteration;
+    e.key.slot = slot;
+    e.key.source = source;
+    const auto& tokens = episode->instruction.instruction_tokens;
+    const int length =
+        std::min(data::unpaddedLength(tokens), maxInstructionLength);
+    e.tokens.assign(tokens.begin(), tokens.begin() + length);
+    e.prev_actions = std::move(prevActions);
+    e.oracle_actions = std::move(oracleActions);
+    e.progress = std::move(progress);
+    if (!rgb.empty()) e.rgb = torch::stack(rgb);
+    if (!depth.empty()) e.depth = torch::stack(depth);
+    return e;
+  }
+
+  int32_t slot;
+  const data::Episode* episode;
+  uint8_t source;  ///< 0 train split, 1 aug split
+  WaypointOracle oracle;
   std::mt19937_64 coins;
-  float startDistance = 0.0f;
-  Vec3f goal = Vec3f::Zero();
-  std::vector<torch::Tensor> rgb,
-      depth;  ///< per step [C, h, w] in the store dtype
+  Vec3f goal;
+  float startDistance;
+  std::vector<torch::Tensor> rgb, depth;  ///< per step [C, h, w]
   std::vector<uint8_t> prevActions, oracleActions;
   std::vector<float> progress;
-  int64_t prevAction = 0;
-  int64_t oracleSteps = 0;
+  int64_t prevAction = 0;  ///< the action taken at the last step
+  int64_t oracleSteps = 0;  ///< steps that took the oracle's action
 };
+
+namespace {
+
+// Teacher forcing: how the oracle's actions of `e` (a train-split episode)
+// compare with the split's ground truth (augmentation episodes may reuse
+// its ids, hence train episodes only).
+void compareWithGroundTruth(const data::GroundTruth& groundTruth,
+                            const StoredEpisode& e, CollectionStats& stats) {
+  auto it = groundTruth.find(e.key.episode_id);
+  if (it == groundTruth.end()) return;
+  const auto& gt = it->second.actions;
+  ++stats.gt_episodes;
+  bool identical = gt.size() == e.oracle_actions.size();
+  const size_t common = std::min(gt.size(), e.oracle_actions.size());
+  for (size_t t = 0; t < common; ++t) {
+    const bool equal = static_cast<int>(gt[t]) == e.oracle_actions[t];
+    stats.gt_equal_steps += equal;
+    identical &= equal;
+  }
+  stats.gt_steps +=
+      static_cast<int64_t>(std::max(gt.size(), e.oracle_actions.size()));
+  stats.gt_identical += identical;
+  if (!identical)
+    spdlog::debug(
+        "oracle differs from ground truth on episode {} ({} vs {} actions)",
+        e.key.episode_id, e.oracle_actions.size(), gt.size());
+}
+
+}  // namespace
 
 /// The collection of one round's pending slots on the episode scheduler.
 class Collector::Job : public rollout::EpisodeJob {
@@ -105,15 +177,15 @@ class Collector::Job : public rollout::EpisodeJob {
     // the policy's state follows every trajectory (it runs at every step)
     if (policy != nullptr)
       stepper_ = std::make_unique<rollout::PolicyStepper>(
-          policy,
-          collector.envs_->size(), config_.dataset.max_instruction_length,
+          policy, collector.envs_->size(),
+          config_.dataset.max_instruction_length,
           config_.trainer.exact_resume ? rollout::InstructionBatching::kOneByOne
                                        : rollout::InstructionBatching::kJoint);
   }
 
   rollout::EpisodeStart startOf(int index) override {
-    const data::Episode& episode =
-        *round_.episodes[static_cast<size_t>(pending_[static_cast<size_t>(index)])];
+    const data::Episode& episode = *round_.episodes[static_cast<size_t>(
+        pending_[static_cast<size_t>(index)])];
     VLN_CHECK_ARG(
         !episode.reference_path.empty() && !episode.goals.empty(), "Collector: "
         "episode ", episode.episode_id, " has no reference_path or goals (a "
@@ -123,24 +195,12 @@ class Collector::Job : public rollout::EpisodeJob {
 
   void started(const rollout::EnvBatch& batch) override {
     for (size_t k = 0; k < batch.size(); ++k) {
-      const int32_t slot = pending_[static_cast<size_t>(batch.episodes[k])];
-      auto s = std::make_unique<Slot>();
-      s->slot = slot;
-      s->episode = round_.episodes[static_cast<size_t>(slot)];
-      s->source = round_.sources[static_cast<size_t>(slot)];
-      s->coins.seed(coinSeed(round_, slot));
-      const sim::NavMesh& navmesh =
-          c_.envs_->simulator(batch.envs[k]).scene().navmesh();
-      s->oracle = std::make_unique<WaypointOracle>(
-          navmesh, config_.sim.agent, config_.task.follower_goal_radius,
-          s->episode->reference_path);
-      s->goal = s->episode->goals.front().position;
-      s->startDistance =
-          s->episode->geodesic_distance
-              ? *s->episode->geodesic_distance
-              : navmesh.geodesicDistance(s->episode->start_position, s->goal);
-      if (stepper_) stepper_->start(batch.envs[k], *s->episode);
-      slots_[static_cast<size_t>(batch.envs[k])] = std::move(s);
+      const int env = batch.envs[k];
+      auto& s = slots_[static_cast<size_t>(env)];
+      s = std::make_unique<Slot>(
+          round_, pending_[static_cast<size_t>(batch.episodes[k])],
+          c_.envs_->simulator(env).scene().navmesh(), config_);
+      if (stepper_) stepper_->start(env, *s->episode);
     }
   }
 
@@ -148,22 +208,18 @@ class Collector::Job : public rollout::EpisodeJob {
   // them with the oracle, records them and picks the actions taken
   std::vector<sim::Action> act(const rollout::EnvBatch& running) override {
     const std::vector<int>& active = running.envs;
-    const auto n = static_cast<int64_t>(active.size());
     const models::VisualFeatures features = c_.encode(
         rollout::batchObservations(*c_.envs_, active, config_.model));
-    frames += n;
+    frames += static_cast<int64_t>(active.size());
 
     // oracle labels and progress targets at the current poses
     std::vector<sim::Action> oracle(active.size());
     std::vector<float> targets(active.size());
-    std::vector<size_t> row(static_cast<size_t>(c_.envs_->size()));
-    for (size_t k = 0; k < active.size(); ++k)
-      row[static_cast<size_t>(active[k])] = k;
     c_.envs_->forEach(active, [&](int env) {
-      const size_t k = row[static_cast<size_t>(env)];
+      const size_t k = running.indexOf(env);
       Slot& s = *slots_[static_cast<size_t>(env)];
       const sim::AgentState& agent = c_.envs_->state(env).agent;
-      oracle[k] = s.oracle->next(agent);
+      oracle[k] = s.oracle.next(agent);
       targets[k] = progressTarget(
           s.startDistance,
           c_.envs_->simulator(env).scene().navmesh().geodesicDistance(
@@ -173,35 +229,27 @@ class Collector::Job : public rollout::EpisodeJob {
     // the policy's argmax, with its recurrent state carried along
     torch::Tensor policyActions;
     if (stepper_)
-      policyActions = stepper_->step(active, features)
-                          .argmax(-1)
-                          .to(torch::kCPU)
-                          .contiguous();
+      policyActions =
+          stepper_->step(active, features).argmax(-1).to(torch::kCPU).contiguous();
 
-    // record the step and choose the action taken
-    const torch::Tensor rgb = features.rgb.defined()
-                                  ? features.rgb.to(torch::kCPU, storeType_)
-                                  : torch::Tensor();
-    const torch::Tensor depth =
-        features.depth.defined() ? features.depth.to(torch::kCPU, storeType_)
-                                 : torch::Tensor();
+    // record the step and choose the action taken: the oracle's, or with
+    // probability 1 - beta the policy's
+    const auto store = [&](const torch::Tensor& t) {
+      return t.defined() ? t.to(torch::kCPU, storeType_) : t;
+    };
+    const torch::Tensor rgb = store(features.rgb), depth = store(features.depth);
     std::vector<sim::Action> actions(active.size());
-    for (int64_t k = 0; k < n; ++k) {
-      Slot& s = *slots_[static_cast<size_t>(active[static_cast<size_t>(k)])];
-      if (rgb.defined()) s.rgb.push_back(rgb[k].clone());
-      if (depth.defined()) s.depth.push_back(depth[k].clone());
-      s.prevActions.push_back(static_cast<uint8_t>(s.prevAction));
-      const sim::Action label = oracle[static_cast<size_t>(k)];
-      s.oracleActions.push_back(static_cast<uint8_t>(label));
-      s.progress.push_back(targets[static_cast<size_t>(k)]);
-      sim::Action taken = label;
+    for (size_t k = 0; k < active.size(); ++k) {
+      Slot& s = *slots_[static_cast<size_t>(active[k])];
+      s.record(rgb, depth, static_cast<int64_t>(k), oracle[k], targets[k]);
+      sim::Action taken = oracle[k];
       if (stepper_ && common::uniform01(s.coins) >= round_.beta)
-        taken = sim::actionFromInt(
-            static_cast<int>(policyActions.data_ptr<int64_t>()[k]));
-      s.oracleSteps += taken == label;
-      actions[static_cast<size_t>(k)] = taken;
+        taken = sim::actionFromInt(static_cast<int>(
+            policyActions.data_ptr<int64_t>()[static_cast<int64_t>(k)]));
+      s.oracleSteps += taken == oracle[k];
+      actions[k] = taken;
       s.prevAction = static_cast<int64_t>(taken);
-      if (stepper_) stepper_->took(active[static_cast<size_t>(k)], s.prevAction);
+      if (stepper_) stepper_->took(active[k], s.prevAction);
     }
     return actions;
   }
@@ -210,28 +258,15 @@ class Collector::Job : public rollout::EpisodeJob {
   void finished(const rollout::EnvBatch& ended) override {
     for (int env : ended.envs) {
       Slot& s = *slots_[static_cast<size_t>(env)];
-      StoredEpisode e;
-      e.key.episode_id = s.episode->episode_id;
-      e.key.iteration = round_.iteration;
-      e.key.slot = s.slot;
-      e.key.source = s.source;
-      const auto& tokens = s.episode->instruction.instruction_tokens;
-      const int length = std::min(data::unpaddedLength(tokens),
-                                  config_.dataset.max_instruction_length);
-      e.tokens.assign(tokens.begin(), tokens.begin() + length);
-      e.prev_actions = std::move(s.prevActions);
-      e.oracle_actions = std::move(s.oracleActions);
-      e.progress = std::move(s.progress);
-      if (!s.rgb.empty()) e.rgb = torch::stack(s.rgb);
-      if (!s.depth.empty()) e.depth = torch::stack(s.depth);
+      const StoredEpisode e = s.stored(round_.iteration,
+                                       config_.dataset.max_instruction_length);
       store_.append(e);
       ++stats_.episodes;
       stats_.steps += e.length();
       stats_.oracle_steps += s.oracleSteps;
       stats_.cut_at_limit += !c_.envs_->state(env).called_stop;
-      // the ground truth is the train split's; augmentation episodes may
-      // reuse its episode ids
-      if (groundTruth_ && s.source == 0) compareWithGroundTruth(e);
+      if (groundTruth_ && s.source == 0)
+        compareWithGroundTruth(*groundTruth_, e, stats_);
       slots_[static_cast<size_t>(env)].reset();
       line_.advance();
       if (progress_)
@@ -242,27 +277,6 @@ class Collector::Job : public rollout::EpisodeJob {
   int64_t frames = 0;
 
  private:
-  void compareWithGroundTruth(const StoredEpisode& e) {
-    auto it = groundTruth_->find(e.key.episode_id);
-    if (it == groundTruth_->end()) return;
-    const auto& gt = it->second.actions;
-    ++stats_.gt_episodes;
-    bool identical = gt.size() == e.oracle_actions.size();
-    const size_t common = std::min(gt.size(), e.oracle_actions.size());
-    for (size_t t = 0; t < common; ++t) {
-      const bool equal = static_cast<int>(gt[t]) == e.oracle_actions[t];
-      stats_.gt_equal_steps += equal;
-      identical &= equal;
-    }
-    stats_.gt_steps +=
-        static_cast<int64_t>(std::max(gt.size(), e.oracle_actions.size()));
-    stats_.gt_identical += identical;
-    if (!identical)
-      spdlog::debug(
-          "oracle differs from ground truth on episode {} ({} vs {} actions)",
-          e.key.episode_id, e.oracle_actions.size(), gt.size());
-  }
-
   Collector& c_;
   const ExperimentConfig& config_;
   const CollectionRound& round_;

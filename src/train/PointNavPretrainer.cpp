@@ -116,6 +116,21 @@ struct RecordedEpisode {
     return depth.size() * sizeof(uint16_t) + goal.size() * sizeof(float) +
            prev.size() + label.size();
   }
+
+  // appends one step: the depth frame as uint16 codes of [0, depthScale]
+  void append(std::span<const float> frame, float depthScale,
+              const std::array<float, 3>& goalObservation, int prevAction,
+              sim::Action followerAction) {
+    const size_t offset = depth.size();
+    depth.resize(offset + frame.size());
+    for (size_t p = 0; p < frame.size(); ++p) {
+      const float v = std::clamp(frame[p] / depthScale, 0.0f, 1.0f);
+      depth[offset + p] = static_cast<uint16_t>(std::lround(v * kDepthCodeMax));
+    }
+    goal.insert(goal.end(), goalObservation.begin(), goalObservation.end());
+    prev.push_back(static_cast<int8_t>(prevAction));
+    label.push_back(static_cast<int8_t>(followerAction));
+  }
 };
 
 // Who picks the actions of a rollout.
@@ -174,6 +189,106 @@ struct RolloutSpec {
   size_t byteBudget = 0;
 };
 
+// What the point-goal rollout keeps per environment between steps.
+struct PointGoalEnv {
+  std::mt19937_64 rng;
+  int prev = 0;
+  bool first = true;
+  double path = 0.0;
+  std::array<float, 3> goal{};
+  sim::Action oracle = sim::Action::kStop;
+};
+
+// One step of `policy` for the environments `active` (their `states` and
+// depth `observations`, rows `active` of `hidden` [environments, H], which
+// advance): the argmax actions.
+std::vector<int64_t> policyArgmax(
+    models::PointNavPolicyImpl& policy, const std::vector<int>& active,
+    const std::vector<const PointGoalEnv*>& states,
+    const std::vector<const sim::Observation*>& observations,
+    torch::Tensor& hidden, const ExperimentConfig& config,
+    torch::Device device) {
+  torch::NoGradGuard noGrad;
+  const int64_t n = static_cast<int64_t>(active.size());
+  const int64_t width = config.sim.depth.camera.width;
+  const int64_t height = config.sim.depth.camera.height;
+  const auto pixels = static_cast<size_t>(width * height);
+  std::vector<float> goal(static_cast<size_t>(n) * models::kPointGoalDims);
+  std::vector<int64_t> prev(static_cast<size_t>(n)),
+      rows(active.begin(), active.end());
+  std::vector<float> notDone(static_cast<size_t>(n));
+  torch::Tensor depth;
+  if (policy.usesDepth()) depth = torch::empty({n, height, width, 1});
+  for (int64_t i = 0; i < n; ++i) {
+    const PointGoalEnv& env = *states[static_cast<size_t>(i)];
+    std::copy(env.goal.begin(), env.goal.end(),
+              goal.begin() + i * models::kPointGoalDims);
+    prev[static_cast<size_t>(i)] = env.prev;
+    notDone[static_cast<size_t>(i)] = env.first ? 0.0f : 1.0f;
+    if (depth.defined()) {
+      const std::vector<float>& frame = observations[static_cast<size_t>(i)]->depth;
+      std::copy(frame.begin(), frame.begin() + static_cast<std::ptrdiff_t>(pixels),
+                depth.data_ptr<float>() + i * static_cast<int64_t>(pixels));
+    }
+  }
+  models::PointNavInputs inputs;
+  if (depth.defined()) {
+    inputs.depth = depth.to(device);
+    inputs.frame_index =
+        torch::arange(n, torch::TensorOptions(torch::kLong).device(device));
+  }
+  inputs.goal =
+      torch::from_blob(goal.data(), {1, n, models::kPointGoalDims}).to(device);
+  inputs.prev_actions =
+      torch::from_blob(prev.data(), {1, n}, torch::kLong).to(device);
+  inputs.not_done = torch::from_blob(notDone.data(), {1, n}).to(device);
+  const torch::Tensor rowIndex =
+      torch::from_blob(rows.data(), {n}, torch::kLong).to(device);
+  auto [logits, next] = policy.forward(inputs, hidden.index_select(0, rowIndex));
+  hidden.index_copy_(0, rowIndex, next);
+  const torch::Tensor best = logits[0].argmax(-1).to(torch::kCPU).contiguous();
+  return std::vector<int64_t>(best.data_ptr<int64_t>(),
+                              best.data_ptr<int64_t>() + n);
+}
+
+// The action `spec`'s driver takes in `env`; `policyAction` is the
+// policy's argmax (-1 when the policy does not run).
+sim::Action driverAction(const RolloutSpec& spec, PointGoalEnv& env,
+                         int64_t policyAction, float successDistance) {
+  switch (spec.driver) {
+    case Driver::kMixed: {
+      const bool takeOracle = common::uniform01(env.rng) < spec.beta;
+      return takeOracle || policyAction < 0
+                 ? env.oracle
+                 : sim::actionFromInt(static_cast<int>(policyAction));
+    }
+    case Driver::kPolicy:
+      return sim::actionFromInt(static_cast<int>(policyAction));
+    case Driver::kRandom:
+      // habitat's RandomAgent: STOP once the goal sensor reads arrival
+      return env.goal[0] <= successDistance
+                 ? sim::Action::kStop
+                 : sim::actionFromInt(1 + common::uniformIndex(env.rng, 3));
+    case Driver::kOracle:
+      break;
+  }
+  return env.oracle;
+}
+
+// How episode `ep` ended in `state` after walking `path` metres.
+Outcome outcomeOf(const PointGoalEpisode& ep, const sim::EpisodeState& state,
+                  double path, const sim::NavMesh& navmesh,
+                  float successDistance) {
+  Outcome o;
+  o.distance = navmesh.geodesicDistance(state.agent.position, ep.goal);
+  o.success = state.called_stop && o.distance <= successDistance;
+  o.path = path;
+  o.steps = state.steps;
+  const double d0 = ep.geodesic_distance;
+  o.spl = o.success ? d0 / std::max(d0, o.path) : 0.0;
+  return o;
+}
+
 class PointGoalJob : public rollout::EpisodeJob {
  public:
   PointGoalJob(const ExperimentConfig& config,
@@ -188,6 +303,8 @@ class PointGoalJob : public rollout::EpisodeJob {
                    (spec.driver == Driver::kMixed && spec.beta < 1.0)),
         needOracle_(spec.record != nullptr || spec.driver == Driver::kMixed ||
                     spec.driver == Driver::kOracle),
+        depthScale_(config.sim.depth.normalize_depth ? 1.0f
+                                                     : config.sim.depth.max_depth),
         state_(static_cast<size_t>(envs.size())),
         outcomes_(episodes.size()),
         recordedBytes_(spec.bytesBefore),
@@ -221,8 +338,8 @@ class PointGoalJob : public rollout::EpisodeJob {
     for (size_t k = 0; k < batch.size(); ++k) {
       // episode k's coins and random actions are its own: the result does
       // not depend on which environment runs it
-      Env& env = state_[static_cast<size_t>(batch.envs[k])];
-      env = Env{};
+      PointGoalEnv& env = state_[static_cast<size_t>(batch.envs[k])];
+      env = PointGoalEnv{};
       env.rng.seed(common::deriveSeed(
           spec_.seed, static_cast<uint64_t>(batch.episodes[k])));
     }
@@ -230,13 +347,10 @@ class PointGoalJob : public rollout::EpisodeJob {
 
   std::vector<sim::Action> act(const rollout::EnvBatch& running) override {
     // sensors and the follower's action, in parallel
-    std::vector<size_t> episodeOf(static_cast<size_t>(envs_.size()));
-    for (size_t k = 0; k < running.size(); ++k)
-      episodeOf[static_cast<size_t>(running.envs[k])] =
-          static_cast<size_t>(running.episodes[k]);
     envs_.forEach(running.envs, [&](int e) {
-      Env& env = state_[static_cast<size_t>(e)];
-      const PointGoalEpisode& ep = episodes_[episodeOf[static_cast<size_t>(e)]];
+      PointGoalEnv& env = state_[static_cast<size_t>(e)];
+      const PointGoalEpisode& ep = episodes_[static_cast<size_t>(
+          running.episodes[running.indexOf(e)])];
       const sim::AgentState& agent = envs_.state(e).agent;
       env.goal = pointGoalObservation(agent, ep.goal);
       if (needOracle_)
@@ -244,35 +358,30 @@ class PointGoalJob : public rollout::EpisodeJob {
             agent, ep.goal);
     });
     std::vector<int64_t> policyActions;
-    if (usePolicy_) policyActions = policyStep(running.envs);
+    if (usePolicy_) {
+      std::vector<const PointGoalEnv*> states;
+      std::vector<const sim::Observation*> observations;
+      for (int e : running.envs) {
+        states.push_back(&state_[static_cast<size_t>(e)]);
+        observations.push_back(&envs_.observation(e));
+      }
+      policyActions = policyArgmax(*spec_.policy, running.envs, states,
+                                   observations, hidden_, config_, device_);
+    }
 
     // pick and record the actions
     std::vector<sim::Action> actions(running.size(), sim::Action::kStop);
     for (size_t i = 0; i < running.size(); ++i) {
-      Env& env = state_[static_cast<size_t>(running.envs[i])];
-      switch (spec_.driver) {
-        case Driver::kMixed: {
-          const bool takeOracle = common::uniform01(env.rng) < spec_.beta;
-          actions[i] = takeOracle || !usePolicy_
-                           ? env.oracle
-                           : sim::actionFromInt(static_cast<int>(policyActions[i]));
-          break;
-        }
-        case Driver::kPolicy:
-          actions[i] = sim::actionFromInt(static_cast<int>(policyActions[i]));
-          break;
-        case Driver::kRandom:
-          actions[i] = env.goal[0] <= config_.pretrain.success_distance
-                           ? sim::Action::kStop
-                           : sim::actionFromInt(1 + common::uniformIndex(env.rng, 3));
-          break;
-        case Driver::kOracle:
-          actions[i] = env.oracle;
-          break;
+      PointGoalEnv& env = state_[static_cast<size_t>(running.envs[i])];
+      actions[i] = driverAction(spec_, env, usePolicy_ ? policyActions[i] : -1,
+                                config_.pretrain.success_distance);
+      if (spec_.record != nullptr) {
+        RecordedEpisode& rec = (*spec_.record)[static_cast<size_t>(running.episodes[i])];
+        const size_t before = rec.bytes();
+        rec.append(envs_.observation(running.envs[i]).depth, depthScale_, env.goal,
+                   env.prev, env.oracle);
+        recordedBytes_ += rec.bytes() - before;
       }
-      if (spec_.record != nullptr)
-        record((*spec_.record)[static_cast<size_t>(running.episodes[i])], env,
-               envs_.observation(running.envs[i]));
     }
     if (spec_.record != nullptr) checkBudget();
     return actions;
@@ -282,7 +391,7 @@ class PointGoalJob : public rollout::EpisodeJob {
                std::span<const sim::Action> actions,
                std::span<const sim::StepResult> results) override {
     for (size_t i = 0; i < running.size(); ++i) {
-      Env& env = state_[static_cast<size_t>(running.envs[i])];
+      PointGoalEnv& env = state_[static_cast<size_t>(running.envs[i])];
       env.path += results[i].distance;
       env.prev = static_cast<int>(actions[i]);
       env.first = false;
@@ -293,91 +402,16 @@ class PointGoalJob : public rollout::EpisodeJob {
     for (size_t k = 0; k < ended.size(); ++k) {
       const auto index = static_cast<size_t>(ended.episodes[k]);
       const PointGoalEpisode& ep = episodes_[index];
-      const sim::EpisodeState& state = envs_.state(ended.envs[k]);
-      Outcome& o = outcomes_[index];
-      o.distance = scenes_[static_cast<size_t>(ep.house)]->navmesh().geodesicDistance(
-          state.agent.position, ep.goal);
-      o.success = state.called_stop && o.distance <= config_.pretrain.success_distance;
-      o.path = state_[static_cast<size_t>(ended.envs[k])].path;
-      o.steps = state.steps;
-      const double d0 = ep.geodesic_distance;
-      o.spl = o.success ? d0 / std::max(d0, o.path) : 0.0;
+      outcomes_[index] = outcomeOf(
+          ep, envs_.state(ended.envs[k]),
+          state_[static_cast<size_t>(ended.envs[k])].path,
+          scenes_[static_cast<size_t>(ep.house)]->navmesh(),
+          config_.pretrain.success_distance);
       line_.advance();
     }
   }
 
  private:
-  struct Env {
-    std::mt19937_64 rng;
-    int prev = 0;
-    bool first = true;
-    double path = 0.0;
-    std::array<float, 3> goal{};
-    sim::Action oracle = sim::Action::kStop;
-  };
-
-  // one step of the policy for `active`; returns its argmax actions
-  std::vector<int64_t> policyStep(const std::vector<int>& active) {
-    torch::NoGradGuard noGrad;
-    models::PointNavPolicyImpl& policy = *spec_.policy;
-    const int64_t n = static_cast<int64_t>(active.size());
-    const int64_t width = config_.sim.depth.camera.width;
-    const int64_t height = config_.sim.depth.camera.height;
-    const auto pixels = static_cast<size_t>(width * height);
-    std::vector<float> goal(static_cast<size_t>(n) * models::kPointGoalDims);
-    std::vector<int64_t> prev(static_cast<size_t>(n)), rows(static_cast<size_t>(n));
-    std::vector<float> notDone(static_cast<size_t>(n));
-    torch::Tensor depth;
-    if (policy.usesDepth()) depth = torch::empty({n, height, width, 1});
-    for (int64_t i = 0; i < n; ++i) {
-      const int e = active[static_cast<size_t>(i)];
-      const Env& env = state_[static_cast<size_t>(e)];
-      std::copy(env.goal.begin(), env.goal.end(),
-                goal.begin() + i * models::kPointGoalDims);
-      prev[static_cast<size_t>(i)] = env.prev;
-      notDone[static_cast<size_t>(i)] = env.first ? 0.0f : 1.0f;
-      rows[static_cast<size_t>(i)] = e;
-      if (depth.defined()) {
-        const std::vector<float>& frame = envs_.observation(e).depth;
-        std::copy(frame.begin(), frame.begin() + static_cast<std::ptrdiff_t>(pixels),
-                  depth.data_ptr<float>() + i * static_cast<int64_t>(pixels));
-      }
-    }
-    models::PointNavInputs inputs;
-    if (depth.defined()) {
-      inputs.depth = depth.to(device_);
-      inputs.frame_index = torch::arange(n, torch::TensorOptions(torch::kLong).device(device_));
-    }
-    inputs.goal = torch::from_blob(goal.data(), {1, n, models::kPointGoalDims}).to(device_);
-    inputs.prev_actions = torch::from_blob(prev.data(), {1, n}, torch::kLong).to(device_);
-    inputs.not_done = torch::from_blob(notDone.data(), {1, n}).to(device_);
-    const torch::Tensor rowIndex =
-        torch::from_blob(rows.data(), {n}, torch::kLong).to(device_);
-    auto [logits, next] = policy.forward(inputs, hidden_.index_select(0, rowIndex));
-    hidden_.index_copy_(0, rowIndex, next);
-    const torch::Tensor best = logits[0].argmax(-1).to(torch::kCPU).contiguous();
-    return std::vector<int64_t>(best.data_ptr<int64_t>(), best.data_ptr<int64_t>() + n);
-  }
-
-  // appends one step (depth as uint16 codes of the sensor range)
-  void record(RecordedEpisode& rec, const Env& env, const sim::Observation& obs) {
-    const float depthScale =
-        config_.sim.depth.normalize_depth ? 1.0f : config_.sim.depth.max_depth;
-    const size_t pixels = static_cast<size_t>(config_.sim.depth.camera.width *
-                                              config_.sim.depth.camera.height);
-    const size_t before = rec.bytes();
-    const size_t offset = rec.depth.size();
-    rec.depth.resize(offset + pixels);
-    for (size_t p = 0; p < pixels; ++p) {
-      const float v = std::clamp(obs.depth[p] / depthScale, 0.0f, 1.0f);
-      rec.depth[offset + p] = static_cast<uint16_t>(std::lround(v * kDepthCodeMax));
-    }
-    rec.goal.insert(rec.goal.end(), env.goal.begin(), env.goal.end());
-    rec.prev.push_back(static_cast<int8_t>(env.prev));
-    rec.label.push_back(static_cast<int8_t>(env.oracle));
-    recordedBytes_ += rec.bytes() - before;
-  }
-
   void checkBudget() const {
     VLN_CHECK_IO(recordedBytes_ <= spec_.byteBudget, "depth_pointnav: the aggregated DAgger "
                  "frames need more than pretrain.max_memory_gib = ",
@@ -393,8 +427,9 @@ class PointGoalJob : public rollout::EpisodeJob {
   rollout::VectorEnv& envs_;
   torch::Device device_;
   bool usePolicy_, needOracle_;
+  float depthScale_;
   std::vector<sim::ShortestPathFollower> followers_;  // per house
-  std::vector<Env> state_;                            // per environment
+  std::vector<PointGoalEnv> state_;                            // per environment
   torch::Tensor hidden_;                              // [environments, H]
   std::vector<Outcome> outcomes_;
   size_t recordedBytes_;
