@@ -36,13 +36,13 @@
 #include "common/App.h"
 #include "common/Check.h"
 #include "common/Progress.h"
-#include "sim/HouseGenerator.h"
 #include "sim/MeshIo.h"
 #include "sim/RayTracer.h"
 #include "sim/Renderer.h"
 #include "sim/Scene.h"
 #include "sim/Simulator.h"
 #include "sim/TopDownMap.h"
+#include "world/HouseGenerator.h"
 
 namespace {
 
@@ -342,7 +342,8 @@ int runBench(const BenchArgs& args) {
     semantics = std::move(loaded.semantics);
     name = fs::path(args.scene).stem().string();
   } else {
-    House house = generateHouse(static_cast<uint64_t>(args.procedural), HouseConfig{});
+    world::House house = world::generateHouse(
+        static_cast<uint64_t>(args.procedural), world::HouseConfig{});
     mesh = std::move(house.mesh);
     semantics = std::move(house.semantics);
     name = house.name;

@@ -28,7 +28,7 @@
 #include "common/Math.h"
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
-#include "data/WorldConfig.h"
+#include "data/TransferConfig.h"
 #include "sim/Agent.h"
 #include "sim/NavMesh.h"
 

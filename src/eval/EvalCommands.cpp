@@ -17,7 +17,7 @@
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
 #include "data/NodeTransfer.h"
-#include "data/WorldConfig.h"
+#include "data/TransferConfig.h"
 #include "eval/BaselineAgents.h"
 #include "eval/EpisodePictures.h"
 #include "eval/Evaluator.h"

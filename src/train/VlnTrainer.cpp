@@ -18,7 +18,6 @@
 #include "data/Episode.h"
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
-#include "data/WorldConfig.h"
 #include "eval/Evaluator.h"
 #include "eval/PolicyAgent.h"
 #include "models/Export.h"

@@ -1,4 +1,4 @@
-#include "data/WorldCommands.h"
+#include "world/WorldCommands.h"
 
 #include <algorithm>
 #include <cmath>
@@ -11,12 +11,12 @@
 #include "common/Random.h"
 #include "data/NavGraph.h"
 #include "data/NodeTransfer.h"
-#include "data/TrajectorySampler.h"
-#include "data/WorldGenerator.h"
 #include "sim/Scene.h"
 #include "sim/SimConfig.h"
+#include "world/TrajectorySampler.h"
+#include "world/WorldGenerator.h"
 
-namespace vln::data {
+namespace vln::world {
 
 namespace {
 
@@ -67,7 +67,7 @@ int runTransferCommand(const TransferCommandOptions& options,
   const WorldConfig config = loadConfig(options.config, options.overrides);
 
   // the scene with its navmesh (cached beside it, as the simulator does)
-  const NavGraph graph = readNavGraph(options.graph);
+  const data::NavGraph graph = data::readNavGraph(options.graph);
   sim::SimConfig sim;
   sim.navmesh = config.navmesh;
   sim.mesh.up_axis = options.up_axis == "z" ? sim::UpAxis::kZ : sim::UpAxis::kY;
@@ -75,9 +75,9 @@ int runTransferCommand(const TransferCommandOptions& options,
   const sim::NavMesh& navmesh = scene->navmesh();
 
   // nodes, then sampled trajectories
-  TransferStats stats;
-  const std::vector<NodeTransferResult> transferred =
-      transferGraph(graph, navmesh, config.transfer);
+  data::TransferStats stats;
+  const std::vector<data::NodeTransferResult> transferred =
+      data::transferGraph(graph, navmesh, config.transfer);
   stats.addNodes(transferred, config.transfer);
   const TrajectorySampler sampler(graph, config.trajectories);
   const auto order = sampler.shuffledOrder(static_cast<uint64_t>(options.seed));
@@ -86,9 +86,9 @@ int runTransferCommand(const TransferCommandOptions& options,
       std::min(order.size(), static_cast<size_t>(options.trajectories));
   for (size_t i = 0; i < count; ++i) {
     const float heading = common::uniformRange(rng, -kPi, kPi);
-    stats.addTrajectory(
-        checkNavigability(navmesh, config.agent, config.transfer, transferred,
-                          sampler.candidate(order[i]), heading));
+    stats.addTrajectory(data::checkNavigability(
+        navmesh, config.agent, config.transfer, transferred,
+        sampler.candidate(order[i]), heading));
   }
 
   // report
@@ -109,7 +109,7 @@ int runTransferCommand(const TransferCommandOptions& options,
                              {"stats", stats.toJson()}};
     for (int i = 0; i < graph.numNodes(); ++i) {
       const auto& node = graph.node(i);
-      const NodeTransferResult& t = transferred[static_cast<size_t>(i)];
+      const data::NodeTransferResult& t = transferred[static_cast<size_t>(i)];
       if (!t.valid) {
         result["rejected"].push_back(node.id);
         continue;
@@ -128,4 +128,4 @@ int runTransferCommand(const TransferCommandOptions& options,
   return 0;
 }
 
-}  // namespace vln::data
+}  // namespace vln::world

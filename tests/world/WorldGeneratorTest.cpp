@@ -1,4 +1,4 @@
-#include "data/WorldGenerator.h"
+#include "world/WorldGenerator.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -19,12 +19,12 @@
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
 #include "data/Vocabulary.h"
-#include "data/WorldCommands.h"
 #include "sim/Agent.h"
 #include "sim/Scene.h"
 #include "support/TestPaths.h"
+#include "world/WorldCommands.h"
 
-namespace vln::data {
+namespace vln::world {
 namespace {
 
 namespace fs = std::filesystem;
@@ -63,7 +63,7 @@ class WorldGeneratorTest : public ::testing::Test {
     delete log_;
     delete dir_;
   }
-  static fs::path data() { return dir_->path() / "data"; }
+  static fs::path datasetRoot() { return dir_->path() / "data"; }
   static fs::path scenes() { return dir_->path() / "scenes"; }
 
   static test::TempDir* dir_;
@@ -77,16 +77,18 @@ std::string* WorldGeneratorTest::log_ = nullptr;
 
 TEST_F(WorldGeneratorTest, WritesEverySplitInThePublicLayout) {
   for (const std::string& split : worldSplitNames()) {
-    const EpisodeDataset dataset =
-        readEpisodes(splitEpisodesPath(data(), split));
+    const data::EpisodeDataset dataset =
+        data::readEpisodes(data::splitEpisodesPath(datasetRoot(), split));
     EXPECT_FALSE(dataset.episodes.empty()) << split;
     ASSERT_TRUE(dataset.instruction_vocab.has_value());
     EXPECT_EQ(static_cast<int>(dataset.episodes.size()),
               summary_->episodes.at(split));
     const bool test = split == "test";
-    EXPECT_EQ(fs::exists(splitGroundTruthPath(data(), split)), !test) << split;
+    EXPECT_EQ(fs::exists(data::splitGroundTruthPath(datasetRoot(), split)),
+              !test)
+        << split;
     std::set<int> ids;
-    for (const Episode& e : dataset.episodes) {
+    for (const data::Episode& e : dataset.episodes) {
       EXPECT_TRUE(ids.insert(e.episode_id).second);
       EXPECT_THAT(e.scene_id, ::testing::StartsWith("procedural/house_"));
       EXPECT_TRUE(fs::exists(scenes() / e.scene_id)) << e.scene_id;
@@ -105,34 +107,39 @@ TEST_F(WorldGeneratorTest, WritesEverySplitInThePublicLayout) {
     }
   }
   // train episodes come in threes per trajectory, train_aug in ones
-  const auto train = readEpisodes(splitEpisodesPath(data(), "train"));
+  const auto train =
+      data::readEpisodes(data::splitEpisodesPath(datasetRoot(), "train"));
   std::map<int, int> perTrajectory;
-  for (const Episode& e : train.episodes) ++perTrajectory[e.trajectory_id];
+  for (const data::Episode& e : train.episodes)
+    ++perTrajectory[e.trajectory_id];
   for (const auto& [id, count] : perTrajectory) EXPECT_EQ(count, 3) << id;
-  const auto aug = readEpisodes(splitEpisodesPath(data(), "train_aug"));
+  const auto aug =
+      data::readEpisodes(data::splitEpisodesPath(datasetRoot(), "train_aug"));
   std::set<int> augTrajectories;
-  for (const Episode& e : aug.episodes)
+  for (const data::Episode& e : aug.episodes)
     EXPECT_TRUE(augTrajectories.insert(e.trajectory_id).second);
 
   // nav-graphs, embeddings and statistics beside the splits
-  EXPECT_TRUE(fs::exists(data() / "generation_stats.json"));
-  const auto stats = common::readJsonFile(data() / "generation_stats.json");
+  EXPECT_TRUE(fs::exists(datasetRoot() / "generation_stats.json"));
+  const auto stats =
+      common::readJsonFile(datasetRoot() / "generation_stats.json");
   EXPECT_GT(stats.at("transfer").at("node_transfer_rate").get<double>(), 0.8);
   EXPECT_GT(stats.at("transfer").at("trajectories_navigable").get<int>(), 0);
   int graphs = 0;
-  for (const auto& entry : fs::directory_iterator(data() / "connectivity")) {
-    const NavGraph g = readNavGraph(entry.path());
+  for (const auto& entry :
+       fs::directory_iterator(datasetRoot() / "connectivity")) {
+    const data::NavGraph g = data::readNavGraph(entry.path());
     EXPECT_GT(g.numNodes(), 5);
     ++graphs;
   }
   EXPECT_EQ(graphs, 3);
-  const EmbeddingMatrix embeddings =
-      readEmbeddingsJson(data() / "embeddings.json.gz");
+  const data::EmbeddingMatrix embeddings =
+      data::readEmbeddingsJson(datasetRoot() / "embeddings.json.gz");
   EXPECT_EQ(embeddings.rows, train.instruction_vocab->size());
   EXPECT_EQ(embeddings.dim, 16);
   EXPECT_THAT(*log_, HasSubstr("paper 98.3%"));
   // no staging left behind
-  for (const auto& entry : fs::directory_iterator(data()))
+  for (const auto& entry : fs::directory_iterator(datasetRoot()))
     EXPECT_THAT(entry.path().filename().string(),
                 ::testing::Not(HasSubstr(".generate-")));
 }
@@ -140,9 +147,10 @@ TEST_F(WorldGeneratorTest, WritesEverySplitInThePublicLayout) {
 TEST_F(WorldGeneratorTest, SplitsUseTheRightHouses) {
   std::map<std::string, std::set<std::string>> scenesOf;
   for (const std::string& split : worldSplitNames())
-    for (const Episode& e :
-         readEpisodes(splitEpisodesPath(data(), split)).episodes)
-      scenesOf[split].insert(sceneScanId(e.scene_id));
+    for (const data::Episode& e :
+         data::readEpisodes(data::splitEpisodesPath(datasetRoot(), split))
+             .episodes)
+      scenesOf[split].insert(data::sceneScanId(e.scene_id));
   const auto& trainHouses = summary_->houses.at("train");
   const std::set<std::string> train(trainHouses.begin(), trainHouses.end());
   for (const char* seen : {"train", "val_seen", "train_aug"})
@@ -159,24 +167,28 @@ TEST_F(WorldGeneratorTest, SplitsUseTheRightHouses) {
   auto key = [](const Vec3f& v) {
     return std::vector<float>{v.x(), v.y(), v.z()};
   };
-  for (const Episode& e :
-       readEpisodes(splitEpisodesPath(data(), "train")).episodes)
+  for (const data::Episode& e :
+       data::readEpisodes(data::splitEpisodesPath(datasetRoot(), "train"))
+           .episodes)
     trainPairs.insert(
         {key(e.reference_path.front()), key(e.reference_path.back())});
-  for (const Episode& e :
-       readEpisodes(splitEpisodesPath(data(), "val_seen")).episodes)
+  for (const data::Episode& e :
+       data::readEpisodes(data::splitEpisodesPath(datasetRoot(), "val_seen"))
+           .episodes)
     EXPECT_FALSE(trainPairs.count(
         {key(e.reference_path.front()), key(e.reference_path.back())}));
 }
 
 TEST_F(WorldGeneratorTest, VocabularyAndTokensComeFromTheTrainingCorpus) {
-  const auto train = readEpisodes(splitEpisodesPath(data(), "train"));
-  const auto aug = readEpisodes(splitEpisodesPath(data(), "train_aug"));
-  const Vocabulary& vocab = *train.instruction_vocab;
+  const auto train =
+      data::readEpisodes(data::splitEpisodesPath(datasetRoot(), "train"));
+  const auto aug =
+      data::readEpisodes(data::splitEpisodesPath(datasetRoot(), "train_aug"));
+  const data::Vocabulary& vocab = *train.instruction_vocab;
   EXPECT_EQ(vocab.size(), summary_->vocabulary_size);
   for (const auto* dataset : {&train, &aug}) {
     EXPECT_EQ(*dataset->instruction_vocab, vocab);
-    for (const Episode& e : dataset->episodes) {
+    for (const data::Episode& e : dataset->episodes) {
       EXPECT_EQ(e.instruction.instruction_tokens,
                 vocab.encode(e.instruction.instruction_text));
       for (const int t : e.instruction.instruction_tokens)
@@ -184,7 +196,7 @@ TEST_F(WorldGeneratorTest, VocabularyAndTokensComeFromTheTrainingCorpus) {
     }
   }
   // the two styles differ: speaker instructions are lowercase
-  for (const Episode& e : aug.episodes)
+  for (const data::Episode& e : aug.episodes)
     EXPECT_EQ(e.instruction.instruction_text.find_first_of(
                   "ABCDEFGHIJKLMNOPQRSTUVWXYZ"),
               std::string::npos);
@@ -197,14 +209,15 @@ TEST_F(WorldGeneratorTest, GroundTruthReplaysInTheSavedScene) {
   const sim::AgentConfig agent = tinyConfig().agent;
   int replayed = 0;
   for (const char* split : {"train", "val_unseen", "train_aug"}) {
-    const auto dataset = readEpisodes(splitEpisodesPath(data(), split));
-    const GroundTruth truth =
-        readGroundTruth(splitGroundTruthPath(data(), split));
+    const auto dataset =
+        data::readEpisodes(data::splitEpisodesPath(datasetRoot(), split));
+    const data::GroundTruth truth =
+        data::readGroundTruth(data::splitGroundTruthPath(datasetRoot(), split));
     std::map<std::string, std::shared_ptr<const sim::Scene>> loaded;
-    for (const Episode& e : dataset.episodes) {
+    for (const data::Episode& e : dataset.episodes) {
       auto& scene = loaded[e.scene_id];
       if (!scene) scene = sim::Scene::load(scenes() / e.scene_id, simConfig);
-      const GroundTruthPath& gt = truth.at(e.episode_id);
+      const data::GroundTruthPath& gt = truth.at(e.episode_id);
       ASSERT_EQ(gt.actions.back(), sim::Action::kStop);
       ASSERT_EQ(gt.locations.size(), static_cast<size_t>(gt.forward_steps) + 1);
       EXPECT_EQ(gt.locations.front(), e.start_position);
@@ -249,7 +262,7 @@ TEST_F(WorldGeneratorTest, SameSeedGivesByteIdenticalFilesWhateverTheThreads) {
   test::TempDir again;
   WorldOutput output{again.path() / "data", again.path() / "scenes", 1};
   generateWorld(tinyConfig(), output);
-  EXPECT_EQ(readTree(data()), readTree(again.path() / "data"));
+  EXPECT_EQ(readTree(datasetRoot()), readTree(again.path() / "data"));
   EXPECT_EQ(readTree(scenes()), readTree(again.path() / "scenes"));
 
   // another seed is another world
@@ -257,9 +270,9 @@ TEST_F(WorldGeneratorTest, SameSeedGivesByteIdenticalFilesWhateverTheThreads) {
   WorldConfig config = tinyConfig();
   config.seed = 2;
   generateWorld(config, {other.path() / "data", other.path() / "scenes", 2});
-  EXPECT_NE(
-      common::readFile(splitEpisodesPath(data(), "train")),
-      common::readFile(splitEpisodesPath(other.path() / "data", "train")));
+  EXPECT_NE(common::readFile(data::splitEpisodesPath(datasetRoot(), "train")),
+            common::readFile(
+                data::splitEpisodesPath(other.path() / "data", "train")));
 }
 
 TEST_F(WorldGeneratorTest, GeneratedWordsAreRoomToRoomWords) {
@@ -273,10 +286,11 @@ TEST_F(WorldGeneratorTest, GeneratedWordsAreRoomToRoomWords) {
   const std::set<std::string> r2r(words.begin(), words.end());
   int64_t known = 0, total = 0;
   for (const std::string& split : worldSplitNames())
-    for (const Episode& e :
-         readEpisodes(splitEpisodesPath(data(), split)).episodes)
+    for (const data::Episode& e :
+         data::readEpisodes(data::splitEpisodesPath(datasetRoot(), split))
+             .episodes)
       for (const std::string& token :
-           tokenize(e.instruction.instruction_text)) {
+           data::tokenize(e.instruction.instruction_text)) {
         ++total;
         known += r2r.count(token) ? 1 : 0;
       }
@@ -391,9 +405,9 @@ TEST(WorldCommandsTest, GenerateThenTransferAGeneratedHouse) {
   EXPECT_LE(printed.at("trajectories").get<int>(), 40);
 
   // the written file reads back as a graph of the valid nodes' waypoints
-  const NavGraph waypoints = readNavGraph(transfer.out);
+  const data::NavGraph waypoints = data::readNavGraph(transfer.out);
   EXPECT_EQ(waypoints.numNodes(), generated.at("nodes_valid").get<int>());
 }
 
 }  // namespace
-}  // namespace vln::data
+}  // namespace vln::world

@@ -4,16 +4,16 @@
 // colours, so one texture per finish serves every room of a house.
 
 // First of all includes: no FMA contraction (see the header).
-#include "sim/HouseFpContract.h"
+#include "world/HouseFpContract.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include "common/Check.h"
 #include "common/Random.h"
-#include "sim/HouseBuilder.h"
+#include "world/HouseBuilder.h"
 
-namespace vln::sim::house {
+namespace vln::world::house {
 
 // ===========================================================================
 // surfaces
@@ -372,4 +372,4 @@ Texture makeSurfaceTexture(Surface surface, Rng& rng, float detail) {
                __LINE__);
 }
 
-}  // namespace vln::sim::house
+}  // namespace vln::world::house

@@ -8,9 +8,9 @@
 #include <vector>
 
 #include "data/NavGraph.h"
-#include "data/WorldConfig.h"
+#include "world/WorldConfig.h"
 
-namespace vln::data {
+namespace vln::world {
 
 /// A trajectory through a nav-graph: node indices from start to goal.
 using GraphPath = std::vector<int>;
@@ -24,7 +24,8 @@ class TrajectorySampler {
   /// count is in [min_nodes, max_nodes] and its length in [min_length,
   /// max_length] metres. Candidates are ordered by (start, goal). The
   /// sampler keeps no reference to `graph`.
-  TrajectorySampler(const NavGraph& graph, const TrajectoryConfig& config);
+  TrajectorySampler(const data::NavGraph& graph,
+                    const TrajectoryConfig& config);
 
   /// Number of candidate trajectories.
   int size() const { return static_cast<int>(candidates_.size()); }
@@ -44,6 +45,6 @@ class TrajectorySampler {
 
 /// Length of `path` along its edges (sum of Euclidean node distances),
 /// metres.
-double pathLength(const NavGraph& graph, const GraphPath& path);
+double pathLength(const data::NavGraph& graph, const GraphPath& path);
 
-}  // namespace vln::data
+}  // namespace vln::world

@@ -1,4 +1,4 @@
-#include "data/TrajectorySampler.h"
+#include "world/TrajectorySampler.h"
 
 #include <gtest/gtest.h>
 
@@ -10,12 +10,12 @@
 
 #include "common/Check.h"
 
-namespace vln::data {
+namespace vln::world {
 namespace {
 
 // Ten nodes on a line along +x, 2 m apart.
-NavGraph lineGraph() {
-  NavGraph graph;
+data::NavGraph lineGraph() {
+  data::NavGraph graph;
   for (int i = 0; i < 10; ++i)
     graph.addNode(strCat("n", i), Vec3f(2.0f * i, 1.5f, 0.0f));
   for (int i = 0; i + 1 < 10; ++i)
@@ -24,8 +24,8 @@ NavGraph lineGraph() {
 }
 
 // A 5 x 5 grid, 2 m pitch, 4-connected plus one diagonal shortcut row.
-NavGraph gridGraph() {
-  NavGraph graph;
+data::NavGraph gridGraph() {
+  data::NavGraph graph;
   auto id = [](int i, int j) { return strCat("g", i * 5 + j); };
   for (int i = 0; i < 5; ++i)
     for (int j = 0; j < 5; ++j)
@@ -42,7 +42,7 @@ NavGraph gridGraph() {
 }
 
 TEST(TrajectorySamplerTest, LineGraphHasExactlyTheAdmissiblePairs) {
-  const NavGraph graph = lineGraph();
+  const data::NavGraph graph = lineGraph();
   TrajectoryConfig config;  // 4-7 nodes, 5-16 m
   const TrajectorySampler sampler(graph, config);
   // k edges (k+1 nodes, 2k metres) is admissible for k in 3..6, and a line
@@ -53,7 +53,7 @@ TEST(TrajectorySamplerTest, LineGraphHasExactlyTheAdmissiblePairs) {
 }
 
 TEST(TrajectorySamplerTest, CandidatesAreShortestAdmissiblePaths) {
-  const NavGraph graph = gridGraph();
+  const data::NavGraph graph = gridGraph();
   TrajectoryConfig config;
   config.min_nodes = 4;
   config.max_nodes = 6;
@@ -79,7 +79,7 @@ TEST(TrajectorySamplerTest, CandidatesAreShortestAdmissiblePaths) {
 }
 
 TEST(TrajectorySamplerTest, ShuffleIsADeterministicPermutation) {
-  const NavGraph graph = gridGraph();
+  const data::NavGraph graph = gridGraph();
   const TrajectorySampler sampler(graph, TrajectoryConfig{});
   ASSERT_GT(sampler.size(), 10);
   const auto a = sampler.shuffledOrder(7);
@@ -101,7 +101,7 @@ TEST(TrajectorySamplerTest, ShuffleIsADeterministicPermutation) {
 }
 
 TEST(TrajectorySamplerTest, DisconnectedGraphGivesNoCrossingPaths) {
-  NavGraph graph;
+  data::NavGraph graph;
   for (int i = 0; i < 6; ++i)
     graph.addNode(strCat("a", i), Vec3f(2.0f * i, 1.5f, 0.0f));
   for (int i = 0; i < 6; ++i)
@@ -117,7 +117,7 @@ TEST(TrajectorySamplerTest, DisconnectedGraphGivesNoCrossingPaths) {
 }
 
 TEST(TrajectorySamplerTest, InvalidRangesAreRejected) {
-  const NavGraph graph = lineGraph();
+  const data::NavGraph graph = lineGraph();
   TrajectoryConfig config;
   config.min_nodes = 6;
   config.max_nodes = 4;
@@ -125,4 +125,4 @@ TEST(TrajectorySamplerTest, InvalidRangesAreRejected) {
 }
 
 }  // namespace
-}  // namespace vln::data
+}  // namespace vln::world

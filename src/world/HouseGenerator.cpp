@@ -2,16 +2,16 @@
 // style, furniture, textures, mesh) and holds the fixed vocabularies.
 
 // First of all includes: no FMA contraction (see the header).
-#include "sim/HouseFpContract.h"
+#include "world/HouseFpContract.h"
 
-#include "sim/HouseGenerator.h"
+#include "world/HouseGenerator.h"
 
 #include <algorithm>
 
 #include "common/Check.h"
-#include "sim/HouseBuilder.h"
+#include "world/HouseBuilder.h"
 
-namespace vln::sim {
+namespace vln::world {
 
 namespace {
 
@@ -19,7 +19,7 @@ namespace {
 // eye to be unambiguous under the baked lighting).
 struct NamedColor {
   const char* name;
-  Rgb8 rgb;
+  sim::Rgb8 rgb;
 };
 const std::vector<NamedColor>& namedColors() {
   static const std::vector<NamedColor> colors = {
@@ -67,14 +67,14 @@ const std::vector<std::string>& houseColorNames() {
   return names;
 }
 
-Rgb8 house::namedColor(const std::string& name) {
+sim::Rgb8 house::namedColor(const std::string& name) {
   for (const NamedColor& c : namedColors())
     if (name == c.name) return c.rgb;
   assertFailed(("namedColor: unknown colour " + name).c_str(), __FILE__,
                __LINE__);
 }
 
-Eigen::AlignedBox2f doorwayClearZone(const Doorway& door) {
+Eigen::AlignedBox2f doorwayClearZone(const sim::Doorway& door) {
   const Vec2f center(door.center.x(), door.center.z());
   // the wall runs perpendicular to its (horizontal) normal
   const Vec2f normal = Vec2f(door.normal.x(), door.normal.z()).normalized();
@@ -109,11 +109,11 @@ House generateHouse(uint64_t seed, const HouseConfig& config,
       house::furnish(furnitureRng, plan, config, out.floor_holes);
 
   // one material per surface finish, textured unless detail is off
-  TriangleMesh& mesh = out.mesh;
+  sim::TriangleMesh& mesh = out.mesh;
   const bool textured = config.texture_detail > 0.0f;
   for (int s = 0; s < static_cast<int>(house::Surface::kCount); ++s) {
     const auto surface = static_cast<house::Surface>(s);
-    Material material;
+    sim::Material material;
     material.name = house::surfaceName(surface);
     if (textured && surface != house::Surface::kPlain) {
       material.texture = static_cast<int>(mesh.textures.size());
@@ -143,7 +143,7 @@ House generateHouse(uint64_t seed, const HouseConfig& config,
 
   // semantics
   for (size_t r = 0; r < plan.rooms.size(); ++r) {
-    Room room;
+    sim::Room room;
     room.id = static_cast<int>(r);
     room.type = plan.rooms[r].type;
     const house::RectCm& c = plan.rooms[r].cell;
@@ -162,4 +162,4 @@ House generateHouse(uint64_t seed, const HouseConfig& config,
   return out;
 }
 
-}  // namespace vln::sim
+}  // namespace vln::world

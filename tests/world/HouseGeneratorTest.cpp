@@ -1,4 +1,4 @@
-#include "sim/HouseGenerator.h"
+#include "world/HouseGenerator.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -17,7 +17,7 @@
 #include "sim/RayTracer.h"
 #include "support/TestPaths.h"
 
-namespace vln::sim {
+namespace vln::world {
 namespace {
 
 using ::testing::HasSubstr;
@@ -66,22 +66,22 @@ struct Fingerprint {
 
 uint64_t fingerprint(const House& house) {
   Fingerprint f;
-  const TriangleMesh& m = house.mesh;
+  const sim::TriangleMesh& m = house.mesh;
   for (const Vec3f& p : m.positions) f.add(p.data(), sizeof(float) * 3);
   f.addVector(m.colors);
   for (const Vec2f& uv : m.uvs) f.add(uv.data(), sizeof(float) * 2);
   f.addVector(m.indices);
   f.addVector(m.triangle_material);
   f.addVector(m.triangle_object);
-  for (const Texture& t : m.textures) f.addVector(t.rgb);
-  for (const Room& r : house.semantics.rooms) {
+  for (const sim::Texture& t : m.textures) f.addVector(t.rgb);
+  for (const sim::Room& r : house.semantics.rooms) {
     f.addString(r.type);
     f.add(r.footprint.min().data(), sizeof(float) * 2);
     f.add(r.footprint.max().data(), sizeof(float) * 2);
   }
-  for (const Doorway& d : house.semantics.doors)
+  for (const sim::Doorway& d : house.semantics.doors)
     f.add(d.center.data(), sizeof(float) * 3);
-  for (const SemanticObject& o : house.semantics.objects) {
+  for (const sim::SemanticObject& o : house.semantics.objects) {
     f.addString(o.category);
     f.addString(o.color);
     f.add(o.bounds.min().data(), sizeof(float) * 3);
@@ -180,7 +180,7 @@ TEST(HouseGeneratorTest, EveryRoomIsReachableThroughDoorways) {
   for (const House& house : houses()) {
     const auto& rooms = house.semantics.rooms;
     std::vector<std::vector<int>> next(rooms.size());
-    for (const Doorway& door : house.semantics.doors) {
+    for (const sim::Doorway& door : house.semantics.doors) {
       ASSERT_GE(door.room_a, 0) << house.name;
       ASSERT_GE(door.room_b, 0) << house.name;  // no doors to the outside
       next[door.room_a].push_back(door.room_b);
@@ -208,9 +208,9 @@ TEST(HouseGeneratorTest, EveryRoomIsReachableThroughDoorways) {
 TEST(HouseGeneratorTest, DoorwaysSitInTheWallBetweenTheirRooms) {
   const HouseConfig config;
   for (const House& house : houses()) {
-    for (const Doorway& door : house.semantics.doors) {
-      const Room& a = house.semantics.rooms[door.room_a];
-      const Room& b = house.semantics.rooms[door.room_b];
+    for (const sim::Doorway& door : house.semantics.doors) {
+      const sim::Room& a = house.semantics.rooms[door.room_a];
+      const sim::Room& b = house.semantics.rooms[door.room_b];
       EXPECT_FLOAT_EQ(door.center.y(), 0.0f);
       EXPECT_FLOAT_EQ(door.width, config.door_width);
       EXPECT_FLOAT_EQ(door.normal.norm(), 1.0f);
@@ -269,7 +269,7 @@ TEST(HouseGeneratorTest, ObjectsStayInsideTheirRoomAndOutOfTheWay) {
   for (const House& house : houses()) {
     const auto& objects = house.semantics.objects;
     for (size_t i = 0; i < objects.size(); ++i) {
-      const SemanticObject& o = objects[i];
+      const sim::SemanticObject& o = objects[i];
       EXPECT_EQ(o.id, static_cast<int>(i)) << house.name;
       ASSERT_GE(o.room, 0) << house.name;
       ASSERT_LT(o.room, static_cast<int>(house.semantics.rooms.size()));
@@ -279,7 +279,7 @@ TEST(HouseGeneratorTest, ObjectsStayInsideTheirRoomAndOutOfTheWay) {
           << " leaves its room";
       EXPECT_GE(o.bounds.min().y(), 0.0f);
       EXPECT_LE(o.bounds.max().y(), HouseConfig{}.wall_height);
-      for (const Doorway& door : house.semantics.doors)
+      for (const sim::Doorway& door : house.semantics.doors)
         EXPECT_FALSE(strictlyOverlap(fp, doorwayClearZone(door)))
             << house.name << ": " << o.category << " " << o.id
             << " blocks the doorway at " << door.center.transpose();
@@ -301,7 +301,7 @@ TEST(HouseGeneratorTest, LandmarksBelongToTheirRooms) {
   std::map<std::string, int> required = {
       {"bed", 0}, {"toilet", 0}, {"stove", 0}, {"fridge", 0}, {"sofa", 0}};
   for (const House& house : houses()) {
-    for (const SemanticObject& o : house.semantics.objects) {
+    for (const sim::SemanticObject& o : house.semantics.objects) {
       auto it = home.find(o.category);
       if (it != home.end()) {
         EXPECT_EQ(house.semantics.rooms[o.room].type, it->second)
@@ -317,7 +317,7 @@ TEST(HouseGeneratorTest, LandmarksBelongToTheirRooms) {
 TEST(HouseGeneratorTest, SomeTablesAreLargeEnoughToStandNodesOn) {
   int large = 0;
   for (const House& house : houses())
-    for (const SemanticObject& o : house.semantics.objects) {
+    for (const sim::SemanticObject& o : house.semantics.objects) {
       const bool flatTop = o.category == "table" ||
                            o.category == "kitchen island" ||
                            o.category == "counter";
@@ -333,7 +333,7 @@ TEST(HouseGeneratorTest, SomeTablesAreLargeEnoughToStandNodesOn) {
 
 TEST(HouseGeneratorTest, MeshValidatesAndMatchesTheSemantics) {
   for (const House& house : houses()) {
-    const TriangleMesh& mesh = house.mesh;
+    const sim::TriangleMesh& mesh = house.mesh;
     ASSERT_NO_THROW(mesh.validate(house.name));
     ASSERT_EQ(mesh.triangle_object.size(), mesh.triangleCount());
     ASSERT_EQ(mesh.colors.size(), mesh.positions.size());
@@ -398,9 +398,9 @@ TEST(HouseGeneratorTest, ChromaticColourNamesMatchWhatTheAgentSees) {
   int checked = 0, matched = 0;
   std::map<std::string, int> misses;
   for (const House& house : houses()) {
-    const TriangleMesh& mesh = house.mesh;
-    const RayTracer tracer(mesh);
-    for (const SemanticObject& o : house.semantics.objects) {
+    const sim::TriangleMesh& mesh = house.mesh;
+    const sim::RayTracer tracer(mesh);
+    for (const sim::SemanticObject& o : house.semantics.objects) {
       if (!centers.count(o.color)) continue;
       std::map<std::string, int> votes;
       const Vec3f center = o.bounds.center();
@@ -421,7 +421,8 @@ TEST(HouseGeneratorTest, ChromaticColourNamesMatchWhatTheAgentSees) {
             if (!hit || hit->object != o.id) continue;
             Vec3f rgb = Vec3f::Zero();
             for (int k = 0; k < 3; ++k) {
-              const Rgb8& c = mesh.colors[mesh.indices[3 * hit->triangle + k]];
+              const sim::Rgb8& c =
+                  mesh.colors[mesh.indices[3 * hit->triangle + k]];
               rgb += Vec3f(c[0], c[1], c[2]);
             }
             const std::string name = classify(rgb);
@@ -458,12 +459,12 @@ TEST(HouseGeneratorTest, HousesVaryAcrossSeeds) {
   std::set<std::pair<int, int>> sizes;
   for (const House& house : houses()) {
     roomCounts.insert(house.semantics.rooms.size());
-    for (const Room& r : house.semantics.rooms) {
+    for (const sim::Room& r : house.semantics.rooms) {
       types.insert(r.type);
       sizes.insert({static_cast<int>(r.footprint.sizes().x() * 10),
                     static_cast<int>(r.footprint.sizes().y() * 10)});
     }
-    for (const SemanticObject& o : house.semantics.objects) {
+    for (const sim::SemanticObject& o : house.semantics.objects) {
       categories.insert(o.category);
       colors.insert(o.color);
     }
@@ -503,9 +504,9 @@ TEST(HouseGeneratorTest, WallsAreClosedSoDepthNeverSeesTheSky) {
   config.floor_hole_probability = 0.0f;
   for (int seed = 0; seed < 6; ++seed) {
     const House house = generateHouse(seed, config);
-    const RayTracer tracer(house.mesh);
+    const sim::RayTracer tracer(house.mesh);
     int escaped = 0, cast = 0;
-    for (const Room& room : house.semantics.rooms) {
+    for (const sim::Room& room : house.semantics.rooms) {
       // inside the walls' inner faces
       const float inset = 0.5f * config.wall_thickness + 0.05f;
       const Eigen::AlignedBox2f inner(
@@ -538,7 +539,7 @@ TEST(HouseGeneratorTest, WallsAreClosedSoDepthNeverSeesTheSky) {
 // ---------------------------------------------------------------------------
 
 // True when some upward-facing floor triangle covers (x, z).
-bool floorAt(const TriangleMesh& mesh, float x, float z) {
+bool floorAt(const sim::TriangleMesh& mesh, float x, float z) {
   for (size_t t = 0; t < mesh.triangleCount(); ++t) {
     const Vec3f& a = mesh.positions[mesh.indices[3 * t]];
     const Vec3f& b = mesh.positions[mesh.indices[3 * t + 1]];
@@ -571,9 +572,9 @@ TEST(HouseGeneratorTest, FloorHolesAreOpenAndAwayFromDoorsAndFurniture) {
     const Vec2f c = hole.center();
     EXPECT_FALSE(floorAt(house.mesh, c.x(), c.y())) << house.name;
     EXPECT_GE(house.semantics.roomAt(Vec3f(c.x(), 0.0f, c.y())), 0);
-    for (const Doorway& door : house.semantics.doors)
+    for (const sim::Doorway& door : house.semantics.doors)
       EXPECT_FALSE(strictlyOverlap(hole, doorwayClearZone(door))) << house.name;
-    for (const SemanticObject& o : house.semantics.objects)
+    for (const sim::SemanticObject& o : house.semantics.objects)
       EXPECT_FALSE(strictlyOverlap(hole, footprint(o.bounds))) << house.name;
     // the floor around the hole is intact
     EXPECT_TRUE(floorAt(house.mesh, hole.min().x() - 0.05f, c.y()))
@@ -593,10 +594,10 @@ TEST(HouseGeneratorTest, FloorHolesAreOpenAndAwayFromDoorsAndFurniture) {
 TEST(HouseGeneratorTest, NavmeshConnectsEveryDoorwayAndReachesFurniture) {
   for (int seed : {0, 3, 11}) {
     const House& house = houses()[seed];
-    const auto navmesh = NavMesh::build(house.mesh, NavMeshConfig{});
+    const auto navmesh = sim::NavMesh::build(house.mesh, sim::NavMeshConfig{});
     // half a metre into each room in front of each doorway
     std::vector<Vec3f> points;
-    for (const Doorway& door : house.semantics.doors)
+    for (const sim::Doorway& door : house.semantics.doors)
       for (float s : {-0.5f, 0.5f})
         points.push_back(door.center + s * door.normal);
     const int main = navmesh->islandIndex(points.front());
@@ -605,7 +606,7 @@ TEST(HouseGeneratorTest, NavmeshConnectsEveryDoorwayAndReachesFurniture) {
       EXPECT_EQ(navmesh->islandIndex(p), main)
           << house.name << ": doorway point " << p.transpose();
     // the agent can stand within 0.7 m of every floor object
-    for (const SemanticObject& o : house.semantics.objects) {
+    for (const sim::SemanticObject& o : house.semantics.objects) {
       if (o.bounds.min().y() > 0.8f) continue;  // hung on a wall
       bool near = false;
       const Eigen::AlignedBox2f fp = footprint(o.bounds);
@@ -627,19 +628,19 @@ TEST(HouseGeneratorTest, GlbExportReimportsIdentically) {
   const House& house = houses()[2];
   test::TempDir dir;
   const auto file = dir / "house.glb";
-  saveScene(file, house.mesh, house.semantics);
-  const LoadedScene loaded = loadScene(file, MeshLoadConfig{});
+  sim::saveScene(file, house.mesh, house.semantics);
+  const sim::LoadedScene loaded = sim::loadScene(file, sim::MeshLoadConfig{});
   EXPECT_EQ(loaded.semantics, house.semantics);
   ASSERT_EQ(loaded.mesh.triangleCount(), house.mesh.triangleCount());
   // the materials in use come back (renumbered by first use), with their
   // textures
-  std::map<std::string, std::pair<Material, Texture>> before, after;
-  auto collect = [](const TriangleMesh& m, auto& out) {
+  std::map<std::string, std::pair<sim::Material, sim::Texture>> before, after;
+  auto collect = [](const sim::TriangleMesh& m, auto& out) {
     for (int32_t i : m.triangle_material) {
-      const Material& material = m.materials[i];
+      const sim::Material& material = m.materials[i];
       out[material.name] = {material, material.texture >= 0
                                           ? m.textures[material.texture]
-                                          : Texture{}};
+                                          : sim::Texture{}};
       out[material.name].first.texture = 0;
     }
   };
@@ -648,14 +649,14 @@ TEST(HouseGeneratorTest, GlbExportReimportsIdentically) {
   EXPECT_TRUE(before == after);
 
   // compare per object: the multiset of (corner positions, colours) keys
-  auto keys = [](const TriangleMesh& m) {
+  auto keys = [](const sim::TriangleMesh& m) {
     std::map<std::string, std::vector<std::array<int64_t, 12>>> out;
     for (size_t t = 0; t < m.triangleCount(); ++t) {
       std::array<int64_t, 12> key{};
       std::array<std::array<int64_t, 4>, 3> corners;
       for (int k = 0; k < 3; ++k) {
         const uint32_t v = m.indices[3 * t + k];
-        const Rgb8& c = m.colors[v];
+        const sim::Rgb8& c = m.colors[v];
         corners[k] = {std::llround(m.positions[v].x() * 1e4),
                       std::llround(m.positions[v].y() * 1e4),
                       std::llround(m.positions[v].z() * 1e4),
@@ -687,9 +688,9 @@ TEST(HouseGeneratorTest, FixtureFileIsTheGeneratedHouse) {
   const auto file = test::testDataPath() / "meshes" / "house_small.glb";
   if (const char* write = std::getenv("VLN_WRITE_FIXTURES");
       write && std::string(write) == "1")
-    saveScene(file, house.mesh, house.semantics);
+    sim::saveScene(file, house.mesh, house.semantics);
   if (!std::filesystem::exists(file)) GTEST_SKIP() << file << " is missing";
-  const LoadedScene loaded = loadScene(file, MeshLoadConfig{});
+  const sim::LoadedScene loaded = sim::loadScene(file, sim::MeshLoadConfig{});
   EXPECT_EQ(loaded.semantics, house.semantics)
       << "regenerate with VLN_WRITE_FIXTURES=1 if the generator changed on "
          "purpose";
@@ -701,7 +702,7 @@ TEST(HouseGeneratorTest, FixtureFileIsTheGeneratedHouse) {
       std::vector<std::string> corners;
       for (int k = 0; k < 3; ++k) {
         const uint32_t v = mesh->indices[3 * t + k];
-        const Rgb8& c = mesh->colors[v];
+        const sim::Rgb8& c = mesh->colors[v];
         corners.push_back(strCat(std::lround(mesh->positions[v].x() * 1e4), ",",
                                  std::lround(mesh->positions[v].y() * 1e4), ",",
                                  std::lround(mesh->positions[v].z() * 1e4), ",",
@@ -720,4 +721,4 @@ TEST(HouseGeneratorTest, FixtureFileIsTheGeneratedHouse) {
 }
 
 }  // namespace
-}  // namespace vln::sim
+}  // namespace vln::world

@@ -10,10 +10,10 @@
 
 #include <unistd.h>
 
-#include "sim/HouseGenerator.h"
 #include "sim/MeshIo.h"
+#include "world/HouseGenerator.h"
 
-namespace vln::sim {
+namespace vln::world {
 namespace {
 
 // One house per iteration, a new seed each time (houses vary in size).
@@ -60,13 +60,13 @@ void BM_SaveHouseGlb(benchmark::State& state) {
   const House house = generateHouse(1, HouseConfig{});
   const auto file = std::filesystem::temp_directory_path() /
                     ("vln_house_bench_" + std::to_string(::getpid()) + ".glb");
-  for (auto _ : state) saveScene(file, house.mesh, house.semantics);
+  for (auto _ : state) sim::saveScene(file, house.mesh, house.semantics);
   state.counters["MB"] =
       static_cast<double>(std::filesystem::file_size(file)) / 1e6;
   std::filesystem::remove(file);
-  std::filesystem::remove(semanticsPath(file));
+  std::filesystem::remove(sim::semanticsPath(file));
 }
 BENCHMARK(BM_SaveHouseGlb)->Unit(benchmark::kMillisecond);
 
 }  // namespace
-}  // namespace vln::sim
+}  // namespace vln::world

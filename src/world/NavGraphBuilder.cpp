@@ -1,4 +1,4 @@
-#include "data/NavGraphBuilder.h"
+#include "world/NavGraphBuilder.h"
 
 #include <algorithm>
 #include <array>
@@ -11,7 +11,7 @@
 #include "common/Check.h"
 #include "common/Random.h"
 
-namespace vln::data {
+namespace vln::world {
 
 namespace {
 
@@ -400,7 +400,7 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
   return built;
 }
 
-std::vector<int> componentSizes(const NavGraph& graph) {
+std::vector<int> componentSizes(const data::NavGraph& graph) {
   std::vector<int> sizes;
   std::vector<char> seen(static_cast<size_t>(graph.numNodes()), 0);
   for (int start = 0; start < graph.numNodes(); ++start) {
@@ -425,4 +425,4 @@ std::vector<int> componentSizes(const NavGraph& graph) {
   return sizes;
 }
 
-}  // namespace vln::data
+}  // namespace vln::world

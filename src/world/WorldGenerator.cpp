@@ -1,4 +1,4 @@
-#include "data/WorldGenerator.h"
+#include "world/WorldGenerator.h"
 
 #include <spdlog/spdlog.h>
 
@@ -24,16 +24,16 @@
 #include "data/Episode.h"
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
-#include "data/InstructionGenerator.h"
-#include "data/NavGraphBuilder.h"
-#include "data/TrajectorySampler.h"
 #include "data/Vocabulary.h"
-#include "sim/HouseGenerator.h"
 #include "sim/MeshIo.h"
 #include "sim/RayTracer.h"
 #include "sim/Scene.h"
+#include "world/HouseGenerator.h"
+#include "world/InstructionGenerator.h"
+#include "world/NavGraphBuilder.h"
+#include "world/TrajectorySampler.h"
 
-namespace vln::data {
+namespace vln::world {
 
 namespace {
 
@@ -68,7 +68,7 @@ struct Trajectory {
   float start_heading = 0.0f;
   float geodesic = 0.0f;
   double graph_length = 0.0;  // along nav-graph edges, metres
-  GroundTruthPath ground_truth;
+  data::GroundTruthPath ground_truth;
   std::vector<std::string> instructions;
 };
 
@@ -76,16 +76,16 @@ struct HouseResult {
   std::string name;
   std::string scene_id;
   std::string role;
-  NavGraph graph;
+  data::NavGraph graph;
   std::map<std::string, int> placements;
   // per placement kind: transfer outcome of its nodes
-  std::map<std::string, TransferStats> placementTransfer;
+  std::map<std::string, data::TransferStats> placementTransfer;
   int holes_found = 0;
   int closed_doors = 0;
   int moved_objects = 0;
   int largest_component = 0;
   int candidates = 0;
-  TransferStats transfer;
+  data::TransferStats transfer;
   std::vector<Trajectory> trajectories;  // in acceptance order
 };
 
@@ -147,7 +147,7 @@ void appendBox(sim::TriangleMesh& mesh, const Vec3f& center, const Vec3f& axisU,
 
 // Copies the triangles of `object` translated by `offset` as a new semantic
 // object; returns false when the object has no triangles.
-bool duplicateObject(sim::House& house, const sim::SemanticObject& object,
+bool duplicateObject(House& house, const sim::SemanticObject& object,
                      const Vec3f& offset, int room) {
   sim::TriangleMesh& mesh = house.mesh;
   if (mesh.triangle_object.empty()) return false;
@@ -185,7 +185,7 @@ struct CaptureDifferences {
 };
 
 // Closes doors and moves objects onto nodes (ReconstructionConfig).
-CaptureDifferences applyCaptureDifferences(sim::House& house,
+CaptureDifferences applyCaptureDifferences(House& house,
                                            const BuiltNavGraph& built,
                                            const WorldConfig& config,
                                            uint64_t seed) {
@@ -293,7 +293,7 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
   const uint64_t seed = houseSeed(config, index);
 
   // the house as the panoramas captured it, and its nav-graph
-  sim::House house = sim::generateHouse(seed, config.house, result.name);
+  House house = generateHouse(seed, config.house, result.name);
   BuiltNavGraph built = [&] {
     const sim::RayTracer tracer(house.mesh);
     return buildNavGraph(house.semantics, tracer, config.nav_graph,
@@ -323,8 +323,8 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
   result.holes_found = built.holes_found;
   const auto components = componentSizes(built.graph);
   result.largest_component = components.empty() ? 0 : components.front();
-  const std::vector<NodeTransferResult> transferred =
-      transferGraph(built.graph, navmesh, config.transfer);
+  const std::vector<data::NodeTransferResult> transferred =
+      data::transferGraph(built.graph, navmesh, config.transfer);
   result.transfer.addNodes(transferred, config.transfer);
   for (size_t i = 0; i < transferred.size(); ++i)
     result.placementTransfer[nodePlacementName(built.placement[i])].addNodes(
@@ -348,7 +348,7 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
     std::mt19937_64 headingRng(common::deriveSeed(common::deriveSeed(seed, kHeadingStream),
                                           static_cast<uint64_t>(candidate)));
     const float heading = common::uniformRange(headingRng, -kPi, kPi);
-    NavigabilityResult checked = checkNavigability(
+    data::NavigabilityResult checked = data::checkNavigability(
         navmesh, config.agent, config.transfer, transferred, path, heading);
     result.transfer.addTrajectory(checked);
     if (!checked.navigable()) continue;
@@ -522,8 +522,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
     if (error) std::rethrow_exception(error);
 
   // episodes of every split, merged in house order
-  std::map<std::string, EpisodeDataset> datasets;
-  std::map<std::string, GroundTruth> truths;
+  std::map<std::string, data::EpisodeDataset> datasets;
+  std::map<std::string, data::GroundTruth> truths;
   std::map<std::string, int> trajectoryCount;
   std::map<std::string, double> pathLength, geodesic, actions, tokens;
   std::vector<std::string> trainCorpus;
@@ -539,7 +539,7 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
         geodesic[split] += t.geodesic;
         actions[split] += static_cast<double>(t.ground_truth.actions.size());
         for (const std::string& text : t.instructions) {
-          Episode e;
+          data::Episode e;
           e.episode_id = ++episodeId;
           e.trajectory_id = trajectoryId;
           e.scene_id = house->scene_id;
@@ -548,7 +548,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
           e.instruction.instruction_text = text;
           if (split != kTest) {
             e.geodesic_distance = t.geodesic;
-            e.goals = {Goal{t.waypoints.back(), kDefaultGoalRadius}};
+            e.goals = {
+                data::Goal{t.waypoints.back(), data::kDefaultGoalRadius}};
             e.reference_path = t.waypoints;
             truths[split][e.episode_id] = t.ground_truth;
           }
@@ -572,29 +573,29 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   }
 
   // the vocabulary and GloVe of the training corpus (train + train_aug)
-  const Vocabulary vocabulary = Vocabulary::build(trainCorpus);
+  const data::Vocabulary vocabulary = data::Vocabulary::build(trainCorpus);
   for (auto& [split, dataset] : datasets) {
-    for (Episode& e : dataset.episodes) {
+    for (data::Episode& e : dataset.episodes) {
       e.instruction.instruction_tokens =
           vocabulary.encode(e.instruction.instruction_text);
-      tokens[split] += unpaddedLength(e.instruction.instruction_tokens,
-                                      vocabulary.padIndex());
+      tokens[split] += data::unpaddedLength(e.instruction.instruction_tokens,
+                                            vocabulary.padIndex());
     }
     dataset.instruction_vocab = vocabulary;
   }
   std::vector<std::vector<std::string>> sentences;
   sentences.reserve(trainCorpus.size());
   for (const std::string& text : trainCorpus)
-    sentences.push_back(tokenize(text));
-  const GloveFitResult glove = fitGlove(sentences, config.glove);
-  const EmbeddingMatrix embeddings =
-      buildEmbeddingMatrix(vocabulary, glove.vectors);
+    sentences.push_back(data::tokenize(text));
+  const data::GloveFitResult glove = data::fitGlove(sentences, config.glove);
+  const data::EmbeddingMatrix embeddings =
+      data::buildEmbeddingMatrix(vocabulary, glove.vectors);
 
   // statistics
   WorldSummary summary;
   nlohmann::json perHouse = nlohmann::json::object();
   std::map<std::string, int64_t> placements;
-  std::map<std::string, TransferStats> placementTransfer;
+  std::map<std::string, data::TransferStats> placementTransfer;
   int64_t nodes = 0, edges = 0, largest = 0, holes = 0, candidates = 0;
   int64_t closedDoors = 0, movedObjects = 0;
   for (const auto& house : houses) {
@@ -688,13 +689,15 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   fs::remove_all(staging, ec);
   try {
     for (const std::string& split : worldSplitNames()) {
-      writeEpisodes(splitEpisodesPath(staging, split), datasets[split]);
+      data::writeEpisodes(data::splitEpisodesPath(staging, split),
+                          datasets[split]);
       if (split != kTest)
-        writeGroundTruth(splitGroundTruthPath(staging, split), truths[split]);
+        data::writeGroundTruth(data::splitGroundTruthPath(staging, split),
+                               truths[split]);
     }
-    writeEmbeddingsJson(staging / "embeddings.json.gz", embeddings);
+    data::writeEmbeddingsJson(staging / "embeddings.json.gz", embeddings);
     for (const auto& house : houses)
-      writeNavGraph(
+      data::writeNavGraph(
           staging / "connectivity" / (house->name + "_connectivity.json"),
           house->graph);
     common::writeJsonFile(staging / "generation_stats.json", summary.stats, 2);
@@ -718,4 +721,4 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   return summary;
 }
 
-}  // namespace vln::data
+}  // namespace vln::world

@@ -7,7 +7,7 @@
 //    2 * kAgentClearance reaches every doorway and gets next to every object.
 
 // First of all includes: no FMA contraction (see the header).
-#include "sim/HouseFpContract.h"
+#include "world/HouseFpContract.h"
 
 #include <algorithm>
 #include <cmath>
@@ -15,9 +15,9 @@
 #include <optional>
 
 #include "common/Check.h"
-#include "sim/HouseBuilder.h"
+#include "world/HouseBuilder.h"
 
-namespace vln::sim::house {
+namespace vln::world::house {
 namespace {
 
 using Box2 = Eigen::AlignedBox2f;
@@ -761,4 +761,4 @@ std::vector<PlacedObject> furnish(Rng& rng, const FloorPlan& plan,
   return objects;
 }
 
-}  // namespace vln::sim::house
+}  // namespace vln::world::house

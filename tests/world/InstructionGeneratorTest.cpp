@@ -1,4 +1,4 @@
-#include "data/InstructionGenerator.h"
+#include "world/InstructionGenerator.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -14,10 +14,10 @@
 
 #include "common/Json.h"
 #include "data/Vocabulary.h"
-#include "sim/HouseGenerator.h"
 #include "support/TestPaths.h"
+#include "world/HouseGenerator.h"
 
-namespace vln::data {
+namespace vln::world {
 namespace {
 
 using ::testing::HasSubstr;
@@ -97,7 +97,7 @@ std::string lower(std::string s) {
 }
 
 bool containsWord(const std::string& text, const std::string& word) {
-  const auto tokens = tokenize(text);
+  const auto tokens = data::tokenize(text);
   return std::find(tokens.begin(), tokens.end(), word) != tokens.end();
 }
 
@@ -276,7 +276,7 @@ TEST(InstructionGeneratorTest, MentionsAreGroundedInGeneratedHouses) {
   const InstructionConfig config;
   int mentions = 0;
   for (uint64_t seed : {1u, 2u, 3u}) {
-    const sim::House house = sim::generateHouse(seed, sim::HouseConfig{});
+    const world::House house = world::generateHouse(seed, world::HouseConfig{});
     const auto& s = house.semantics;
     const InstructionGenerator generator(s, config);
     auto center = [&](int r) {
@@ -409,12 +409,12 @@ TEST(InstructionGeneratorTest, HumanLengthIsRoomToRoomLike) {
   for (uint64_t seed = 0; seed < 50; ++seed) {
     for (const auto& g :
          generator.generate(path, 2.0f, InstructionStyle::kHuman, 3, seed)) {
-      words += static_cast<double>(tokenize(g.text).size());
+      words += static_cast<double>(data::tokenize(g.text).size());
       ++n;
     }
     for (const auto& g :
          generator.generate(path, 2.0f, InstructionStyle::kSpeaker, 1, seed)) {
-      speakerWords += static_cast<double>(tokenize(g.text).size());
+      speakerWords += static_cast<double>(data::tokenize(g.text).size());
       ++m;
     }
   }
@@ -486,9 +486,9 @@ TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
 
   // one room per type in a row along -Z, objects of every category and
   // colour beside the path
-  const auto& types = sim::houseRoomTypes();
-  const auto& categories = sim::houseObjectCategories();
-  const auto& colors = sim::houseColorNames();
+  const auto& types = world::houseRoomTypes();
+  const auto& categories = world::houseObjectCategories();
+  const auto& colors = world::houseColorNames();
   sim::SceneSemantics s;
   std::vector<Vec3f> path;
   for (size_t r = 0; r < types.size(); ++r) {
@@ -524,7 +524,7 @@ TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
             path.begin() + static_cast<long>(start),
             path.begin() + static_cast<long>(std::min(path.size(), start + 4)));
         for (const auto& g : generator.generate(sub, 0.5f, style, 3, seed)) {
-          for (const auto& token : tokenize(g.text)) {
+          for (const auto& token : data::tokenize(g.text)) {
             ++total;
             if (vocabulary.count(token))
               ++known;
@@ -544,4 +544,4 @@ TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
 }
 
 }  // namespace
-}  // namespace vln::data
+}  // namespace vln::world

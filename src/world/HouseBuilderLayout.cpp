@@ -3,7 +3,7 @@
 // types, and doorways forming a spanning tree plus a few loops.
 
 // First of all includes: no FMA contraction (see the header).
-#include "sim/HouseFpContract.h"
+#include "world/HouseFpContract.h"
 
 #include <algorithm>
 #include <map>
@@ -14,9 +14,9 @@
 
 #include "common/Check.h"
 #include "common/Random.h"
-#include "sim/HouseBuilder.h"
+#include "world/HouseBuilder.h"
 
-namespace vln::sim::house {
+namespace vln::world::house {
 
 // ===========================================================================
 // Rng
@@ -573,4 +573,4 @@ Doorway toDoorway(const PlanDoor& door) {
   return out;
 }
 
-}  // namespace vln::sim::house
+}  // namespace vln::world::house

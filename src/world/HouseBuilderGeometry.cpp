@@ -10,15 +10,15 @@
 // strip there).
 
 // First of all includes: no FMA contraction (see the header).
-#include "sim/HouseFpContract.h"
+#include "world/HouseFpContract.h"
 
 #include <algorithm>
 #include <cmath>
 
 #include "common/Check.h"
-#include "sim/HouseBuilder.h"
+#include "world/HouseBuilder.h"
 
-namespace vln::sim::house {
+namespace vln::world::house {
 
 // ===========================================================================
 // exact unit circle
@@ -614,4 +614,4 @@ void buildStructure(const FloorPlan& plan, const HouseStyle& style,
   StructureBuilder(plan, style, config, holes, builder).run();
 }
 
-}  // namespace vln::sim::house
+}  // namespace vln::world::house

@@ -5,14 +5,14 @@
 // of its largest visible part; other parts use neutral colours.
 
 // First of all includes: no FMA contraction (see the header).
-#include "sim/HouseFpContract.h"
+#include "world/HouseFpContract.h"
 
 #include <algorithm>
 #include <vector>
 
-#include "sim/HouseBuilder.h"
+#include "world/HouseBuilder.h"
 
-namespace vln::sim::house {
+namespace vln::world::house {
 namespace {
 
 // ===========================================================================
@@ -714,4 +714,4 @@ void ModelBuilder::counterBody(Model& m, const std::string& color,
   }
 }
 
-}  // namespace vln::sim::house
+}  // namespace vln::world::house

@@ -1,4 +1,4 @@
-#include "data/NavGraphBuilder.h"
+#include "world/NavGraphBuilder.h"
 
 #include <gtest/gtest.h>
 
@@ -6,10 +6,10 @@
 #include <cctype>
 #include <cmath>
 
-#include "sim/HouseGenerator.h"
 #include "sim/RayTracer.h"
+#include "world/HouseGenerator.h"
 
-namespace vln::data {
+namespace vln::world {
 namespace {
 
 bool isHex32(const std::string& id) {
@@ -25,12 +25,12 @@ Eigen::AlignedBox2f footprint(const Eigen::AlignedBox3f& box) {
 }
 
 struct Built {
-  sim::House house;
+  world::House house;
   BuiltNavGraph graph;
 };
 
 Built buildFor(uint64_t seed, const NavGraphBuildConfig& config = {}) {
-  Built b{sim::generateHouse(seed, sim::HouseConfig{}), {}};
+  Built b{world::generateHouse(seed, world::HouseConfig{}), {}};
   const sim::RayTracer tracer(b.house.mesh);
   b.graph = buildNavGraph(b.house.semantics, tracer, config, seed * 7 + 1);
   return b;
@@ -41,7 +41,7 @@ TEST(NavGraphBuilderTest, NodesCoverRoomsAtTripodHeight) {
   for (uint64_t seed : {1u, 2u, 3u}) {
     const Built b = buildFor(seed);
     const auto& semantics = b.house.semantics;
-    const NavGraph& g = b.graph.graph;
+    const data::NavGraph& g = b.graph.graph;
     ASSERT_GT(g.numNodes(), 5) << "seed " << seed;
     ASSERT_EQ(b.graph.placement.size(), static_cast<size_t>(g.numNodes()));
     std::vector<int> perRoom(semantics.rooms.size(), 0);
@@ -114,7 +114,7 @@ TEST(NavGraphBuilderTest, EdgesAreShortAndHaveLineOfSight) {
   for (uint64_t seed : {4u, 5u, 6u, 7u}) {
     const Built b = buildFor(seed);
     const sim::RayTracer tracer(b.house.mesh);
-    const NavGraph& g = b.graph.graph;
+    const data::NavGraph& g = b.graph.graph;
     ASSERT_GT(g.numEdges(), g.numNodes() / 2);
     for (const auto& [a, c] : g.edges()) {
       const Vec3f pa = g.node(a).position;
@@ -151,7 +151,7 @@ TEST(NavGraphBuilderTest, DeterministicPerSeed) {
   }
   EXPECT_EQ(a.graph.graph.edges(), b.graph.graph.edges());
 
-  sim::House house = sim::generateHouse(11, sim::HouseConfig{});
+  world::House house = world::generateHouse(11, world::HouseConfig{});
   const sim::RayTracer tracer(house.mesh);
   const BuiltNavGraph other = buildNavGraph(house.semantics, tracer, {}, 999);
   EXPECT_NE(other.graph.node(0).id, a.graph.graph.node(0).id);
@@ -261,4 +261,4 @@ TEST(NavGraphBuilderTest, NoRoomsIsAnError) {
 }
 
 }  // namespace
-}  // namespace vln::data
+}  // namespace vln::world

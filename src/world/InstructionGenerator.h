@@ -23,10 +23,10 @@
 #include <vector>
 
 #include "common/Math.h"
-#include "data/WorldConfig.h"
 #include "sim/Mesh.h"
+#include "world/WorldConfig.h"
 
-namespace vln::data {
+namespace vln::world {
 
 /// Who "wrote" an instruction.
 enum class InstructionStyle {
@@ -99,4 +99,4 @@ std::vector<std::string> objectCategoryWords(const std::string& category);
 /// inside it.
 float footprintDistance(const Eigen::AlignedBox3f& box, const Vec3f& p);
 
-}  // namespace vln::data
+}  // namespace vln::world

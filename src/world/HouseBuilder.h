@@ -1,7 +1,7 @@
 #pragma once
 // Internal stages of the procedural house generator (see HouseGenerator.h):
 // a portable random number generator, the floor plan, furniture placement
-// and mesh building with baked lighting. Not part of the public sim API;
+// and mesh building with baked lighting. Not part of the public world API;
 // only the HouseBuilder*.cpp, ProceduralTextures.cpp and HouseGenerator.cpp
 // files include it.
 //
@@ -16,10 +16,18 @@
 #include <string>
 #include <vector>
 
-#include "sim/HouseGenerator.h"
 #include "sim/Mesh.h"
+#include "world/HouseGenerator.h"
 
-namespace vln::sim::house {
+namespace vln::world::house {
+
+// The builder fills the simulator's mesh and semantic types.
+using sim::Doorway;
+using sim::Material;
+using sim::Rgb8;
+using sim::SemanticObject;
+using sim::Texture;
+using sim::TriangleMesh;
 
 // ===========================================================================
 // random numbers
@@ -388,4 +396,4 @@ void MeshBuilder::grid(const Vec3f& lo, const Vec3f& hi, int axis, int sign,
   }
 }
 
-}  // namespace vln::sim::house
+}  // namespace vln::world::house

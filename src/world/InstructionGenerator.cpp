@@ -1,4 +1,4 @@
-#include "data/InstructionGenerator.h"
+#include "world/InstructionGenerator.h"
 
 #include <algorithm>
 #include <cctype>
@@ -12,7 +12,7 @@
 #include "common/Check.h"
 #include "common/Random.h"
 
-namespace vln::data {
+namespace vln::world {
 
 namespace {
 
@@ -980,4 +980,4 @@ std::vector<GeneratedInstruction> InstructionGenerator::generate(
   return result;
 }
 
-}  // namespace vln::data
+}  // namespace vln::world

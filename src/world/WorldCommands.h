@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "data/WorldConfig.h"
+#include "world/WorldConfig.h"
 
-namespace vln::data {
+namespace vln::world {
 
 /// `vlnce-data generate`.
 struct GenerateCommandOptions {
@@ -61,4 +61,4 @@ struct TransferCommandOptions {
 int runTransferCommand(const TransferCommandOptions& options,
                        std::ostream& out);
 
-}  // namespace vln::data
+}  // namespace vln::world

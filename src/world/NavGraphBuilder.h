@@ -16,11 +16,11 @@
 #include <vector>
 
 #include "data/NavGraph.h"
-#include "data/WorldConfig.h"
 #include "sim/Mesh.h"
 #include "sim/RayTracer.h"
+#include "world/WorldConfig.h"
 
-namespace vln::data {
+namespace vln::world {
 
 /// Why a node is where it is.
 enum class NodePlacement {
@@ -35,7 +35,7 @@ std::string nodePlacementName(NodePlacement placement);
 
 /// A house's nav-graph with what the builder knows about each node.
 struct BuiltNavGraph {
-  NavGraph graph;
+  data::NavGraph graph;
   /// Per node (graph index): how it was placed.
   std::vector<NodePlacement> placement;
   /// Per node: index into semantics.rooms of its room (room_a for doorway
@@ -55,6 +55,6 @@ BuiltNavGraph buildNavGraph(const sim::SceneSemantics& semantics,
                             const NavGraphBuildConfig& config, uint64_t seed);
 
 /// Sizes of the connected components of `graph`, largest first.
-std::vector<int> componentSizes(const NavGraph& graph);
+std::vector<int> componentSizes(const data::NavGraph& graph);
 
-}  // namespace vln::data
+}  // namespace vln::world

@@ -1,4 +1,4 @@
-#include "data/TrajectorySampler.h"
+#include "world/TrajectorySampler.h"
 
 #include <algorithm>
 #include <functional>
@@ -9,7 +9,7 @@
 #include "common/Check.h"
 #include "common/Random.h"
 
-namespace vln::data {
+namespace vln::world {
 
 namespace {
 
@@ -17,7 +17,7 @@ namespace {
 // shortest-path tree (-1 at the source and unreachable nodes). Ties keep the
 // first-found predecessor, and neighbours are visited in ascending index
 // order, so the tree is deterministic.
-void shortestPathTree(const NavGraph& graph, int source,
+void shortestPathTree(const data::NavGraph& graph, int source,
                       std::vector<double>& distance,
                       std::vector<int>& previous) {
   const auto n = static_cast<size_t>(graph.numNodes());
@@ -44,7 +44,7 @@ void shortestPathTree(const NavGraph& graph, int source,
 
 }  // namespace
 
-TrajectorySampler::TrajectorySampler(const NavGraph& graph,
+TrajectorySampler::TrajectorySampler(const data::NavGraph& graph,
                                      const TrajectoryConfig& config) {
   config.validate();
   std::vector<double> distance;
@@ -95,11 +95,11 @@ std::vector<GraphPath> TrajectorySampler::sample(int count,
   return paths;
 }
 
-double pathLength(const NavGraph& graph, const GraphPath& path) {
+double pathLength(const data::NavGraph& graph, const GraphPath& path) {
   double length = 0.0;
   for (size_t i = 1; i < path.size(); ++i)
     length += graph.euclidean(path[i - 1], path[i]);
   return length;
 }
 
-}  // namespace vln::data
+}  // namespace vln::world

@@ -39,9 +39,9 @@
 #include <nlohmann/json.hpp>
 
 #include "data/NodeTransfer.h"
-#include "data/WorldConfig.h"
+#include "world/WorldConfig.h"
 
-namespace vln::data {
+namespace vln::world {
 
 /// The split names, in the order they are listed and numbered.
 const std::vector<std::string>& worldSplitNames();
@@ -55,7 +55,7 @@ struct WorldOutput {
 
 /// What was generated (also written as generation_stats.json).
 struct WorldSummary {
-  TransferStats transfer;  ///< all houses
+  data::TransferStats transfer;  ///< all houses
   /// Episodes per split.
   std::map<std::string, int> episodes;
   /// Distinct trajectories per split.
@@ -80,4 +80,4 @@ std::string worldHouseName(const WorldConfig& config, int index);
 WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
                            std::ostream* log = nullptr);
 
-}  // namespace vln::data
+}  // namespace vln::world
