@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include "sim/MeshIo.h"
+#include "sim/SceneSemanticsFile.h"
 #include "world/HouseGenerator.h"
 
 namespace vln::world {
