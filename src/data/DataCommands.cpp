@@ -8,6 +8,7 @@
 #include "common/FileIo.h"
 #include "data/DatasetStats.h"
 #include "data/Episode.h"
+#include "data/GloveFit.h"
 #include "data/GroundTruth.h"
 
 namespace vln::data {

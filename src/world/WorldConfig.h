@@ -13,7 +13,7 @@
 
 #include "common/Check.h"
 #include "common/Config.h"
-#include "data/Glove.h"
+#include "data/GloveFitConfig.h"
 #include "data/TransferConfig.h"
 #include "sim/SimConfig.h"
 #include "world/HouseConfig.h"

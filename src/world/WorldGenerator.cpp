@@ -22,7 +22,7 @@
 #include "common/Progress.h"
 #include "common/Random.h"
 #include "data/Episode.h"
-#include "data/Glove.h"
+#include "data/GloveFit.h"
 #include "data/GroundTruth.h"
 #include "data/Vocabulary.h"
 #include "sim/MeshIo.h"
