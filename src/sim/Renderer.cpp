@@ -33,6 +33,41 @@ std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
   return nullptr;
 }
 
+Renderer::Renderer(std::string_view backend)
+    : rgbMethod_(strCat(backend, "::renderRgb()")),
+      depthMethod_(strCat(backend, "::renderDepth()")),
+      rgbDepthRgbMethod_(strCat(backend, "::renderRgbDepth() rgb")),
+      rgbDepthDepthMethod_(strCat(backend, "::renderRgbDepth() depth")),
+      semanticMethod_(strCat(backend, "::renderSemantic()")) {}
+
+void Renderer::renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
+                         std::span<uint8_t> rgb) {
+  checkRenderArgs(rgbMethod_, pose, camera, rgb.size(), 3);
+  render(pose, camera, kColor, rgb.data(), nullptr, nullptr);
+}
+
+void Renderer::renderDepth(const CameraPose& pose,
+                           const CameraIntrinsics& camera,
+                           std::span<float> depth) {
+  checkRenderArgs(depthMethod_, pose, camera, depth.size(), 1);
+  render(pose, camera, kDepth, nullptr, depth.data(), nullptr);
+}
+
+void Renderer::renderRgbDepth(const CameraPose& pose,
+                              const CameraIntrinsics& camera,
+                              std::span<uint8_t> rgb, std::span<float> depth) {
+  checkRenderArgs(rgbDepthRgbMethod_, pose, camera, rgb.size(), 3);
+  checkRenderArgs(rgbDepthDepthMethod_, pose, camera, depth.size(), 1);
+  render(pose, camera, kColor | kDepth, rgb.data(), depth.data(), nullptr);
+}
+
+void Renderer::renderSemantic(const CameraPose& pose,
+                              const CameraIntrinsics& camera,
+                              std::span<int32_t> objectIds) {
+  checkRenderArgs(semanticMethod_, pose, camera, objectIds.size(), 1);
+  render(pose, camera, kObject, nullptr, nullptr, objectIds.data());
+}
+
 Eigen::Matrix3f cameraToWorld(const CameraPose& pose) {
   return (Eigen::AngleAxisf(pose.heading, Vec3f::UnitY()) *
           Eigen::AngleAxisf(pose.pitch, Vec3f::UnitX()))
