@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string_view>
 #include <vector>
 
@@ -66,6 +67,14 @@ void Renderer::renderSemantic(const CameraPose& pose,
                               std::span<int32_t> objectIds) {
   checkRenderArgs(semanticMethod_, pose, camera, objectIds.size(), 1);
   render(pose, camera, kObject, nullptr, nullptr, objectIds.data());
+}
+
+RendererBackend parseRendererBackend(std::string_view name,
+                                     std::string_view option) {
+  if (name == "embree") return RendererBackend::kEmbree;
+  if (name == "osmesa") return RendererBackend::kOsMesa;
+  throw std::invalid_argument(
+      strCat(option, " must be embree or osmesa, got '", name, "'"));
 }
 
 Eigen::Matrix3f cameraToWorld(const CameraPose& pose) {

@@ -92,6 +92,12 @@ std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
                                          const RayTracer& rayTracer,
                                          RendererBackend backend);
 
+/// The backend called `name`: "embree" or "osmesa" (as in SimConfig's
+/// `renderer`). Throws std::invalid_argument naming `option` (e.g. the
+/// command-line flag) and `name` otherwise.
+RendererBackend parseRendererBackend(std::string_view name,
+                                     std::string_view option);
+
 /// Rotation from the camera frame to the world frame for `pose`. The camera
 /// frame is OpenGL's: +X right, +Y up, looking along -Z; pitch is applied
 /// before heading, R = Ry(heading) * Rx(pitch), so heading 0 and pitch 0 look
