@@ -1,5 +1,7 @@
 #include "data/DataCommands.h"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <map>
 #include <optional>
