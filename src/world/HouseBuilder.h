@@ -42,6 +42,10 @@ class Rng {
   explicit Rng(uint64_t seed, uint64_t stream = 0);
   /// 32 uniformly random bits.
   uint32_t next();
+  /// 64 uniformly random bits: the first next() is the high half, the
+  /// second the low half (sequenced here, where `(next() << 32) | next()`
+  /// would leave the order to the compiler).
+  uint64_t next64();
   /// Uniform in [0, 1), 24-bit resolution.
   float uniform();
   /// Uniform in [lo, hi).
@@ -317,6 +321,10 @@ class ModelBuilder {
   void shape(Model& m, Shape s, float x0, float y0, float z0, float x1,
              float y1, float z1, const Rgb8& color,
              Surface surface = Surface::kPlain);
+  // four square legs of side `size` from the floor to `top`, their
+  // low-x, low-z corners at {x0, x1} x {z0, z1}
+  void legs(Model& m, float x0, float x1, float z0, float z1, float size,
+            float top, const Rgb8& color, Surface surface);
   // a row of books (or boxes) standing on a board at height y
   void books(Model& m, float x0, float x1, float y, float maxH, float d);
   // base cabinet, plinth and worktop shared by counters and kitchen sinks

@@ -484,25 +484,20 @@ class StructureBuilder {
     const float line = cm(door.line_cm);
     const float w0 = line - 0.5f * t_, w1 = line + 0.5f * t_;
     auto flat = [](const Vec3f&) { return 1.0f; };
-    if (door.along_x) {
-      out_.grid(Vec3f(a, 0.0f, w0), Vec3f(b, 0.0f, w1), 1, +1, {}, {},
-                style.floor, style.floor_surface, flat);
-      out_.grid(Vec3f(a, doorTop_, w0), Vec3f(b, doorTop_, w1), 1, -1, {}, {},
-                style.trim, Surface::kPlain, flat);
-      out_.grid(Vec3f(a, 0.0f, w0), Vec3f(a, doorTop_, w1), 0, +1, {}, {},
-                style.trim, Surface::kPlain, flat);
-      out_.grid(Vec3f(b, 0.0f, w0), Vec3f(b, doorTop_, w1), 0, -1, {}, {},
-                style.trim, Surface::kPlain, flat);
-    } else {
-      out_.grid(Vec3f(w0, 0.0f, a), Vec3f(w1, 0.0f, b), 1, +1, {}, {},
-                style.floor, style.floor_surface, flat);
-      out_.grid(Vec3f(w0, doorTop_, a), Vec3f(w1, doorTop_, b), 1, -1, {}, {},
-                style.trim, Surface::kPlain, flat);
-      out_.grid(Vec3f(w0, 0.0f, a), Vec3f(w1, doorTop_, a), 2, +1, {}, {},
-                style.trim, Surface::kPlain, flat);
-      out_.grid(Vec3f(w0, 0.0f, b), Vec3f(w1, doorTop_, b), 2, -1, {}, {},
-                style.trim, Surface::kPlain, flat);
-    }
+    // (along the opening, height, across the wall) -> world: the opening
+    // runs along x or along z; its sides face along that axis
+    auto at = [&](float along, float y, float across) {
+      return door.along_x ? Vec3f(along, y, across) : Vec3f(across, y, along);
+    };
+    const int sideAxis = door.along_x ? 0 : 2;
+    out_.grid(at(a, 0.0f, w0), at(b, 0.0f, w1), 1, +1, {}, {}, style.floor,
+              style.floor_surface, flat);
+    out_.grid(at(a, doorTop_, w0), at(b, doorTop_, w1), 1, -1, {}, {},
+              style.trim, Surface::kPlain, flat);
+    out_.grid(at(a, 0.0f, w0), at(a, doorTop_, w1), sideAxis, +1, {}, {},
+              style.trim, Surface::kPlain, flat);
+    out_.grid(at(b, 0.0f, w0), at(b, doorTop_, w1), sideAxis, -1, {}, {},
+              style.trim, Surface::kPlain, flat);
   }
 
   // ---- exterior shell and wall tops

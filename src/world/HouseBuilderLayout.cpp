@@ -39,6 +39,11 @@ uint32_t Rng::next() {
   return (xorshifted >> rot) | (xorshifted << ((32u - rot) & 31u));
 }
 
+uint64_t Rng::next64() {
+  const uint64_t high = next();
+  return (high << 32) | next();
+}
+
 float Rng::uniform() {
   // 24 random bits scaled exactly into [0, 1)
   return static_cast<float>(next() >> 8) * (1.0f / 16777216.0f);
@@ -62,7 +67,7 @@ int Rng::intIn(int lo, int hi) {
 bool Rng::chance(float p) { return uniform() < p; }
 
 Rng Rng::fork(uint64_t salt) {
-  const uint64_t seed = (uint64_t{next()} << 32) | next();
+  const uint64_t seed = next64();
   return Rng(seed, salt);
 }
 

@@ -149,9 +149,8 @@ Model ModelBuilder::sofa(bool armchair) {
   const Rgb8 c = namedColor(m.color);
   const Surface f = Surface::kFabric;
   const float arm = 0.16f;
-  for (float x : {-w / 2 + 0.03f, w / 2 - 0.08f})
-    for (float z : {0.03f, d - 0.08f})
-      box(m, x, 0.0f, z, x + 0.05f, 0.1f, z + 0.05f, kDark, Surface::kPlain);
+  legs(m, -w / 2 + 0.03f, w / 2 - 0.08f, 0.03f, d - 0.08f, 0.05f, 0.1f, kDark,
+       Surface::kPlain);
   box(m, -w / 2, 0.1f, 0.0f, w / 2, 0.42f, d, scaled(c, 0.9f), f);
   box(m, -w / 2, 0.42f, 0.0f, w / 2, h, 0.22f, c, f);
   box(m, -w / 2, 0.42f, 0.0f, -w / 2 + arm, 0.64f, d, c, f);
@@ -177,9 +176,8 @@ Model ModelBuilder::table(const char* category, float wLo, float wHi, float dLo,
   const Surface f = finishOf(m.color, Surface::kPlain);
   box(m, -w / 2, h - 0.04f, 0.0f, w / 2, h, d, c, f);
   const float leg = 0.06f, inset = 0.05f;
-  for (float x : {-w / 2 + inset, w / 2 - inset - leg})
-    for (float z : {inset, d - inset - leg})
-      box(m, x, 0.0f, z, x + leg, h - 0.04f, z + leg, scaled(c, 0.85f), f);
+  legs(m, -w / 2 + inset, w / 2 - inset - leg, inset, d - inset - leg, leg,
+       h - 0.04f, scaled(c, 0.85f), f);
   return m;
 }
 
@@ -195,9 +193,7 @@ Model ModelBuilder::chair(const std::string& color) {
   box(m, -w / 2, 0.42f, 0.0f, w / 2, 0.46f, d, c, f);
   box(m, -w / 2, 0.46f, 0.0f, w / 2, 0.9f, 0.04f, c, f);
   const float leg = 0.04f;
-  for (float x : {-w / 2, w / 2 - leg})
-    for (float z : {0.0f, d - leg})
-      box(m, x, 0.0f, z, x + leg, 0.42f, z + leg, scaled(c, 0.85f), f);
+  legs(m, -w / 2, w / 2 - leg, 0.0f, d - leg, leg, 0.42f, scaled(c, 0.85f), f);
   return m;
 }
 
@@ -661,6 +657,14 @@ float ModelBuilder::height(float h) const { return std::min(h, maxHeight_); }
 void ModelBuilder::box(Model& m, float x0, float y0, float z0, float x1,
                        float y1, float z1, const Rgb8& color, Surface surface) {
   shape(m, Shape::kBox, x0, y0, z0, x1, y1, z1, color, surface);
+}
+
+void ModelBuilder::legs(Model& m, float x0, float x1, float z0, float z1,
+                        float size, float top, const Rgb8& color,
+                        Surface surface) {
+  for (float x : {x0, x1})
+    for (float z : {z0, z1})
+      box(m, x, 0.0f, z, x + size, top, z + size, color, surface);
 }
 
 void ModelBuilder::shape(Model& m, Shape s, float x0, float y0, float z0,

@@ -230,7 +230,7 @@ class Canvas {
 // tone and a stretched grain.
 Texture woodFloor(Rng& rng, float detail) {
   Canvas c(128, detail);
-  const uint64_t seed = (uint64_t{rng.next()} << 32) | rng.next();
+  const uint64_t seed = rng.next64();
   constexpr int kPlank = 16;
   for (int row = 0; row < c.size() / kPlank; ++row) {
     // one or two joints per row, at random offsets
@@ -263,7 +263,7 @@ Texture woodFloor(Rng& rng, float detail) {
 // 2 x 2 tiles (30 cm) with grout lines and a slight per-tile tone.
 Texture tiles(Rng& rng, float detail) {
   Canvas c(64, detail);
-  const uint64_t seed = (uint64_t{rng.next()} << 32) | rng.next();
+  const uint64_t seed = rng.next64();
   const float grout = rng.uniform(0.55f, 0.75f);
   float tone[2][2];
   for (auto& row : tone)
@@ -282,7 +282,7 @@ Texture tiles(Rng& rng, float detail) {
 // Fine fibre noise over a soft mottling.
 Texture carpet(Rng& rng, float detail) {
   Canvas c(64, detail);
-  const uint64_t seed = (uint64_t{rng.next()} << 32) | rng.next();
+  const uint64_t seed = rng.next64();
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x)
       c.at(x, y) = 0.9f +
@@ -310,7 +310,7 @@ Texture wallpaper(Rng& rng, float detail) {
 // Low-frequency unevenness of painted plaster.
 Texture plaster(Rng& rng, float detail) {
   Canvas c(64, detail);
-  const uint64_t seed = (uint64_t{rng.next()} << 32) | rng.next();
+  const uint64_t seed = rng.next64();
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x)
       c.at(x, y) =
@@ -322,7 +322,7 @@ Texture plaster(Rng& rng, float detail) {
 // Furniture wood: growth rings as a triangle wave bent by noise.
 Texture wood(Rng& rng, float detail) {
   Canvas c(64, detail);
-  const uint64_t seed = (uint64_t{rng.next()} << 32) | rng.next();
+  const uint64_t seed = rng.next64();
   const int rings = rng.intIn(5, 8);
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x) {
@@ -337,7 +337,7 @@ Texture wood(Rng& rng, float detail) {
 // A basket weave of 2-pixel threads.
 Texture fabric(Rng& rng, float detail) {
   Canvas c(64, detail);
-  const uint64_t seed = (uint64_t{rng.next()} << 32) | rng.next();
+  const uint64_t seed = rng.next64();
   for (int y = 0; y < 64; ++y)
     for (int x = 0; x < 64; ++x) {
       const bool over = ((x / 2) + (y / 2)) % 2 == 0;
