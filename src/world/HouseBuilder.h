@@ -263,6 +263,15 @@ struct Model {
   bool hung = false;  ///< mounted on a wall above the floor
 };
 
+/// Neutral colours of model parts that do not carry the model's colour.
+inline constexpr Rgb8 kDark{38, 38, 40};
+inline constexpr Rgb8 kMetal{150, 150, 156};
+inline constexpr Rgb8 kSteel{178, 182, 186};
+inline constexpr Rgb8 kScreen{16, 17, 20};
+
+/// `c` with every channel multiplied by `f`, rounded and clamped to a byte.
+Rgb8 scaled(const Rgb8& c, float f);
+
 /// Builds furniture models with random sizes and colours from `rng`;
 /// heights are capped at `maxHeight` (below the ceiling).
 class ModelBuilder {
@@ -341,6 +350,27 @@ struct PlacedObject {
   SemanticObject semantic;
   std::vector<Part> parts;
 };
+
+/// Resolution of the grid on which rooms are checked for navigability and
+/// centred groups are placed, metres.
+inline constexpr float kGridCell = 0.1f;
+
+/// The horizontal (x, z) footprint of `box`.
+inline Eigen::AlignedBox2f footprint(const Eigen::AlignedBox3f& box) {
+  return Eigen::AlignedBox2f(Vec2f(box.min().x(), box.min().z()),
+                             Vec2f(box.max().x(), box.max().z()));
+}
+
+/// Grid search over a room's `interior` (wall faces, (x, z) metres): with
+/// the footprints `extra` and the `placed` objects (those an agent cannot
+/// walk through block it) in the room, do all `doors` (points just inside
+/// each doorway) connect, and does an agent that needs corridors of 0.6 m
+/// get next to every placed object? Cells of kGridCell are free when their
+/// centre keeps 0.3 m from walls and obstacles.
+bool roomStaysNavigable(const Eigen::AlignedBox2f& interior,
+                        const std::vector<Vec2f>& doors,
+                        const std::vector<Eigen::AlignedBox3f>& placed,
+                        const std::vector<Eigen::AlignedBox2f>& extra);
 
 /// Furnishes every room of `plan` (object ids from 0 in placement order)
 /// and, with probability config.floor_hole_probability, cuts one floor hole

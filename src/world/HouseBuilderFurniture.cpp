@@ -3,8 +3,9 @@
 // (against walls, in the middle, hung on walls) with three guarantees:
 //  - no object overlaps another object or a doorway's clear zone;
 //  - every object lies inside its room;
-//  - the room stays navigable: an agent needing corridors of
-//    2 * kAgentClearance reaches every doorway and gets next to every object.
+//  - the room stays navigable: an agent needing corridors of 0.6 m
+//    reaches every doorway and gets next to every object
+//    (HouseBuilderClearance.cpp).
 
 // First of all includes: no FMA contraction (see the header).
 #include "world/HouseFpContract.h"
@@ -23,13 +24,6 @@ namespace {
 using Box2 = Eigen::AlignedBox2f;
 using Box3 = Eigen::AlignedBox3f;
 
-// Half the narrowest corridor kept free, metres (corridors >= 0.6 m).
-constexpr float kAgentClearance = 0.3f;
-// How close (beyond the clearance) a reachable spot must get to an object.
-constexpr float kReachSlack = 0.25f;
-// The same for objects hung on walls, which may hang above furniture.
-constexpr float kHungReach = 1.5f;
-constexpr float kGridCell = 0.1f;  // navigability grid resolution, metres
 constexpr float kWallGap = 0.01f;  // furniture stands this far off walls
 constexpr float kObjectGap = 0.01f;
 
@@ -95,11 +89,6 @@ Box3 boundsOf(const std::vector<Part>& parts) {
   return box;
 }
 
-Box2 footprint(const Box3& box) {
-  return Box2(Vec2f(box.min().x(), box.min().z()),
-              Vec2f(box.max().x(), box.max().z()));
-}
-
 // strict overlap with a tolerance: touching boxes do not overlap
 bool overlaps(const Box2& a, const Box2& b, float gap) {
   return a.min().x() < b.max().x() + gap && b.min().x() < a.max().x() + gap &&
@@ -110,19 +99,6 @@ bool overlaps(const Box3& a, const Box3& b, float gap) {
     if (!(a.min()[i] < b.max()[i] + gap && b.min()[i] < a.max()[i] + gap))
       return false;
   return true;
-}
-
-float distanceToBox(const Vec2f& p, const Box2& box) {
-  const float dx =
-      std::max({box.min().x() - p.x(), 0.0f, p.x() - box.max().x()});
-  const float dz =
-      std::max({box.min().y() - p.y(), 0.0f, p.y() - box.max().y()});
-  return std::sqrt(dx * dx + dz * dz);
-}
-
-// objects an agent cannot walk through (rugs are walked on)
-bool blocksWalking(const Box3& box) {
-  return box.max().y() > 0.05f && box.min().y() < 1.5f;
 }
 
 float cmToM(int value) { return static_cast<float>(value) / 100.0f; }
@@ -600,101 +576,10 @@ class RoomFurnisher {
     return true;
   }
 
-  // Grid search: with `extra` obstacles added, do all doorways of the room
-  // connect, and does the agent get next to every object? Cells are free
-  // when their centre keeps kAgentClearance from walls and obstacles.
+  // With `extra` obstacles added, do all doorways of the room connect, and
+  // does the agent get next to every object? (HouseBuilderClearance.cpp)
   bool navigable(const std::vector<Box2>& extra) const {
-    const int nx = static_cast<int>(interior_.sizes().x() / kGridCell);
-    const int nz = static_cast<int>(interior_.sizes().y() / kGridCell);
-    if (nx <= 0 || nz <= 0) return false;
-    const float ox = interior_.min().x(), oz = interior_.min().y();
-    auto cellCenter = [&](int i, int k) {
-      return Vec2f(ox + (static_cast<float>(i) + 0.5f) * kGridCell,
-                   oz + (static_cast<float>(k) + 0.5f) * kGridCell);
-    };
-    // cells whose centres may lie within `reach` of `box`
-    auto cellRange = [&](const Box2& box, float reach, int& i0, int& i1,
-                         int& k0, int& k1) {
-      i0 = std::max(
-          0, static_cast<int>((box.min().x() - reach - ox) / kGridCell) - 1);
-      i1 = std::min(
-          nx - 1,
-          static_cast<int>((box.max().x() + reach - ox) / kGridCell) + 1);
-      k0 = std::max(
-          0, static_cast<int>((box.min().y() - reach - oz) / kGridCell) - 1);
-      k1 = std::min(
-          nz - 1,
-          static_cast<int>((box.max().y() + reach - oz) / kGridCell) + 1);
-    };
-
-    // walls, then each obstacle over the cells near it
-    std::vector<uint8_t> free(static_cast<size_t>(nx) * nz, 0);
-    for (int k = 0; k < nz; ++k)
-      for (int i = 0; i < nx; ++i) {
-        const Vec2f p = cellCenter(i, k);
-        const float toWall =
-            std::min({p.x() - ox, interior_.max().x() - p.x(), p.y() - oz,
-                      interior_.max().y() - p.y()});
-        free[static_cast<size_t>(k) * nx + i] = toWall >= kAgentClearance;
-      }
-    auto block = [&](const Box2& box) {
-      int i0, i1, k0, k1;
-      cellRange(box, kAgentClearance, i0, i1, k0, k1);
-      for (int k = k0; k <= k1; ++k)
-        for (int i = i0; i <= i1; ++i)
-          if (distanceToBox(cellCenter(i, k), box) < kAgentClearance)
-            free[static_cast<size_t>(k) * nx + i] = 0;
-    };
-    for (const Box2& box : extra) block(box);
-    for (const Box3& box : placed_)
-      if (blocksWalking(box)) block(footprint(box));
-
-    auto cellOf = [&](const Vec2f& p) {
-      const int i =
-          std::clamp(static_cast<int>((p.x() - ox) / kGridCell), 0, nx - 1);
-      const int k =
-          std::clamp(static_cast<int>((p.y() - oz) / kGridCell), 0, nz - 1);
-      return static_cast<size_t>(k) * nx + i;
-    };
-    // flood fill from the first doorway
-    std::vector<uint8_t> reached(free.size(), 0);
-    const size_t start = cellOf(seeds_.front());
-    if (!free[start]) return false;
-    std::vector<size_t> stack{start};
-    reached[start] = 1;
-    while (!stack.empty()) {
-      const size_t c = stack.back();
-      stack.pop_back();
-      const int i = static_cast<int>(c % nx), k = static_cast<int>(c / nx);
-      const int di[4] = {1, -1, 0, 0}, dk[4] = {0, 0, 1, -1};
-      for (int n = 0; n < 4; ++n) {
-        const int ii = i + di[n], kk = k + dk[n];
-        if (ii < 0 || kk < 0 || ii >= nx || kk >= nz) continue;
-        const size_t nc = static_cast<size_t>(kk) * nx + ii;
-        if (free[nc] && !reached[nc]) {
-          reached[nc] = 1;
-          stack.push_back(nc);
-        }
-      }
-    }
-    for (const Vec2f& seed : seeds_)
-      if (!reached[cellOf(seed)]) return false;
-    // every object (rugs included) has a reachable spot beside it; things
-    // hung on walls may be seen from a little further (over a sofa, say)
-    for (const Box3& box : placed_) {
-      const Box2 fp = footprint(box);
-      const float reach =
-          kAgentClearance + (box.min().y() > 0.8f ? kHungReach : kReachSlack);
-      int i0, i1, k0, k1;
-      cellRange(fp, reach, i0, i1, k0, k1);
-      bool near = false;
-      for (int k = k0; k <= k1 && !near; ++k)
-        for (int i = i0; i <= i1 && !near; ++i)
-          near = reached[static_cast<size_t>(k) * nx + i] &&
-                 distanceToBox(cellCenter(i, k), fp) <= reach;
-      if (!near) return false;
-    }
-    return true;
+    return roomStaysNavigable(interior_, seeds_, placed_, extra);
   }
 
   Rng& rng_;
