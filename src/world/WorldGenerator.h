@@ -7,7 +7,7 @@
 //   1. generate the house and place an R2R-style nav-graph of panoramas in
 //      it as captured (NavGraphBuilder.h);
 //   2. make the reconstruction differ as real scans do (doors closed and
-//      objects moved between captures, ReconstructionConfig) and save that
+//      objects moved between captures, CaptureDifferences.h) and save that
 //      as the scene (.glb, semantics sidecar, .glb.navmesh) under
 //      <scenes_dir>/<scene_prefix>/<house>/;
 //   3. transfer the nodes to its navmesh (NodeTransfer.h, paper Section 3.2);

@@ -216,7 +216,7 @@ TEST(InstructionGeneratorTest, MentionsAreGroundedInGeneratedHouses) {
   const InstructionConfig config;
   int mentions = 0;
   for (uint64_t seed : {1u, 2u, 3u}) {
-    const world::House house = world::generateHouse(seed, world::HouseConfig{});
+    const House house = generateHouse(seed, HouseConfig{});
     const auto& s = house.semantics;
     const InstructionGenerator generator(s, config);
     auto center = [&](int r) {
@@ -426,9 +426,9 @@ TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
 
   // one room per type in a row along -Z, objects of every category and
   // colour beside the path
-  const auto& types = world::houseRoomTypes();
-  const auto& categories = world::houseObjectCategories();
-  const auto& colors = world::houseColorNames();
+  const auto& types = houseRoomTypes();
+  const auto& categories = houseObjectCategories();
+  const auto& colors = houseColorNames();
   sim::SceneSemantics s;
   std::vector<Vec3f> path;
   for (size_t r = 0; r < types.size(); ++r) {

@@ -25,12 +25,12 @@ Eigen::AlignedBox2f footprint(const Eigen::AlignedBox3f& box) {
 }
 
 struct Built {
-  world::House house;
+  House house;
   BuiltNavGraph graph;
 };
 
 Built buildFor(uint64_t seed, const NavGraphBuildConfig& config = {}) {
-  Built b{world::generateHouse(seed, world::HouseConfig{}), {}};
+  Built b{generateHouse(seed, HouseConfig{}), {}};
   const sim::RayTracer tracer(b.house.mesh);
   b.graph = buildNavGraph(b.house.semantics, tracer, config, seed * 7 + 1);
   return b;
@@ -151,7 +151,7 @@ TEST(NavGraphBuilderTest, DeterministicPerSeed) {
   }
   EXPECT_EQ(a.graph.graph.edges(), b.graph.graph.edges());
 
-  world::House house = world::generateHouse(11, world::HouseConfig{});
+  House house = generateHouse(11, HouseConfig{});
   const sim::RayTracer tracer(house.mesh);
   const BuiltNavGraph other = buildNavGraph(house.semantics, tracer, {}, 999);
   EXPECT_NE(other.graph.node(0).id, a.graph.graph.node(0).id);
