@@ -21,10 +21,6 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
 
-std::filesystem::path fixture(const std::string& name) {
-  return test::testDataPath() / "r2r" / name;
-}
-
 std::vector<float> row(const WordVectors& vectors, std::string_view word) {
   auto index = vectors.find(word);
   if (!index) return {};
@@ -180,7 +176,7 @@ TEST(GloveFitTest, FitRejectsBadConfigsAndDegenerateCorpora) {
 TEST(GloveFitTest, GloveCommandWritesVectorsAndTheCorpusVocabularyMatrix) {
   test::TempDir dir;
   GloveCommandOptions options;
-  options.corpus = fixture("tiny_split.json");
+  options.corpus = test::r2rFixture("tiny_split.json");
   options.out = dir / "glove.txt";
   options.embeddings_out = dir / "embeddings.json.gz";
   options.fit.dim = 5;

@@ -24,14 +24,6 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
 
-std::filesystem::path fixture(const std::string& name) {
-  return test::testDataPath() / "r2r" / name;
-}
-
-std::filesystem::path realSample(const std::string& name) {
-  return test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" / name;
-}
-
 std::vector<float> row(const WordVectors& vectors, std::string_view word) {
   auto index = vectors.find(word);
   if (!index) return {};
@@ -44,7 +36,7 @@ std::vector<float> row(const WordVectors& vectors, std::string_view word) {
 // =========================================================================
 
 TEST(GloveTest, ReadsRowsIncludingSpacedTokensAndKeepsFirstDuplicate) {
-  WordVectors vectors = readGloveText(fixture("tiny_glove.txt"));
+  WordVectors vectors = readGloveText(test::r2rFixture("tiny_glove.txt"));
   EXPECT_EQ(vectors.dim(), 3);
   EXPECT_THAT(vectors.words(),
               ElementsAre("the", "walk", ". . .", "at name@domain.com",
@@ -77,7 +69,7 @@ TEST(GloveTest, ToleratesHeadersCrlfGzipAndFiltersWords) {
 
   // gzip is detected by content; only_words keeps the requested rows
   common::writeFileAtomic(dir / "glove.txt.gz",
-                          common::readFile(fixture("tiny_glove.txt")));
+                          common::readFile(test::r2rFixture("tiny_glove.txt")));
   GloveReadOptions options;
   options.only_words = {"walk", "turn", "absent"};
   WordVectors filtered = readGloveText(dir / "glove.txt.gz", options);
@@ -192,8 +184,8 @@ TEST(GloveTest, EmbeddingsJsonRoundTripsAndRejectsRaggedRows) {
 // The real embeddings.json.gz rebuilt from a GloVe text file holding its own
 // word rows: proves the pad/unk conventions documented in Glove.h.
 TEST(GloveTest, RebuildsTheRealEmbeddingMatrix) {
-  auto episodes = realSample("val_seen_sample.json.gz");
-  auto embeddings = realSample("embeddings.json.gz");
+  auto episodes = test::realR2rSample("val_seen_sample.json.gz");
+  auto embeddings = test::realR2rSample("embeddings.json.gz");
   if (!std::filesystem::exists(episodes) ||
       !std::filesystem::exists(embeddings))
     GTEST_SKIP() << "no real samples";
@@ -236,15 +228,15 @@ TEST(GloveTest, RebuildsTheRealEmbeddingMatrix) {
 TEST(GloveTest, EmbeddingsCommandBuildsTheVocabularyMatrix) {
   test::TempDir dir;
   EmbeddingsCommandOptions options;
-  options.glove = fixture("tiny_glove.txt");
-  options.episodes = fixture("tiny_split.json");
+  options.glove = test::r2rFixture("tiny_glove.txt");
+  options.episodes = test::r2rFixture("tiny_split.json");
   options.out = dir / "embeddings.json";
   std::ostringstream out;
   EXPECT_EQ(runEmbeddingsCommand(options, out), 0);
   EXPECT_THAT(out.str(), HasSubstr("23 x 3, 4 words found, 17 missing"));
   EmbeddingMatrix matrix = readEmbeddingsJson(dir / "embeddings.json");
   Vocabulary vocab =
-      *readEpisodes(fixture("tiny_split.json")).instruction_vocab;
+      *readEpisodes(test::r2rFixture("tiny_split.json")).instruction_vocab;
   EXPECT_THAT(matrix.row(*vocab.find("walk")),
               ElementsAre(-0.5f, 0.25f, 1e-3f));
   // <unk> = mean of the, walk, stairs, turn

@@ -273,6 +273,21 @@ TEST(MeshImportTest, NanCoordinatesAreRejected) {
       [&] { loadScene(file, MeshLoadConfig{}); }, {"nan.ply", "non-finite"});
 }
 
+// Writes each case's file text to <dir>/<stem><i>.ply and expects loadScene
+// to refuse it with std::invalid_argument naming the file and the case's
+// reason.
+void expectEachRefused(
+    const test::TempDir& dir, const std::string& stem,
+    const std::vector<std::pair<std::string, std::string>>& cases) {
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const std::string name = stem + std::to_string(i) + ".ply";
+    const auto file = test::writeText(dir / name, cases[i].first);
+    SCOPED_TRACE(cases[i].first);
+    expectThrowWith<std::invalid_argument>(
+        [&] { loadScene(file, MeshLoadConfig{}); }, {name, cases[i].second});
+  }
+}
+
 // The PLY header guard of loadScene (Debian's assimp hangs or corrupts its
 // heap on these; docs/reliability.md, fuzzing findings): each malformed
 // header is refused before assimp reads it, naming the file and the reason.
@@ -314,14 +329,7 @@ TEST(MeshImportTest, MalformedPlyHeadersAreRefusedBeforeAssimp) {
        "not a PLY header keyword"},
   };
   test::TempDir dir;
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const auto file = test::writeText(
-        dir / ("bad" + std::to_string(i) + ".ply"), cases[i].first);
-    SCOPED_TRACE(cases[i].first);
-    expectThrowWith<std::invalid_argument>(
-        [&] { loadScene(file, MeshLoadConfig{}); },
-        {"bad" + std::to_string(i) + ".ply", cases[i].second});
-  }
+  expectEachRefused(dir, "bad", cases);
   // the same lines in a well-formed order load
   const auto good = test::writeText(dir / "good.ply", vertex + rest);
   EXPECT_EQ(loadScene(good, MeshLoadConfig{}).mesh.triangleCount(), 1u);
@@ -388,14 +396,7 @@ TEST(MeshImportTest, MalformedAsciiPlyBodiesAreRefusedBeforeAssimp) {
        "malformed header line"},
   };
   test::TempDir dir;
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const auto file = test::writeText(
-        dir / ("body" + std::to_string(i) + ".ply"), cases[i].first);
-    SCOPED_TRACE(cases[i].first);
-    expectThrowWith<std::invalid_argument>(
-        [&] { loadScene(file, MeshLoadConfig{}); },
-        {"body" + std::to_string(i) + ".ply", cases[i].second});
-  }
+  expectEachRefused(dir, "body", cases);
   // \r\n line ends, tabs, '+' signs, exponents, values a row leaves over
   // and blank lines after the last row are all fine
   const auto good =

@@ -415,8 +415,7 @@ TEST(InstructionGeneratorTest, ShortPathIsRejected) {
 // walked through: >= 95% of the tokens must be words of the real R2R
 // vocabulary.
 TEST(InstructionGeneratorTest, WordsComeFromTheRoomToRoomVocabulary) {
-  const auto file = test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" /
-                    "val_seen_sample.json.gz";
+  const auto file = test::realR2rSample("val_seen_sample.json.gz");
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "no fixture " << file;
   const auto json = common::readJsonFile(file);
   const auto words = json.at("instruction_vocab")

@@ -276,8 +276,7 @@ TEST_F(WorldGeneratorTest, SameSeedGivesByteIdenticalFilesWhateverTheThreads) {
 }
 
 TEST_F(WorldGeneratorTest, GeneratedWordsAreRoomToRoomWords) {
-  const auto file = test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" /
-                    "val_seen_sample.json.gz";
+  const auto file = test::realR2rSample("val_seen_sample.json.gz");
   if (!fs::exists(file)) GTEST_SKIP() << "no fixture " << file;
   const auto words = common::readJsonFile(file)
                          .at("instruction_vocab")
