@@ -87,20 +87,24 @@ void main() {
 }
 )";
 
-std::string shaderLog(GLuint shader) {
+// The info log of a shader or program object, read with the matching pair
+// of GL calls (glGetShaderiv and glGetShaderInfoLog, or the program ones).
+template <class GetParameter, class GetInfoLog>
+std::string infoLog(GLuint object, GetParameter getParameter,
+                    GetInfoLog getInfoLog) {
   GLint length = 0;
-  glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
+  getParameter(object, GL_INFO_LOG_LENGTH, &length);
   std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
-  glGetShaderInfoLog(shader, length, nullptr, log.data());
+  getInfoLog(object, length, nullptr, log.data());
   return log;
 }
 
+std::string shaderLog(GLuint shader) {
+  return infoLog(shader, glGetShaderiv, glGetShaderInfoLog);
+}
+
 std::string programLog(GLuint program) {
-  GLint length = 0;
-  glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
-  std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
-  glGetProgramInfoLog(program, length, nullptr, log.data());
-  return log;
+  return infoLog(program, glGetProgramiv, glGetProgramInfoLog);
 }
 
 GLuint compileShader(GLenum stage, const std::string& source) {

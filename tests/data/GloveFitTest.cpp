@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "data/DataCommands.h"
+#include "data/WordVectorRows.h"
 #include "support/TestPaths.h"
 
 namespace vln::data {
@@ -21,12 +22,7 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
 
-std::vector<float> row(const WordVectors& vectors, std::string_view word) {
-  auto index = vectors.find(word);
-  if (!index) return {};
-  auto span = vectors.vector(*index);
-  return {span.begin(), span.end()};
-}
+using test::row;
 
 double cosine(const WordVectors& vectors, std::string_view a,
               std::string_view b) {

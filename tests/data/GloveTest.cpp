@@ -14,6 +14,7 @@
 #include "common/Json.h"
 #include "data/DataCommands.h"
 #include "data/Episode.h"
+#include "data/WordVectorRows.h"
 #include "support/TestPaths.h"
 
 namespace vln::data {
@@ -24,12 +25,7 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
 
-std::vector<float> row(const WordVectors& vectors, std::string_view word) {
-  auto index = vectors.find(word);
-  if (!index) return {};
-  auto span = vectors.vector(*index);
-  return {span.begin(), span.end()};
-}
+using test::row;
 
 // =========================================================================
 // text files
