@@ -8,6 +8,9 @@
 #include <vector>
 
 #include "common/Random.h"
+#include "world/HouseGenerator.h"
+#include "world/NavGraphBuilder.h"
+#include "world/WorldConfig.h"
 
 namespace vln::world {
 

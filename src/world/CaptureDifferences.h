@@ -9,11 +9,11 @@
 
 #include <cstdint>
 
-#include "world/HouseGenerator.h"
-#include "world/NavGraphBuilder.h"
-#include "world/WorldConfig.h"
-
 namespace vln::world {
+
+struct BuiltNavGraph;  // NavGraphBuilder.h
+struct House;          // HouseGenerator.h
+struct WorldConfig;    // WorldConfig.h
 
 /// What applyCaptureDifferences() changed.
 struct CaptureDifferences {

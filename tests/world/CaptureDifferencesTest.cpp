@@ -9,6 +9,9 @@
 #include <cstdint>
 
 #include "sim/RayTracer.h"
+#include "world/HouseGenerator.h"
+#include "world/NavGraphBuilder.h"
+#include "world/WorldConfig.h"
 
 namespace vln::world {
 namespace {
