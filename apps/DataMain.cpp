@@ -1,7 +1,8 @@
 // vlnce-data: tools for R2R_VLNCE-format datasets. Each subcommand is one
 // add*() function that declares its options on a CLI11 subcommand and
-// returns the runner (a call into data/DataCommands.h); adding a subcommand
-// is one such function plus one line in main().
+// returns the runner (a call into data/DataCommands.h or
+// world/WorldCommands.h); adding a subcommand is one such function plus one
+// line in main().
 
 #include <CLI/CLI.hpp>
 
@@ -14,7 +15,7 @@
 
 #include "common/App.h"
 #include "data/DataCommands.h"
-#include "data/WorldCommands.h"
+#include "world/WorldCommands.h"
 
 namespace {
 
@@ -118,7 +119,7 @@ Subcommand addEmbeddings(CLI::App& app) {
 }
 
 Subcommand addGenerate(CLI::App& app) {
-  auto options = std::make_shared<data::GenerateCommandOptions>();
+  auto options = std::make_shared<world::GenerateCommandOptions>();
   CLI::App* command = app.add_subcommand(
       "generate",
       "Generate the procedural world: houses, nav-graphs, transferred "
@@ -136,13 +137,12 @@ Subcommand addGenerate(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--set", options->overrides,
                       "Config override section.key=value (repeatable)");
-  return {command, [options] {
-            return data::runGenerateCommand(*options, std::cout);
-          }};
+  return {command,
+          [options] { return world::runGenerateCommand(*options, std::cout); }};
 }
 
 Subcommand addTransfer(CLI::App& app) {
-  auto options = std::make_shared<data::TransferCommandOptions>();
+  auto options = std::make_shared<world::TransferCommandOptions>();
   CLI::App* command = app.add_subcommand(
       "transfer",
       "Transfer a nav-graph onto a scene's navmesh (paper Section 3.2) and "
@@ -169,9 +169,8 @@ Subcommand addTransfer(CLI::App& app) {
   command->add_option("--seed", options->seed, "Sampling seed")
       ->capture_default_str();
   command->add_flag("--json", options->json, "Print JSON instead of text");
-  return {command, [options] {
-            return data::runTransferCommand(*options, std::cout);
-          }};
+  return {command,
+          [options] { return world::runTransferCommand(*options, std::cout); }};
 }
 
 }  // namespace

@@ -6,7 +6,7 @@
 #   scripts/sanitize.sh                  # whole suite
 #   scripts/sanitize.sh -L 'common|sim'  # extra arguments go to ctest
 #   scripts/sanitize.sh -LE slow         # everything but the slow tests
-#   VLN_SANITIZE_MODULES="common sim data" scripts/sanitize.sh
+#   VLN_SANITIZE_MODULES="common sim data world" scripts/sanitize.sh
 #                                        # only those modules' tests
 #
 # Suppressions (tests/reliability/sanitizers/*.supp) are narrow and each one
@@ -17,8 +17,8 @@
 # VLN_ASAN_BUILD_DIR (default build-asan), VLN_SANITIZE_MODULES (modules,
 # space-separated: build only the tests/<module>/*Test targets and the
 # libraries they link, and run only the tests labelled with those modules;
-# "common sim data" needs no LibTorch code and builds in a fraction of the
-# full tree's time).
+# "common sim data world" needs no LibTorch code and builds in a fraction
+# of the full tree's time).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root=$PWD

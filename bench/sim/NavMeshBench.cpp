@@ -18,8 +18,6 @@ namespace vln::sim {
 namespace {
 
 using test::addBox;
-using test::kSlab;
-using test::kWall;
 using test::kWallTop;
 using test::wallAlongX;
 using test::wallAlongZ;
@@ -29,11 +27,7 @@ using test::wallAlongZ;
 // apartment floor in extent.
 TriangleMesh fewRoomHouse() {
   TriangleMesh m;
-  addBox(m, {0, -kSlab, 0}, {16, 0, 10});
-  wallAlongX(m, 0, -kWall, 16 + kWall);
-  wallAlongX(m, 10, -kWall, 16 + kWall);
-  wallAlongZ(m, 0, 0, 10);
-  wallAlongZ(m, 16, 0, 10);
+  test::addWalledFloor(m, 16, 10);
   // rooms in the north 7 m, a 3 m hall along the south
   for (int r = 1; r < 4; ++r) {
     const float x = 4.0f * static_cast<float>(r);

@@ -17,16 +17,17 @@
 #include <random>
 #include <vector>
 
-#include "sim/HouseGenerator.h"
 #include "sim/RayTracer.h"
 #include "sim/Renderer.h"
 #include "sim/Scene.h"
 #include "sim/Simulator.h"
+#include "world/HouseGenerator.h"
 
 namespace {
 
 using namespace vln;
 using namespace vln::sim;
+using namespace vln::world;
 
 constexpr int kResolution = 256;
 constexpr int kPoses = 256;

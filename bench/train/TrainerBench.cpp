@@ -15,9 +15,9 @@
 #include "common/Config.h"
 #include "common/FileIo.h"
 #include "data/Glove.h"
-#include "data/WorldGenerator.h"
 #include "train/Collector.h"
 #include "train/ImitationLearner.h"
+#include "world/WorldGenerator.h"
 
 namespace {
 namespace fs = std::filesystem;
@@ -121,7 +121,7 @@ const fs::path& benchWorld() {
   static const fs::path root = [] {
     const fs::path r = fs::temp_directory_path() / "vlnce_trainer_bench_world";
     if (!fs::exists(r / "done")) {
-      data::WorldConfig w;
+      world::WorldConfig w;
       w.houses = 3;
       w.seed = 5;
       w.house.min_rooms = 4;
@@ -135,11 +135,11 @@ const fs::path& benchWorld() {
       w.splits.aug_per_house = 1;
       w.instructions.per_trajectory = 1;
       w.glove.epochs = 3;
-      data::WorldOutput out;
+      world::WorldOutput out;
       out.out = r / "data";
       out.scenes_dir = r / "scenes";
       out.threads = 2;
-      data::generateWorld(w, out);
+      world::generateWorld(w, out);
       common::writeFileAtomic(r / "done", "ok\n");
     }
     return r;

@@ -1,5 +1,7 @@
 #include "data/DataCommands.h"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <map>
 #include <optional>
@@ -8,6 +10,7 @@
 #include "common/FileIo.h"
 #include "data/DatasetStats.h"
 #include "data/Episode.h"
+#include "data/GloveFit.h"
 #include "data/GroundTruth.h"
 
 namespace vln::data {

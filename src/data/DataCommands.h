@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "data/Glove.h"
+#include "data/GloveFitConfig.h"
 
 namespace vln::data {
 

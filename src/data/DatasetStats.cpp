@@ -1,5 +1,7 @@
 #include "data/DatasetStats.h"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cstdio>
 #include <set>

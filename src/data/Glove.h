@@ -1,7 +1,8 @@
 #pragma once
 // GloVe word vectors (Pennington, Socher and Manning, EMNLP 2014): reading
-// the standard text files, the R2R_VLNCE `embeddings.json.gz` matrix, building
-// that matrix for a vocabulary, and fitting GloVe on a corpus.
+// and writing the standard text files and the R2R_VLNCE
+// `embeddings.json.gz` matrix, and building that matrix for a vocabulary.
+// Fitting GloVe on a corpus is GloveFit.h.
 //
 // The embedding matrix follows the public VLN-CE file, checked row by row
 // against the real embeddings.json.gz (2504 x 50, glove.6B.50d values):
@@ -27,7 +28,6 @@
 #include <unordered_set>
 #include <vector>
 
-#include "common/Config.h"
 #include "data/Vocabulary.h"
 
 namespace vln::data {
@@ -143,87 +143,5 @@ EmbeddingMatrix buildEmbeddingMatrix(const Vocabulary& vocabulary,
                                      const WordVectors& vectors,
                                      const EmbeddingBuildOptions& options = {},
                                      EmbeddingBuildReport* report = nullptr);
-
-// =========================================================================
-// fitting GloVe
-// =========================================================================
-
-/// Hyper-parameters of fitGlove(); defaults are the GloVe paper's.
-struct GloveFitConfig {
-  int dim = 50;                 ///< vector size
-  int window = 10;              ///< symmetric context window, words each side
-  int min_count = 1;            ///< rarer words are dropped from the corpus
-  double x_max = 100.0;         ///< weighting cutoff x_max of f(x)
-  double alpha = 0.75;          ///< weighting exponent of f(x)
-  double learning_rate = 0.05;  ///< AdaGrad initial learning rate
-  int epochs = 25;              ///< passes over the co-occurrence entries
-  double grad_clip = 100.0;     ///< per-component gradient clip (as glove.c)
-  int64_t seed = 1;             ///< initialisation and shuffling seed
-  int threads = 1;              ///< > 1 trains Hogwild (not deterministic)
-
-  void visit(common::ConfigVisitor& v) {
-    v.field("dim", dim, "Vector size", common::inRange(1, 4096));
-    v.field("window", window,
-            "Symmetric context window (words each side); a pair at "
-            "distance d adds 1/d",
-            common::inRange(1, 1000));
-    v.field("min_count", min_count, "Words rarer than this are dropped",
-            common::atLeast(1));
-    v.field("x_max", x_max, "Cutoff of the weighting f(x) = (x/x_max)^alpha",
-            common::inRange(1e-6, 1e12));
-    v.field("alpha", alpha, "Exponent of the weighting f(x)",
-            common::inRange(0.0, 10.0));
-    v.field("learning_rate", learning_rate, "AdaGrad initial learning rate",
-            common::inRange(1e-9, 10.0));
-    v.field("epochs", epochs, "Passes over the co-occurrence entries",
-            common::inRange(1, 100000));
-    v.field("grad_clip", grad_clip, "Per-component gradient clip",
-            common::inRange(1e-9, 1e12));
-    v.field("seed", seed, "Initialisation and shuffling seed");
-    v.field("threads", threads,
-            "Training threads; > 1 is Hogwild and not deterministic",
-            common::inRange(1, 256));
-  }
-  bool operator==(const GloveFitConfig&) const = default;
-};
-
-/// One non-zero entry X_ij of the co-occurrence matrix.
-struct CooccurrenceEntry {
-  int32_t word = 0;
-  int32_t context = 0;
-  double count = 0.0;  ///< sum of 1/distance over the co-occurrences
-  bool operator==(const CooccurrenceEntry&) const = default;
-};
-
-/// The co-occurrence matrix of `sentences` (word ids in [0, vocabSize)):
-/// every ordered pair at distance 1 <= d <= window within one sentence adds
-/// 1/d to X[word][context] and to X[context][word] (windows never cross
-/// sentences, as glove's cooccur never crosses lines). Entries are sorted
-/// by (word, context).
-std::vector<CooccurrenceEntry> countCooccurrences(
-    const std::vector<std::vector<int>>& sentences, int vocabSize, int window);
-
-/// The fitted vectors and the training record.
-struct GloveFitResult {
-  /// Word + context vector per word, words by descending corpus count
-  /// (ties by code point), as glove's vocab_count orders them.
-  WordVectors vectors;
-  std::vector<int64_t> word_counts;  ///< corpus count per row of `vectors`
-  /// Mean weighted loss 0.5 f(X_ij) (w_i.c_j + b_i + b'_j - log X_ij)^2
-  /// over the entries, per epoch, measured before each update.
-  std::vector<double> epoch_loss;
-  int64_t cooccurrence_entries = 0;
-  int64_t skipped_updates = 0;  ///< non-finite updates that were dropped
-};
-
-/// Fits GloVe on tokenised `sentences` by weighted least squares with
-/// f(x) = min(1, (x/x_max)^alpha) and AdaGrad, as the reference glove.c:
-/// parameters start uniform in [-0.5, 0.5] / dim, squared-gradient
-/// accumulators at 1, and the entries are visited in a fresh seeded shuffle
-/// each epoch. Deterministic for a given seed when threads == 1. Throws
-/// std::invalid_argument on an invalid config or a corpus without any
-/// co-occurring pair.
-GloveFitResult fitGlove(const std::vector<std::vector<std::string>>& sentences,
-                        const GloveFitConfig& config);
 
 }  // namespace vln::data

@@ -1,5 +1,7 @@
 #include "data/NodeTransfer.h"
 
+#include <nlohmann/json.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

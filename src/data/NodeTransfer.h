@@ -23,12 +23,12 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 
 #include "common/Math.h"
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
-#include "data/WorldConfig.h"
+#include "data/TransferConfig.h"
 #include "sim/Agent.h"
 #include "sim/NavMesh.h"
 

@@ -1,5 +1,7 @@
 #include "data/Vocabulary.h"
 
+#include <nlohmann/json.hpp>
+
 #include <locale.h>
 #include <wctype.h>
 

@@ -18,7 +18,7 @@
 #include "data/Split.h"
 #include "data/NavGraph.h"
 #include "data/NodeTransfer.h"
-#include "data/WorldConfig.h"
+#include "data/TransferConfig.h"
 #include "eval/BaselineAgents.h"
 #include "eval/EpisodePictures.h"
 #include "eval/Tables.h"

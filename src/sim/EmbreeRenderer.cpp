@@ -21,8 +21,8 @@ namespace vln::sim {
 
 namespace {
 
-// Which images one pass writes (a bit set).
-enum Output : unsigned { kColor = 1u, kDepth = 2u, kObject = 4u };
+// Which images one pass writes (a bit set of Renderer::Output).
+using enum Renderer::Output;
 
 // Packets are 4x4 pixel tiles: 16 rays that leave the same eye through
 // neighbouring pixels traverse nearly the same BVH nodes.
@@ -432,7 +432,9 @@ void setupPacketAvx512(const float* columnX, const float* rowY,
 class EmbreeRenderer final : public Renderer {
  public:
   EmbreeRenderer(const TriangleMesh& mesh, const RayTracer& rayTracer)
-      : mesh_(mesh), scene_(static_cast<RTCScene>(rayTracer.embreeScene())) {
+      : Renderer("EmbreeRenderer"),
+        mesh_(mesh),
+        scene_(static_cast<RTCScene>(rayTracer.embreeScene())) {
     for (const Texture& texture : mesh.textures)
       textures_.push_back({texture.rgb.data(),
                            texture.rgb.data() + texture.rgb.size(),
@@ -445,40 +447,11 @@ class EmbreeRenderer final : public Renderer {
     if (avx512_) packedTextures_ = packTextures(mesh);
   }
 
-  void renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
-                 std::span<uint8_t> rgb) override {
-    checkRenderArgs("EmbreeRenderer::renderRgb()", pose, camera, rgb.size(),
-                    3);
-    render(pose, camera, kColor, rgb.data(), nullptr, nullptr);
-  }
-
-  void renderDepth(const CameraPose& pose, const CameraIntrinsics& camera,
-                   std::span<float> depth) override {
-    checkRenderArgs("EmbreeRenderer::renderDepth()", pose, camera,
-                    depth.size(), 1);
-    render(pose, camera, kDepth, nullptr, depth.data(), nullptr);
-  }
-
-  void renderRgbDepth(const CameraPose& pose, const CameraIntrinsics& camera,
-                      std::span<uint8_t> rgb, std::span<float> depth) override {
-    checkRenderArgs("EmbreeRenderer::renderRgbDepth() rgb", pose, camera,
-                    rgb.size(), 3);
-    checkRenderArgs("EmbreeRenderer::renderRgbDepth() depth", pose, camera,
-                    depth.size(), 1);
-    render(pose, camera, kColor | kDepth, rgb.data(), depth.data(), nullptr);
-  }
-
-  void renderSemantic(const CameraPose& pose, const CameraIntrinsics& camera,
-                      std::span<int32_t> objectIds) override {
-    checkRenderArgs("EmbreeRenderer::renderSemantic()", pose, camera,
-                    objectIds.size(), 1);
-    render(pose, camera, kObject, nullptr, nullptr, objectIds.data());
-  }
-
  private:
   void updateRayTable(const CameraIntrinsics& camera);
   void render(const CameraPose& pose, const CameraIntrinsics& camera,
-              unsigned outputs, uint8_t* rgb, float* depth, int32_t* objects);
+              unsigned outputs, uint8_t* rgb, float* depth,
+              int32_t* objects) override;
   void shadePacket(const RTCHit16& hits, unsigned hitMask,
                    uint32_t packed[kPacket]) const;
 

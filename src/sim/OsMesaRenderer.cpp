@@ -19,8 +19,9 @@ namespace vln::sim {
 
 namespace {
 
-// Which images one pass writes (a bit set); also selects the shader variant.
-enum Output : unsigned { kColor = 1u, kDepth = 2u, kObject = 4u };
+// Which images one pass writes (a bit set of Renderer::Output); also
+// selects the shader variant.
+using enum Renderer::Output;
 
 // Everything nearer than this is clipped. Habitat's default near plane; the
 // Embree backend has none, so the two differ only within 1 cm of the eye.
@@ -86,20 +87,24 @@ void main() {
 }
 )";
 
-std::string shaderLog(GLuint shader) {
+// The info log of a shader or program object, read with the matching pair
+// of GL calls (glGetShaderiv and glGetShaderInfoLog, or the program ones).
+template <class GetParameter, class GetInfoLog>
+std::string infoLog(GLuint object, GetParameter getParameter,
+                    GetInfoLog getInfoLog) {
   GLint length = 0;
-  glGetShaderiv(shader, GL_INFO_LOG_LENGTH, &length);
+  getParameter(object, GL_INFO_LOG_LENGTH, &length);
   std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
-  glGetShaderInfoLog(shader, length, nullptr, log.data());
+  getInfoLog(object, length, nullptr, log.data());
   return log;
 }
 
+std::string shaderLog(GLuint shader) {
+  return infoLog(shader, glGetShaderiv, glGetShaderInfoLog);
+}
+
 std::string programLog(GLuint program) {
-  GLint length = 0;
-  glGetProgramiv(program, GL_INFO_LOG_LENGTH, &length);
-  std::string log(static_cast<size_t>(std::max(length, 1)), '\0');
-  glGetProgramInfoLog(program, length, nullptr, log.data());
-  return log;
+  return infoLog(program, glGetProgramiv, glGetProgramInfoLog);
 }
 
 GLuint compileShader(GLenum stage, const std::string& source) {
@@ -180,41 +185,13 @@ class OsMesaRenderer final : public Renderer {
  public:
   explicit OsMesaRenderer(const TriangleMesh& mesh);
 
-  void renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
-                 std::span<uint8_t> rgb) override {
-    checkRenderArgs("OsMesaRenderer::renderRgb()", pose, camera, rgb.size(), 3);
-    render(pose, camera, kColor, rgb.data(), nullptr, nullptr);
-  }
-
-  void renderDepth(const CameraPose& pose, const CameraIntrinsics& camera,
-                   std::span<float> depth) override {
-    checkRenderArgs("OsMesaRenderer::renderDepth()", pose, camera,
-                    depth.size(), 1);
-    render(pose, camera, kDepth, nullptr, depth.data(), nullptr);
-  }
-
-  void renderRgbDepth(const CameraPose& pose, const CameraIntrinsics& camera,
-                      std::span<uint8_t> rgb, std::span<float> depth) override {
-    checkRenderArgs("OsMesaRenderer::renderRgbDepth() rgb", pose, camera,
-                    rgb.size(), 3);
-    checkRenderArgs("OsMesaRenderer::renderRgbDepth() depth", pose, camera,
-                    depth.size(), 1);
-    render(pose, camera, kColor | kDepth, rgb.data(), depth.data(), nullptr);
-  }
-
-  void renderSemantic(const CameraPose& pose, const CameraIntrinsics& camera,
-                      std::span<int32_t> objectIds) override {
-    checkRenderArgs("OsMesaRenderer::renderSemantic()", pose, camera,
-                    objectIds.size(), 1);
-    render(pose, camera, kObject, nullptr, nullptr, objectIds.data());
-  }
-
  private:
   void makeCurrent();
   void uploadMesh(const TriangleMesh& mesh);
   void ensureTarget(int width, int height);
   void render(const CameraPose& pose, const CameraIntrinsics& camera,
-              unsigned outputs, uint8_t* rgb, float* depth, int32_t* objects);
+              unsigned outputs, uint8_t* rgb, float* depth,
+              int32_t* objects) override;
 
   std::unique_ptr<osmesa_context, ContextDeleter> context_;
   // OSMesa needs a default colour buffer to make a context current; all
@@ -230,7 +207,8 @@ class OsMesaRenderer final : public Renderer {
   int targetHeight_ = 0;
 };
 
-OsMesaRenderer::OsMesaRenderer(const TriangleMesh& mesh) {
+OsMesaRenderer::OsMesaRenderer(const TriangleMesh& mesh)
+    : Renderer("OsMesaRenderer") {
   mesh.validate("OsMesaRenderer");
   // a 3.3 core context; Mesa returns the highest version it supports with
   // that profile (4.5 with llvmpipe in Debian 12)

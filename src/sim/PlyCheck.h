@@ -1,5 +1,5 @@
 #pragma once
-// Internal to vln_sim (used by MeshIo.cpp): the PLY guard loadScene runs
+// Internal to vln_sim (used by MeshImport.cpp): the PLY guard loadScene runs
 // before handing a file to assimp.
 
 #include <filesystem>

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 #include <string_view>
 #include <vector>
 
@@ -31,6 +32,49 @@ std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
   }
   VLN_ASSERT(false);
   return nullptr;
+}
+
+Renderer::Renderer(std::string_view backend)
+    : rgbMethod_(strCat(backend, "::renderRgb()")),
+      depthMethod_(strCat(backend, "::renderDepth()")),
+      rgbDepthRgbMethod_(strCat(backend, "::renderRgbDepth() rgb")),
+      rgbDepthDepthMethod_(strCat(backend, "::renderRgbDepth() depth")),
+      semanticMethod_(strCat(backend, "::renderSemantic()")) {}
+
+void Renderer::renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
+                         std::span<uint8_t> rgb) {
+  checkRenderArgs(rgbMethod_, pose, camera, rgb.size(), 3);
+  render(pose, camera, kColor, rgb.data(), nullptr, nullptr);
+}
+
+void Renderer::renderDepth(const CameraPose& pose,
+                           const CameraIntrinsics& camera,
+                           std::span<float> depth) {
+  checkRenderArgs(depthMethod_, pose, camera, depth.size(), 1);
+  render(pose, camera, kDepth, nullptr, depth.data(), nullptr);
+}
+
+void Renderer::renderRgbDepth(const CameraPose& pose,
+                              const CameraIntrinsics& camera,
+                              std::span<uint8_t> rgb, std::span<float> depth) {
+  checkRenderArgs(rgbDepthRgbMethod_, pose, camera, rgb.size(), 3);
+  checkRenderArgs(rgbDepthDepthMethod_, pose, camera, depth.size(), 1);
+  render(pose, camera, kColor | kDepth, rgb.data(), depth.data(), nullptr);
+}
+
+void Renderer::renderSemantic(const CameraPose& pose,
+                              const CameraIntrinsics& camera,
+                              std::span<int32_t> objectIds) {
+  checkRenderArgs(semanticMethod_, pose, camera, objectIds.size(), 1);
+  render(pose, camera, kObject, nullptr, nullptr, objectIds.data());
+}
+
+RendererBackend parseRendererBackend(std::string_view name,
+                                     std::string_view option) {
+  if (name == "embree") return RendererBackend::kEmbree;
+  if (name == "osmesa") return RendererBackend::kOsMesa;
+  throw std::invalid_argument(
+      strCat(option, " must be embree or osmesa, got '", name, "'"));
 }
 
 Eigen::Matrix3f cameraToWorld(const CameraPose& pose) {

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <span>
+#include <string>
 #include <string_view>
 
 #include "common/Math.h"
@@ -35,29 +36,53 @@ struct CameraIntrinsics {
 
 /// Renders one scene. Not thread-safe: create one per thread (creation is
 /// cheap for Embree; OSMesa uploads the mesh once per renderer).
+///
+/// The public methods check the camera and the buffer sizes (throwing
+/// std::invalid_argument naming "<Backend>::<method>()") and hand one pass
+/// to the backend's render().
 class Renderer {
  public:
   virtual ~Renderer() = default;
 
   /// Colour image [height, width, 3] uint8, row-major, top row first.
   /// `rgb.size()` must be width*height*3.
-  virtual void renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
-                         std::span<uint8_t> rgb) = 0;
+  void renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
+                 std::span<uint8_t> rgb);
   /// Depth image [height, width] float32: distance along the optical axis
   /// (z-depth, as Habitat), metres; 0 where no surface is hit.
-  virtual void renderDepth(const CameraPose& pose,
-                           const CameraIntrinsics& camera,
-                           std::span<float> depth) = 0;
+  void renderDepth(const CameraPose& pose, const CameraIntrinsics& camera,
+                   std::span<float> depth);
   /// Colour and depth of the same camera in one pass.
-  virtual void renderRgbDepth(const CameraPose& pose,
-                              const CameraIntrinsics& camera,
-                              std::span<uint8_t> rgb,
-                              std::span<float> depth) = 0;
+  void renderRgbDepth(const CameraPose& pose, const CameraIntrinsics& camera,
+                      std::span<uint8_t> rgb, std::span<float> depth);
   /// Semantic object id per pixel [height, width] int32, -1 where the
   /// surface has none or nothing is hit.
-  virtual void renderSemantic(const CameraPose& pose,
-                              const CameraIntrinsics& camera,
-                              std::span<int32_t> objectIds) = 0;
+  void renderSemantic(const CameraPose& pose, const CameraIntrinsics& camera,
+                      std::span<int32_t> objectIds);
+
+  /// The images one render() pass writes, as a bit set.
+  enum Output : unsigned { kColor = 1u, kDepth = 2u, kObject = 4u };
+
+ protected:
+  /// `backend` names the backend in error messages ("EmbreeRenderer").
+  explicit Renderer(std::string_view backend);
+
+  /// One pass of the backend: writes the images named by `outputs` (Output
+  /// bits) into `rgb` [height, width, 3], `depth` [height, width] and
+  /// `objects` [height, width], in the layouts of the public methods. The
+  /// buffers of the requested outputs have been checked against `camera`;
+  /// the others are null.
+  virtual void render(const CameraPose& pose, const CameraIntrinsics& camera,
+                      unsigned outputs, uint8_t* rgb, float* depth,
+                      int32_t* objects) = 0;
+
+ private:
+  // "<backend>::<method>()", built once rather than per render
+  std::string rgbMethod_;
+  std::string depthMethod_;
+  std::string rgbDepthRgbMethod_;
+  std::string rgbDepthDepthMethod_;
+  std::string semanticMethod_;
 };
 
 /// A renderer of `mesh` using `backend`; the Embree backend traces against
@@ -66,6 +91,12 @@ class Renderer {
 std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
                                          const RayTracer& rayTracer,
                                          RendererBackend backend);
+
+/// The backend called `name`: "embree" or "osmesa" (as in SimConfig's
+/// `renderer`). Throws std::invalid_argument naming `option` (e.g. the
+/// command-line flag) and `name` otherwise.
+RendererBackend parseRendererBackend(std::string_view name,
+                                     std::string_view option);
 
 /// Rotation from the camera frame to the world frame for `pose`. The camera
 /// frame is OpenGL's: +X right, +Y up, looking along -Z; pitch is applied

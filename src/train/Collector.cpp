@@ -9,7 +9,6 @@
 #include "common/Progress.h"
 #include "common/Random.h"
 #include "data/Vocabulary.h"
-#include "data/WorldConfig.h"
 #include "rollout/EpisodeScheduler.h"
 #include "rollout/ObservationBatch.h"
 #include "rollout/PolicyStepper.h"

@@ -13,8 +13,8 @@
 #include "data/DatasetConfig.h"
 #include "models/ModelConfig.h"
 #include "rollout/EvalConfig.h"
-#include "sim/HouseGenerator.h"
 #include "sim/SimConfig.h"
+#include "world/HouseConfig.h"
 
 namespace vln::train {
 
@@ -203,7 +203,7 @@ struct PretrainConfig {
   /// model.rgb_weights / model.depth_weights can point at).
   std::string encoder_out;
   /// Generation parameters of the pretraining houses.
-  sim::HouseConfig house;
+  world::HouseConfig house;
   /// Adam learning rate of both pretraining tasks.
   double lr = 1e-3;
   /// Point-goal episodes / semantic images per update.

@@ -12,7 +12,6 @@
 #include "common/Progress.h"
 #include "common/Random.h"
 #include "common/ThreadPool.h"
-#include "data/WorldConfig.h"
 #include "models/Loss.h"
 #include "models/Policy.h"
 #include "models/StateDict.h"

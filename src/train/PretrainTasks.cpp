@@ -12,12 +12,11 @@
 #include "common/Progress.h"
 #include "common/Random.h"
 #include "common/ThreadPool.h"
-#include "data/WorldConfig.h"
 #include "models/Policy.h"
-#include "sim/HouseGenerator.h"
 #include "train/PointNavPretrainer.h"
 #include "train/PretrainCommon.h"
 #include "train/SemanticPretrainer.h"
+#include "world/HouseGenerator.h"
 
 namespace vln::train {
 namespace fs = std::filesystem;
@@ -36,7 +35,7 @@ PretrainHouses generatePretrainHouses(const ExperimentConfig& config,
   pool.parallelFor(static_cast<size_t>(total), [&](size_t i) {
     const uint64_t seed = static_cast<uint64_t>(p.house_seed) + i;
     try {
-      sim::House house = sim::generateHouse(seed, p.house);
+      world::House house = world::generateHouse(seed, p.house);
       scenes[i] = sim::Scene::fromMesh(house.name, std::move(house.mesh),
                                        std::move(house.semantics),
                                        config.sim.navmesh);

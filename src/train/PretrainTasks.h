@@ -15,7 +15,7 @@
 // cnnModule()) that model.depth_weights / model.rgb_weights load strictly
 // (models::ObservationEncoder::loadPretrained()).
 //
-// Houses: pretrain.house_seed + i with pretrain.house (sim::HouseConfig);
+// Houses: pretrain.house_seed + i with pretrain.house (world::HouseConfig);
 // i < pretrain.train_houses are the training houses, the next
 // pretrain.heldout_houses the held-out ones. Navmeshes use sim.navmesh.
 //

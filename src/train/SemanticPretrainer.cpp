@@ -16,14 +16,13 @@
 #include "common/Progress.h"
 #include "common/Random.h"
 #include "common/ThreadPool.h"
-#include "data/WorldConfig.h"
 #include "models/Policy.h"
 #include "models/StateDict.h"
-#include "sim/HouseGenerator.h"
 #include "sim/Simulator.h"
 #include "train/MetricsLog.h"
 #include "train/PretrainCommon.h"
 #include "train/PretrainTasks.h"
+#include "world/HouseGenerator.h"
 
 namespace vln::train {
 namespace fs = std::filesystem;
@@ -55,9 +54,9 @@ int64_t vocabularyIndex(const std::vector<std::string>& vocabulary,
 ViewLabels labelView(const sim::SceneSemantics& semantics,
                      std::span<const int32_t> objectIds, const Vec3f& position,
                      float minFraction) {
-  const auto& categories = sim::houseObjectCategories();
-  const auto& colors = sim::houseColorNames();
-  const auto& rooms = sim::houseRoomTypes();
+  const auto& categories = world::houseObjectCategories();
+  const auto& colors = world::houseColorNames();
+  const auto& rooms = world::houseRoomTypes();
   ViewLabels out;
   out.categories.assign(categories.size(), 0);
   out.colors.assign(colors.size(), 0);
@@ -229,9 +228,15 @@ struct SemanticPretrainer::Impl : PretrainRun {
   NonFiniteLosses nonFinite;
   double lastEpochLoss = 0.0;
 
-  int64_t numCategories() const { return static_cast<int64_t>(sim::houseObjectCategories().size()); }
-  int64_t numColors() const { return static_cast<int64_t>(sim::houseColorNames().size()); }
-  int64_t numRooms() const { return static_cast<int64_t>(sim::houseRoomTypes().size()); }
+  int64_t numCategories() const {
+    return static_cast<int64_t>(world::houseObjectCategories().size());
+  }
+  int64_t numColors() const {
+    return static_cast<int64_t>(world::houseColorNames().size());
+  }
+  int64_t numRooms() const {
+    return static_cast<int64_t>(world::houseRoomTypes().size());
+  }
 
   // renders `views` of `scenes` with their labels; one simulator per house
   ViewSet render(const std::vector<View>& views,
@@ -427,8 +432,8 @@ nlohmann::json semanticMetricsJson(const SemanticMetrics& m) {
   };
   return {{"images", m.images},
           {"room_accuracy", m.room_accuracy},
-          {"categories", labels(m.categories, sim::houseObjectCategories())},
-          {"colors", labels(m.colors, sim::houseColorNames())}};
+          {"categories", labels(m.categories, world::houseObjectCategories())},
+          {"colors", labels(m.colors, world::houseColorNames())}};
 }
 
 }  // namespace
@@ -439,9 +444,9 @@ SemanticPretrainer::SemanticPretrainer(const ExperimentConfig& config, fs::path 
   s.start(config, std::move(runDir), "rgb_semantic", "SemanticPretrainer");
 
   s.net = models::SemanticNet(
-      config.model, static_cast<int64_t>(sim::houseObjectCategories().size()),
-      static_cast<int64_t>(sim::houseColorNames().size()),
-      static_cast<int64_t>(sim::houseRoomTypes().size()));
+      config.model, static_cast<int64_t>(world::houseObjectCategories().size()),
+      static_cast<int64_t>(world::houseColorNames().size()),
+      static_cast<int64_t>(world::houseRoomTypes().size()));
   if (!config.model.rgb_weights.empty()) {
     models::loadModule(s.net->rgb->cnnModule(), config.model.rgb_weights);
     spdlog::info("RGB CNN initialised from {}", config.model.rgb_weights);

@@ -5,12 +5,12 @@
 //
 // From one RGB view the network predicts what VLN instructions talk about:
 //  - the object categories in view (multi-label over
-//    sim::houseObjectCategories()): an object is in view when it covers at
+//    world::houseObjectCategories()): an object is in view when it covers at
 //    least pretrain.min_object_fraction of the pixels of the semantic
 //    render of the same camera;
-//  - the colours of those objects (multi-label over sim::houseColorNames());
+//  - the colours of those objects (multi-label over world::houseColorNames());
 //  - the type of the room the camera stands in (one of
-//    sim::houseRoomTypes(); cross-entropy).
+//    world::houseRoomTypes(); cross-entropy).
 // Views are taken at uniformly random points of a house's main navmesh
 // island with a uniform heading, the camera sim.rgb.position_y above the
 // floor, as the agent's. Every epoch (pretrain.iterations of them) renders
@@ -50,7 +50,7 @@ namespace vln::train {
 
 /// The targets of one view.
 struct ViewLabels {
-  int room = -1;  ///< index into sim::houseRoomTypes()
+  int room = -1;  ///< index into world::houseRoomTypes()
   /// [houseObjectCategories().size()] 0/1: a category in view.
   std::vector<uint8_t> categories;
   /// [houseColorNames().size()] 0/1: the colour of an object in view.

@@ -23,17 +23,10 @@ using ::testing::AllOf;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 
-std::filesystem::path fixture(const std::string& name) {
-  return test::testDataPath() / "r2r" / name;
-}
-
-std::filesystem::path realSample(const std::string& name) {
-  return test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" / name;
-}
-
 TEST(DatasetStatsTest, FixtureValuesWorkedOutByHand) {
-  EpisodeDataset dataset = readEpisodes(fixture("tiny_split.json"));
-  GroundTruth groundTruth = readGroundTruth(fixture("tiny_split_gt.json"));
+  EpisodeDataset dataset = readEpisodes(test::r2rFixture("tiny_split.json"));
+  GroundTruth groundTruth =
+      readGroundTruth(test::r2rFixture("tiny_split_gt.json"));
   DatasetStats stats = computeDatasetStats(dataset, &groundTruth);
   EXPECT_EQ(stats.episodes, 3);
   EXPECT_EQ(stats.scenes, 2);
@@ -56,8 +49,8 @@ TEST(DatasetStatsTest, FixtureValuesWorkedOutByHand) {
 }
 
 TEST(DatasetStatsTest, MissingGroundTruthAndTestSplit) {
-  EpisodeDataset dataset = readEpisodes(fixture("tiny_split.json"));
-  GroundTruth partial = readGroundTruth(fixture("tiny_split_gt.json"));
+  EpisodeDataset dataset = readEpisodes(test::r2rFixture("tiny_split.json"));
+  GroundTruth partial = readGroundTruth(test::r2rFixture("tiny_split_gt.json"));
   partial.erase(7);
   DatasetStats stats = computeDatasetStats(dataset, &partial);
   EXPECT_EQ(stats.ground_truth_matched, 2);
@@ -67,7 +60,7 @@ TEST(DatasetStatsTest, MissingGroundTruthAndTestSplit) {
 
   // the test split has no tokens: lengths come from the tokenizer
   DatasetStats test =
-      computeDatasetStats(readEpisodes(fixture("test_split.json")));
+      computeDatasetStats(readEpisodes(test::r2rFixture("test_split.json")));
   EXPECT_EQ(test.episodes, 2);
   EXPECT_EQ(test.vocabulary_size, 0);
   EXPECT_DOUBLE_EQ(test.mean_instruction_length, 12.5);
@@ -81,8 +74,8 @@ TEST(DatasetStatsTest, MissingGroundTruthAndTestSplit) {
 }
 
 TEST(DatasetStatsTest, RealSampleMatchesIndependentComputation) {
-  auto episodesFile = realSample("val_seen_sample.json.gz");
-  auto gtFile = realSample("val_seen_sample_gt.json.gz");
+  auto episodesFile = test::realR2rSample("val_seen_sample.json.gz");
+  auto gtFile = test::realR2rSample("val_seen_sample_gt.json.gz");
   if (!std::filesystem::exists(episodesFile) ||
       !std::filesystem::exists(gtFile))
     GTEST_SKIP() << "no real samples";
@@ -128,8 +121,8 @@ TEST(DatasetStatsTest, RealSampleMatchesIndependentComputation) {
 
 TEST(DatasetStatsTest, StatsCommandPrintsTextAndJson) {
   StatsCommandOptions options;
-  options.episodes = fixture("tiny_split.json");
-  options.ground_truth = fixture("tiny_split_gt.json");
+  options.episodes = test::r2rFixture("tiny_split.json");
+  options.ground_truth = test::r2rFixture("tiny_split_gt.json");
   std::ostringstream text;
   EXPECT_EQ(runStatsCommand(options, text), 0);
   EXPECT_THAT(text.str(),
@@ -154,11 +147,11 @@ TEST(DatasetStatsTest, BinaryRunsStatsAndReportsBadInput) {
   auto binary = test::binaryPath() / "bin" / "vlnce-data";
   ASSERT_TRUE(std::filesystem::exists(binary)) << "no " << binary;
   std::string output;
-  int status =
-      test::runCommand(binary.string() + " --log-level warn stats --episodes " +
-                           fixture("tiny_split.json").string() + " --gt " +
-                           fixture("tiny_split_gt.json").string(),
-                       &output);
+  int status = test::runCommand(
+      binary.string() + " --log-level warn stats --episodes " +
+          test::r2rFixture("tiny_split.json").string() + " --gt " +
+          test::r2rFixture("tiny_split_gt.json").string(),
+      &output);
   EXPECT_EQ(status, 0) << output;
   EXPECT_THAT(output, HasSubstr("mean ground-truth actions:   3.67"));
 

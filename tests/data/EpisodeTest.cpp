@@ -23,14 +23,6 @@ using ::testing::AllOf;
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
 
-std::filesystem::path fixture(const std::string& name) {
-  return test::testDataPath() / "r2r" / name;
-}
-
-std::filesystem::path realSample(const std::string& name) {
-  return test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" / name;
-}
-
 // structural JSON equality with numbers compared to `tolerance`; on a
 // difference, `where` receives the JSON pointer of the first one
 bool jsonNear(const nlohmann::json& a, const nlohmann::json& b,
@@ -82,7 +74,7 @@ bool jsonNear(const nlohmann::json& a, const nlohmann::json& b,
 // =========================================================================
 
 TEST(EpisodeTest, ReadsEveryFieldOfTheFixture) {
-  EpisodeDataset dataset = readEpisodes(fixture("tiny_split.json"));
+  EpisodeDataset dataset = readEpisodes(test::r2rFixture("tiny_split.json"));
   ASSERT_EQ(dataset.episodes.size(), 3u);
   ASSERT_TRUE(dataset.instruction_vocab.has_value());
   EXPECT_EQ(dataset.instruction_vocab->size(), 23);
@@ -114,7 +106,7 @@ TEST(EpisodeTest, ReadsEveryFieldOfTheFixture) {
 
 TEST(EpisodeTest, TestSplitHasNoOptionalFieldsAndWritesNone) {
   test::TempDir dir;
-  EpisodeDataset dataset = readEpisodes(fixture("test_split.json"));
+  EpisodeDataset dataset = readEpisodes(test::r2rFixture("test_split.json"));
   ASSERT_EQ(dataset.episodes.size(), 2u);
   EXPECT_FALSE(dataset.instruction_vocab.has_value());
   for (const Episode& episode : dataset.episodes) {
@@ -125,7 +117,7 @@ TEST(EpisodeTest, TestSplitHasNoOptionalFieldsAndWritesNone) {
   }
   writeEpisodes(dir / "test.json.gz", dataset);
   nlohmann::json written = common::readJsonFile(dir / "test.json.gz");
-  EXPECT_EQ(written, common::readJsonFile(fixture("test_split.json")));
+  EXPECT_EQ(written, common::readJsonFile(test::r2rFixture("test_split.json")));
   EXPECT_FALSE(written.contains("instruction_vocab"));
   EXPECT_FALSE(written["episodes"][0].contains("goals"));
   EXPECT_FALSE(
@@ -134,7 +126,7 @@ TEST(EpisodeTest, TestSplitHasNoOptionalFieldsAndWritesNone) {
 
 TEST(EpisodeTest, RoundTripsThroughJsonAndGzip) {
   test::TempDir dir;
-  EpisodeDataset dataset = readEpisodes(fixture("tiny_split.json"));
+  EpisodeDataset dataset = readEpisodes(test::r2rFixture("tiny_split.json"));
   for (const char* name : {"out.json", "out.json.gz"}) {
     writeEpisodes(dir / name, dataset);
     EXPECT_EQ(readEpisodes(dir / name), dataset) << name;
@@ -147,9 +139,10 @@ TEST(EpisodeTest, RoundTripsThroughJsonAndGzip) {
   // the written JSON equals the hand-made file value for value (rotations
   // are stored as float32)
   std::string where;
-  EXPECT_TRUE(jsonNear(common::readJsonFile(dir / "out.json"),
-                       common::readJsonFile(fixture("tiny_split.json")),
-                       /*tolerance=*/1e-7, where))
+  EXPECT_TRUE(
+      jsonNear(common::readJsonFile(dir / "out.json"),
+               common::readJsonFile(test::r2rFixture("tiny_split.json")),
+               /*tolerance=*/1e-7, where))
       << "first difference at " << where;
 }
 
@@ -164,7 +157,8 @@ struct BadEpisodeCase {
 };
 
 TEST(EpisodeTest, RejectsMalformedEpisodesNamingFileEpisodeAndField) {
-  const nlohmann::json good = common::readJsonFile(fixture("tiny_split.json"));
+  const nlohmann::json good =
+      common::readJsonFile(test::r2rFixture("tiny_split.json"));
   const std::vector<BadEpisodeCase> cases = {
       {"missing field",
        [](nlohmann::json& j) { j["episodes"][1].erase("start_position"); },
@@ -275,8 +269,8 @@ TEST(EpisodeTest, MalformedAndTruncatedFilesNameTheFile) {
               ThrowsMessage<std::invalid_argument>(
                   AllOf(HasSubstr("broken.json"), HasSubstr("malformed"))));
 
-  std::string packed =
-      common::gzipCompress(common::readFile(fixture("tiny_split.json")));
+  std::string packed = common::gzipCompress(
+      common::readFile(test::r2rFixture("tiny_split.json")));
   test::writeText(dir / "cut.json.gz", packed.substr(0, packed.size() / 2));
   EXPECT_THAT([&] { readEpisodes(dir / "cut.json.gz"); },
               ThrowsMessage<std::runtime_error>(
@@ -287,7 +281,7 @@ TEST(EpisodeTest, MalformedAndTruncatedFilesNameTheFile) {
 
 TEST(EpisodeTest, WriterRejectsInvalidEpisodesWithoutTouchingTheDisk) {
   test::TempDir dir;
-  EpisodeDataset dataset = readEpisodes(fixture("tiny_split.json"));
+  EpisodeDataset dataset = readEpisodes(test::r2rFixture("tiny_split.json"));
   auto file = dir / "split.json.gz";
   writeEpisodes(file, dataset);
   const std::string before = common::readFile(file);
@@ -351,7 +345,7 @@ TEST(EpisodeTest, ResolvesScenesUnderTheScenesDirectory) {
 // =========================================================================
 
 TEST(EpisodeTest, RealSampleMatchesTheRawJson) {
-  auto file = realSample("val_seen_sample.json.gz");
+  auto file = test::realR2rSample("val_seen_sample.json.gz");
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "no " << file;
   EpisodeDataset dataset = readEpisodes(file);
   nlohmann::json raw = common::readJsonFile(file);
@@ -379,7 +373,7 @@ TEST(EpisodeTest, RealSampleMatchesTheRawJson) {
 }
 
 TEST(EpisodeTest, RealSampleRoundTripsToTheSameJsonValues) {
-  auto file = realSample("val_seen_sample.json.gz");
+  auto file = test::realR2rSample("val_seen_sample.json.gz");
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "no " << file;
   test::TempDir dir;
   writeEpisodes(dir / "val_seen.json.gz", readEpisodes(file));
@@ -396,7 +390,8 @@ TEST(EpisodeTest, RealSampleRoundTripsToTheSameJsonValues) {
 
 TEST(EpisodeTest, GroundTruthFixtureRoundTrips) {
   test::TempDir dir;
-  GroundTruth groundTruth = readGroundTruth(fixture("tiny_split_gt.json"));
+  GroundTruth groundTruth =
+      readGroundTruth(test::r2rFixture("tiny_split_gt.json"));
   ASSERT_EQ(groundTruth.size(), 3u);
   const GroundTruthPath& first = groundTruth.at(1);
   EXPECT_EQ(first.forward_steps, 2);
@@ -411,12 +406,12 @@ TEST(EpisodeTest, GroundTruthFixtureRoundTrips) {
   writeGroundTruth(dir / "gt.json.gz", groundTruth);
   EXPECT_EQ(readGroundTruth(dir / "gt.json.gz"), groundTruth);
   EXPECT_EQ(common::readJsonFile(dir / "gt.json.gz"),
-            common::readJsonFile(fixture("tiny_split_gt.json")));
+            common::readJsonFile(test::r2rFixture("tiny_split_gt.json")));
 }
 
 TEST(EpisodeTest, GroundTruthErrorsNameFileEpisodeAndField) {
   const nlohmann::json good =
-      common::readJsonFile(fixture("tiny_split_gt.json"));
+      common::readJsonFile(test::r2rFixture("tiny_split_gt.json"));
   const std::vector<BadEpisodeCase> cases = {
       {"action out of range",
        [](nlohmann::json& j) { j["2"]["actions"][1] = 4; },
@@ -455,15 +450,15 @@ TEST(EpisodeTest, GroundTruthErrorsNameFileEpisodeAndField) {
         EXPECT_THAT(e.what(), HasSubstr(part));
     }
   }
-  std::string packed =
-      common::gzipCompress(common::readFile(fixture("tiny_split_gt.json")));
+  std::string packed = common::gzipCompress(
+      common::readFile(test::r2rFixture("tiny_split_gt.json")));
   test::writeText(dir / "cut_gt.json.gz", packed.substr(0, packed.size() - 9));
   EXPECT_THAT([&] { readGroundTruth(dir / "cut_gt.json.gz"); },
               ThrowsMessage<std::runtime_error>(HasSubstr("cut_gt.json.gz")));
 }
 
 TEST(EpisodeTest, RealGroundTruthMatchesRawJsonAndRoundTrips) {
-  auto file = realSample("val_seen_sample_gt.json.gz");
+  auto file = test::realR2rSample("val_seen_sample_gt.json.gz");
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "no " << file;
   GroundTruth groundTruth = readGroundTruth(file);
   nlohmann::json raw = common::readJsonFile(file);

@@ -1,7 +1,6 @@
-// Tests src/data/Glove.cpp: GloVe text files, the embeddings.json matrix
-// (checked against the real R2R_VLNCE embeddings), co-occurrence counting and
-// GloVe fitting; plus the `glove` and `embeddings` commands of
-// src/data/DataCommands.cpp.
+// Tests src/data/Glove.cpp: GloVe text files and the embeddings.json matrix
+// (checked against the real R2R_VLNCE embeddings); plus the `embeddings`
+// command of src/data/DataCommands.cpp.
 
 #include "data/Glove.h"
 
@@ -9,13 +8,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <random>
 #include <sstream>
 
 #include "common/FileIo.h"
 #include "common/Json.h"
 #include "data/DataCommands.h"
 #include "data/Episode.h"
+#include "data/WordVectorRows.h"
 #include "support/TestPaths.h"
 
 namespace vln::data {
@@ -26,40 +25,14 @@ using ::testing::ElementsAre;
 using ::testing::HasSubstr;
 using ::testing::ThrowsMessage;
 
-std::filesystem::path fixture(const std::string& name) {
-  return test::testDataPath() / "r2r" / name;
-}
-
-std::filesystem::path realSample(const std::string& name) {
-  return test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" / name;
-}
-
-std::vector<float> row(const WordVectors& vectors, std::string_view word) {
-  auto index = vectors.find(word);
-  if (!index) return {};
-  auto span = vectors.vector(*index);
-  return {span.begin(), span.end()};
-}
-
-double cosine(const WordVectors& vectors, std::string_view a,
-              std::string_view b) {
-  auto x = row(vectors, a);
-  auto y = row(vectors, b);
-  double dot = 0.0, nx = 0.0, ny = 0.0;
-  for (size_t k = 0; k < x.size(); ++k) {
-    dot += x[k] * y[k];
-    nx += x[k] * x[k];
-    ny += y[k] * y[k];
-  }
-  return dot / std::sqrt(nx * ny);
-}
+using test::row;
 
 // =========================================================================
 // text files
 // =========================================================================
 
 TEST(GloveTest, ReadsRowsIncludingSpacedTokensAndKeepsFirstDuplicate) {
-  WordVectors vectors = readGloveText(fixture("tiny_glove.txt"));
+  WordVectors vectors = readGloveText(test::r2rFixture("tiny_glove.txt"));
   EXPECT_EQ(vectors.dim(), 3);
   EXPECT_THAT(vectors.words(),
               ElementsAre("the", "walk", ". . .", "at name@domain.com",
@@ -92,7 +65,7 @@ TEST(GloveTest, ToleratesHeadersCrlfGzipAndFiltersWords) {
 
   // gzip is detected by content; only_words keeps the requested rows
   common::writeFileAtomic(dir / "glove.txt.gz",
-                          common::readFile(fixture("tiny_glove.txt")));
+                          common::readFile(test::r2rFixture("tiny_glove.txt")));
   GloveReadOptions options;
   options.only_words = {"walk", "turn", "absent"};
   WordVectors filtered = readGloveText(dir / "glove.txt.gz", options);
@@ -207,8 +180,8 @@ TEST(GloveTest, EmbeddingsJsonRoundTripsAndRejectsRaggedRows) {
 // The real embeddings.json.gz rebuilt from a GloVe text file holding its own
 // word rows: proves the pad/unk conventions documented in Glove.h.
 TEST(GloveTest, RebuildsTheRealEmbeddingMatrix) {
-  auto episodes = realSample("val_seen_sample.json.gz");
-  auto embeddings = realSample("embeddings.json.gz");
+  auto episodes = test::realR2rSample("val_seen_sample.json.gz");
+  auto embeddings = test::realR2rSample("embeddings.json.gz");
   if (!std::filesystem::exists(episodes) ||
       !std::filesystem::exists(embeddings))
     GTEST_SKIP() << "no real samples";
@@ -245,180 +218,21 @@ TEST(GloveTest, RebuildsTheRealEmbeddingMatrix) {
 }
 
 // =========================================================================
-// co-occurrence counting
+// the embeddings command
 // =========================================================================
-
-TEST(GloveTest, CooccurrencesUseHarmonicWeightsWithinSentences) {
-  auto entries = countCooccurrences({{0, 1, 2}}, /*vocabSize=*/3,
-                                    /*window=*/2);
-  EXPECT_THAT(
-      entries,
-      ElementsAre(CooccurrenceEntry{0, 1, 1.0}, CooccurrenceEntry{0, 2, 0.5},
-                  CooccurrenceEntry{1, 0, 1.0}, CooccurrenceEntry{1, 2, 1.0},
-                  CooccurrenceEntry{2, 0, 0.5}, CooccurrenceEntry{2, 1, 1.0}));
-  // a window of 1 drops the distance-2 pair; sentences never mix
-  EXPECT_EQ(countCooccurrences({{0, 1, 2}}, 3, 1).size(), 4u);
-  EXPECT_TRUE(countCooccurrences({{0}, {1}}, 2, 10).empty());
-  // a repeated word co-occurs with itself in both directions
-  EXPECT_THAT(countCooccurrences({{0, 0}}, 1, 5),
-              ElementsAre(CooccurrenceEntry{0, 0, 2.0}));
-  EXPECT_THAT(
-      [] {
-        countCooccurrences({{0, 3}}, 3, 2);
-      },
-      ThrowsMessage<std::invalid_argument>(
-          HasSubstr("sentence 0 word 1 has id 3")));
-}
-
-// =========================================================================
-// fitting
-// =========================================================================
-
-// "sofa"/"couch" occur in identical contexts (the home words) and
-// "car"/"truck" in the road words. Each context word comes from the other
-// group 15% of the time: GloVe fits only the non-zero co-occurrences, so with
-// perfectly disjoint groups the relation between groups lives only in zeros
-// the objective never sees and their relative geometry is left arbitrary.
-// std::mt19937's output sequence is fixed by the standard.
-std::vector<std::vector<std::string>> synonymCorpus() {
-  const std::vector<std::string> groups[2] = {
-      {"living", "cushion", "relax", "pillow", "blanket", "lamp"},
-      {"garage", "engine", "wheel", "drive", "road", "fuel"}};
-  static const char* kTargets[] = {"sofa", "couch", "car", "truck"};
-  std::mt19937 rng(7);
-  std::vector<std::vector<std::string>> sentences;
-  for (int s = 0; s < 400; ++s) {
-    int group = s % 4 < 2 ? 0 : 1;
-    std::vector<std::string> sentence;
-    for (int k = 0; k < 5; ++k) {
-      if (k == 2) sentence.push_back(kTargets[s % 4]);
-      int from = rng() % 100 < 15 ? 1 - group : group;
-      sentence.push_back(groups[from][rng() % groups[from].size()]);
-    }
-    sentences.push_back(std::move(sentence));
-  }
-  return sentences;
-}
-
-GloveFitConfig smallConfig() {
-  GloveFitConfig config;
-  config.dim = 8;
-  config.window = 3;
-  config.epochs = 60;
-  config.seed = 11;
-  return config;
-}
-
-TEST(GloveTest, FitPlacesSynonymsCloserAndLossDecreases) {
-  GloveFitResult fit = fitGlove(synonymCorpus(), smallConfig());
-  ASSERT_EQ(fit.vectors.size(), 16);
-  EXPECT_EQ(fit.vectors.dim(), 8);
-  ASSERT_EQ(fit.epoch_loss.size(), 60u);
-  EXPECT_LT(fit.epoch_loss.back(), 0.5 * fit.epoch_loss.front());
-  EXPECT_LT(fit.epoch_loss.back(), fit.epoch_loss[30]);
-  EXPECT_EQ(fit.skipped_updates, 0);
-
-  double synonyms = cosine(fit.vectors, "sofa", "couch");
-  double vehicles = cosine(fit.vectors, "car", "truck");
-  EXPECT_GT(synonyms, 0.9);
-  EXPECT_GT(vehicles, 0.9);
-  for (const char* home : {"sofa", "couch"})
-    for (const char* road : {"car", "truck"})
-      EXPECT_LT(cosine(fit.vectors, home, road), 0.0) << home << "/" << road;
-
-  // rows are ordered by corpus count: the four targets occur 100 times each
-  for (size_t i = 1; i < fit.word_counts.size(); ++i)
-    EXPECT_GE(fit.word_counts[i - 1], fit.word_counts[i]);
-}
-
-TEST(GloveTest, FitIsDeterministicBySeed) {
-  auto corpus = synonymCorpus();
-  GloveFitConfig config = smallConfig();
-  config.epochs = 5;
-  GloveFitResult a = fitGlove(corpus, config);
-  GloveFitResult b = fitGlove(corpus, config);
-  ASSERT_EQ(a.vectors.words(), b.vectors.words());
-  for (int i = 0; i < a.vectors.size(); ++i)
-    EXPECT_TRUE(std::equal(a.vectors.vector(i).begin(),
-                           a.vectors.vector(i).end(),
-                           b.vectors.vector(i).begin()));
-  EXPECT_EQ(a.epoch_loss, b.epoch_loss);
-  config.seed = 12;
-  GloveFitResult c = fitGlove(corpus, config);
-  EXPECT_NE(row(a.vectors, "sofa"), row(c.vectors, "sofa"));
-}
-
-TEST(GloveTest, HogwildThreadsAlsoConverge) {
-  GloveFitConfig config = smallConfig();
-  config.threads = 2;
-  GloveFitResult fit = fitGlove(synonymCorpus(), config);
-  EXPECT_LT(fit.epoch_loss.back(), 0.5 * fit.epoch_loss.front());
-  EXPECT_GT(cosine(fit.vectors, "sofa", "couch"),
-            cosine(fit.vectors, "sofa", "car"));
-}
-
-TEST(GloveTest, FitRejectsBadConfigsAndDegenerateCorpora) {
-  GloveFitConfig config = smallConfig();
-  config.dim = 0;
-  EXPECT_THAT([&] { fitGlove(synonymCorpus(), config); },
-              ThrowsMessage<std::invalid_argument>(
-                  AllOf(HasSubstr("fitGlove()"), HasSubstr("dim"))));
-  EXPECT_THAT(
-      [] { fitGlove({}, GloveFitConfig{}); },
-      ThrowsMessage<std::invalid_argument>(HasSubstr("need at least 2")));
-  EXPECT_THAT(
-      [] {
-        fitGlove({{"a"}, {"b"}}, GloveFitConfig{});
-      },
-      ThrowsMessage<std::invalid_argument>(HasSubstr("no two words")));
-}
-
-// =========================================================================
-// the glove and embeddings commands
-// =========================================================================
-
-TEST(GloveTest, GloveCommandWritesVectorsAndTheCorpusVocabularyMatrix) {
-  test::TempDir dir;
-  GloveCommandOptions options;
-  options.corpus = fixture("tiny_split.json");
-  options.out = dir / "glove.txt";
-  options.embeddings_out = dir / "embeddings.json.gz";
-  options.fit.dim = 5;
-  options.fit.epochs = 3;
-  std::ostringstream out;
-  EXPECT_EQ(runGloveCommand(options, out), 0);
-  EXPECT_THAT(out.str(), AllOf(HasSubstr("3 sentences"), HasSubstr("dim 5")));
-
-  // every distinct token of the three instructions gets a vector
-  WordVectors vectors = readGloveText(dir / "glove.txt");
-  EXPECT_EQ(vectors.dim(), 5);
-  EXPECT_TRUE(vectors.find("t-intersection").has_value());
-  EXPECT_TRUE(vectors.find("owner").has_value());
-  // the matrix follows the corpus file's 23-word instruction_vocab
-  EmbeddingMatrix matrix = readEmbeddingsJson(dir / "embeddings.json.gz");
-  EXPECT_EQ(matrix.rows, 23);
-  EXPECT_EQ(matrix.dim, 5);
-  EXPECT_THAT(matrix.row(0), ElementsAre(0, 0, 0, 0, 0));
-
-  // a plain text corpus, one sentence per line
-  test::writeText(dir / "corpus.txt", "Walk left.\n\nturn right\nwalk right\n");
-  EXPECT_EQ(readCorpus(dir / "corpus.txt"),
-            (std::vector<std::vector<std::string>>{
-                {"walk", "left", "."}, {"turn", "right"}, {"walk", "right"}}));
-}
 
 TEST(GloveTest, EmbeddingsCommandBuildsTheVocabularyMatrix) {
   test::TempDir dir;
   EmbeddingsCommandOptions options;
-  options.glove = fixture("tiny_glove.txt");
-  options.episodes = fixture("tiny_split.json");
+  options.glove = test::r2rFixture("tiny_glove.txt");
+  options.episodes = test::r2rFixture("tiny_split.json");
   options.out = dir / "embeddings.json";
   std::ostringstream out;
   EXPECT_EQ(runEmbeddingsCommand(options, out), 0);
   EXPECT_THAT(out.str(), HasSubstr("23 x 3, 4 words found, 17 missing"));
   EmbeddingMatrix matrix = readEmbeddingsJson(dir / "embeddings.json");
   Vocabulary vocab =
-      *readEpisodes(fixture("tiny_split.json")).instruction_vocab;
+      *readEpisodes(test::r2rFixture("tiny_split.json")).instruction_vocab;
   EXPECT_THAT(matrix.row(*vocab.find("walk")),
               ElementsAre(-0.5f, 0.25f, 1e-3f));
   // <unk> = mean of the, walk, stairs, turn

@@ -21,10 +21,6 @@ using ::testing::ThrowsMessage;
 
 using Tokens = std::vector<std::string>;
 
-std::filesystem::path realSample(const std::string& name) {
-  return test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" / name;
-}
-
 // =========================================================================
 // tokenizer
 // =========================================================================
@@ -70,7 +66,7 @@ TEST(VocabularyTest, TokenizeLowercasesAndKeepsNonAsciiLetters) {
 }
 
 TEST(VocabularyTest, RealSampleTokensAreReproducedExactly) {
-  auto file = realSample("val_seen_sample.json.gz");
+  auto file = test::realR2rSample("val_seen_sample.json.gz");
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "no " << file;
   EpisodeDataset dataset = readEpisodes(file);
   ASSERT_TRUE(dataset.instruction_vocab.has_value());
@@ -204,7 +200,7 @@ TEST(VocabularyTest, FromJsonRejectsInconsistentFields) {
 }
 
 TEST(VocabularyTest, RealVocabularyRoundTripsExactlyAndIsSorted) {
-  auto file = realSample("val_seen_sample.json.gz");
+  auto file = test::realR2rSample("val_seen_sample.json.gz");
   if (!std::filesystem::exists(file)) GTEST_SKIP() << "no " << file;
   nlohmann::json raw = common::readJsonFile(file)["instruction_vocab"];
   Vocabulary vocab = Vocabulary::fromJson(raw, "real");

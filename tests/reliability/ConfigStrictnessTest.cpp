@@ -5,7 +5,7 @@
 // nothing.
 //
 // Which loader a file under configs/ gets: files below a directory named
-// "world" are data::WorldConfig (vlnce-data generate --config); every other
+// "world" are world::WorldConfig (vlnce-data generate --config); every other
 // file must be an ExperimentConfig (train/eval --config), i.e. its top-level
 // keys are sections of ExperimentConfig (or _base_). A file that fits
 // neither fails the test, so a new kind of config cannot go unchecked.
@@ -19,12 +19,12 @@
 #include <sstream>
 
 #include "common/Config.h"
-#include "data/WorldConfig.h"
 #include "models/Policy.h"
 #include "models/StateDict.h"
 #include "support/TestPaths.h"
 #include "train/Checkpoint.h"
 #include "train/ExperimentConfig.h"
+#include "world/WorldConfig.h"
 
 namespace vln::reliability {
 namespace {
@@ -51,7 +51,7 @@ const std::set<std::string>& experimentSections() {
 void load(Kind kind, std::string_view text, const std::string& source,
           const fs::path& baseDir) {
   if (kind == Kind::kWorld) {
-    data::WorldConfig config;
+    world::WorldConfig config;
     common::readConfig(text, source, baseDir, {},
                        [&](common::ConfigVisitor& v) { config.visit(v); });
     config.validate();
@@ -117,7 +117,10 @@ int checkEveryKeyTypo(Kind kind, const std::string& text, const std::string& sou
 }
 
 Kind classify(const fs::path& file) {
-  for (const auto& part : file)
+  // only the directories below configs/ count: the checkout itself may sit
+  // in a directory named world
+  const fs::path configs = vln::test::sourcePath() / "configs";
+  for (const auto& part : file.lexically_relative(configs))
     if (part == "world") return Kind::kWorld;
   // top-level keys: unindented block keys
   const std::string text = readText(file);
@@ -179,10 +182,10 @@ TEST(ConfigStrictnessTest, EveryRunConfigKeyTypoIsRefused) {
 
 // the same for a world config written out in full
 TEST(ConfigStrictnessTest, EveryWorldConfigKeyTypoIsRefused) {
-  const data::WorldConfig defaults;
+  const world::WorldConfig defaults;
   const std::string yaml = common::configToYaml(defaults);
   const int mutated = checkEveryKeyTypo(Kind::kWorld, yaml, "world.yaml", ".");
-  data::WorldConfig copy = defaults;
+  world::WorldConfig copy = defaults;
   EXPECT_GE(mutated, static_cast<int>(common::configKeys([&](common::ConfigVisitor& v) {
                                         copy.visit(v);
                                       }).size()));

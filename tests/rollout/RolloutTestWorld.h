@@ -15,11 +15,11 @@
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
 #include "sim/Follower.h"
-#include "sim/HouseGenerator.h"
 #include "sim/MeshIo.h"
 #include "sim/Scene.h"
 #include "sim/Simulator.h"
 #include "support/TestPaths.h"
+#include "world/HouseGenerator.h"
 
 namespace vln::rollout::test {
 
@@ -52,10 +52,10 @@ inline const RolloutTestWorld& rolloutTestWorld() {
   static const RolloutTestWorld world = [] {
     RolloutTestWorld w;
     w.dir = std::make_unique<vln::test::TempDir>();
-    sim::HouseConfig house;
+    world::HouseConfig house;
     house.min_rooms = 3;
     house.max_rooms = 4;
-    auto generated = sim::generateHouse(/*seed=*/5, house, "h5");
+    auto generated = world::generateHouse(/*seed=*/5, house, "h5");
     const auto file = w.dir->path() / "scenes" / "procedural" / "h5" / "h5.glb";
     sim::saveScene(file, generated.mesh, generated.semantics);
     w.sim.scenes_dir = (w.dir->path() / "scenes").string();

@@ -3,9 +3,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "sim/HouseGenerator.h"
 #include "sim/MeshIo.h"
 #include "support/TestPaths.h"
+#include "world/HouseGenerator.h"
 
 namespace vln::rollout {
 namespace {
@@ -14,10 +14,10 @@ namespace {
 class VectorEnvTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    sim::HouseConfig house;
+    world::HouseConfig house;
     house.min_rooms = 3;
     house.max_rooms = 4;
-    auto generated = sim::generateHouse(/*seed=*/5, house, "h5");
+    auto generated = world::generateHouse(/*seed=*/5, house, "h5");
     sim::saveScene(dir_ / "procedural" / "h5" / "h5.glb", generated.mesh,
                    generated.semantics);
     config_.scenes_dir = dir_.path().string();

@@ -13,7 +13,6 @@ namespace {
 
 using test::addBox;
 using test::kSlab;
-using test::kWall;
 using test::kWallTop;
 using test::wallAlongX;
 using test::wallAlongZ;
@@ -23,11 +22,7 @@ using test::wallAlongZ;
 // pillars and a table (a separate island) in the first room.
 TriangleMesh threeRoomHouse() {
   TriangleMesh m;
-  addBox(m, {0, -kSlab, 0}, {12, 0, 8});
-  wallAlongX(m, 0, -kWall, 12 + kWall);
-  wallAlongX(m, 8, -kWall, 12 + kWall);
-  wallAlongZ(m, 0, 0, 8);
-  wallAlongZ(m, 12, 0, 8);
+  test::addWalledFloor(m, 12, 8);
   wallAlongZ(m, 4, 0, 3);  // doorway z in [3, 4.2]
   wallAlongZ(m, 4, 4.2f, 8);
   wallAlongZ(m, 8, 0, 5.5f);  // doorway z in [5.5, 6.7]

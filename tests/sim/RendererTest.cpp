@@ -633,6 +633,19 @@ TEST(ImagePngTest, WritesRgbAndSixteenBitDepth) {
   EXPECT_FALSE(std::filesystem::exists(dir / "bad.png"));
 }
 
+TEST(ParseRendererBackendTest, NamesBothBackendsAndRejectsOthers) {
+  EXPECT_EQ(parseRendererBackend("embree", "--backend"),
+            RendererBackend::kEmbree);
+  EXPECT_EQ(parseRendererBackend("osmesa", "--backend"),
+            RendererBackend::kOsMesa);
+  try {
+    parseRendererBackend("Embree", "--backend");
+    FAIL() << "expected std::invalid_argument";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_STREQ(e.what(), "--backend must be embree or osmesa, got 'Embree'");
+  }
+}
+
 TEST(CameraModelTest, PixelDirectionsAndRotation) {
   const CameraIntrinsics square{4, 4, 90.0f};
   // pixel centres at (i + 0.5): the corner pixel is 3/4 of the way out

@@ -54,6 +54,16 @@ inline void wallAlongX(sim::TriangleMesh& m, float z, float x0, float x1) {
   addBox(m, {x0, -kSlab, z - kWall / 2}, {x1, kWallTop, z + kWall / 2});
 }
 
+/// Appends a floor slab over x in [0, width], z in [0, depth] (top at
+/// y = 0) and the four outer walls around it.
+inline void addWalledFloor(sim::TriangleMesh& m, float width, float depth) {
+  addBox(m, {0, -kSlab, 0}, {width, 0, depth});
+  wallAlongX(m, 0, -kWall, width + kWall);
+  wallAlongX(m, depth, -kWall, width + kWall);
+  wallAlongZ(m, 0, 0, depth);
+  wallAlongZ(m, width, 0, depth);
+}
+
 /// The table of roomWithTable(): x and z in [kTableLo, kTableHi], top at
 /// kTableTop.
 inline constexpr float kTableLo = 2.25f, kTableHi = 3.75f, kTableTop = 0.75f;

@@ -13,6 +13,12 @@ namespace vln::test {
 
 std::filesystem::path testDataPath() { return VLN_TEST_DATA_DIR; }
 std::filesystem::path sharedFixturesPath() { return VLN_SHARED_FIXTURES_DIR; }
+std::filesystem::path r2rFixture(const std::string& name) {
+  return testDataPath() / "r2r" / name;
+}
+std::filesystem::path realR2rSample(const std::string& name) {
+  return sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" / name;
+}
 std::filesystem::path sourcePath() { return VLN_SOURCE_DIR; }
 std::filesystem::path binaryPath() { return VLN_BINARY_DIR; }
 

@@ -11,6 +11,11 @@ std::filesystem::path testDataPath();
 /// ../shared/fixtures beside the checkout: real-data samples that may be
 /// absent (tests GTEST_SKIP() then).
 std::filesystem::path sharedFixturesPath();
+/// testDataPath() / "r2r" / name: small hand-made R2R_VLNCE files.
+std::filesystem::path r2rFixture(const std::string& name);
+/// sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed" / name: samples of
+/// the real R2R_VLNCE release (may be absent).
+std::filesystem::path realR2rSample(const std::string& name);
 /// The repository root.
 std::filesystem::path sourcePath();
 /// The CMake build tree (binaries are in bin/).

@@ -14,10 +14,10 @@
 
 #include "common/Json.h"
 #include "models/StateDict.h"
-#include "sim/HouseGenerator.h"
 #include "support/TestPaths.h"
 #include "train/PretrainTasks.h"
 #include "train/PretrainTestUtil.h"
+#include "world/HouseGenerator.h"
 
 namespace vln::train {
 namespace {
@@ -78,11 +78,11 @@ TEST(LabelViewTest, ObjectsAboveTheFractionTheirColoursAndTheRoom) {
   std::fill(ids.begin() + 10, ids.begin() + 13, 1);
   std::fill(ids.begin() + 20, ids.begin() + 22, 2);
   std::fill(ids.begin() + 50, ids.begin() + 52, 2);
-  const auto& categories = sim::houseObjectCategories();
-  const auto& colors = sim::houseColorNames();
+  const auto& categories = world::houseObjectCategories();
+  const auto& colors = world::houseColorNames();
 
   ViewLabels l = labelView(s, ids, Vec3f(5.0f, 0.0f, 1.0f), /*minFraction=*/0.04f);
-  EXPECT_EQ(l.room, indexOf(sim::houseRoomTypes(), "bedroom"));
+  EXPECT_EQ(l.room, indexOf(world::houseRoomTypes(), "bedroom"));
   ASSERT_EQ(l.categories.size(), categories.size());
   ASSERT_EQ(l.colors.size(), colors.size());
   std::vector<uint8_t> expectCategories(categories.size(), 0), expectColors(colors.size(), 0);

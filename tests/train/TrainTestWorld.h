@@ -1,7 +1,7 @@
 #pragma once
 // A tiny procedural R2R_VLNCE world shared by the trainer tests: three
 // small houses (two for train/val_seen/train_aug, one for val_unseen),
-// generated once per build tree by data::generateWorld and reused by every
+// generated once per build tree by world::generateWorld and reused by every
 // test executable (a file lock serialises the first generation), plus the
 // run config of a tiny model on 32x32 images.
 
@@ -14,8 +14,8 @@
 
 #include "common/FileIo.h"
 #include "data/Glove.h"
-#include "data/WorldGenerator.h"
 #include "support/TestPaths.h"
+#include "world/WorldGenerator.h"
 
 namespace vln::train::test {
 
@@ -26,8 +26,8 @@ struct TinyWorld {
   int embedding_dim = 0;
 };
 
-inline data::WorldConfig tinyWorldConfig() {
-  data::WorldConfig c;
+inline world::WorldConfig tinyWorldConfig() {
+  world::WorldConfig c;
   c.houses = 3;
   c.seed = 11;
   c.house.min_rooms = 3;
@@ -62,11 +62,11 @@ inline const TinyWorld& tinyWorld() {
     ::flock(fd, LOCK_EX);
     try {
       if (!fs::exists(root / "done")) {
-        data::WorldOutput output;
+        world::WorldOutput output;
         output.out = w.data;
         output.scenes_dir = w.scenes;
         output.threads = 2;
-        data::generateWorld(tinyWorldConfig(), output);
+        world::generateWorld(tinyWorldConfig(), output);
         common::writeFileAtomic(root / "done", "ok\n");
       }
     } catch (...) {

@@ -1,0 +1,83 @@
+#pragma once
+// The embedded default world: procedural houses turned into an R2R_VLNCE
+// dataset by the paper's own pipeline, so that training and evaluation run
+// with no download.
+//
+// Per house (houses are independent and run on a thread pool):
+//   1. generate the house and place an R2R-style nav-graph of panoramas in
+//      it as captured (NavGraphBuilder.h);
+//   2. make the reconstruction differ as real scans do (doors closed and
+//      objects moved between captures, CaptureDifferences.h) and save that
+//      as the scene (.glb, semantics sidecar, .glb.navmesh) under
+//      <scenes_dir>/<scene_prefix>/<house>/;
+//   3. transfer the nodes to its navmesh (NodeTransfer.h, paper Section 3.2);
+//   4. sample R2R-like trajectories on the graph (TrajectorySampler.h), keep
+//      the navigable ones with their ground-truth follower actions, and give
+//      each generated instructions (InstructionGenerator.h).
+// Then, in house order: the splits of R2R (train and val_seen in train
+// houses, val_unseen and test in held-out houses, train_aug with
+// speaker-style instructions in train houses), the instruction vocabulary of
+// the training corpus, GloVe vectors fitted on it, the nav-graphs and the
+// statistics, all written in the public R2R_VLNCE layout:
+//
+//   <out>/<split>/<split>.json.gz, <out>/<split>/<split>_gt.json.gz (none
+//   for test, as in the real release), <out>/embeddings.json.gz,
+//   <out>/connectivity/<house>_connectivity.json, <out>/generation_stats.json
+//
+// Output is byte-identical for equal configs whatever the thread count.
+// Every output is staged in a temporary directory and renamed into place,
+// one whole split directory at a time, only after everything succeeded: a
+// failure never leaves a half-written split.
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "data/NodeTransfer.h"
+#include "world/WorldConfig.h"
+
+namespace vln::world {
+
+/// The split names, in the order they are listed and numbered.
+const std::vector<std::string>& worldSplitNames();
+
+/// Where the world goes.
+struct WorldOutput {
+  std::filesystem::path out;         ///< dataset root (<out>/<split>/...)
+  std::filesystem::path scenes_dir;  ///< scene ids are relative to this
+  int threads = 1;                   ///< houses processed in parallel
+};
+
+/// What was generated (also written as generation_stats.json).
+struct WorldSummary {
+  data::TransferStats transfer;  ///< all houses
+  /// Episodes per split.
+  std::map<std::string, int> episodes;
+  /// Distinct trajectories per split.
+  std::map<std::string, int> trajectories;
+  /// House names per role ("train", "val_unseen", "test").
+  std::map<std::string, std::vector<std::string>> houses;
+  int vocabulary_size = 0;
+  /// The full statistics document.
+  nlohmann::json stats;
+};
+
+/// The name of house `index` of a world: "house_<index>_<8 hex digits>",
+/// the digits hashing the house seed and the house and navmesh configs, so
+/// different worlds never overwrite each other's scenes.
+std::string worldHouseName(const WorldConfig& config, int index);
+
+/// Generates the world described by `config` into `output`, logging
+/// progress through spdlog and the paper's statistics to `log` when given.
+/// Throws std::invalid_argument for an invalid config and
+/// std::runtime_error for I/O failures or a world too small to fill a split
+/// (naming the split); in both cases no split is written.
+WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
+                           std::ostream* log = nullptr);
+
+}  // namespace vln::world
