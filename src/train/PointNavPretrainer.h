@@ -53,34 +53,10 @@
 #include "models/PointNavPolicy.h"
 #include "sim/Agent.h"
 #include "sim/Scene.h"
+#include "train/PointGoalRollouts.h"
 #include "train/ExperimentConfig.h"
 
 namespace vln::train {
-
-/// DD-PPO's pointgoal_with_gps_compass as its policy embeds it:
-/// [rho, cos(phi), sin(phi)] with rho the horizontal Euclidean distance from
-/// the agent to the goal (metres) and phi the direction of the goal relative
-/// to the agent's heading (radians; 0 straight ahead, positive to the left,
-/// i.e. counter-clockwise seen from above, as headings are).
-std::array<float, 3> pointGoalObservation(const sim::AgentState& agent,
-                                          const Vec3f& goal);
-
-/// One point-goal episode.
-struct PointGoalEpisode {
-  int house = -1;              ///< index into the scene list it was drawn from
-  sim::AgentState start;       ///< on the navmesh, world frame
-  Vec3f goal = Vec3f::Zero();  ///< on the navmesh, world frame
-  float geodesic_distance = 0.0f;  ///< start to goal, metres
-};
-
-/// `count` episodes over `scenes`: house uniform, start uniform on the
-/// house's main island (island 0) with a uniform heading, goal uniform on
-/// the same island at a geodesic distance in [minDistance, maxDistance].
-/// Deterministic by `seed`. Throws std::invalid_argument naming the scene
-/// when 1000 draws find no such goal (the range does not fit the house).
-std::vector<PointGoalEpisode> samplePointGoalEpisodes(
-    const std::vector<std::shared_ptr<const sim::Scene>>& scenes, int count,
-    float minDistance, float maxDistance, uint64_t seed);
 
 /// Held-out point-goal results of one agent (means over episodes).
 struct PointNavMetrics {

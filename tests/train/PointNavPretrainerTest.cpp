@@ -1,6 +1,5 @@
 // Tests of src/train/PointNavPretrainer.cpp (and the shared parts of
-// src/train/PretrainTasks.cpp): the point-goal sensor's frame and signs,
-// episode sampling, config errors,
+// src/train/PretrainTasks.cpp): config errors,
 // skipped non-finite losses, the memory bound, and one tiny end-to-end run
 // that must learn (its imitation loss falls and it beats the random agent
 // on held-out houses) and whose depth encoder loads strictly into a VLN
@@ -13,7 +12,6 @@
 
 #include <cmath>
 #include <map>
-#include <set>
 
 #include "common/Json.h"
 #include "models/StateDict.h"
@@ -56,10 +54,6 @@ ExperimentConfig tinyConfig(const fs::path& runDir) {
   return c;
 }
 
-std::vector<std::shared_ptr<const sim::Scene>> tinyHouses(const ExperimentConfig& c) {
-  return generatePretrainHouses(c, /*threads=*/2).train;
-}
-
 void expectFiniteNumbers(const nlohmann::json& j, const std::string& path) {
   if (j.is_object()) {
     for (const auto& [key, value] : j.items()) expectFiniteNumbers(value, path + "." + key);
@@ -71,72 +65,6 @@ void expectFiniteNumbers(const nlohmann::json& j, const std::string& path) {
     if (j.is_number()) {
       EXPECT_TRUE(std::isfinite(j.get<double>())) << path;
     }
-  }
-}
-
-// ---------------------------------------------------------------------------
-// sensor and episodes
-
-TEST(PointGoalObservationTest, PolarCoordinatesInTheAgentFrame) {
-  sim::AgentState agent;  // at the origin, looking along -Z
-  auto g = pointGoalObservation(agent, Vec3f(0.0f, 0.0f, -2.0f));
-  EXPECT_NEAR(g[0], 2.0f, 1e-6f);  // straight ahead
-  EXPECT_NEAR(g[1], 1.0f, 1e-6f);
-  EXPECT_NEAR(g[2], 0.0f, 1e-6f);
-  // heading +90 degrees looks along -X (common/Math.h), so -X is on the left
-  g = pointGoalObservation(agent, Vec3f(-1.0f, 0.0f, 0.0f));
-  EXPECT_NEAR(g[0], 1.0f, 1e-6f);
-  EXPECT_NEAR(g[1], 0.0f, 1e-6f);
-  EXPECT_NEAR(g[2], 1.0f, 1e-6f);
-  g = pointGoalObservation(agent, Vec3f(1.0f, 0.0f, 0.0f));
-  EXPECT_NEAR(g[2], -1.0f, 1e-6f);
-  // the height difference does not count; a turned agent sees it ahead
-  agent.heading = kPi / 2.0f;
-  agent.position = Vec3f(1.0f, 0.3f, 5.0f);
-  g = pointGoalObservation(agent, Vec3f(-2.0f, 0.0f, 5.0f));
-  EXPECT_NEAR(g[0], 3.0f, 1e-5f);
-  EXPECT_NEAR(g[1], 1.0f, 1e-5f);
-  EXPECT_NEAR(g[2], 0.0f, 1e-5f);
-  // behind: cos = -1
-  g = pointGoalObservation(agent, Vec3f(4.0f, 0.0f, 5.0f));
-  EXPECT_NEAR(g[1], -1.0f, 1e-5f);
-}
-
-TEST(PointGoalEpisodesTest, InRangeOnTheMainIslandAndDeterministic) {
-  vln::test::TempDir dir;
-  const ExperimentConfig c = tinyConfig(dir.path());
-  const auto scenes = tinyHouses(c);
-  const auto a = samplePointGoalEpisodes(scenes, 20, 1.0f, 4.0f, /*seed=*/5);
-  const auto b = samplePointGoalEpisodes(scenes, 25, 1.0f, 4.0f, /*seed=*/5);
-  ASSERT_EQ(a.size(), 20u);
-  std::set<int> housesSeen;
-  for (size_t k = 0; k < a.size(); ++k) {
-    const auto& e = a[k];
-    housesSeen.insert(e.house);
-    const sim::NavMesh& navmesh = scenes[static_cast<size_t>(e.house)]->navmesh();
-    EXPECT_GE(e.geodesic_distance, 1.0f);
-    EXPECT_LE(e.geodesic_distance, 4.0f);
-    EXPECT_NEAR(navmesh.geodesicDistance(e.start.position, e.goal), e.geodesic_distance, 1e-4f);
-    EXPECT_EQ(navmesh.islandIndex(e.start.position), 0);
-    EXPECT_EQ(navmesh.islandIndex(e.goal), 0);
-    // episode k does not depend on how many are drawn
-    EXPECT_EQ(b[k].start, e.start);
-    EXPECT_EQ(b[k].goal, e.goal);
-  }
-  EXPECT_EQ(housesSeen.size(), 2u);
-  EXPECT_NE(samplePointGoalEpisodes(scenes, 1, 1.0f, 4.0f, 6)[0].goal, a[0].goal);
-}
-
-TEST(PointGoalEpisodesTest, ImpossibleRangeNamesTheScene) {
-  vln::test::TempDir dir;
-  const ExperimentConfig c = tinyConfig(dir.path());
-  const auto scenes = tinyHouses(c);
-  try {
-    samplePointGoalEpisodes(scenes, 1, 400.0f, 500.0f, 1);
-    FAIL() << "no house is 400 m across";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("house_4242"));
-    EXPECT_THAT(e.what(), HasSubstr("pretrain.min_goal_distance"));
   }
 }
 
