@@ -45,12 +45,20 @@ std::string boundsText(Bounds b) {
 // ---------------------------------------------------------------------------
 // reading
 
+// One `--set` applied to the tree: the key path it set and the assignment
+// as given, which errors about that key name as their origin.
+struct Override {
+  std::string keyPath;
+  std::string assignment;
+};
+
 // Assigns values from a YAML tree; tracks which keys each mapping consumed so
 // that anything left over is reported as unknown.
 class YamlReader final : public ConfigVisitor {
  public:
-  YamlReader(YAML::Node root, std::string source)
-      : source_(std::move(source)) {
+  YamlReader(YAML::Node root, std::string source,
+             std::vector<Override> overrides = {})
+      : source_(std::move(source)), overrides_(std::move(overrides)) {
     frames_.push_back({root, {}, true});
   }
 
@@ -72,8 +80,8 @@ class YamlReader final : public ConfigVisitor {
       checkBounds(node, key, static_cast<double>(wide), bounds);
       VLN_CHECK_ARG(wide >= std::numeric_limits<int>::min() &&
                         wide <= std::numeric_limits<int>::max(),
-                    where(node), "key '", joinPath(path_, key),
-                    "': value out of int range");
+                    where(node, joinPath(path_, key)), "key '",
+                    joinPath(path_, key), "': value out of int range");
       value = static_cast<int>(wide);
     }
   }
@@ -211,12 +219,24 @@ class YamlReader final : public ConfigVisitor {
           hint = " (did you mean '" + joinPath(path_, known) + "'?)";
         }
       }
-      throw std::invalid_argument(where(entry.first) + "unknown key '" +
-                                  joinPath(path_, name) + "'" + hint);
+      throw std::invalid_argument(where(entry.first, joinPath(path_, name)) +
+                                  "unknown key '" + joinPath(path_, name) +
+                                  "'" + hint);
     }
   }
 
-  std::string where(const YAML::Node& node) const {
+  // "<file>:<line>: ", or "--set a.b=v: " for a value that an override
+  // put at `keyPath`, above it or below it (its marks are those of the
+  // override's own text, not the file's)
+  std::string where(const YAML::Node& node, const std::string& keyPath) const {
+    const auto within = [](const std::string& inner, const std::string& outer) {
+      return inner == outer || (inner.size() > outer.size() &&
+                                inner.compare(0, outer.size(), outer) == 0 &&
+                                inner[outer.size()] == '.');
+    };
+    for (auto it = overrides_.rbegin(); it != overrides_.rend(); ++it)
+      if (within(keyPath, it->keyPath) || within(it->keyPath, keyPath))
+        return "--set " + it->assignment + ": ";
     auto mark = node.Mark();
     if (mark.line >= 0)
       return source_ + ":" + std::to_string(mark.line + 1) + ": ";
@@ -225,7 +245,8 @@ class YamlReader final : public ConfigVisitor {
 
   [[noreturn]] void fail(const YAML::Node& node, std::string_view key,
                          const std::string& what) const {
-    throw std::invalid_argument(where(node) + "key '" + joinPath(path_, key) +
+    const std::string keyPath = joinPath(path_, key);
+    throw std::invalid_argument(where(node, keyPath) + "key '" + keyPath +
                                 "': " + what);
   }
 
@@ -275,6 +296,7 @@ class YamlReader final : public ConfigVisitor {
   }
 
   std::string source_;
+  std::vector<Override> overrides_;
   std::vector<std::string> path_;
   std::vector<Frame> frames_;
 };
@@ -359,7 +381,7 @@ void setPath(YAML::Node node, const std::vector<std::string>& parts, size_t i,
   setPath(node[parts[i]], parts, i + 1, value);
 }
 
-void applyOverride(YAML::Node& root, const std::string& assignment) {
+Override applyOverride(YAML::Node& root, const std::string& assignment) {
   auto eq = assignment.find('=');
   VLN_CHECK_ARG(eq != std::string::npos && eq > 0,
                 "--set: expected section.key=value, got '", assignment, "'");
@@ -380,6 +402,16 @@ void applyOverride(YAML::Node& root, const std::string& assignment) {
     parts.push_back(part);
   }
   setPath(root, parts, 0, value);
+  return {keyPath, assignment};
+}
+
+// applyOverride() for each of `assignments`, in order
+std::vector<Override> applyOverrides(
+    YAML::Node& root, const std::vector<std::string>& assignments) {
+  std::vector<Override> applied;
+  for (const auto& assignment : assignments)
+    applied.push_back(applyOverride(root, assignment));
+  return applied;
 }
 
 // ---------------------------------------------------------------------------
@@ -563,8 +595,8 @@ void readConfig(std::string_view text, std::string_view source,
                 const ConfigVisitFn& visit) {
   YAML::Node root = parseYaml(text, source);
   root = resolveBases(root, baseDir, source, 0);
-  for (const auto& assignment : overrides) applyOverride(root, assignment);
-  YamlReader reader(root, std::string(source));
+  std::vector<Override> applied = applyOverrides(root, overrides);
+  YamlReader reader(root, std::string(source), std::move(applied));
   visit(reader);
   reader.finish();
 }
@@ -574,6 +606,24 @@ void readConfigFile(const std::filesystem::path& file,
                     const ConfigVisitFn& visit) {
   readConfig(readTextFile(file), file.string(), file.parent_path(), overrides,
              visit);
+}
+
+void readConfigFileSection(const std::filesystem::path& file,
+                           std::string_view section,
+                           const std::vector<std::string>& overrides,
+                           const ConfigVisitFn& visit) {
+  const std::string source = file.string();
+  YAML::Node root = parseYaml(readTextFile(file), source);
+  root = resolveBases(root, file.parent_path(), source, 0);
+  std::vector<Override> applied = applyOverrides(root, overrides);
+  // the one section, with its marks (lines) kept
+  YAML::Node only(YAML::NodeType::Map);
+  const YAML::Node& constRoot = root;
+  if (YAML::Node found = constRoot[std::string(section)])
+    only[std::string(section)] = found;
+  YamlReader reader(only, source, std::move(applied));
+  visit(reader);
+  reader.finish();
 }
 
 std::string writeConfig(const ConfigVisitFn& visit) {

@@ -114,6 +114,17 @@ void readConfigFile(const std::filesystem::path& file,
                     const std::vector<std::string>& overrides,
                     const ConfigVisitFn& visit);
 
+/// readConfigFile() for one top-level section of a larger config (e.g. the
+/// `sim` section of a run config, for a tool that knows only that one):
+/// `_base_` includes and `overrides` are resolved as there, then only the
+/// key `section` is read through `visit`, which visits it as that section;
+/// the file's other top-level keys are ignored. Errors name the file, the
+/// line and the key path as readConfigFile()'s do.
+void readConfigFileSection(const std::filesystem::path& file,
+                           std::string_view section,
+                           const std::vector<std::string>& overrides,
+                           const ConfigVisitFn& visit);
+
 /// The resolved config as YAML, every key with its doc line as a comment.
 std::string writeConfig(const ConfigVisitFn& visit);
 

@@ -95,6 +95,73 @@ TEST(ConfigTest, OverridesApplyAfterTheFile) {
                std::invalid_argument);
 }
 
+TEST(ConfigTest, OverrideErrorsNameTheOverride) {
+  // `train --config main.yaml --set trainer.lr=-1` blamed main.yaml:1
+  test::TempDir dir;
+  const auto file =
+      test::writeText(dir / "run.yaml", "batch: 7\ntrainer:\n  lr: 0.1\n");
+  const auto errorOf = [&](std::vector<std::string> overrides) {
+    try {
+      loadConfigFile<RootConfig>(file, overrides);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_THAT(errorOf({"trainer.lr=-1"}),
+              HasSubstr("--set trainer.lr=-1: key 'trainer.lr': value -1 is "
+                        "outside [0, 1]"));
+  EXPECT_THAT(
+      errorOf({"batch=8", "trainer.lr=x"}),
+      HasSubstr("--set trainer.lr=x: key 'trainer.lr': expected a number"));
+  EXPECT_THAT(errorOf({"trainer.lrr=0.1"}),
+              HasSubstr("--set trainer.lrr=0.1: unknown key 'trainer.lrr'"));
+  // a mapping given whole, and a key set below a scalar
+  EXPECT_THAT(errorOf({"trainer={lr: 2}"}),
+              HasSubstr("--set trainer={lr: 2}: key 'trainer.lr'"));
+  EXPECT_THAT(errorOf({"batch.x=1"}),
+              HasSubstr("--set batch.x=1: key 'batch': expected an integer"));
+  // the last override of a key is the one named
+  EXPECT_THAT(errorOf({"trainer.lr=5", "trainer.lr=6"}),
+              HasSubstr("--set trainer.lr=6:"));
+  // errors in the file itself still name the file and the line
+  test::writeText(dir / "bad.yaml", "batch: 7\ntrainer:\n  lr: 9\n");
+  EXPECT_THAT(
+      [&] { loadConfigFile<RootConfig>(dir / "bad.yaml", {"batch=3"}); },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("bad.yaml:3: key 'trainer.lr'")));
+}
+
+TEST(ConfigTest, ASectionOfALargerConfigIsReadAlone) {
+  // a tool that knows only the trainer section (vlnce-sim reads `sim`)
+  test::TempDir dir;
+  test::writeText(dir / "base.yaml", "trainer:\n  lr: 0.25\nother: {x: 1}\n");
+  const auto file = test::writeText(
+      dir / "run.yaml",
+      "_base_: base.yaml\nbatch: 7\nunknown: 3\ntrainer:\n  mode: slow\n");
+  InnerConfig trainer;
+  const ConfigVisitFn visit = [&](ConfigVisitor& v) {
+    v.section("trainer", trainer, "Trainer settings");
+  };
+  readConfigFileSection(file, "trainer", {}, visit);
+  EXPECT_DOUBLE_EQ(trainer.lr, 0.25);
+  EXPECT_EQ(trainer.mode, Mode::kSlow);
+  readConfigFileSection(file, "trainer", {"trainer.lr=0.5"}, visit);
+  EXPECT_DOUBLE_EQ(trainer.lr, 0.5);
+  // strict inside the section, with the file and line named
+  test::writeText(dir / "typo.yaml", "batch: 7\ntrainer:\n  lrr: 0.5\n");
+  EXPECT_THAT(
+      [&] { readConfigFileSection(dir / "typo.yaml", "trainer", {}, visit); },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("typo.yaml:3: unknown key 'trainer.lrr'")));
+  // a file without the section leaves the defaults
+  InnerConfig untouched;
+  readConfigFileSection(dir / "base.yaml", "absent", {}, [&](ConfigVisitor& v) {
+    v.section("absent", untouched, "");
+  });
+  EXPECT_EQ(untouched, InnerConfig{});
+}
+
 TEST(ConfigTest, WrittenYamlRoundTrips) {
   RootConfig original;
   original.batch = 11;
