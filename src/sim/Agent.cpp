@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "common/Check.h"
+#include "sim/GeometryCheck.h"
 #include "sim/NavMesh.h"
 
 namespace vln::sim {
@@ -42,6 +43,13 @@ Action actionFromInt(int code) {
 
 StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
                        AgentState& state, Action action) {
+  // the public entry of every step: a pose from a file or a caller is
+  // checked here, before Detour sees it
+  checkPosition("applyAction()", "agent position", state.position,
+                navmesh.queryBounds());
+  VLN_CHECK_ARG(std::isfinite(state.heading),
+                "applyAction(): agent heading must be finite, got ",
+                state.heading);
   StepResult result;
   switch (action) {
     case Action::kStop:

@@ -45,7 +45,9 @@ struct StepResult {
 
 /// Applies `action` to `state` (STOP leaves it unchanged). MOVE_FORWARD
 /// moves forward_step_size along the heading over the navmesh, sliding along
-/// walls when allow_sliding; turns change the heading by turn_angle.
+/// walls when allow_sliding; turns change the heading by turn_angle. Throws
+/// std::invalid_argument when the heading is not finite or the position is
+/// not finite or outside navmesh.queryBounds().
 StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
                        AgentState& state, Action action);
 

@@ -432,7 +432,7 @@ void setupPacketAvx512(const float* columnX, const float* rowY,
 class EmbreeRenderer final : public Renderer {
  public:
   EmbreeRenderer(const TriangleMesh& mesh, const RayTracer& rayTracer)
-      : Renderer("EmbreeRenderer"),
+      : Renderer("EmbreeRenderer", mesh),
         mesh_(mesh),
         scene_(static_cast<RTCScene>(rayTracer.embreeScene())) {
     for (const Texture& texture : mesh.textures)

@@ -20,6 +20,8 @@
 #include <vector>
 
 #include "common/Check.h"
+#include "common/Config.h"
+#include "sim/GeometryCheck.h"
 #include "sim/PlyCheck.h"
 #include "sim/SceneFileLayout.h"
 
@@ -312,9 +314,24 @@ void checkFacesBeforePostProcessing(const aiScene& scene,
   }
 }
 
+// The triangle limit, checked on assimp's faces before they are copied.
+void checkFaceCount(const aiScene& scene, const fs::path& file) {
+  size_t faces = 0;
+  for (unsigned m = 0; m < scene.mNumMeshes; ++m)
+    faces += scene.mMeshes[m]->mNumFaces;
+  VLN_CHECK_ARG(faces <= kMaxSceneTriangles, "loadScene(): ", file, " has ",
+                faces, " faces, more than the limit of ", kMaxSceneTriangles,
+                " triangles (sim::kMaxSceneTriangles)");
+}
+
 }  // namespace
 
 TriangleMesh importMesh(const fs::path& file, const MeshLoadConfig& config) {
+  // values set in code bypass the YAML reader's bounds (a scale of 0 or NaN
+  // would make every triangle degenerate or every vertex NaN)
+  MeshLoadConfig checked = config;
+  common::checkConfig([&](common::ConfigVisitor& v) { checked.visit(v); },
+                      strCat("loadScene(): ", file.string(), ": mesh config"));
   VLN_CHECK_IO(fs::is_regular_file(file), "loadScene(): scene file ", file,
                " does not exist");
   checkPlyFile(file);
@@ -335,10 +352,14 @@ TriangleMesh importMesh(const fs::path& file, const MeshLoadConfig& config) {
   VLN_CHECK_ARG(scene->mRootNode != nullptr && scene->mNumMeshes > 0,
                 "loadScene(): ", file, " has no triangles (no meshes)");
 
+  checkFaceCount(*scene, file);
+
   TriangleMesh mesh = SceneImporter(file, *scene, config).run();
   VLN_CHECK_ARG(mesh.triangleCount() > 0, "loadScene(): ", file,
                 " has no triangles");
-  mesh.validate(strCat("loadScene(): ", file.string()));
+  const std::string source = strCat("loadScene(): ", file.string());
+  mesh.validate(source);
+  checkSceneGeometry(mesh, source);
   return mesh;
 }
 

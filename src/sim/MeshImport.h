@@ -27,8 +27,11 @@ namespace vln::sim {
 /// first image row. The mesh keeps the materials and textures its triangles
 /// use, numbered in order of first use. Throws std::runtime_error naming
 /// the file when it is missing or assimp cannot parse it, and
-/// std::invalid_argument when it has no triangles, invalid geometry (NaN,
-/// bad indices) or fails a guard.
+/// std::invalid_argument when `config` is outside its bounds or the file
+/// has no triangles, invalid geometry (NaN, bad indices), fails a guard,
+/// or fails checkSceneGeometry() (GeometryCheck.h: more than
+/// kMaxSceneTriangles triangles, a coordinate beyond kMaxSceneCoordinate,
+/// only degenerate triangles).
 TriangleMesh importMesh(const std::filesystem::path& file,
                         const MeshLoadConfig& config);
 

@@ -1,10 +1,13 @@
 #include "sim/MeshIo.h"
 
+#include <spdlog/spdlog.h>
+
 #include <algorithm>
 #include <cctype>
 #include <string>
 
 #include "common/Check.h"
+#include "sim/GeometryCheck.h"
 #include "sim/GlbWriter.h"
 #include "sim/MeshImport.h"
 #include "sim/ObjWriter.h"
@@ -28,6 +31,10 @@ std::string lowerExtension(const fs::path& file) {
 LoadedScene loadScene(const fs::path& file, const MeshLoadConfig& config) {
   LoadedScene loaded;
   loaded.mesh = importMesh(file, config);
+  // a file read with the wrong up axis loads fine and yields a wrong (or
+  // no) navmesh: say so early
+  if (const std::string hint = upAxisHint(loaded.mesh, config); !hint.empty())
+    spdlog::warn("loadScene(): {}: {}", file.string(), hint);
   const fs::path sidecar = semanticsPath(file);
   if (fs::exists(sidecar)) loaded.semantics = loadSemantics(sidecar);
   return loaded;

@@ -29,10 +29,12 @@ struct LoadedScene {
 /// format; assimp's glTF reader drops unused ones anyway), so a saved mesh
 /// comes back with equal triangles, colours, uvs and per-triangle
 /// materials, and with equal material/texture lists when those were
-/// already all used in that order. Throws std::runtime_error naming the
-/// file when it is missing or assimp cannot parse it, and
-/// std::invalid_argument when it has no triangles or invalid geometry
-/// (NaN, bad indices) or its sidecar is invalid.
+/// already all used in that order. Logs a warning when the mesh looks as if
+/// the file had the other up axis (upAxisHint(), GeometryCheck.h). Throws
+/// std::runtime_error naming the file when it is missing or assimp cannot
+/// parse it, and std::invalid_argument when it has no triangles, invalid
+/// or hostile geometry (NaN, bad indices, the limits of GeometryCheck.h),
+/// `config` is out of its bounds or its sidecar is invalid.
 LoadedScene loadScene(const std::filesystem::path& file,
                       const MeshLoadConfig& config);
 

@@ -15,6 +15,7 @@
 #include "common/Check.h"
 #include "common/FileIo.h"
 #include "common/Random.h"
+#include "sim/GeometryCheck.h"
 #include "sim/NavMeshBuild.h"
 #include "sim/NavMeshFile.h"
 
@@ -126,6 +127,10 @@ struct NavMesh::Impl {
   DtNavMeshPtr mesh;
   dtQueryFilter filter;
   int maxNodes = 0;
+  // the union of the tiles' bounds, and it grown by kPoseMargin: where
+  // query points are accepted
+  Eigen::AlignedBox3f bounds;
+  Eigen::AlignedBox3f accepted;
 
   // per tile index: global index of its first polygon (-1: no tile)
   std::vector<int> tileBase;
@@ -176,7 +181,10 @@ NavMesh::Impl::Impl(DtNavMeshPtr navMesh, const NavMeshConfig& navConfig)
     if (tile == nullptr || tile->header == nullptr) continue;
     tileBase[static_cast<size_t>(i)] = numPolys;
     numPolys += tile->header->polyCount;
+    bounds.extend(vec(tile->header->bmin));
+    bounds.extend(vec(tile->header->bmax));
   }
+  accepted = poseBounds(bounds);
   // A* never holds more nodes than there are polygons
   maxNodes = std::clamp(numPolys + 1, 64, kMaxQueryNodes);
 
@@ -461,6 +469,15 @@ std::unique_ptr<NavMesh> NavMesh::load(const std::filesystem::path& file) {
 
 std::optional<Vec3f> NavMesh::snapPoint(const Vec3f& p,
                                         const Vec3f& halfExtents) const {
+  checkPosition("NavMesh::snapPoint()", "point", p, impl_->accepted);
+  // Detour visits every tile the search box touches
+  VLN_CHECK_ARG(
+      halfExtents.allFinite() && halfExtents.minCoeff() >= 0.0f &&
+          (halfExtents.array() <= impl_->accepted.sizes().array()).all(),
+      "NavMesh::snapPoint(): halfExtents must be finite, "
+      "non-negative and at most the accepted box (",
+      impl_->accepted.sizes().transpose(), "), got (", halfExtents.transpose(),
+      ")");
   const auto lease = impl_->acquire();
   const auto located = impl_->locate(*lease->query, p, halfExtents.data());
   if (!located) return std::nullopt;
@@ -468,11 +485,13 @@ std::optional<Vec3f> NavMesh::snapPoint(const Vec3f& p,
 }
 
 bool NavMesh::isNavigable(const Vec3f& p, float maxYDelta) const {
+  checkPosition("NavMesh::isNavigable()", "point", p, impl_->accepted);
   const auto lease = impl_->acquire();
   return impl_->locateNavigable(*lease->query, p, maxYDelta).has_value();
 }
 
 int NavMesh::islandIndex(const Vec3f& p) const {
+  checkPosition("NavMesh::islandIndex()", "point", p, impl_->accepted);
   const auto lease = impl_->acquire();
   const auto located =
       impl_->locateNavigable(*lease->query, p, /*maxYDelta=*/0.5f);
@@ -495,12 +514,16 @@ float NavMesh::navigableArea() const { return impl_->totalArea; }
 int NavMesh::polygonCount() const { return impl_->numPolys; }
 
 float NavMesh::geodesicDistance(const Vec3f& from, const Vec3f& to) const {
+  checkPosition("NavMesh::geodesicDistance()", "from", from, impl_->accepted);
+  checkPosition("NavMesh::geodesicDistance()", "to", to, impl_->accepted);
   auto lease = impl_->acquire();
   return impl_->findCorners(*lease, from, to, nullptr);
 }
 
 std::vector<Vec3f> NavMesh::shortestPath(const Vec3f& from,
                                          const Vec3f& to) const {
+  checkPosition("NavMesh::shortestPath()", "from", from, impl_->accepted);
+  checkPosition("NavMesh::shortestPath()", "to", to, impl_->accepted);
   auto lease = impl_->acquire();
   std::vector<Vec3f> corners;
   if (impl_->findCorners(*lease, from, to, &corners) == kUnreachable) return {};
@@ -508,6 +531,8 @@ std::vector<Vec3f> NavMesh::shortestPath(const Vec3f& from,
 }
 
 Vec3f NavMesh::moveAlongSurface(const Vec3f& from, const Vec3f& to) const {
+  checkPosition("NavMesh::moveAlongSurface()", "from", from, impl_->accepted);
+  checkPosition("NavMesh::moveAlongSurface()", "to", to, impl_->accepted);
   // Habitat tryStep(allowSliding=true)
   const auto lease = impl_->acquire();
   const dtNavMeshQuery& query = *lease->query;
@@ -551,6 +576,11 @@ Vec3f NavMesh::moveNoSliding(const Vec3f& from, const Vec3f& to) const {
 }
 
 float NavMesh::distanceToObstacle(const Vec3f& p, float maxRadius) const {
+  checkPosition("NavMesh::distanceToObstacle()", "point", p, impl_->accepted);
+  VLN_CHECK_ARG(std::isfinite(maxRadius) && maxRadius >= 0.0f,
+                "NavMesh::distanceToObstacle(): maxRadius must be finite and "
+                "non-negative, got ",
+                maxRadius);
   const auto lease = impl_->acquire();
   const dtNavMeshQuery& query = *lease->query;
   const auto located = impl_->locate(query, p, kPickHalfExtents);
@@ -598,5 +628,11 @@ std::vector<std::array<Vec3f, 3>> NavMesh::triangles() const {
 }
 
 const NavMeshConfig& NavMesh::config() const { return impl_->config; }
+
+const Eigen::AlignedBox3f& NavMesh::bounds() const { return impl_->bounds; }
+
+const Eigen::AlignedBox3f& NavMesh::queryBounds() const {
+  return impl_->accepted;
+}
 
 }  // namespace vln::sim

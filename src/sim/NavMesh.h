@@ -21,11 +21,16 @@ namespace vln::sim {
 inline constexpr float kUnreachable = std::numeric_limits<float>::infinity();
 
 /// A Detour navmesh with Habitat-like queries. All const methods are safe to
-/// call from several threads at once.
+/// call from several threads at once. Query points must be finite and lie
+/// within queryBounds() (the navmesh's bounds grown by kPoseMargin,
+/// GeometryCheck.h); queries throw std::invalid_argument otherwise, naming
+/// the method and the point.
 class NavMesh {
  public:
   /// Builds the navmesh of `mesh` with Recast. Throws std::invalid_argument
-  /// when the mesh yields no walkable surface.
+  /// when the mesh fails checkSceneGeometry() (GeometryCheck.h), spans more
+  /// than 1e8 cells (or 65535 along x or z), is less than one cell across
+  /// along x or z, or yields no walkable surface.
   static std::unique_ptr<NavMesh> build(const TriangleMesh& mesh,
                                         const NavMeshConfig& config);
   /// Loads a navmesh saved by save() or by Habitat-Sim (.navmesh, the Recast
@@ -40,7 +45,8 @@ class NavMesh {
   void save(const std::filesystem::path& file) const;
 
   /// Nearest point on the navmesh within the box `p` +- `halfExtents`, or
-  /// nullopt when there is none.
+  /// nullopt when there is none. `halfExtents` must be finite, non-negative
+  /// and at most queryBounds().sizes().
   std::optional<Vec3f> snapPoint(const Vec3f& p,
                                  const Vec3f& halfExtents = {0.5f, 2.0f, 0.5f}) const;
   /// True when `p` lies on the navmesh: its snapped point is within 0.01 m
@@ -80,9 +86,9 @@ class NavMesh {
   Vec3f moveNoSliding(const Vec3f& from, const Vec3f& to) const;
 
   /// Horizontal distance from `p` (snapped as in geodesicDistance()) to the
-  /// nearest navmesh boundary (wall), searched up to `maxRadius` metres;
-  /// maxRadius when no boundary is that close, 0 when there is no navmesh
-  /// near `p`.
+  /// nearest navmesh boundary (wall), searched up to `maxRadius` metres
+  /// (finite, >= 0); maxRadius when no boundary is that close, 0 when there
+  /// is no navmesh near `p`.
   float distanceToObstacle(const Vec3f& p, float maxRadius = 2.0f) const;
 
   /// A uniformly random navigable point (area-weighted), on `island` when
@@ -98,6 +104,14 @@ class NavMesh {
   /// agent_height, agent_radius and agent_max_climb, which the file
   /// records.
   const NavMeshConfig& config() const;
+
+  /// The union of its tiles' bounds: for a navmesh built here (or by
+  /// Habitat) the bounds of the mesh it was built from, with y extended by
+  /// about agent_height above the highest vertex.
+  const Eigen::AlignedBox3f& bounds() const;
+  /// The box query points must lie in: bounds() grown by kPoseMargin
+  /// (GeometryCheck.h) on every side.
+  const Eigen::AlignedBox3f& queryBounds() const;
 
  private:
   struct Impl;

@@ -8,10 +8,12 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "common/Check.h"
 #include "common/Config.h"
+#include "sim/GeometryCheck.h"
 
 namespace vln::sim::detail {
 
@@ -23,6 +25,9 @@ namespace {
 // in millimetres, a stray far vertex); Recast would try to allocate several
 // GB for it. 1e8 cells is 500 m x 500 m at the default 5 cm cells.
 constexpr double kMaxGridCells = 1e8;
+// Recast's polygon mesh stores vertex coordinates in cells as unsigned
+// short, so one tile is at most this many cells wide and deep.
+constexpr double kMaxGridSide = 65535;
 
 // Recast reports failures only through its context log; collect the errors
 // and warnings so that exceptions can quote them.
@@ -79,7 +84,7 @@ void checkStage(bool ok, const char* stage, const RecastLog& log) {
 
 [[noreturn]] void throwNothingWalkable(const TriangleMesh& mesh,
                                        const NavMeshConfig& config,
-                                       const char* where) {
+                                       std::string_view where) {
   const Eigen::AlignedBox3f box = mesh.bounds();
   throw std::invalid_argument(strCat(
       "NavMesh::build(): the mesh has no walkable surface (", where, "; ",
@@ -131,14 +136,36 @@ DetourTile buildDetourTile(const TriangleMesh& mesh,
                 mesh.positions.size(), " vertices and ", mesh.triangleCount(),
                 " triangles");
 
+  checkSceneGeometry(mesh, "NavMesh::build()");
+
+  // the grid, sized in double first: rcCalcGridSize's float-to-int
+  // conversion overflows on huge extents
   const Eigen::AlignedBox3f box = mesh.bounds();
-  const rcConfig cfg = recastConfig(config, box);
-  VLN_CHECK_ARG(static_cast<double>(cfg.width) * cfg.height <= kMaxGridCells,
-                "NavMesh::build(): the mesh spans ", cfg.width, " x ",
-                cfg.height, " cells of ", cfg.cs, " m (bounds [",
+  const double columns =
+      std::floor(static_cast<double>(box.sizes().x()) / config.cell_size + 0.5);
+  const double rows =
+      std::floor(static_cast<double>(box.sizes().z()) / config.cell_size + 0.5);
+  VLN_CHECK_ARG(
+      columns * rows <= kMaxGridCells, "NavMesh::build(): the mesh spans ",
+      columns, " x ", rows, " cells of ", config.cell_size, " m (bounds [",
+      box.min().transpose(), "] to [", box.max().transpose(), "]); more than ",
+      kMaxGridCells, " cells, check the mesh scale");
+  VLN_CHECK_ARG(columns <= kMaxGridSide && rows <= kMaxGridSide,
+                "NavMesh::build(): the mesh spans ", columns, " x ", rows,
+                " cells of ", config.cell_size, " m (bounds [",
                 box.min().transpose(), "] to [", box.max().transpose(),
-                "]); more than ", kMaxGridCells,
-                " cells, check the mesh scale");
+                "]); one Recast tile holds at most ", kMaxGridSide,
+                " cells along x and z");
+  const rcConfig cfg = recastConfig(config, box);
+  // a grid 0 cells wide or deep makes rcRasterizeTriangles write outside
+  // the heightfield (a SIGSEGV on a flat Z-up plane read Y-up)
+  if (cfg.width < 1 || cfg.height < 1)
+    throwNothingWalkable(
+        mesh, config,
+        strCat("the mesh is flat along world ", cfg.width < 1 ? "x" : "z",
+               ", less than one cell (", config.cell_size,
+               " m) across: a floor authored Z-up and read Y-up looks like "
+               "this"));
 
   RecastLog log;
   const auto* verts = mesh.positions.front().data();

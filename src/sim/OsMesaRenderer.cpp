@@ -208,8 +208,8 @@ class OsMesaRenderer final : public Renderer {
 };
 
 OsMesaRenderer::OsMesaRenderer(const TriangleMesh& mesh)
-    : Renderer("OsMesaRenderer") {
-  mesh.validate("OsMesaRenderer");
+    : Renderer("OsMesaRenderer", mesh) {
+  // Renderer() has validated the mesh
   // a 3.3 core context; Mesa returns the highest version it supports with
   // that profile (4.5 with llvmpipe in Debian 12)
   const int attributes[] = {OSMESA_FORMAT,

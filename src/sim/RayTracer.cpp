@@ -8,6 +8,7 @@
 #include <string>
 
 #include "common/Check.h"
+#include "sim/GeometryCheck.h"
 
 namespace vln::sim {
 
@@ -84,6 +85,8 @@ void throwIfDeviceError(RTCDevice device, const char* what) {
 
 struct RayTracer::Impl {
   const TriangleMesh* mesh = nullptr;
+  // the mesh's bounds grown by kPoseMargin: where rays may start
+  Eigen::AlignedBox3f accepted;
   DevicePtr device;
   ScenePtr scene;
 };
@@ -92,7 +95,9 @@ RayTracer::RayTracer(const TriangleMesh& mesh) : impl_(std::make_unique<Impl>())
   // Embree reads indices without bounds checks, so a malformed mesh must be
   // rejected before it reaches the BVH builder
   mesh.validate("RayTracer::RayTracer()");
+  checkSceneGeometry(mesh, "RayTracer::RayTracer()");
   impl_->mesh = &mesh;
+  impl_->accepted = poseBounds(mesh.bounds());
 
   RTCDevice device = sharedDevice();
   rtcRetainDevice(device);
@@ -144,9 +149,12 @@ std::optional<RayHit> RayTracer::cast(const Vec3f& origin,
                 "RayTracer::cast(): direction must be finite and non-zero, "
                 "got (",
                 direction.transpose(), ")");
-  VLN_CHECK_ARG(origin.allFinite(),
-                "RayTracer::cast(): origin must be finite, got (",
-                origin.transpose(), ")");
+  // Debian's Embree asserts on invalid rays (an origin beyond ~1.8e19, a
+  // NaN tfar) and aborts
+  checkPosition("RayTracer::cast()", "origin", origin, impl_->accepted);
+  VLN_CHECK_ARG(maxDistance >= 0.0f,
+                "RayTracer::cast(): maxDistance must be >= 0, got ",
+                maxDistance);
   const Vec3f dir = direction / length;
 
   RTCIntersectContext context;
@@ -180,9 +188,8 @@ std::optional<RayHit> RayTracer::cast(const Vec3f& origin,
 }
 
 bool RayTracer::visible(const Vec3f& a, const Vec3f& b) const {
-  VLN_CHECK_ARG(a.allFinite() && b.allFinite(),
-                "RayTracer::visible(): points must be finite, got (",
-                a.transpose(), ") and (", b.transpose(), ")");
+  checkPosition("RayTracer::visible()", "a", a, impl_->accepted);
+  checkPosition("RayTracer::visible()", "b", b, impl_->accepted);
   const Vec3f delta = b - a;
   const float length = delta.norm();
   // the endpoints usually lie on surfaces (floor, navmesh); 0.1 mm of slack

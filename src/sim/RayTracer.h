@@ -23,16 +23,22 @@ struct RayHit {
 /// An Embree BVH over a TriangleMesh (which must outlive it).
 class RayTracer {
  public:
-  /// Builds the BVH. Throws std::runtime_error if Embree reports an error.
+  /// Builds the BVH. Throws std::invalid_argument when the mesh is invalid
+  /// or fails checkSceneGeometry() (GeometryCheck.h), std::runtime_error if
+  /// Embree reports an error.
   explicit RayTracer(const TriangleMesh& mesh);
   ~RayTracer();
   RayTracer(const RayTracer&) = delete;
   RayTracer& operator=(const RayTracer&) = delete;
 
   /// Nearest hit along `origin` + t * `direction` for t in (0, maxDistance].
+  /// Throws std::invalid_argument unless the direction is finite and
+  /// non-zero, maxDistance >= 0 (infinity allowed) and the origin finite and
+  /// within the mesh's bounds grown by kPoseMargin (GeometryCheck.h).
   std::optional<RayHit> cast(const Vec3f& origin, const Vec3f& direction,
                              float maxDistance = 1e30f) const;
-  /// True when nothing blocks the segment from `a` to `b`.
+  /// True when nothing blocks the segment from `a` to `b`; both points
+  /// must lie where cast() accepts an origin.
   bool visible(const Vec3f& a, const Vec3f& b) const;
 
   /// The mesh it was built from.

@@ -13,6 +13,8 @@
 #include "common/Check.h"
 #include "common/FileIo.h"
 #include "sim/EmbreeRenderer.h"
+#include "sim/GeometryCheck.h"
+#include "sim/Mesh.h"
 #include "sim/OsMesaRenderer.h"
 #include "sim/RayTracer.h"
 
@@ -34,16 +36,29 @@ std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
   return nullptr;
 }
 
-Renderer::Renderer(std::string_view backend)
+Renderer::Renderer(std::string_view backend, const TriangleMesh& mesh)
     : rgbMethod_(strCat(backend, "::renderRgb()")),
       depthMethod_(strCat(backend, "::renderDepth()")),
+      rgbDepthMethod_(strCat(backend, "::renderRgbDepth()")),
       rgbDepthRgbMethod_(strCat(backend, "::renderRgbDepth() rgb")),
       rgbDepthDepthMethod_(strCat(backend, "::renderRgbDepth() depth")),
-      semanticMethod_(strCat(backend, "::renderSemantic()")) {}
+      semanticMethod_(strCat(backend, "::renderSemantic()")) {
+  // the backends upload or trace this mesh; hostile geometry stops here
+  mesh.validate(backend);
+  checkSceneGeometry(mesh, backend);
+  accepted_ = poseBounds(mesh.bounds());
+}
+
+void Renderer::checkEye(std::string_view method, const CameraPose& pose) const {
+  // Embree (built with assertions in Debian) aborts on a ray from beyond
+  // ~1.8e19; a camera far outside the scene sees nothing of it anyway
+  checkPosition(method, "camera eye", pose.eye, accepted_);
+}
 
 void Renderer::renderRgb(const CameraPose& pose, const CameraIntrinsics& camera,
                          std::span<uint8_t> rgb) {
   checkRenderArgs(rgbMethod_, pose, camera, rgb.size(), 3);
+  checkEye(rgbMethod_, pose);
   render(pose, camera, kColor, rgb.data(), nullptr, nullptr);
 }
 
@@ -51,6 +66,7 @@ void Renderer::renderDepth(const CameraPose& pose,
                            const CameraIntrinsics& camera,
                            std::span<float> depth) {
   checkRenderArgs(depthMethod_, pose, camera, depth.size(), 1);
+  checkEye(depthMethod_, pose);
   render(pose, camera, kDepth, nullptr, depth.data(), nullptr);
 }
 
@@ -59,6 +75,7 @@ void Renderer::renderRgbDepth(const CameraPose& pose,
                               std::span<uint8_t> rgb, std::span<float> depth) {
   checkRenderArgs(rgbDepthRgbMethod_, pose, camera, rgb.size(), 3);
   checkRenderArgs(rgbDepthDepthMethod_, pose, camera, depth.size(), 1);
+  checkEye(rgbDepthMethod_, pose);
   render(pose, camera, kColor | kDepth, rgb.data(), depth.data(), nullptr);
 }
 
@@ -66,6 +83,7 @@ void Renderer::renderSemantic(const CameraPose& pose,
                               const CameraIntrinsics& camera,
                               std::span<int32_t> objectIds) {
   checkRenderArgs(semanticMethod_, pose, camera, objectIds.size(), 1);
+  checkEye(semanticMethod_, pose);
   render(pose, camera, kObject, nullptr, nullptr, objectIds.data());
 }
 

@@ -37,9 +37,10 @@ struct CameraIntrinsics {
 /// Renders one scene. Not thread-safe: create one per thread (creation is
 /// cheap for Embree; OSMesa uploads the mesh once per renderer).
 ///
-/// The public methods check the camera and the buffer sizes (throwing
-/// std::invalid_argument naming "<Backend>::<method>()") and hand one pass
-/// to the backend's render().
+/// The public methods check the camera, the buffer sizes and that the eye
+/// lies within the scene's bounds grown by kPoseMargin (GeometryCheck.h),
+/// throwing std::invalid_argument naming "<Backend>::<method>()", and hand
+/// one pass to the backend's render().
 class Renderer {
  public:
   virtual ~Renderer() = default;
@@ -64,8 +65,10 @@ class Renderer {
   enum Output : unsigned { kColor = 1u, kDepth = 2u, kObject = 4u };
 
  protected:
-  /// `backend` names the backend in error messages ("EmbreeRenderer").
-  explicit Renderer(std::string_view backend);
+  /// `backend` names the backend in error messages ("EmbreeRenderer");
+  /// `mesh` is the scene it renders. Throws std::invalid_argument when the
+  /// mesh fails checkSceneGeometry() (GeometryCheck.h).
+  Renderer(std::string_view backend, const TriangleMesh& mesh);
 
   /// One pass of the backend: writes the images named by `outputs` (Output
   /// bits) into `rgb` [height, width, 3], `depth` [height, width] and
@@ -77,12 +80,18 @@ class Renderer {
                       int32_t* objects) = 0;
 
  private:
+  // throws naming `method` unless the eye is finite and near the scene
+  void checkEye(std::string_view method, const CameraPose& pose) const;
+
   // "<backend>::<method>()", built once rather than per render
   std::string rgbMethod_;
   std::string depthMethod_;
+  std::string rgbDepthMethod_;
   std::string rgbDepthRgbMethod_;
   std::string rgbDepthDepthMethod_;
   std::string semanticMethod_;
+  // the scene's bounds grown by kPoseMargin
+  Eigen::AlignedBox3f accepted_;
 };
 
 /// A renderer of `mesh` using `backend`; the Embree backend traces against

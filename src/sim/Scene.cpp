@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "common/Check.h"
+#include "sim/GeometryCheck.h"
 #include "sim/MeshIo.h"
 
 namespace vln::sim {
@@ -29,12 +30,27 @@ bool sameAgent(const NavMeshConfig& a, const NavMeshConfig& b) {
              kAgentMatchTolerance;
 }
 
+// A navmesh's tiles span the x and z extent of the mesh it was built from
+// and start at its lowest point (NavMesh::bounds()); a cache built from the
+// same file read with another up axis or scale does not. The tolerance
+// (1% of the mesh's largest extent + 1 cm) admits navmeshes of the same
+// scene written by other tools.
+bool builtForMesh(const Eigen::AlignedBox3f& navmesh,
+                  const Eigen::AlignedBox3f& mesh) {
+  const float tolerance = 0.01f * mesh.sizes().maxCoeff() + 0.01f;
+  const Vec3f low = (navmesh.min() - mesh.min()).cwiseAbs();
+  const Vec3f high = (navmesh.max() - mesh.max()).cwiseAbs();
+  return low.maxCoeff() <= tolerance && high.x() <= tolerance &&
+         high.z() <= tolerance;
+}
+
 // The cached navmesh beside `sceneFile` when it is present, at least as new
 // as the scene, readable and built for this agent; nullptr otherwise (with a
 // warning when a present file is unusable, since it will be overwritten).
 std::unique_ptr<NavMesh> loadCachedNavMesh(const fs::path& sceneFile,
                                            const fs::path& cacheFile,
-                                           const NavMeshConfig& config) {
+                                           const NavMeshConfig& config,
+                                           const TriangleMesh& mesh) {
   std::error_code ec;
   if (!fs::exists(cacheFile, ec)) return nullptr;
   const auto cacheTime = fs::last_write_time(cacheFile, ec);
@@ -54,6 +70,19 @@ std::unique_ptr<NavMesh> loadCachedNavMesh(const fs::path& sceneFile,
           cacheFile.string(), navmesh->config().agent_height,
           navmesh->config().agent_radius, navmesh->config().agent_max_climb,
           config.agent_height, config.agent_radius, config.agent_max_climb);
+      return nullptr;
+    }
+    if (!builtForMesh(navmesh->bounds(), mesh.bounds())) {
+      spdlog::warn(
+          "Scene: {} spans [{} {} {}] to [{} {} {}], the scene [{} {} {}] to "
+          "[{} {} {}] (another up axis or scale?); rebuilding it",
+          cacheFile.string(), navmesh->bounds().min().x(),
+          navmesh->bounds().min().y(), navmesh->bounds().min().z(),
+          navmesh->bounds().max().x(), navmesh->bounds().max().y(),
+          navmesh->bounds().max().z(), mesh.bounds().min().x(),
+          mesh.bounds().min().y(), mesh.bounds().min().z(),
+          mesh.bounds().max().x(), mesh.bounds().max().y(),
+          mesh.bounds().max().z());
       return nullptr;
     }
     return navmesh;
@@ -79,13 +108,17 @@ std::shared_ptr<const Scene> Scene::load(const std::filesystem::path& file,
   fs::path cacheFile = file;
   cacheFile += ".navmesh";
   if (config.cache_navmesh)
-    scene->navmesh_ = loadCachedNavMesh(file, cacheFile, config.navmesh);
+    scene->navmesh_ =
+        loadCachedNavMesh(file, cacheFile, config.navmesh, scene->mesh_);
   if (scene->navmesh_ == nullptr) {
     try {
       scene->navmesh_ = NavMesh::build(scene->mesh_, config.navmesh);
     } catch (const std::invalid_argument& e) {
-      throw std::invalid_argument(
-          strCat("Scene::load(): ", file.string(), ": ", e.what()));
+      // a mesh read with the wrong up axis is the usual cause
+      const std::string hint = upAxisHint(scene->mesh_, config.mesh);
+      throw std::invalid_argument(strCat("Scene::load(): ", file.string(), ": ",
+                                         e.what(), hint.empty() ? "" : "; ",
+                                         hint));
     } catch (const std::runtime_error& e) {
       throw std::runtime_error(
           strCat("Scene::load(): ", file.string(), ": ", e.what()));

@@ -20,10 +20,13 @@ class Scene {
   /// Loads a scene file (.glb/.gltf/.obj/.ply through assimp, see
   /// MeshIo.h) with its semantics sidecar if present, and its navmesh from
   /// "<file>.navmesh" when cache_navmesh and the file exists (building and
-  /// saving it otherwise). A cache older than the scene file, unreadable, or
-  /// built for other agent dimensions is rebuilt and overwritten; failing to
-  /// write the cache (read-only dataset) only logs a warning. Throws naming
-  /// the file on any other failure.
+  /// saving it otherwise). A cache older than the scene file, unreadable,
+  /// built for other agent dimensions or spanning other bounds than the
+  /// mesh (the file read with another up axis or scale) is rebuilt and
+  /// overwritten; failing to write the cache (read-only dataset) only logs
+  /// a warning. Throws naming the file on any other failure; a navmesh
+  /// build error carries upAxisHint() (GeometryCheck.h) when the mesh looks
+  /// read with the wrong up axis.
   static std::shared_ptr<const Scene> load(const std::filesystem::path& file,
                                            const SimConfig& config);
   /// Wraps an in-memory mesh (e.g. a generated house); builds its navmesh.

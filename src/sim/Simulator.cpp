@@ -6,6 +6,7 @@
 
 #include "common/Check.h"
 #include "common/Config.h"
+#include "sim/GeometryCheck.h"
 
 namespace vln::sim {
 
@@ -64,6 +65,9 @@ void Simulator::reset(const AgentState& start) {
                 "Simulator::reset(): scene '", scene_->name(),
                 "': start must be finite, got position (",
                 start.position.transpose(), "), heading ", start.heading);
+  checkPosition(strCat("Simulator::reset(): scene '", scene_->name(), "'"),
+                "start position", start.position,
+                scene_->navmesh().queryBounds());
   const auto snapped = scene_->navmesh().snapPoint(start.position);
   const float gap = snapped ? (*snapped - start.position).norm()
                             : std::numeric_limits<float>::infinity();

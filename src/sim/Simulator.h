@@ -30,7 +30,8 @@ class Simulator {
   ~Simulator();
 
   /// Starts an episode at `start`; the position is snapped to the navmesh.
-  /// Throws std::invalid_argument when `start` is not near navigable space.
+  /// Throws std::invalid_argument when `start` is not finite, outside the
+  /// navmesh's queryBounds() or not near navigable space.
   void reset(const AgentState& start);
   /// Takes one action (see stepEpisode()). Calling it before reset() or
   /// after the episode is done is a bug (aborts).

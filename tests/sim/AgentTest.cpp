@@ -245,6 +245,27 @@ TEST_F(AgentTest, TheStepLimitEndsTheEpisodeWithoutStop) {
   EXPECT_FALSE(episode.called_stop);
 }
 
+TEST_F(AgentTest, NonFiniteOrFarAwayStatesAreRefused) {
+  // a pose from a file or a caller is checked before Detour sees it
+  const AgentConfig config;
+  for (const AgentState& bad :
+       {AgentState{Vec3f(1e30f, 0, 0), 0.0f},
+        AgentState{Vec3f(NAN, 0, 1), 0.0f}, AgentState{Vec3f(1, 0, 1), NAN},
+        AgentState{Vec3f(1, 0, 1), INFINITY},
+        AgentState{Vec3f(500, 0, 1), 0.0f}}) {
+    for (Action action : {Action::kMoveForward, Action::kTurnLeft}) {
+      AgentState state = bad;
+      EXPECT_THAT([&] { applyAction(navmesh(), config, state, action); },
+                  ::testing::ThrowsMessage<std::invalid_argument>(
+                      HasSubstr("applyAction(): agent")));
+    }
+  }
+  // a finite heading of any size is fine
+  AgentState turning = standing(1.0f, 1.0f, 1e30f);
+  applyAction(navmesh(), config, turning, Action::kTurnLeft);
+  EXPECT_TRUE(std::isfinite(turning.heading));
+}
+
 TEST_F(AgentTest, SteppingAFinishedEpisodeIsABug) {
   EpisodeState episode;
   episode.agent = standing(3.0f, 3.0f, 0.0f);

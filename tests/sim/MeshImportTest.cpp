@@ -273,6 +273,39 @@ TEST(MeshImportTest, NanCoordinatesAreRejected) {
       [&] { loadScene(file, MeshLoadConfig{}); }, {"nan.ply", "non-finite"});
 }
 
+// Hostile geometry in well-formed files (issue 19): refused with the file
+// named before Recast or Embree could see it.
+TEST(MeshImportTest, HugeTinyAndDegenerateGeometryIsRefused) {
+  test::TempDir dir;
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"v 0 0 0\nv 1e30 0 0\nv 0 0 1\nf 1 2 3\n", "beyond +-1e+06 m"},
+      {"v 0 0 0\nv 1 0 1\nv 2 0 2\nv 3 0 3\nf 1 2 3\nf 2 3 4\n",
+       "all 2 triangles are degenerate"},
+      {"v 0 0 0\nv 1e-30 0 0\nv 0 0 1e-30\nf 1 2 3\n",
+       "zero area in single precision"},
+      {"v 0 0 0\nv inf 0 0\nv 0 0 1\nf 1 2 3\n", "non-finite"},
+  };
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const std::string name = "hostile" + std::to_string(i) + ".obj";
+    SCOPED_TRACE(cases[i].first);
+    const auto file = test::writeText(dir / name, cases[i].first);
+    expectThrowWith<std::invalid_argument>(
+        [&] { loadScene(file, MeshLoadConfig{}); }, {name, cases[i].second});
+  }
+}
+
+TEST(MeshImportTest, TheImportConfigIsCheckedWhenSetInCode) {
+  // a scale of 0 would make every triangle degenerate, NaN every vertex
+  test::TempDir dir;
+  const auto file = test::writeText(dir / "cube.obj", kUnitCubeObj);
+  for (float scale : {0.0f, NAN, 1e-30f, 1e30f}) {
+    MeshLoadConfig config;
+    config.scale = scale;
+    expectThrowWith<std::invalid_argument>(
+        [&] { loadScene(file, config); }, {"cube.obj", "mesh config", "scale"});
+  }
+}
+
 // Writes each case's file text to <dir>/<stem><i>.ply and expects loadScene
 // to refuse it with std::invalid_argument naming the file and the case's
 // reason.

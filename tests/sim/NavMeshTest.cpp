@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/FileIo.h"
+#include "sim/GeometryCheck.h"
 #include "sim/SimTestScenes.h"
 #include "support/TestPaths.h"
 
@@ -348,6 +349,141 @@ TEST(NavMeshBuild, EmptyMeshAndBadConfigThrow) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("cell_size"));
   }
+}
+
+// Hostile geometry (issue 19): each is a clear std::invalid_argument before
+// Recast sees the mesh, or a navmesh, never a crash.
+
+// The message of the std::invalid_argument NavMesh::build() throws.
+std::string buildError(const TriangleMesh& mesh,
+                       const NavMeshConfig& config = {}) {
+  try {
+    NavMesh::build(mesh, config);
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "expected std::invalid_argument";
+  return "";
+}
+
+// A quad with the given corners (two triangles).
+TriangleMesh quad(const Vec3f& a, const Vec3f& b, const Vec3f& c,
+                  const Vec3f& d) {
+  TriangleMesh m;
+  m.positions = {a, b, c, d};
+  m.indices = {0, 1, 2, 0, 2, 3};
+  return m;
+}
+
+TEST(NavMeshBuild, AMeshFlatAlongXOrZIsAClearError) {
+  // a Z-up floor read Y-up stands on edge: 0 m deep in world z (Recast
+  // wrote outside its heightfield on this, a SIGSEGV)
+  const std::string flatZ =
+      buildError(quad({-10, -10, 0}, {10, -10, 0}, {10, 10, 0}, {-10, 10, 0}));
+  EXPECT_THAT(flatZ, HasSubstr("flat along world z"));
+  EXPECT_THAT(flatZ, HasSubstr("Z-up"));
+  const std::string flatX =
+      buildError(quad({0, 0, 0}, {0, 0, 5}, {0, 5, 5}, {0, 5, 0}));
+  EXPECT_THAT(flatX, HasSubstr("flat along world x"));
+  // thinner than half a cell is flat too
+  EXPECT_THAT(
+      buildError(quad({0, 0, 0}, {5, 0, 0}, {5, 5, 0.02f}, {0, 5, 0.02f})),
+      HasSubstr("flat along world z"));
+}
+
+TEST(NavMeshBuild, AFloorWithNoHeightIsWalkable) {
+  // zero extent along y is an ordinary flat floor
+  const auto navmesh = NavMesh::build(
+      quad({0, 0, 0}, {0, 0, 10}, {10, 0, 10}, {10, 0, 0}), NavMeshConfig{});
+  EXPECT_EQ(navmesh->islandCount(), 1);
+  // eroded by agent_radius plus up to a cell on every side
+  EXPECT_NEAR(navmesh->navigableArea(), 9.75f * 9.75f, 2.0f);
+}
+
+TEST(NavMeshBuild, ASingleTriangleIsAFloorOrAClearError) {
+  TriangleMesh big;
+  big.positions = {{0, 0, 0}, {0, 0, 10}, {10, 0, 0}};
+  big.indices = {0, 1, 2};
+  const auto navmesh = NavMesh::build(big, NavMeshConfig{});
+  EXPECT_GT(navmesh->navigableArea(), 30.0f);
+  EXPECT_LT(navmesh->navigableArea(), 50.0f);
+  // one 10 cm triangle leaves nothing after erosion
+  TriangleMesh small = big;
+  for (Vec3f& p : small.positions) p *= 0.01f;
+  EXPECT_THAT(buildError(small), HasSubstr("no walkable surface"));
+}
+
+TEST(NavMeshBuild, OnlyVerticalTrianglesLeaveAnEmptyHeightfield) {
+  // nothing faces up: no walkable span at all
+  TriangleMesh walls;
+  for (float x : {0.0f, 2.0f, 4.0f})
+    walls.append(quad({x, 0, 0}, {x, 0, 4}, {x, 3, 4}, {x, 3, 0}));
+  EXPECT_THAT(buildError(walls), HasSubstr("no walkable surface"));
+}
+
+TEST(NavMeshBuild, DegenerateHugeAndTinyMeshesAreRefused) {
+  // collinear and repeated corners only
+  TriangleMesh degenerate;
+  degenerate.positions = {{0, 0, 0}, {1, 0, 1}, {2, 0, 2}, {5, 0, 0}};
+  degenerate.indices = {0, 1, 2, 3, 3, 0};
+  EXPECT_THAT(buildError(degenerate), HasSubstr("degenerate"));
+  // a vertex at 1e30 m
+  TriangleMesh far = quad({0, 0, 0}, {0, 0, 10}, {10, 0, 10}, {10, 0, 0});
+  far.positions[2] = {1e30f, 0, 10};
+  EXPECT_THAT(buildError(far), HasSubstr("beyond +-1e+06 m"));
+  // coordinates at 1e-30 m: every area underflows
+  TriangleMesh tiny = quad({0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0});
+  for (Vec3f& p : tiny.positions) p *= 1e-30f;
+  EXPECT_THAT(buildError(tiny), HasSubstr("degenerate"));
+  // 1e-7 m: triangles, but less than one cell across
+  TriangleMesh small = quad({0, 0, 0}, {0, 0, 1}, {1, 0, 1}, {1, 0, 0});
+  for (Vec3f& p : small.positions) p *= 1e-7f;
+  EXPECT_THAT(buildError(small), HasSubstr("less than one cell"));
+}
+
+TEST(NavMeshBuild, GridsBeyondRecastsLimitsAreRefused) {
+  // 600 km x 600 km: more than 1e8 cells (and no float-to-int overflow on
+  // the way)
+  EXPECT_THAT(buildError(quad({-3e5f, 0, -3e5f}, {-3e5f, 0, 3e5f},
+                              {3e5f, 0, 3e5f}, {3e5f, 0, -3e5f})),
+              HasSubstr("check the mesh scale"));
+  // a 4 km long, 1 m wide corridor: 80,000 cells along x, more than one
+  // tile holds
+  EXPECT_THAT(
+      buildError(quad({0, 0, 0}, {0, 0, 1}, {4000, 0, 1}, {4000, 0, 0})),
+      HasSubstr("at most 65535 cells"));
+}
+
+TEST_F(NavMeshTest, QueriesOutsideTheSceneAreRefused) {
+  // the corridor spans x, z in [-0.12, 6.12]; 100 m beyond is accepted
+  const NavMesh& navmesh = corridor();
+  EXPECT_NEAR(navmesh.bounds().min().x(), -kWall, 1e-6f);
+  EXPECT_NEAR(navmesh.bounds().max().z(), 6 + kWall, 1e-6f);
+  EXPECT_EQ(navmesh.queryBounds().min(),
+            navmesh.bounds().min() - Vec3f::Constant(kPoseMargin));
+  const Vec3f on(1.0f, 0.0f, 0.6f);
+  const Vec3f near(80.0f, 0.0f, 80.0f);
+  EXPECT_EQ(navmesh.geodesicDistance(on, near), kUnreachable);
+  for (const Vec3f& bad : {Vec3f(1e30f, 0, 0), Vec3f(200, 0, 0),
+                           Vec3f(NAN, 0, 0), Vec3f(0, -INFINITY, 0)}) {
+    SCOPED_TRACE(bad.transpose());
+    EXPECT_THAT([&] { navmesh.geodesicDistance(on, bad); },
+                ::testing::ThrowsMessage<std::invalid_argument>(
+                    HasSubstr("NavMesh::geodesicDistance(): to")));
+    EXPECT_THROW(navmesh.shortestPath(bad, on), std::invalid_argument);
+    EXPECT_THROW(navmesh.moveAlongSurface(on, bad), std::invalid_argument);
+    EXPECT_THROW(navmesh.moveNoSliding(bad, on), std::invalid_argument);
+    EXPECT_THROW(navmesh.snapPoint(bad), std::invalid_argument);
+    EXPECT_THROW(navmesh.isNavigable(bad), std::invalid_argument);
+    EXPECT_THROW(navmesh.islandIndex(bad), std::invalid_argument);
+    EXPECT_THROW(navmesh.distanceToObstacle(bad), std::invalid_argument);
+  }
+  EXPECT_THROW(navmesh.snapPoint(on, Vec3f(NAN, 1, 1)), std::invalid_argument);
+  EXPECT_THROW(navmesh.snapPoint(on, Vec3f(1e30f, 1, 1)),
+               std::invalid_argument);
+  EXPECT_THROW(navmesh.snapPoint(on, Vec3f(-1, 1, 1)), std::invalid_argument);
+  EXPECT_THROW(navmesh.distanceToObstacle(on, NAN), std::invalid_argument);
+  EXPECT_THROW(navmesh.distanceToObstacle(on, -1.0f), std::invalid_argument);
 }
 
 TEST(NavMeshBuild, SteepRampIsNotWalkableButAGentleOneIs) {

@@ -199,6 +199,22 @@ TEST(RayTracerTest, RejectsBadInput) {
   EXPECT_THROW(tracer.cast({NAN, 0, 0}, {0, 0, 1}), std::invalid_argument);
   EXPECT_THROW(tracer.visible({0, 0, 0}, {INFINITY, 0, 0}),
                std::invalid_argument);
+  // Debian's Embree aborts on a ray from 1e30 or with a NaN tfar; both are
+  // refused first
+  EXPECT_THAT(
+      [&] {
+        tracer.cast({1e30f, 0, 0}, {0, 0, 1});
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("RayTracer::cast(): origin (1e+30")));
+  EXPECT_THROW(tracer.cast({0, 1, 0}, {0, 0, 1}, NAN), std::invalid_argument);
+  EXPECT_THROW(tracer.cast({0, 1, 0}, {0, 0, 1}, -1.0f), std::invalid_argument);
+  EXPECT_TRUE(tracer.cast({0, 1, 0}, {0, 0, -1}, INFINITY).has_value());
+  EXPECT_THROW(tracer.visible({0, 1, 0}, {0, 1, 1e30f}), std::invalid_argument);
+  // and so are meshes Embree should not see
+  TriangleMesh far = wallAndFloor();
+  far.positions[0] = {1e30f, 0, 0};
+  EXPECT_THROW(RayTracer{far}, std::invalid_argument);
 
   TriangleMesh broken = wallAndFloor();
   broken.indices[4] = 99;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "common/FileIo.h"
+#include "sim/GeometryCheck.h"
 #include "sim/Mesh.h"
 #include "sim/RayTracer.h"
 #include "support/TestPaths.h"
@@ -361,6 +362,42 @@ TEST_P(RendererBackendTest, RejectsWrongBuffersAndIntrinsics) {
   std::vector<float> none;
   EXPECT_THROW(renderer->renderDepth(CameraPose{}, CameraIntrinsics{0, 4, 90.0f}, none),
                std::invalid_argument);
+}
+
+TEST_P(RendererBackendTest, CamerasFarOutsideTheSceneAreRefused) {
+  // `vlnce-sim render --position 1e30,0,0` aborted inside Embree (an
+  // assertion on the ray); every public method refuses such an eye
+  TriangleMesh mesh = testRoom();
+  RayTracer tracer(mesh);
+  auto renderer = createRenderer(mesh, tracer, GetParam());
+  const CameraIntrinsics camera{4, 4, 90.0f};
+  std::vector<uint8_t> rgb(48);
+  std::vector<float> depth(16);
+  std::vector<int32_t> ids(16);
+  const Eigen::AlignedBox3f bounds = mesh.bounds();
+  for (const Vec3f& eye :
+       {Vec3f(1e30f, 0, 0), Vec3f(0, -1e20f, 0),
+        Vec3f(bounds.max().x() + kPoseMargin + 1.0f, 0, 0)}) {
+    const CameraPose pose{eye, 0.0f, 0.0f};
+    EXPECT_THAT(
+        [&] { renderer->renderRgbDepth(pose, camera, rgb, depth); },
+        ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
+            HasSubstr(std::string(GetParam() == RendererBackend::kEmbree
+                                      ? "EmbreeRenderer"
+                                      : "OsMesaRenderer") +
+                      "::renderRgbDepth(): camera eye"),
+            HasSubstr("outside the scene"))));
+    EXPECT_THROW(renderer->renderRgb(pose, camera, rgb), std::invalid_argument);
+    EXPECT_THROW(renderer->renderDepth(pose, camera, depth),
+                 std::invalid_argument);
+    EXPECT_THROW(renderer->renderSemantic(pose, camera, ids),
+                 std::invalid_argument);
+  }
+  // just inside the margin: an ordinary (empty) view
+  const CameraPose outside{
+      Vec3f(bounds.max().x() + kPoseMargin - 1.0f, 1.0f, 0.0f), 0.0f, 0.0f};
+  renderer->renderDepth(outside, camera, depth);
+  for (float d : depth) EXPECT_GE(d, 0.0f);
 }
 
 TEST_P(RendererBackendTest, OneRendererPerThreadRunsConcurrently) {

@@ -4,12 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <set>
 #include <thread>
 #include <vector>
 
+#include "sim/GeometryCheck.h"
 #include "sim/MeshIo.h"
+#include "sim/SceneFileFixtures.h"
 #include "sim/SimTestScenes.h"
 #include "support/TestPaths.h"
 
@@ -52,7 +55,14 @@ class SceneLoadTest : public ::testing::Test {
     reference_ = NavMesh::build(loadScene(sceneFile_, MeshLoadConfig{}).mesh,
                                 NavMeshConfig{});
   }
-  // True when `navmesh` is the room's (not the slab's).
+  // Writes another navmesh of the same room as the cache: regions as large
+  // as 30 x 30 cells drop the table's island, the bounds stay the room's.
+  void writeOtherRoomCache() const {
+    NavMeshConfig coarse;
+    coarse.region_min_size = 30.0f;
+    NavMesh::build(roomWithTable(), coarse)->save(cacheFile_);
+  }
+  // True when `navmesh` is the room's (not the slab's or the coarse one).
   bool isRoomNavmesh(const NavMesh& navmesh) const {
     return navmesh.islandCount() == 2 &&
            navmesh.navigableArea() == reference_->navigableArea();
@@ -126,16 +136,25 @@ TEST_F(SceneLoadTest, BuildsAndCachesTheNavmesh) {
 }
 
 TEST_F(SceneLoadTest, UsesACacheNewerThanTheScene) {
-  // a different navmesh in the cache proves it was read, not rebuilt
-  NavMesh::build(smallSlab(), NavMeshConfig{})->save(cacheFile_);
+  // a different navmesh of the same room in the cache proves it was read,
+  // not rebuilt
+  writeOtherRoomCache();
   setMtimeRelativeTo(cacheFile_, sceneFile_, std::chrono::seconds(10));
   const auto scene = Scene::load(sceneFile_, SimConfig{});
   EXPECT_EQ(scene->navmesh().islandCount(), 1);
-  EXPECT_LT(scene->navmesh().navigableArea(), 10.0f);
+}
+
+TEST_F(SceneLoadTest, RebuildsACacheOfAnotherMesh) {
+  // the slab's navmesh spans 3 x 3 m, the room 6 x 6 m: another mesh (or
+  // the same file read with another up axis or scale)
+  NavMesh::build(smallSlab(), NavMeshConfig{})->save(cacheFile_);
+  setMtimeRelativeTo(cacheFile_, sceneFile_, std::chrono::seconds(10));
+  const auto scene = Scene::load(sceneFile_, SimConfig{});
+  EXPECT_TRUE(isRoomNavmesh(scene->navmesh()));
 }
 
 TEST_F(SceneLoadTest, RebuildsACacheOlderThanTheScene) {
-  NavMesh::build(smallSlab(), NavMeshConfig{})->save(cacheFile_);
+  writeOtherRoomCache();
   setMtimeRelativeTo(cacheFile_, sceneFile_, std::chrono::seconds(-10));
   const auto scene = Scene::load(sceneFile_, SimConfig{});
   EXPECT_TRUE(isRoomNavmesh(scene->navmesh()));
@@ -169,7 +188,7 @@ TEST_F(SceneLoadTest, WithoutCachingNoFileIsReadOrWritten) {
   EXPECT_TRUE(isRoomNavmesh(scene->navmesh()));
   EXPECT_FALSE(fs::exists(cacheFile_));
 
-  NavMesh::build(smallSlab(), NavMeshConfig{})->save(cacheFile_);
+  writeOtherRoomCache();
   setMtimeRelativeTo(cacheFile_, sceneFile_, std::chrono::seconds(10));
   EXPECT_TRUE(isRoomNavmesh(Scene::load(sceneFile_, config)->navmesh()));
 }
@@ -209,6 +228,100 @@ TEST(SceneLoad, UnwalkableSceneIsNamed) {
     EXPECT_THAT(e.what(), HasSubstr("no walkable surface"));
   }
   EXPECT_FALSE(fs::exists(dir / "wall.glb.navmesh"));
+}
+
+// ---------------------------------------------------------------------------
+// scenes from the wild (issue 19): other up axes and units
+// ---------------------------------------------------------------------------
+
+// What a Z-up file holds for a Y-up world mesh: world (x, y, z) stored as
+// (x, -z, y), as Blender exports without the Y-up conversion.
+TriangleMesh asZUpFile(TriangleMesh mesh) {
+  for (Vec3f& p : mesh.positions) p = Vec3f(p.x(), -p.z(), p.y());
+  return mesh;
+}
+
+SimConfig withMesh(UpAxis upAxis, float scale, bool cache = false) {
+  SimConfig config;
+  config.mesh.up_axis = upAxis;
+  config.mesh.scale = scale;
+  config.cache_navmesh = cache;
+  return config;
+}
+
+TEST(SceneLoad, AZUpGltfRoomLoadsWithUpAxisZ) {
+  test::TempDir dir;
+  const fs::path file = dir / "room_zup.glb";
+  saveScene(file, asZUpFile(roomWithTable()));
+  const auto reference = NavMesh::build(roomWithTable(), NavMeshConfig{});
+  // read Z-up it is the room: the same navmesh as the Y-up original
+  const auto zUp = Scene::load(file, withMesh(UpAxis::kZ, 1.0f));
+  EXPECT_EQ(zUp->navmesh().islandCount(), 2);
+  EXPECT_NEAR(zUp->navmesh().navigableArea(), reference->navigableArea(),
+              0.01f);
+  // read Y-up the floor stands on edge and two walls lie flat: a wrong
+  // navmesh, which loadScene() warns about
+  const auto yUp = Scene::load(file, withMesh(UpAxis::kY, 1.0f));
+  EXPECT_GT(
+      std::abs(yUp->navmesh().navigableArea() - reference->navigableArea()),
+      1.0f);
+  const std::string hint =
+      upAxisHint(loadScene(file, MeshLoadConfig{}).mesh, MeshLoadConfig{});
+  EXPECT_THAT(hint, HasSubstr("looks Z-up"));
+  EXPECT_THAT(hint, HasSubstr("--up-axis z"));
+}
+
+TEST(SceneLoad, AFlatZUpPlaneReadYUpIsAClearError) {
+  // a 20 m x 20 m plane authored Z-up: read Y-up it has zero extent along
+  // world z, which crashed Recast (SIGSEGV in rcRasterizeTriangles)
+  test::TempDir dir;
+  const fs::path file = dir / "plane.glb";
+  TriangleMesh plane;
+  plane.positions = {{-10, -10, 0}, {10, -10, 0}, {10, 10, 0}, {-10, 10, 0}};
+  plane.indices = {0, 1, 2, 0, 2, 3};
+  saveScene(file, plane);
+  test::expectThrowWith<std::invalid_argument>(
+      [&] { Scene::load(file, withMesh(UpAxis::kY, 1.0f)); },
+      {file.string(), "flat along world z", "looks Z-up", "--up-axis z"});
+  const auto zUp = Scene::load(file, withMesh(UpAxis::kZ, 1.0f));
+  EXPECT_NEAR(zUp->navmesh().navigableArea(), 19.75f * 19.75f, 4.0f);
+}
+
+TEST(SceneLoad, AMillimetreRoomLoadsWithItsScale) {
+  // the 6 m room written in millimetres: 1.2e5 x 1.2e5 cells at the default
+  // scale, refused with a hint; scale 0.001 gives the room's navmesh
+  test::TempDir dir;
+  const fs::path file = dir / "room_mm.obj";
+  TriangleMesh mm = roomWithTable();
+  for (Vec3f& p : mm.positions) p *= 1000.0f;
+  saveScene(file, mm);
+  test::expectThrowWith<std::invalid_argument>(
+      [&] { Scene::load(file, withMesh(UpAxis::kY, 1.0f)); },
+      {file.string(), "more than 1e+08 cells, check the mesh scale"});
+  const auto metres = Scene::load(file, withMesh(UpAxis::kY, 0.001f));
+  const auto reference = NavMesh::build(roomWithTable(), NavMeshConfig{});
+  EXPECT_EQ(metres->navmesh().islandCount(), 2);
+  EXPECT_NEAR(metres->navmesh().navigableArea(), reference->navigableArea(),
+              0.05f);
+}
+
+TEST(SceneLoad, ACacheBuiltWithAnotherScaleIsRebuilt) {
+  // the cache of the file read one way must not answer for another: it is
+  // newer than the scene and built for the same agent, but spans other
+  // bounds
+  test::TempDir dir;
+  const fs::path file = dir / "room_zup.glb";
+  saveScene(file, asZUpFile(roomWithTable()));
+  const float doubledArea =
+      Scene::load(file, withMesh(UpAxis::kZ, 2.0f, /*cache=*/true))
+          ->navmesh()
+          .navigableArea();
+  ASSERT_TRUE(fs::exists(dir / "room_zup.glb.navmesh"));
+  const auto right = Scene::load(file, withMesh(UpAxis::kZ, 1.0f, true));
+  const float area =
+      NavMesh::build(roomWithTable(), NavMeshConfig{})->navigableArea();
+  EXPECT_GT(doubledArea, 3.0f * area);
+  EXPECT_NEAR(right->navmesh().navigableArea(), area, 0.01f);
 }
 
 }  // namespace

@@ -66,6 +66,14 @@ TEST_F(SimulatorTest, ResetRejectsStartsAwayFromNavigableSpace) {
     }
   }
   EXPECT_THROW(sim.reset({Vec3f(NAN, 0, 0), 0.0f}), std::invalid_argument);
+  // far outside the scene: refused before the navmesh is asked
+  EXPECT_THAT(
+      [&] {
+        sim.reset({Vec3f(1e30f, 0, 0), 0.0f});
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          ::testing::AllOf(HasSubstr("Simulator::reset(): scene 'test-room'"),
+                           HasSubstr("outside the scene"))));
 }
 
 TEST_F(SimulatorTest, ObservationComesFromCameraAtSensorHeight) {
