@@ -99,9 +99,11 @@ Rate measurePass(const TriangleMesh& mesh, const RayTracer& tracer,
 // Agent steps per second (navmesh moves only, random actions, one
 // simulator per thread).
 Rate measureSteps(const std::shared_ptr<const Scene>& scene,
-                  const std::vector<Vec3f>& starts, int steps, int threads) {
+                  const AgentConfig& agent, const std::vector<Vec3f>& starts,
+                  int steps, int threads) {
   auto work = [&](int t) {
     SimConfig config;
+    config.agent = agent;
     Simulator sim(scene, config, TaskConfig{});
     std::mt19937_64 rng(static_cast<uint64_t>(t) + 1);
     std::uniform_int_distribution<int> action(1, 3);
@@ -154,7 +156,7 @@ int runSimThroughput(const SimThroughputOptions& options) {
   SceneSemantics semantics;
   std::string name;
   if (!options.scene.empty()) {
-    LoadedScene loaded = loadScene(options.scene, MeshLoadConfig{});
+    LoadedScene loaded = loadScene(options.scene, options.sim.mesh);
     mesh = std::move(loaded.mesh);
     semantics = std::move(loaded.semantics);
     name = fs::path(options.scene).stem().string();
@@ -168,7 +170,8 @@ int runSimThroughput(const SimThroughputOptions& options) {
   // the navmesh (poses, agent steps) comes from the original triangles; the
   // renderers trace or rasterise the subdivided ones, which lie on the same
   // surfaces
-  const auto scene = Scene::fromMesh(name, mesh, semantics, NavMeshConfig{});
+  const auto scene =
+      Scene::fromMesh(name, mesh, semantics, options.sim.navmesh);
   std::optional<TriangleMesh> dense;
   if (options.subdivide > 1)
     dense = subdivide(scene->mesh(), options.subdivide);
@@ -206,8 +209,8 @@ int runSimThroughput(const SimThroughputOptions& options) {
   const Rate rgbd =
       measurePass(rendered, tracer, backend, poses, camera, options.frames,
                   options.threads, Pass::kRgbDepth);
-  const Rate steps =
-      measureSteps(scene, starts, options.frames * 20, options.threads);
+  const Rate steps = measureSteps(scene, options.sim.agent, starts,
+                                  options.frames * 20, options.threads);
   const double pixels = static_cast<double>(camera.width) * camera.height;
   std::printf("%-6s %14s %16s\n", "", "per wall-second", "per CPU-second");
   std::printf("%-6s %9.1f fps %11.1f fps\n", "RGB", rgb.wall, rgb.cpu);

@@ -8,6 +8,8 @@
 #include <cstdint>
 #include <string>
 
+#include "sim/SimConfig.h"
+
 namespace vln::bench {
 
 /// The options of `vlnce-sim bench`, as given on the command line.
@@ -19,6 +21,9 @@ struct SimThroughputOptions {
   int frames = 1000;  ///< frames per thread and pass (steps: 20x as many)
   int threads = 1;    ///< renderers (and simulators) in parallel
   int subdivide = 1;  ///< split every triangle into N x N (sim::subdivide)
+  /// mesh import (up axis, scale; --scene only), navmesh and agent
+  /// parameters (`vlnce-sim --config/--up-axis/--scale`)
+  sim::SimConfig sim;
 };
 
 /// Loads or generates the scene, measures and prints the report to stdout;
