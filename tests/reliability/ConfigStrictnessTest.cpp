@@ -200,7 +200,13 @@ TEST(ConfigStrictnessTest, MisspeltOverrideIsRefused) {
     FAIL() << "accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("trainer.learning_rate"));
+    // the error names the override, not a line of run.yaml
+    EXPECT_THAT(e.what(), HasSubstr("--set trainer.learning_rate=0.1: "));
   }
+  // an out-of-range value given by --set (issue 19: was blamed on line 1)
+  EXPECT_THAT([&] { train::loadExperimentConfig(file, {"trainer.lr=-1"}); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("--set trainer.lr=-1: key 'trainer.lr'")));
 }
 
 models::ModelConfig smallModel(int hidden, bool progressMonitor) {
