@@ -1,6 +1,7 @@
 // Replays every input the fuzzers (fuzz/, scripts/fuzz.sh) found once
 // crashing, kept under tests/data_files/crashers/<fuzz target>/, through the
-// same reader as that target, and every committed seed under fuzz/corpus/.
+// same reader as that target (fuzz_geometry: the same recipe runner,
+// fuzz/GeometryFuzzing.h), and every committed seed under fuzz/corpus/.
 // A crasher must now end in success or a documented exception
 // (std::invalid_argument / std::runtime_error); when "<file>.expect" exists
 // the error message must contain its first line. Seeds are valid files and
@@ -23,6 +24,7 @@
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
+#include "fuzz/GeometryFuzzing.h"
 #include "sim/MeshIo.h"
 #include "sim/NavMesh.h"
 #include "support/TestPaths.h"
@@ -134,6 +136,14 @@ const std::map<std::string, Reader>& readers() {
          (void)navmesh->moveAlongSurface(a, b);
          (void)navmesh->distanceToObstacle(a);
          (void)navmesh->islandIndex(a);
+       }},
+      {"fuzz_geometry",
+       [](std::string_view in, const fs::path& dir) {
+         // documented errors of every stage, as one message for .expect
+         fuzz::geometry::Report report;
+         fuzz::geometry::runRecipe(in, dir, report);
+         if (!report.errors.empty())
+           throw std::invalid_argument(report.joined());
        }},
       {"fuzz_checkpoint",
        [](std::string_view in, const fs::path&) {

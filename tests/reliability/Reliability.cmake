@@ -23,3 +23,5 @@ foreach(source IN LISTS reliability_sources)
       LABEL reliability TORCH)
   endif()
 endforeach()
+# FuzzCrashersTest replays fuzz_geometry's recipes with fuzz/GeometryFuzzing.h
+target_include_directories(FuzzCrashersTest PRIVATE ${PROJECT_SOURCE_DIR})
