@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "common/Check.h"
 
@@ -13,9 +15,9 @@ namespace {
 
 // A triangle "faces" a direction when its normal is within 30 degrees of it.
 const float kFacingCosine = std::cos(degToRad(30.0f));
-// upAxisHint(): a floor is what faces up in the lowest tenth of the
-// extent; the other axis's floor must be more than twice the +Y one and
-// more than 5% of the whole mesh's area.
+// upAxisHint(): a floor is what faces up within a tenth of the extent of
+// the lowest up-facing triangle; the other axis's floor must be more than twice
+// the +Y one and more than 5% of the whole mesh's area.
 constexpr float kFloorBand = 0.1f;
 constexpr double kHintRatio = 2.0;
 constexpr double kHintShare = 0.05;
@@ -77,17 +79,19 @@ void checkSceneGeometry(const TriangleMesh& mesh, std::string_view source,
 namespace {
 
 // The "floor" seen with `up` as the up direction: the area of triangles that
-// face `up` (within 30 degrees) in the lowest tenth of the mesh's extent
-// along it (all of it for a mesh flat along `up`).
+// face `up` (within 30 degrees) no higher than a tenth of the mesh's extent
+// along `up` above the lowest such triangle. Measured from that triangle,
+// not from the lowest vertex: under a floor slab (or a ground box) the
+// lowest vertices face down, and a band starting there can miss the floor.
 double floorArea(const TriangleMesh& mesh, const Vec3f& up) {
-  float lowest = std::numeric_limits<float>::infinity();
-  float highest = -lowest;
+  float lowestVertex = std::numeric_limits<float>::infinity();
+  float highestVertex = -lowestVertex;
   for (const Vec3f& p : mesh.positions) {
-    lowest = std::min(lowest, p.dot(up));
-    highest = std::max(highest, p.dot(up));
+    lowestVertex = std::min(lowestVertex, p.dot(up));
+    highestVertex = std::max(highestVertex, p.dot(up));
   }
-  const float ceiling = lowest + kFloorBand * (highest - lowest);
-  double area = 0.0;
+  // the triangles facing `up`: (height of the centroid, area)
+  std::vector<std::pair<float, double>> facing;
   for (size_t t = 0; t < mesh.triangleCount(); ++t) {
     const uint32_t* corner = mesh.indices.data() + 3 * t;
     const Vec3f& a = mesh.positions[corner[0]];
@@ -97,9 +101,15 @@ double floorArea(const TriangleMesh& mesh, const Vec3f& up) {
     const float length = normal.norm();
     if (!(length > 0.0f) || !std::isfinite(length)) continue;
     if (normal.dot(up) <= kFacingCosine * length) continue;
-    if ((a + b + c).dot(up) / 3.0f <= ceiling) area += 0.5 * length;
+    facing.emplace_back((a + b + c).dot(up) / 3.0f, 0.5 * length);
   }
-  return area;
+  float lowest = std::numeric_limits<float>::infinity();
+  for (const auto& [height, area] : facing) lowest = std::min(lowest, height);
+  const float ceiling = lowest + kFloorBand * (highestVertex - lowestVertex);
+  double total = 0.0;
+  for (const auto& [height, area] : facing)
+    if (height <= ceiling) total += area;
+  return total;
 }
 
 }  // namespace

@@ -51,13 +51,14 @@ void checkSceneGeometry(const TriangleMesh& mesh, std::string_view source,
 
 /// A warning sentence when `mesh` (world frame, imported with `config`)
 /// looks as if its file has the other up axis, else "". Compares two
-/// floors: the area of triangles facing world +Y (within 30 degrees) in
-/// the lowest tenth of the mesh's height, and the same seen along where the
-/// other up axis went: +Z for a file read Y-up (the floor of a Z-up file,
-/// e.g. a glTF exported without the Y-up conversion), -Z for a file read
-/// Z-up. The hint is given when the second is more than twice the first
-/// and more than 5% of the mesh's area. A heuristic: a lone corridor whose
-/// walls are more than twice as tall as it is wide gets the hint too.
+/// floors: the area of triangles facing world +Y (within 30 degrees) at
+/// most a tenth of the mesh's height above the lowest of them (so the top
+/// of a floor slab counts), and the same seen along where the other up
+/// axis went: +Z for a file read Y-up (the floor of a Z-up file, e.g. a
+/// glTF exported without the Y-up conversion), -Z for a file read Z-up.
+/// The hint is given when the second is more than twice the first and more
+/// than 5% of the mesh's area. A heuristic: a lone corridor whose walls are
+/// more than twice as tall as it is wide gets the hint too.
 std::string upAxisHint(const TriangleMesh& mesh, const MeshLoadConfig& config);
 
 /// `bounds` grown by kPoseMargin on every side: where positions are

@@ -13,6 +13,7 @@ namespace {
 
 using test::addBox;
 using test::roomWithTable;
+using test::slabWithFurniture;
 using ::testing::HasSubstr;
 using ::testing::IsEmpty;
 
@@ -127,6 +128,16 @@ TEST(GeometryCheckTest, RoomsReadWithTheirOwnUpAxisGetNoHint) {
   MeshLoadConfig zUp;
   zUp.up_axis = UpAxis::kZ;
   EXPECT_THAT(upAxisHint(roomWithTable(), zUp), IsEmpty());
+}
+
+// Below a floor slab's top there are only faces pointing down, so the
+// floor must be looked for above the lowest up-facing triangle, not the
+// lowest vertex (the slab room got no hint).
+TEST(GeometryCheckTest, AZUpSlabWithLowFurnitureGetsTheHint) {
+  MeshLoadConfig yUp;
+  EXPECT_THAT(upAxisHint(asZUpFile(slabWithFurniture()), yUp),
+              HasSubstr("looks Z-up"));
+  EXPECT_THAT(upAxisHint(slabWithFurniture(), yUp), IsEmpty());
 }
 
 TEST(GeometryCheckTest, AYUpRoomReadZUpGetsTheHint) {

@@ -1,5 +1,5 @@
 // The `vlnce-sim` binary (apps/SimMain.cpp) on scenes from the wild, each
-// written by the test (issue 19): a Z-up glTF room, a flat Z-up plane, a
+// written by the test (issue 19): Z-up glTF rooms, a flat Z-up plane, a
 // room in millimetres, and a render far outside the scene. Every one ends
 // in the right answer or a clear error, never a crash; --up-axis, --scale
 // and --config say what the file is.
@@ -78,6 +78,24 @@ TEST_F(SimBinaryTest, AZUpGltfRoomNeedsUpAxisZ) {
             0)
       << output;
   EXPECT_NEAR(navigableArea(output), area, 0.01f);
+}
+
+TEST_F(SimBinaryTest, AZUpSlabRoomWithoutWallsGetsTheHintToo) {
+  // the issue's room: a floor slab with low furniture, no walls
+  const fs::path file = dir_ / "slab_zup.glb";
+  saveScene(file, asZUpFile(test::slabWithFurniture()));
+  std::string output;
+  EXPECT_EQ(run("navmesh --no-cache --scene " + file.string(), &output), 1);
+  EXPECT_THAT(output, HasSubstr("looks Z-up"));
+  EXPECT_THAT(output, HasSubstr("--up-axis z"));
+  ASSERT_EQ(
+      run("navmesh --no-cache --up-axis z --scene " + file.string(), &output),
+      0)
+      << output;
+  EXPECT_NEAR(navigableArea(output),
+              NavMesh::build(test::slabWithFurniture(), NavMeshConfig{})
+                  ->navigableArea(),
+              0.01f);
 }
 
 TEST_F(SimBinaryTest, AFlatZUpPlaneIsAnErrorNotACrash) {

@@ -81,6 +81,18 @@ inline sim::TriangleMesh roomWithTable() {
   return m;
 }
 
+/// The issue 19 Z-up glTF room before export: a 10 x 10 m floor slab
+/// 0.2 m thick (x, z in [-5, 5], top at y = 0) with a table and two boxes
+/// on it, nothing taller than 1 m and no walls.
+inline sim::TriangleMesh slabWithFurniture() {
+  sim::TriangleMesh m;
+  addBox(m, {-5, -0.2f, -5}, {5, 0, 5});
+  addBox(m, {1, 0, 1}, {2.5f, 0.75f, 2});
+  addBox(m, {-3, 0, -3}, {-2, 1, -2});
+  addBox(m, {3, 0, -4}, {4, 0.5f, -3});
+  return m;
+}
+
 /// Appends the quad corners[0..3] (two triangles 0-1-2 and 0-2-3, facing
 /// where the corners run counter-clockwise) in `color`, labelled `object`
 /// (-1: none).
