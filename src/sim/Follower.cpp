@@ -28,6 +28,12 @@ ShortestPathFollower::ShortestPathFollower(const NavMesh& navmesh,
 
 Action ShortestPathFollower::nextAction(const AgentState& state,
                                         const Vec3f& goal) const {
+  // the navmesh checks both positions; the heading only steers the choice
+  // below, where NaN would pick a turn silently
+  VLN_CHECK_ARG(std::isfinite(state.heading),
+                "ShortestPathFollower::nextAction(): agent heading must be "
+                "finite, got ",
+                state.heading);
   // close enough, or no way there
   const std::vector<Vec3f> path = navmesh_.shortestPath(state.position, goal);
   if (path.empty()) return Action::kStop;

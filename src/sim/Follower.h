@@ -18,7 +18,9 @@ class ShortestPathFollower {
   /// otherwise MOVE_FORWARD when the direction to the next corner of the
   /// shortest path is within turn_angle of the heading, else the turn that
   /// brings the heading closer to it. Returns STOP when the goal is
-  /// unreachable.
+  /// unreachable. Throws std::invalid_argument when the heading is not
+  /// finite, or a position is not finite or outside the navmesh's
+  /// queryBounds().
   Action nextAction(const AgentState& state, const Vec3f& goal) const;
 
  private:

@@ -1,5 +1,6 @@
 #include "sim/Follower.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -16,6 +17,8 @@ using test::kSlab;
 using test::kWallTop;
 using test::wallAlongX;
 using test::wallAlongZ;
+using ::testing::HasSubstr;
+using ::testing::ThrowsMessage;
 
 // Three rooms in a 12 x 8 m house, joined by 1.2 m doorways at different
 // heights of the dividing walls, with a half wall in the third room, four
@@ -77,6 +80,28 @@ TEST_F(FollowerTest, StopsWhenTheGoalIsUnreachable) {
   const AgentState state = standing(1.0f, 1.0f, 0.0f);
   EXPECT_EQ(follower.nextAction(state, {1.8f, 0.75f, 5.8f}), Action::kStop);
   EXPECT_EQ(follower.nextAction(state, {40.0f, 0.0f, 40.0f}), Action::kStop);
+}
+
+TEST_F(FollowerTest, NonFiniteOrFarAwayStatesAreRefused) {
+  const ShortestPathFollower follower(navmesh(), AgentConfig{}, 0.5f);
+  const AgentState state = standing(1.0f, 1.0f, 0.0f);
+  const Vec3f goal = standing(3.0f, 1.0f, 0.0f).position;
+  for (float heading : {NAN, INFINITY}) {
+    EXPECT_THAT(
+        [&] {
+          follower.nextAction({state.position, heading}, goal);
+        },
+        ThrowsMessage<std::invalid_argument>(
+            HasSubstr("ShortestPathFollower::nextAction(): agent heading")));
+  }
+  EXPECT_THAT(
+      [&] {
+        follower.nextAction({Vec3f(1e30f, 0, 1), 0.0f}, goal);
+      },
+      ThrowsMessage<std::invalid_argument>(HasSubstr("outside the scene")));
+  EXPECT_THAT(
+      [&] { follower.nextAction(state, Vec3f(1, NAN, 1)); },
+      ThrowsMessage<std::invalid_argument>(HasSubstr("must be finite")));
 }
 
 TEST_F(FollowerTest, TurnsTowardsTheNextCorner) {

@@ -359,6 +359,15 @@ TEST_P(RendererBackendTest, RejectsWrongBuffersAndIntrinsics) {
   EXPECT_THROW(renderer->renderDepth(CameraPose{Vec3f(NAN, 0, 0), 0, 0},
                                      CameraIntrinsics{4, 4, 90.0f}, depth),
                std::invalid_argument);
+  // headings and pitches too: the camera's rotation is built from them
+  for (const CameraPose& pose : {CameraPose{Vec3f(1, 1, 1), NAN, 0},
+                                 CameraPose{Vec3f(1, 1, 1), 0, INFINITY}})
+    EXPECT_THAT(
+        [&] {
+          renderer->renderDepth(pose, CameraIntrinsics{4, 4, 90.0f}, depth);
+        },
+        ::testing::ThrowsMessage<std::invalid_argument>(
+            HasSubstr("camera pose must be finite")));
   std::vector<float> none;
   EXPECT_THROW(renderer->renderDepth(CameraPose{}, CameraIntrinsics{0, 4, 90.0f}, none),
                std::invalid_argument);

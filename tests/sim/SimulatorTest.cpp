@@ -66,6 +66,11 @@ TEST_F(SimulatorTest, ResetRejectsStartsAwayFromNavigableSpace) {
     }
   }
   EXPECT_THROW(sim.reset({Vec3f(NAN, 0, 0), 0.0f}), std::invalid_argument);
+  // a heading that is not finite, at an otherwise good start
+  for (float heading : {NAN, -INFINITY})
+    EXPECT_THAT([&] { sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), heading}); },
+                ::testing::ThrowsMessage<std::invalid_argument>(
+                    HasSubstr("start must be finite")));
   // far outside the scene: refused before the navmesh is asked
   EXPECT_THAT(
       [&] {
