@@ -12,6 +12,7 @@
 
 #include "common/Check.h"
 #include "common/FileIo.h"
+#include "sim/GeometryCheck.h"
 #include "sim/Scene.h"
 
 namespace vln::sim {
@@ -82,6 +83,9 @@ struct TopDownMap::Impl {
   float minZ = 0.0f;
   std::vector<uint8_t> rgb;
   cv::Mat image;  // CV_8UC3 view of rgb, channels in RGB order
+  // the navmesh's query box: where drawn points may lie (a point at 1e30
+  // overflows the int pixel coordinates)
+  Eigen::AlignedBox3f accepted;
 
   // continuous map coordinates in OpenCV's fixed-point convention (integer
   // = pixel centre)
@@ -105,6 +109,7 @@ TopDownMap::TopDownMap(const Scene& scene, float metersPerPixel, float floorY)
   VLN_CHECK_ARG(std::isfinite(floorY), "TopDownMap: floorY must be finite, got ",
                 floorY);
   impl_->metersPerPixel = metersPerPixel;
+  impl_->accepted = scene.navmesh().queryBounds();
 
   // the floor: the navmesh level nearest to floorY, and its triangles
   const auto triangles = scene.navmesh().triangles();
@@ -205,7 +210,11 @@ void TopDownMap::drawPath(const std::vector<Vec3f>& points, Rgb8 color,
   if (points.empty()) return;
   std::vector<cv::Point> polyline;
   polyline.reserve(points.size());
-  for (const Vec3f& p : points) polyline.push_back(impl_->fixedPoint(p));
+  for (size_t i = 0; i < points.size(); ++i) {
+    checkPosition("TopDownMap::drawPath()", strCat("point ", i), points[i],
+                  impl_->accepted);
+    polyline.push_back(impl_->fixedPoint(points[i]));
+  }
   if (polyline.size() == 1) {
     cv::circle(impl_->image, polyline[0], std::max(1, thickness) * (1 << kShift) / 2,
                toScalar(color), cv::FILLED, cv::LINE_AA, kShift);
@@ -216,6 +225,7 @@ void TopDownMap::drawPath(const std::vector<Vec3f>& points, Rgb8 color,
 }
 
 void TopDownMap::drawPoint(const Vec3f& p, Rgb8 color, int radiusPixels) {
+  checkPosition("TopDownMap::drawPoint()", "point", p, impl_->accepted);
   cv::circle(impl_->image, impl_->fixedPoint(p),
              std::max(1, radiusPixels) * (1 << kShift), toScalar(color),
              cv::FILLED, cv::LINE_AA, kShift);
@@ -226,6 +236,8 @@ void TopDownMap::drawCircle(const Vec3f& center, float radiusMeters, Rgb8 color,
   VLN_CHECK_ARG(std::isfinite(radiusMeters) && radiusMeters >= 0.0f,
                 "TopDownMap::drawCircle(): radius must be >= 0, got ",
                 radiusMeters);
+  checkPosition("TopDownMap::drawCircle()", "centre", center,
+                impl_->accepted);
   const int radius = static_cast<int>(
       std::lround(radiusMeters / impl_->metersPerPixel * kSubpixel));
   cv::circle(impl_->image, impl_->fixedPoint(center), radius, toScalar(color),
@@ -233,6 +245,11 @@ void TopDownMap::drawCircle(const Vec3f& center, float radiusMeters, Rgb8 color,
 }
 
 void TopDownMap::drawAgent(const Vec3f& p, float heading, Rgb8 color) {
+  checkPosition("TopDownMap::drawAgent()", "agent position", p,
+                impl_->accepted);
+  VLN_CHECK_ARG(std::isfinite(heading),
+                "TopDownMap::drawAgent(): heading must be finite, got ",
+                heading);
   // a disc the size of the agent (0.1 m radius) and an arrow 0.5 m long
   // along the heading, both kept visible on coarse maps
   const float mpp = impl_->metersPerPixel;
@@ -248,6 +265,7 @@ void TopDownMap::drawAgent(const Vec3f& p, float heading, Rgb8 color) {
 }
 
 void TopDownMap::drawText(const Vec3f& p, const std::string& text, Rgb8 color) {
+  checkPosition("TopDownMap::drawText()", "point", p, impl_->accepted);
   // centred on the point, in a small fixed font
   constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
   constexpr double kScale = 0.35;
@@ -260,6 +278,7 @@ void TopDownMap::drawText(const Vec3f& p, const std::string& text, Rgb8 color) {
 }
 
 Eigen::Vector2i TopDownMap::toPixel(const Vec3f& p) const {
+  checkPosition("TopDownMap::toPixel()", "point", p, impl_->accepted);
   const cv::Point pixel = impl_->pixel(p);
   return {pixel.x, pixel.y};
 }

@@ -16,7 +16,10 @@ class Scene;
 
 /// An RGB canvas covering the scene's navmesh bounds in the x-z plane (plus
 /// a 0.5 m margin): column = (x - min_x) / metersPerPixel, row = (z - min_z)
-/// / metersPerPixel, so heading 0 (-Z) points up the image.
+/// / metersPerPixel, so heading 0 (-Z) points up the image. Points given to
+/// the draw methods and toPixel() must be finite and within the navmesh's
+/// queryBounds() (beyond the canvas is fine: nothing is drawn there), and
+/// headings finite; std::invalid_argument names the method otherwise.
 class TopDownMap {
  public:
   /// Rasterises navigable area (light), obstacles/walls (dark) and semantic

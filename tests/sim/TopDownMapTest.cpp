@@ -147,6 +147,32 @@ TEST_F(TopDownMapTest, SavesAPngAtomically) {
   EXPECT_EQ(entries, 1);
 }
 
+TEST_F(TopDownMapTest, RefusesPointsFarOutsideTheScene) {
+  // a point at 1e30 overflowed the int pixel coordinates; points are
+  // checked as the navmesh checks its queries
+  TopDownMap map(*scene_, 0.1f);
+  const Vec3f far(1e30f, 0, 0);
+  const Vec3f nan(0, 0, NAN);
+  const Rgb8 red{255, 0, 0};
+  for (const Vec3f& bad : {far, nan}) {
+    EXPECT_THROW(map.drawPoint(bad, red), std::invalid_argument);
+    EXPECT_THROW(map.drawCircle(bad, 3.0f, red), std::invalid_argument);
+    EXPECT_THROW(map.drawAgent(bad, 0.0f, red), std::invalid_argument);
+    EXPECT_THROW(map.drawText(bad, "x", red), std::invalid_argument);
+    EXPECT_THROW(map.toPixel(bad), std::invalid_argument);
+  }
+  EXPECT_THAT([&] { map.drawPath({Vec3f(1, 0, 1), far}, red); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("TopDownMap::drawPath(): point 1 (1e+30")));
+  EXPECT_THAT([&] { map.drawAgent(Vec3f(1, 0, 1), NAN, red); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("TopDownMap::drawAgent(): heading")));
+  // off the canvas but near the scene: nothing drawn, no error
+  const std::vector<uint8_t> before = map.rgb();
+  map.drawPoint(Vec3f(50, 0, 50), red);
+  EXPECT_EQ(map.rgb(), before);
+}
+
 TEST_F(TopDownMapTest, RejectsBadScale) {
   try {
     TopDownMap map(*scene_, 0.0f);
