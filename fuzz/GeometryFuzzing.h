@@ -19,7 +19,8 @@
 //   [2] number of parts, 1 + byte % 8; then each part: an opcode
 //       (Part, byte % kNumParts) and its parameters
 //   then the poses (1 + byte % 4), each a kind, a position and a heading;
-//   the camera (width, height, hfov); the actions (byte % 33 of them).
+//   the camera (decodeCamera()); the actions ((byte + 8) % 33 of them,
+//   each (byte + 1) % 4).
 // Numbers come from Numbers: most bytes give ordinary values, the rest the
 // hostile table (0, 1e-30, 1e30, FLT_MAX, inf, NaN, ...). Random parts draw
 // through common/Random.h, so that a crasher found by the clang build
@@ -239,11 +240,11 @@ inline void decodePart(Numbers& in, FileMesh& mesh) {
       const auto base = static_cast<uint32_t>(mesh.positions.size());
       for (int i = 0; i <= n; ++i)
         for (int j = 0; j <= n; ++j)
-          mesh.positions.push_back(fileFrame(
-              {size * (static_cast<float>(i) / n - 0.5f),
-               bump * common::uniformRange(rng, 0.0f, 1.0f),
-               size * (0.5f - static_cast<float>(j) / n)},
-              zUp));
+          mesh.positions.push_back(
+              fileFrame({size * (static_cast<float>(i) / n - 0.5f),
+                         bump * common::uniformRange(rng, 0.0f, 1.0f),
+                         size * (0.5f - static_cast<float>(j) / n)},
+                        zUp));
       const auto at = [&](int i, int j) {
         return base + static_cast<uint32_t>(i * (n + 1) + j);
       };
@@ -447,6 +448,27 @@ struct PoseRecipe {
   float heading = 0.0f;
 };
 
+// The camera: width and height 1-16 and a field of view in [10, 169.4]
+// degrees, or for the last six hfov bytes one outside (0, 180) or at its
+// edges. Recipes are short and read zeros once they end: zeros give 8 x 8
+// at 90 degrees, so that such recipes still render.
+inline sim::CameraIntrinsics decodeCamera(Numbers& in) {
+  const int width = 1 + (in.byte() + 7) % 16;
+  const int height = 1 + (in.byte() + 7) % 16;
+  static constexpr float kHostileFov[] = {
+      0.0f,
+      180.0f,
+      std::numeric_limits<float>::quiet_NaN(),
+      std::numeric_limits<float>::infinity(),
+      1e-6f,
+      179.99f};
+  const uint8_t f = in.byte();
+  const float hfov = f < 250
+                         ? 10.0f + static_cast<float>((f + 125) % 250) * 0.64f
+                         : kHostileFov[f - 250];
+  return {width, height, hfov};
+}
+
 inline Vec3f resolvePose(const PoseRecipe& pose,
                          const Eigen::AlignedBox3f& bounds) {
   const float inf = std::numeric_limits<float>::infinity();
@@ -510,11 +532,11 @@ inline void runRecipe(std::string_view bytes, const fs::path& dir,
     pose.given = in.vec();
     pose.heading = in.coordinate();
   }
-  const sim::CameraIntrinsics camera{1 + in.byte() % 16, 1 + in.byte() % 16,
-                                     std::abs(in.coordinate()) * 9.0f};
-  std::vector<sim::Action> actions(in.byte() % 33);
+  const sim::CameraIntrinsics camera = decodeCamera(in);
+  // zeros (a recipe that ended) give eight MOVE_FORWARDs
+  std::vector<sim::Action> actions((in.byte() + 8) % 33);
   for (sim::Action& action : actions)
-    action = static_cast<sim::Action>(in.byte() % sim::kNumActions);
+    action = static_cast<sim::Action>((in.byte() + 1) % sim::kNumActions);
   if (mesh.triangles.empty()) return;
 
   // the file
