@@ -474,15 +474,7 @@ EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
 // ---------------------------------------------------------------------------
 
 SplitStats aggregate(std::span<const EpisodeMetrics> episodes) {
-  VLN_CHECK_ARG(!episodes.empty(), "aggregate(): no episodes to average");
-  SplitStats stats;
-  stats.num_episodes = static_cast<int>(episodes.size());
-  for (const auto& [key, member] : kMetricFields) {
-    double sum = 0.0;
-    for (const auto& e : episodes) sum += e.*member;
-    stats.mean.*member = sum / static_cast<double>(episodes.size());
-  }
-  return stats;
+  return averageMetrics<SplitStats>(episodes, kMetricFields, "aggregate()");
 }
 
 // ---------------------------------------------------------------------------

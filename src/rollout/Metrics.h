@@ -34,6 +34,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/Check.h"
 #include "common/Math.h"
 
 namespace vln::rollout {
@@ -206,6 +207,25 @@ EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
 /// Means over `episodes` (VLN-CE: sum / num_episodes for every key).
 /// Throws std::invalid_argument when `episodes` is empty.
 SplitStats aggregate(std::span<const EpisodeMetrics> episodes);
+
+/// Means of the `fields` of `episodes` as a Stats (`mean`, `num_episodes`):
+/// aggregate() and the nav-graph comparison's eval::aggregateGraph(). Throws
+/// std::invalid_argument naming `caller` when `episodes` is empty.
+template <class Stats, class Metrics, size_t N>
+Stats averageMetrics(
+    std::span<const Metrics> episodes,
+    const std::array<std::pair<const char*, double Metrics::*>, N>& fields,
+    std::string_view caller) {
+  VLN_CHECK_ARG(!episodes.empty(), caller, ": no episodes to average");
+  Stats stats;
+  stats.num_episodes = static_cast<int>(episodes.size());
+  for (const auto& [key, member] : fields) {
+    double sum = 0.0;
+    for (const auto& e : episodes) sum += e.*member;
+    stats.mean.*member = sum / static_cast<double>(episodes.size());
+  }
+  return stats;
+}
 
 // --- files ----------------------------------------------------------------
 
