@@ -309,8 +309,16 @@ EpisodeMetrics metricsFromJson(const nlohmann::json& j,
   VLN_CHECK_ARG(j.is_object(), where, ": expected a JSON object, got ",
                 j.type_name());
   EpisodeMetrics m;
-  for (const auto& [key, member] : kMetricFields)
-    m.*member = numberField(j, key, where);
+  for (const auto& [key, member] : kMetricFields) {
+    const bool addedLater =
+        std::find_if(kMetricsAddedLater.begin(), kMetricsAddedLater.end(),
+                     [&](const char* later) {
+                       return std::string_view(later) == key;
+                     }) != kMetricsAddedLater.end();
+    m.*member = addedLater && !j.contains(key)
+                    ? std::numeric_limits<double>::quiet_NaN()
+                    : numberField(j, key, where);
+  }
   return m;
 }
 
@@ -336,13 +344,31 @@ double pathLength(std::span<const Vec3f> positions) {
 
 bool oracleSuccess(std::span<const Vec3f> positions, const Vec3f& goal,
                    const GeodesicFn& geodesic, double successDistance) {
+  return oracleNavigationError(positions, goal, geodesic) < successDistance;
+}
+
+double oracleNavigationError(std::span<const Vec3f> positions,
+                             const Vec3f& goal, const GeodesicFn& geodesic) {
+  double nearest = std::numeric_limits<double>::infinity();
   // a repeated position has the same distance; skip the geodesic query
   for (size_t i = 0; i < positions.size(); ++i) {
     if (i > 0 && positions[i] == positions[i - 1]) continue;
-    if (static_cast<double>(geodesic(positions[i], goal)) < successDistance)
-      return true;
+    nearest = std::min(nearest, static_cast<double>(geodesic(positions[i], goal)));
   }
-  return false;
+  return nearest;
+}
+
+double oracleSplScore(std::span<const Vec3f> positions, const Vec3f& goal,
+                      const GeodesicFn& geodesic, double startDistance,
+                      double successDistance) {
+  double travelled = 0.0;
+  for (size_t i = 1; i < positions.size(); ++i) {
+    travelled +=
+        (positions[i].cast<double>() - positions[i - 1].cast<double>()).norm();
+    if (static_cast<double>(geodesic(positions[i], goal)) < successDistance)
+      return splScore(/*success=*/true, startDistance, travelled);
+  }
+  return 0.0;
 }
 
 bool isSuccess(bool calledStop, double finalDistance, double successDistance) {
@@ -457,10 +483,12 @@ EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
                                  options.success_distance);
   m.success = success ? 1.0 : 0.0;
   m.spl = splScore(success, record.start_distance, m.path_length);
-  m.oracle_success = oracleSuccess(record.positions, record.goal, geodesic,
-                                   options.success_distance)
-                         ? 1.0
-                         : 0.0;
+  m.oracle_navigation_error =
+      oracleNavigationError(record.positions, record.goal, geodesic);
+  m.oracle_success =
+      m.oracle_navigation_error < options.success_distance ? 1.0 : 0.0;
+  m.oracle_spl = oracleSplScore(record.positions, record.goal, geodesic,
+                                record.start_distance, options.success_distance);
   m.ndtw =
       ndtwScore(record.positions, record.reference_path,
                 options.success_distance, options.dtw, options.fastdtw_radius);
