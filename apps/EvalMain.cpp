@@ -1,10 +1,6 @@
 // eval: evaluation of checkpoints, TorchScript exports and the no-learning
 // baselines, and the paper's tables (see src/eval/EvalCommands.h).
 #include <CLI/CLI.hpp>
-#include <unistd.h>
-
-#include <cstdlib>
-#include <iostream>
 
 #include "common/App.h"
 #include "eval/EvalCommands.h"
@@ -14,15 +10,8 @@ int main(int argc, char** argv) {
   // OpenMP threads that busy-wait between LibTorch ops take the cores from
   // the environment threads rendering between policy steps: on the 2-core
   // machine, evaluation ran at 23 steps/s with libgomp's default policy and
-  // 672 steps/s with PASSIVE (docs/performance.md, "Evaluation"). libgomp
-  // reads the variable when it is loaded, before main(), so the process
-  // restarts itself once with it set; an explicit setting is respected.
-  if (std::getenv("OMP_WAIT_POLICY") == nullptr) {
-    ::setenv("OMP_WAIT_POLICY", "PASSIVE", /*overwrite=*/1);
-    ::execv("/proc/self/exe", argv);
-    std::cerr << "eval: warning: could not restart with OMP_WAIT_POLICY=PASSIVE; "
-                 "evaluation may be slow\n";
-  }
+  // 672 steps/s with PASSIVE (docs/performance.md, "Evaluation").
+  vln::common::pinNumericalRuntime("eval", argv, /*passiveOmpWait=*/true);
   return vln::common::runMain("eval", [&] {
     CLI::App app{"Evaluate VLN-CE checkpoints, exports and baselines; build the paper's tables"};
     std::filesystem::path config;
