@@ -46,6 +46,7 @@ struct ModelConfig {
   std::string rgb_weights;
   std::string depth_weights;
   bool rgb_trainable = false;
+  bool rgb_batch_statistics = false;
   bool depth_trainable = false;
   bool no_rgb = false;
   bool no_depth = false;
@@ -84,6 +85,15 @@ struct ModelConfig {
             "scripts/convert_ddppo_depth.py writes (empty: random init)");
     v.field("rgb_trainable", rgb_trainable,
             "Train the RGB CNN (its features cannot then be cached)");
+    v.field("rgb_batch_statistics", rgb_batch_statistics,
+            "While collecting training data, normalise the frozen RGB "
+            "ResNet's BatchNorm by the statistics of the batch being encoded, "
+            "as VLN-CE does (its Net calls self.train(), so the ResNet runs "
+            "in train mode during collection): stored features then depend on "
+            "the observations encoded together (trainer.num_envs, one with "
+            "exact_resume). The running (ImageNet) statistics are not updated "
+            "and evaluation always uses them (docs/models.md). No effect on "
+            "small_cnn, which has no BatchNorm");
     v.field("depth_trainable", depth_trainable,
             "Train the depth CNN (its features cannot then be cached)");
     v.field("no_rgb", no_rgb,

@@ -44,6 +44,10 @@ struct TrainerConfig {
   std::string init_checkpoint;
 
   bool use_aug = false;
+  std::string expert = "goal";
+  std::string dagger_action = "sample";
+  bool clip_progress_target = false;
+  std::string evaluate_every = "epoch";
 
   bool store_fp16 = true;
   double store_max_gib = 64.0;
@@ -129,6 +133,25 @@ struct TrainerConfig {
     v.field("use_aug", use_aug,
             "Mix the dataset's augmentation split into teacher forcing (paper: "
             "Aug)");
+    v.choice("expert", expert, {"goal", "reference_path"},
+             "The oracle of teacher forcing and DAgger: goal is VLN-CE's "
+             "ShortestPathSensor (the shortest-path action to the episode's "
+             "goal, STOP within task.follower_goal_radius); reference_path "
+             "follows the reference path's waypoints in order, as the "
+             "ground truth was generated, so an agent that drifted past a "
+             "waypoint is sent back to it");
+    v.choice("dagger_action", dagger_action, {"sample", "argmax"},
+             "The policy's action where DAgger does not take the oracle's: "
+             "sampled from its softmax (VLN-CE) or its most likely action");
+    v.field("clip_progress_target", clip_progress_target,
+            "Clip the progress monitor's target (d0 - d) / d0 to [-1, 1], "
+            "the range of its tanh head (VLN-CE does not: more than 2 d0 "
+            "from the goal the target is below -1)");
+    v.choice("evaluate_every", evaluate_every, {"epoch", "iteration"},
+             "DAgger: evaluate (and keep as a candidate for the best "
+             "checkpoint) after every epoch, as VLN-CE evaluates every saved "
+             "checkpoint, or only after each iteration's last epoch "
+             "(teacher forcing evaluates every epoch either way)");
     v.field("store_fp16", store_fp16,
             "Store encoder features as fp16 in the on-disk store (half the "
             "bytes)");
