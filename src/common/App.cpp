@@ -72,12 +72,15 @@ bool cpuHasAvx2Fma() {
 
 }  // namespace
 
+bool nativeCpuDispatch() {
+  const char* native = std::getenv("VLN_NATIVE_DISPATCH");
+  return native != nullptr && std::string_view(native) != "0";
+}
+
 void pinNumericalRuntime(const std::string& program, char** argv,
                          bool passiveOmpWait) {
   std::vector<PinnedVariable> wanted;
-  const char* native = std::getenv("VLN_NATIVE_DISPATCH");
-  if ((native == nullptr || std::string_view(native) == "0") &&
-      cpuHasAvx2Fma()) {
+  if (!nativeCpuDispatch() && cpuHasAvx2Fma()) {
     wanted.push_back({"ATEN_CPU_CAPABILITY", "avx2", false});
     wanted.push_back({"DNNL_MAX_CPU_ISA", "AVX2", false});
     wanted.push_back({"ONEDNN_MAX_CPU_ISA", "AVX2", false});

@@ -35,6 +35,10 @@ void initLogging(const std::filesystem::path& logFile = {},
 void pinNumericalRuntime(const std::string& program, char** argv,
                          bool passiveOmpWait = false);
 
+/// True when VLN_NATIVE_DISPATCH is set to anything but "0": every library
+/// (LibTorch, oneDNN, OpenBLAS, Embree) then picks its kernels for this CPU.
+bool nativeCpuDispatch();
+
 /// Sets LibTorch-independent thread knobs used by BLAS/OpenMP (OMP, OpenBLAS)
 /// to `threads` (>= 1) for this process.
 void setBlasThreadsEnv(int threads);
