@@ -9,7 +9,7 @@
 //                                                     the best (best.json)
 //   eval --config C --checkpoint policy.pt           a TorchScript export
 //   eval --config C --agent random|handcrafted       a no-learning baseline
-//   eval tables --runs results/ --out docs/results.md
+//   eval tables --runs results/ --out docs/results.md [--claimed-only]
 //
 // Per evaluated (checkpoint i, split) the output directory receives the
 // files of rollout::evaluateSplit() (stats, per-episode file with
@@ -98,6 +98,9 @@ std::string summaryLine(const SplitReport& report);
 struct TablesCommandOptions {
   std::filesystem::path runs;  ///< results directory (Tables.h layout)
   std::filesystem::path out;   ///< Markdown file; the LaTeX goes beside it (.tex)
+  /// only the rows some run claims (eval::claimedRowsOnly()), for a job
+  /// that ran a few rows rather than the whole reproduction
+  bool claimed_only = false;
 };
 
 /// Builds Tables 1-3 from `runs` (eval::buildTables()) and writes Markdown

@@ -406,5 +406,21 @@ TEST(EvalTablesCommandTest, WritesMarkdownAndLatexFromResultFiles) {
   EXPECT_THROW(runTablesCommand(options, out), std::runtime_error);
 }
 
+TEST(EvalTablesCommandTest, ClaimedOnlyDropsRowsNoRunClaims) {
+  vln::test::TempDir dir;
+  TablesCommandOptions options;
+  options.runs = vln::test::testDataPath() / "eval" / "seeds";
+  options.out = dir / "table.md";
+  options.claimed_only = true;
+  std::ostringstream out;
+  EXPECT_EQ(runTablesCommand(options, out), 0);
+  EXPECT_THAT(out.str(), HasSubstr("(2 tables, 5 rows of ours)"));
+  const std::string md = common::readFile(dir / "table.md");
+  EXPECT_THAT(md, HasSubstr("--claimed-only"));
+  EXPECT_THAT(md, ::testing::Not(HasSubstr("missing (no run)")));
+  EXPECT_THAT(md, ::testing::Not(HasSubstr("### Table 3")));
+  EXPECT_THAT(md, HasSubstr("0.20 ± 0.25"));
+}
+
 }  // namespace
 }  // namespace vln::eval
