@@ -10,6 +10,9 @@
 //   eval --config C --checkpoint policy.pt           a TorchScript export
 //   eval --config C --agent random|handcrafted       a no-learning baseline
 //   eval tables --runs results/ --out docs/results.md [--claimed-only]
+//   eval compare --runs results/ --out findings.md   the paper's findings
+//                                                     judged by paired
+//                                                     differences over seeds
 //
 // Per evaluated (checkpoint i, split) the output directory receives the
 // files of rollout::evaluateSplit() (stats, per-episode file with
@@ -107,5 +110,17 @@ struct TablesCommandOptions {
 /// to `out` and LaTeX to `out` with the extension .tex; prints both paths.
 /// Returns the exit code.
 int runTablesCommand(const TablesCommandOptions& options, std::ostream& out);
+
+/// Options of `eval compare`.
+struct CompareCommandOptions {
+  std::filesystem::path runs;  ///< results directory (Tables.h layout)
+  std::filesystem::path out;   ///< Markdown file
+};
+
+/// Judges the paper's findings (eval::paperFindings()) by paired
+/// differences over the seeds of the runs under `runs`, on kFindingSplit
+/// and kFindingMetrics, and writes the Markdown to `out`; prints the path
+/// and the count of each verdict. Returns the exit code.
+int runCompareCommand(const CompareCommandOptions& options, std::ostream& out);
 
 }  // namespace vln::eval
