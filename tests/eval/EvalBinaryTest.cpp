@@ -192,6 +192,22 @@ TEST_F(EvalBinaryTest, BaselinesNavGraphPicturesAndTables) {
       << output;
   EXPECT_TRUE(fs::exists(dir_ / "docs" / "results.md"));
   EXPECT_TRUE(fs::exists(dir_ / "docs" / "results.tex"));
+
+  // the seeds fixture: only its rows, then the paper's findings judged
+  const std::string seeds =
+      " --runs " + (vln::test::testDataPath() / "eval" / "seeds").string();
+  ASSERT_EQ(eval("tables" + seeds + " --claimed-only --out " +
+                     (dir_ / "claimed.md").string(),
+                 &output),
+            0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("(2 tables, 5 rows of ours)"));
+  ASSERT_EQ(
+      eval("compare" + seeds + " --out " + (dir_ / "findings.md").string(),
+           &output),
+      0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("1 hold, 1 do not hold"));
 }
 
 TEST_F(EvalBinaryTest, ErrorsAreReported) {
