@@ -27,7 +27,8 @@
 # every further seed narrows every row's interval at once rather than one
 # row's. Within a seed the experiments go by importance (the baselines,
 # which take seconds, then Seq2Seq and CMA, the ablations, DAgger, PM,
-# Aug, the combinations), and a DA* run after the run it fine-tunes.
+# Aug in its two stages, the combinations), and a run that fine-tunes
+# another (*_aug_tune, DA*) after it.
 #
 # Finished runs and evaluations are skipped and interrupted ones resume, so
 # the script can be stopped and restarted at any time; the tables and the
@@ -67,17 +68,21 @@ declare -A fields=(
   [cma_da]="$cma, \"rows\": [{\"table\": 2, \"row\": \"8\"}], $full, \"pm\": false, \"da\": \"dagger\", \"aug\": false"
   [seq2seq_pm]="$s2s, \"rows\": [{\"table\": 2, \"row\": \"2\"}], $full, \"pm\": true, \"da\": \"none\", \"aug\": false"
   [cma_pm]="$cma, \"rows\": [{\"table\": 2, \"row\": \"7\"}], $full, \"pm\": true, \"da\": \"none\", \"aug\": false"
-  [cma_aug]="$cma, \"rows\": [{\"table\": 2, \"row\": \"9\"}], $full, \"pm\": false, \"da\": \"none\", \"aug\": true"
-  [seq2seq_aug]="$s2s, \"rows\": [{\"table\": 2, \"row\": \"4\"}], $full, \"pm\": false, \"da\": \"none\", \"aug\": true"
-  [cma_pm_aug]="$cma, \"rows\": [{\"table\": 2, \"row\": \"11\"}], $full, \"pm\": true, \"da\": \"none\", \"aug\": true"
+  [cma_aug]=""
+  [cma_aug_tune]="$cma, \"rows\": [{\"table\": 2, \"row\": \"9\"}], $full, \"pm\": false, \"da\": \"none\", \"aug\": true"
+  [seq2seq_aug]=""
+  [seq2seq_aug_tune]="$s2s, \"rows\": [{\"table\": 2, \"row\": \"4\"}], $full, \"pm\": false, \"da\": \"none\", \"aug\": true"
+  [cma_pm_aug]=""
+  [cma_pm_aug_tune]="$cma, \"rows\": [{\"table\": 2, \"row\": \"11\"}], $full, \"pm\": true, \"da\": \"none\", \"aug\": true"
   [cma_pm_da_aug]="$cma, \"rows\": [{\"table\": 2, \"row\": \"10\"}], $full, \"pm\": true, \"da\": \"dagger_finetune\", \"aug\": true"
   [cma_da_aug]="$cma, \"rows\": [{\"table\": 2, \"row\": \"12\"}], $full, \"pm\": false, \"da\": \"dagger_finetune\", \"aug\": true"
   [seq2seq_pm_aug]=""
   [seq2seq_pm_da_aug]="$s2s, \"rows\": [{\"table\": 2, \"row\": \"5\"}], $full, \"pm\": true, \"da\": \"dagger_finetune\", \"aug\": true"
 )
 order=(random handcrafted seq2seq cma seq2seq_no_vision seq2seq_no_instruction seq2seq_no_depth
-       seq2seq_no_image seq2seq_da cma_da seq2seq_pm cma_pm cma_aug seq2seq_aug
-       cma_pm_aug cma_pm_da_aug cma_da_aug seq2seq_pm_aug seq2seq_pm_da_aug)
+       seq2seq_no_image seq2seq_da cma_da seq2seq_pm cma_pm cma_aug cma_aug_tune
+       seq2seq_aug seq2seq_aug_tune cma_pm_aug cma_pm_aug_tune cma_pm_da_aug cma_da_aug
+       seq2seq_pm_aug seq2seq_pm_da_aug)
 plan=0
 if [[ ${1:-} == --plan ]]; then plan=1; shift; fi
 if (($#)); then order=("$@"); fi
@@ -87,7 +92,7 @@ done
 
 # --plan: the (seed, experiment) steps in the order they run, each with its
 # run directory and its results folder ("-" for none: the baselines train
-# nothing, seq2seq_pm_aug is evaluated as no row)
+# nothing; the first stages of Aug, *_aug, are evaluated as no row)
 if ((plan)); then
   for ((seed = 0; seed < seeds; ++seed)); do
     for name in "${order[@]}"; do
@@ -137,7 +142,8 @@ run_experiment() {
     sets+=(--set "trainer.init_checkpoint=$init/seed$seed")
   fi
   vln_train "$config" "${sets[@]}"
-  # seq2seq_pm_aug is no table row: only the start of seq2seq_pm_da_aug
+  # the first stages of Aug (*_aug) are no table row: their second stage
+  # (*_aug_tune) or a DA* run fine-tunes them
   [[ -n "${fields[$name]}" ]] || return 0
   best=$(vln_best "$run")
   vln_evaluate "$results/$name/seed$seed" "$config" \
