@@ -207,6 +207,7 @@ int runEncode(const std::string& encoder, const std::string& modality, int size,
 }  // namespace
 
 int main(int argc, char** argv) {
+  vln::common::pinNumericalRuntime("vlnce-bench", argv);
   return vln::common::runMain("vlnce-bench", [&]() -> int {
     CLI::App app{"vlnce-bench: timings of the VLN-CE models"};
     app.require_subcommand(1);

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "common/App.h"
+#include "common/Config.h"
 #include "data/DataCommands.h"
 #include "world/WorldCommands.h"
 
@@ -65,26 +66,26 @@ Subcommand addGlove(CLI::App& app) {
                    "Episode file whose instruction_vocab gives the rows "
                    "of --embeddings-out")
       ->check(CLI::ExistingFile);
-  command->add_option("--dim", fit.dim, "Vector size")->capture_default_str();
-  command->add_option("--epochs", fit.epochs, "Training epochs")
-      ->capture_default_str();
-  command->add_option("--window", fit.window, "Symmetric context window")
-      ->capture_default_str();
-  command->add_option("--min-count", fit.min_count, "Minimum word count")
-      ->capture_default_str();
-  command->add_option("--x-max", fit.x_max, "Weighting cutoff x_max")
-      ->capture_default_str();
-  command->add_option("--alpha", fit.alpha, "Weighting exponent")
-      ->capture_default_str();
-  command->add_option("--lr", fit.learning_rate, "AdaGrad learning rate")
-      ->capture_default_str();
-  command->add_option("--grad-clip", fit.grad_clip, "Gradient clip")
-      ->capture_default_str();
-  command->add_option("--seed", fit.seed, "Random seed")->capture_default_str();
-  command
-      ->add_option("--threads", fit.threads,
-                   "Threads (> 1 is Hogwild, not deterministic)")
-      ->capture_default_str();
+  // the hyper-parameters, documented as in the world config's glove: section
+  data::GloveFitConfig defaults;
+  const auto hyper = [&](const char* flag, auto& value, const char* key) {
+    command
+        ->add_option(flag, value,
+                     common::configDoc(
+                         [&](common::ConfigVisitor& v) { defaults.visit(v); },
+                         key))
+        ->capture_default_str();
+  };
+  hyper("--dim", fit.dim, "dim");
+  hyper("--epochs", fit.epochs, "epochs");
+  hyper("--window", fit.window, "window");
+  hyper("--min-count", fit.min_count, "min_count");
+  hyper("--x-max", fit.x_max, "x_max");
+  hyper("--alpha", fit.alpha, "alpha");
+  hyper("--lr", fit.learning_rate, "learning_rate");
+  hyper("--grad-clip", fit.grad_clip, "grad_clip");
+  hyper("--seed", fit.seed, "seed");
+  hyper("--threads", fit.threads, "threads");
   return {command,
           [options] { return data::runGloveCommand(*options, std::cout); }};
 }

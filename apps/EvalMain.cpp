@@ -1,10 +1,6 @@
 // eval: evaluation of checkpoints, TorchScript exports and the no-learning
 // baselines, and the paper's tables (see src/eval/EvalCommands.h).
 #include <CLI/CLI.hpp>
-#include <unistd.h>
-
-#include <cstdlib>
-#include <iostream>
 
 #include "common/App.h"
 #include "eval/EvalCommands.h"
@@ -14,15 +10,8 @@ int main(int argc, char** argv) {
   // OpenMP threads that busy-wait between LibTorch ops take the cores from
   // the environment threads rendering between policy steps: on the 2-core
   // machine, evaluation ran at 23 steps/s with libgomp's default policy and
-  // 672 steps/s with PASSIVE (docs/performance.md, "Evaluation"). libgomp
-  // reads the variable when it is loaded, before main(), so the process
-  // restarts itself once with it set; an explicit setting is respected.
-  if (std::getenv("OMP_WAIT_POLICY") == nullptr) {
-    ::setenv("OMP_WAIT_POLICY", "PASSIVE", /*overwrite=*/1);
-    ::execv("/proc/self/exe", argv);
-    std::cerr << "eval: warning: could not restart with OMP_WAIT_POLICY=PASSIVE; "
-                 "evaluation may be slow\n";
-  }
+  // 672 steps/s with PASSIVE (docs/performance.md, "Evaluation").
+  vln::common::pinNumericalRuntime("eval", argv, /*passiveOmpWait=*/true);
   return vln::common::runMain("eval", [&] {
     CLI::App app{"Evaluate VLN-CE checkpoints, exports and baselines; build the paper's tables"};
     std::filesystem::path config;
@@ -48,10 +37,30 @@ int main(int argc, char** argv) {
         "--index", index, "Checkpoint index in file names for an export or a baseline");
     app.add_option("--log-level", logLevel, "trace, debug, info, warn or error");
 
+    // the subcommands that read result folders: both take --runs and --out
+    auto resultsCommand = [&](const char* name, const char* help, std::filesystem::path& runs,
+                              std::filesystem::path& out, const char* outHelp) {
+      CLI::App* command = app.add_subcommand(name, help);
+      command->add_option("--runs", runs,
+                          "Results directory (run folders at any depth, each with run.json)")
+          ->required();
+      command->add_option("--out", out, outHelp)->required();
+      return command;
+    };
     vln::eval::TablesCommandOptions tables;
-    CLI::App* tablesCommand = app.add_subcommand("tables", "Rebuild the paper's Tables 1-3 from result files");
-    tablesCommand->add_option("--runs", tables.runs, "Results directory (one folder per run)")->required();
-    tablesCommand->add_option("--out", tables.out, "Markdown file (LaTeX written beside it)")->required();
+    CLI::App* tablesCommand = resultsCommand(
+        "tables",
+        "Rebuild the paper's Tables 1-3 from result files, ours beside the paper's; several runs "
+        "of one row (one per seed) print mean ± 95% Student t half-width and their count n",
+        tables.runs, tables.out, "Markdown file (LaTeX written beside it)");
+    tablesCommand->add_flag("--claimed-only", tables.claimed_only,
+                            "Only the rows some run claims (and tables that have one)");
+    vln::eval::CompareCommandOptions compare;
+    CLI::App* compareCommand = resultsCommand(
+        "compare",
+        "Judge the paper's findings (row A beats row B) by paired differences over seeds on "
+        "val_unseen SR and SPL: holds, does not hold or cannot tell",
+        compare.runs, compare.out, "Markdown file");
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& error) {
@@ -59,6 +68,7 @@ int main(int argc, char** argv) {
     }
     vln::common::initLogging({}, logLevel);
     if (tablesCommand->parsed()) return vln::eval::runTablesCommand(tables, std::cout);
+    if (compareCommand->parsed()) return vln::eval::runCompareCommand(compare, std::cout);
 
     if (config.empty()) throw std::invalid_argument("eval: --config is required");
     if (*episodesOption) options.episodes = episodes;

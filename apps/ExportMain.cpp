@@ -8,6 +8,7 @@
 #include "train/TrainCommand.h"
 
 int main(int argc, char** argv) {
+  vln::common::pinNumericalRuntime("vlnce-export", argv);
   return vln::common::runMain("vlnce-export", [&] {
     CLI::App app{"Export a checkpoint (policy + encoders) as TorchScript"};
     vln::train::ExportOptions options;

@@ -7,6 +7,7 @@
 #include "train/TrainCommand.h"
 
 int main(int argc, char** argv) {
+  vln::common::pinNumericalRuntime("train", argv);
   return vln::common::runMain("train", [&] {
     CLI::App app{"Train a VLN-CE policy (teacher forcing or DAgger)"};
     vln::train::TrainOptions options;

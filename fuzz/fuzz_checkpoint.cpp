@@ -4,11 +4,6 @@
 #include "train/Checkpoint.h"
 #include "FuzzUtil.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::string_view bytes(reinterpret_cast<const char*>(data), size);
   vln::fuzz::expectDocumentedErrors(

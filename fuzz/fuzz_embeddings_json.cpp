@@ -3,11 +3,6 @@
 #include "data/Glove.h"
 #include "FuzzUtil.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto file = vln::fuzz::writeInput("embeddings.json.gz", data, size);
   vln::fuzz::expectDocumentedErrors([&] {

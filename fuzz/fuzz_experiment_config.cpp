@@ -7,11 +7,6 @@
 #include "train/ExperimentConfig.h"
 #include "FuzzUtil.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto file = vln::fuzz::writeInput("run.yaml", data, size);
   std::optional<vln::train::ExperimentConfig> config;

@@ -2,11 +2,6 @@
 #include "data/GroundTruth.h"
 #include "FuzzUtil.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto file = vln::fuzz::writeInput("split_gt.json.gz", data, size);
   vln::fuzz::expectDocumentedErrors([&] { vln::data::readGroundTruth(file); });

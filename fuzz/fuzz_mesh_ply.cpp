@@ -1,11 +1,6 @@
 // Fuzzes scene loading of PLY text (fuzz/MeshFuzzing.h).
 #include "MeshFuzzing.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   vln::fuzz::fuzzSceneFile("ply", data, size);
   return 0;

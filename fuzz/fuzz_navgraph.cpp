@@ -3,11 +3,6 @@
 #include "data/NavGraph.h"
 #include "FuzzUtil.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto file = vln::fuzz::writeInput("graph.json", data, size);
   vln::fuzz::expectDocumentedErrors([&] {

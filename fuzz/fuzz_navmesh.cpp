@@ -5,11 +5,6 @@
 #include "sim/NavMesh.h"
 #include "FuzzUtil.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   auto file = vln::fuzz::writeInput("scene.navmesh", data, size);
   vln::fuzz::expectDocumentedErrors([&] {

@@ -5,11 +5,6 @@
 #include "FuzzUtil.h"
 #include "common/ZipIntegrity.h"
 
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  return 0;
-}
-
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
   vln::fuzz::expectDocumentedErrors([&] {

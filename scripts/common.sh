@@ -34,20 +34,37 @@ vln_ensure_encoders() {
   done
 }
 
-# vln_train CONFIG: trains the run of CONFIG (output.dir), resumes it when
-# interrupted, skips it when finished. Prints nothing else on stdout.
+# vln_config_value CONFIG SECTION KEY [--set k=v ...]: the value of
+# SECTION.KEY in the resolved config (`train --dry-run`, bases and
+# overrides applied), without YAML quotes.
+vln_config_value() {
+  local config=$1 section=$2 key=$3
+  shift 3
+  "$vln_bin/train" --config "$config" --dry-run "$@" |
+    awk -v section="$section:" -v key="$key:" '
+      $0 == section { inside = 1; next }
+      /^[^ #]/ { inside = 0 }
+      inside && index($0, "  " key " ") == 1 {
+        value = substr($0, length(key) + 4); gsub(/^"|"$/, "", value)
+        print value; exit
+      }'
+}
+
+# vln_train CONFIG [--set k=v ...]: trains the run of CONFIG with the
+# overrides (output.dir), resumes it when interrupted, skips it when
+# finished. Prints nothing else on stdout.
 vln_train() {
   local config=$1 run
-  run=$("$vln_bin/train" --config "$config" --dry-run |
-    awk '/^output:/ { o = 1 } o && /^  dir: / { print $2; exit }')
+  shift
+  run=$(vln_config_value "$config" output dir "$@")
   if [[ -f $run/finished.json ]]; then
     vln_stamp "training: $run already finished"
   elif [[ -f $run/config.yaml ]]; then
-    vln_stamp "training: resuming $run ($config)"
-    "$vln_bin/train" --config "$config" --resume
+    vln_stamp "training: resuming $run ($config $*)"
+    "$vln_bin/train" --config "$config" "$@" --resume
   else
-    vln_stamp "training $run ($config)"
-    "$vln_bin/train" --config "$config"
+    vln_stamp "training $run ($config $*)"
+    "$vln_bin/train" --config "$config" "$@"
   fi
 }
 
@@ -84,5 +101,28 @@ with open(path + ".tmp", "w") as f:
     json.dump(info, f, indent=1)
 import os
 os.replace(path + ".tmp", path)
+PY
+}
+
+# vln_splice NAME GENERATED DOC: replaces what DOC holds between the lines
+# <!-- NAME:begin --> and <!-- NAME:end --> by the file GENERATED, keeping
+# the rest of DOC (its prose); appends a marked block when DOC has no such
+# markers. Written atomically.
+vln_splice() {
+  python3 - "$@" <<'PY'
+import os, sys
+name, generated, doc = sys.argv[1:]
+body = open(generated).read()
+begin, end = f"<!-- {name}:begin -->", f"<!-- {name}:end -->"
+text = open(doc).read() if os.path.exists(doc) else ""
+block = begin + "\n" + body + ("" if body.endswith("\n") else "\n") + end
+if begin in text and end in text.split(begin, 1)[1]:
+    head, rest = text.split(begin, 1)
+    text = head + block + rest.split(end, 1)[1]
+else:
+    text += ("\n" if text and not text.endswith("\n") else "") + block + "\n"
+with open(doc + ".tmp", "w") as f:
+    f.write(text)
+os.replace(doc + ".tmp", doc)
 PY
 }

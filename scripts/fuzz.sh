@@ -62,18 +62,8 @@ max_len() {
 wanted=()
 ((${#lf_targets[@]})) && wanted+=(clang libclang-rt-14-dev lld)
 ((${#afl_targets[@]})) && wanted+=(afl++)
-missing=()
-for p in "${wanted[@]}"; do
-  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" ||
-    missing+=("$p")
-done
-if ((${#missing[@]})); then
-  echo "fuzz: installing ${missing[*]}"
-  SUDO=""
-  if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
-  $SUDO apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
-fi
+source scripts/packages.sh
+vln_install_missing fuzz "${wanted[@]}"
 
 # --- builds --------------------------------------------------------------------
 if ((${#lf_targets[@]})); then

@@ -8,7 +8,9 @@
 #   5. evaluation of its best checkpoint and of the random and hand-crafted
 #      baselines on all of val_seen and val_unseen: metrics JSON,
 #      per-episode files and top-down maps under results/main/<agent>/;
-#   6. the results table (results/main/table.md, .tex), printed at the end.
+#   6. the results table (results/main/table.md, .tex), printed at the end:
+#      the paper rows this job claims, its numbers beside the paper's (the
+#      whole reproduction is scripts/reproduce_paper.sh).
 # Each step reuses what an earlier run finished, and an interrupted training
 # run resumes, so running it again is cheap. Environment:
 #   VLN_BUILD_DIR   build directory (build)
@@ -34,9 +36,10 @@ vln_train $config
 best=$(vln_best $run)
 
 results=results/main
+seed=$(vln_config_value $config trainer seed)
 vln_evaluate $results/cma $config \
   "{\"model\": \"Cross-Modal Attention (main job: DA + Aug)\", \"rows\": [{\"table\": 2, \"row\": \"12\"}],
-    \"checkpoint\": $best, \"vision\": \"RGBD\", \"instruction\": true, \"history\": true,
+    \"seed\": $seed, \"checkpoint\": $best, \"vision\": \"RGBD\", \"instruction\": true, \"history\": true,
     \"pm\": false, \"da\": \"dagger\", \"aug\": true,
     \"notes\": \"one DAgger run from scratch whose iteration 0 is teacher forcing on train + train_aug; the paper's row 12 fine-tunes an Aug run with DA*\"}" \
   --checkpoint $run/checkpoints/ckpt.$best.pth
@@ -48,6 +51,6 @@ vln_evaluate $results/handcrafted $config \
     "vision": "-", "instruction": false, "history": false}' --agent handcrafted --maps 0
 
 vln_stamp "tables"
-"$vln_bin/eval" tables --runs $results --out $results/table.md
+"$vln_bin/eval" tables --runs $results --out $results/table.md --claimed-only
 cat $results/table.md
 vln_stamp "done: maps in $results/cma/pictures, metrics in $results/*/stats_ckpt_*.json"

@@ -8,6 +8,11 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <iostream>
+#include <string_view>
+#include <vector>
+
+#include <unistd.h>
 
 #include "common/Check.h"
 
@@ -45,6 +50,62 @@ void initLogging(const std::filesystem::path& logFile,
   logger->set_pattern("[%H:%M:%S.%e] [%^%l%$] %v");
   logger->flush_on(spdlog::level::info);
   spdlog::set_default_logger(logger);
+}
+
+namespace {
+
+// A variable this process needs, and whether a library reads it only when
+// it is loaded (so setting it now is too late for this process image).
+struct PinnedVariable {
+  const char* name;
+  const char* value;
+  bool readAtLoad;
+};
+
+bool cpuHasAvx2Fma() {
+#if defined(__x86_64__) || defined(__i386__)
+  return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
+#else
+  return false;
+#endif
+}
+
+}  // namespace
+
+bool nativeCpuDispatch() {
+  const char* native = std::getenv("VLN_NATIVE_DISPATCH");
+  return native != nullptr && std::string_view(native) != "0";
+}
+
+void pinNumericalRuntime(const std::string& program, char** argv,
+                         bool passiveOmpWait) {
+  std::vector<PinnedVariable> wanted;
+  if (!nativeCpuDispatch() && cpuHasAvx2Fma()) {
+    wanted.push_back({"ATEN_CPU_CAPABILITY", "avx2", false});
+    wanted.push_back({"DNNL_MAX_CPU_ISA", "AVX2", false});
+    wanted.push_back({"ONEDNN_MAX_CPU_ISA", "AVX2", false});
+    wanted.push_back({"OPENBLAS_CORETYPE", "Haswell", true});
+  }
+  // an explicit OMP_WAIT_POLICY is the user's choice
+  if (passiveOmpWait && std::getenv("OMP_WAIT_POLICY") == nullptr)
+    wanted.push_back({"OMP_WAIT_POLICY", "PASSIVE", true});
+
+  bool restart = false;
+  for (const PinnedVariable& variable : wanted) {
+    const char* current = std::getenv(variable.name);
+    if (current != nullptr && std::string_view(current) == variable.value)
+      continue;
+    ::setenv(variable.name, variable.value, /*overwrite=*/1);
+    restart = restart || variable.readAtLoad;
+  }
+  // the marker stops a second restart if a variable does not stick
+  if (!restart || std::getenv("VLN_RUNTIME_PINNED") != nullptr) return;
+  ::setenv("VLN_RUNTIME_PINNED", "1", /*overwrite=*/1);
+  ::execv("/proc/self/exe", argv);
+  std::cerr << program
+            << ": warning: could not restart with pinned OpenBLAS/OpenMP "
+               "settings; numbers may differ from other machines and "
+               "evaluation may be slow\n";
 }
 
 void setBlasThreadsEnv(int threads) {

@@ -565,25 +565,36 @@ class BoundsChecker final : public ConfigVisitor {
   std::vector<std::string> path_;
 };
 
+// every key path with its doc, in visit order
 class KeyLister final : public ConfigVisitor {
  public:
   std::vector<std::string> keys;
-  void field(std::string_view k, bool&, std::string_view) override { add(k); }
-  void field(std::string_view k, int&, std::string_view, Bounds) override { add(k); }
-  void field(std::string_view k, int64_t&, std::string_view, Bounds) override { add(k); }
-  void field(std::string_view k, double&, std::string_view, Bounds) override { add(k); }
-  void field(std::string_view k, float&, std::string_view, Bounds) override { add(k); }
-  void field(std::string_view k, std::string&, std::string_view) override { add(k); }
-  void field(std::string_view k, std::vector<std::string>&, std::string_view) override { add(k); }
-  void field(std::string_view k, std::vector<int>&, std::string_view, Bounds) override { add(k); }
-  void field(std::string_view k, std::vector<double>&, std::string_view, Bounds) override { add(k); }
+  std::vector<std::string> docs;
+  void field(std::string_view k, bool&, std::string_view d) override { add(k, d); }
+  void field(std::string_view k, int&, std::string_view d, Bounds) override { add(k, d); }
+  void field(std::string_view k, int64_t&, std::string_view d, Bounds) override { add(k, d); }
+  void field(std::string_view k, double&, std::string_view d, Bounds) override { add(k, d); }
+  void field(std::string_view k, float&, std::string_view d, Bounds) override { add(k, d); }
+  void field(std::string_view k, std::string&, std::string_view d) override { add(k, d); }
+  void field(std::string_view k, std::vector<std::string>&, std::string_view d) override {
+    add(k, d);
+  }
+  void field(std::string_view k, std::vector<int>&, std::string_view d, Bounds) override {
+    add(k, d);
+  }
+  void field(std::string_view k, std::vector<double>&, std::string_view d, Bounds) override {
+    add(k, d);
+  }
   void choice(std::string_view k, std::string&, const std::vector<std::string>&,
-              std::string_view) override { add(k); }
+              std::string_view d) override { add(k, d); }
   void beginSection(std::string_view k, std::string_view) override { path_.emplace_back(k); }
   void endSection() override { path_.pop_back(); }
 
  private:
-  void add(std::string_view k) { keys.push_back(joinPath(path_, k)); }
+  void add(std::string_view k, std::string_view d) {
+    keys.push_back(joinPath(path_, k));
+    docs.emplace_back(d);
+  }
   std::vector<std::string> path_;
 };
 
@@ -641,6 +652,15 @@ std::vector<std::string> configKeys(const ConfigVisitFn& visit) {
   KeyLister lister;
   visit(lister);
   return lister.keys;
+}
+
+std::string configDoc(const ConfigVisitFn& visit, std::string_view keyPath) {
+  KeyLister lister;
+  visit(lister);
+  for (size_t i = 0; i < lister.keys.size(); ++i)
+    if (lister.keys[i] == keyPath) return lister.docs[i];
+  VLN_ASSERT(false);  // callers name keys of their own config
+  return "";
 }
 
 }  // namespace vln::common

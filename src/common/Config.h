@@ -1,18 +1,24 @@
 #pragma once
 // Configuration structs are plain aggregates with in-class defaults. Each one
 // lists its fields once, in `void visit(ConfigVisitor&)`, with the YAML key
-// (identical to the member name), a one-line doc and numeric bounds. Every
+// (identical to the member name), its one-line doc and numeric bounds. That
+// doc is the field's documentation (units, where a default comes from, what
+// special values mean): the written config shows it beside the key, so the
+// member declarations do not repeat it. Every
 // generic operation is a visitor over that list: strict YAML reading (unknown
 // keys, wrong types and out-of-range values are errors naming the file and
 // the key path), `--set a.b=value` overrides, writing the resolved config with
 // its docs, and bounds checks on values set in code. yaml-cpp stays in
 // Config.cpp.
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <initializer_list>
 #include <limits>
+#include <span>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -34,6 +40,20 @@ inline Bounds atLeast(double lo) {
 }
 /// Bounds [lo, hi].
 inline Bounds inRange(double lo, double hi) { return {lo, hi}; }
+
+/// The YAML names of an enum's values, for ConfigVisitor::enumeration() and
+/// enumName().
+template <class E, size_t N>
+using EnumNames = std::array<std::pair<const char*, E>, N>;
+
+/// The name of `value` in `names`; a value without one is a bug.
+template <class E, size_t N>
+const char* enumName(const EnumNames<E, N>& names, E value) {
+  for (const auto& [name, enumValue] : names)
+    if (enumValue == value) return name;
+  VLN_ASSERT(false);
+  return "";
+}
 
 /// Visits every field of a config struct. Implementations read, write or
 /// check the values; config structs only enumerate their fields.
@@ -80,6 +100,20 @@ class ConfigVisitor {
   void enumeration(std::string_view key, E& value,
                    std::initializer_list<std::pair<const char*, E>> names,
                    std::string_view doc) {
+    enumerationOf<E>(key, value, {names.begin(), names.size()}, doc);
+  }
+  /// The same with a names table shared with enumName().
+  template <class E, size_t N>
+  void enumeration(std::string_view key, E& value, const EnumNames<E, N>& names,
+                   std::string_view doc) {
+    enumerationOf<E>(key, value, names, doc);
+  }
+
+ private:
+  template <class E>
+  void enumerationOf(std::string_view key, E& value,
+                     std::span<const std::pair<const char*, E>> names,
+                     std::string_view doc) {
     std::vector<std::string> allowed;
     std::string current;
     for (const auto& [name, enumValue] : names) {
@@ -134,6 +168,10 @@ void checkConfig(const ConfigVisitFn& visit, std::string_view source);
 
 /// Every key path of the config in visit order ("trainer.lr", ...).
 std::vector<std::string> configKeys(const ConfigVisitFn& visit);
+
+/// The doc of key path `keyPath` of the config (for command-line help that
+/// exposes config fields); an unknown key is a bug.
+std::string configDoc(const ConfigVisitFn& visit, std::string_view keyPath);
 
 /// Loads a config struct T from a YAML file, applies overrides, checks bounds
 /// and calls T::validate() if it has one.

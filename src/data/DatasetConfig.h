@@ -11,35 +11,34 @@
 namespace vln::data {
 
 struct DatasetConfig {
-  /// Root of the splits (the embedded world by default).
   std::string data_path = "data/datasets/procedural";
-  /// GloVe rows in vocabulary order; empty = <data_path>/embeddings.json.gz.
   std::string embeddings;
-  /// Training split.
   std::string train_split = "train";
-  /// Augmentation split mixed into pretraining when trainer.use_aug.
   std::string aug_split = "train_aug";
-  /// Use at most this many training episodes (-1: all), for small runs.
   int max_train_episodes = -1;
-  /// Use at most this many augmentation episodes (-1: all).
   int max_aug_episodes = -1;
-  /// Token sequence length fed to the instruction encoder (R2R pads to 200;
-  /// longer instructions are truncated, shorter runs of PAD are trimmed per
-  /// batch).
   int max_instruction_length = 200;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("data_path", data_path, "Root directory of the episode splits");
+    v.field("data_path", data_path,
+            "Root directory of the episode splits (default: the embedded "
+            "procedural world)");
     v.field("embeddings", embeddings,
-            "GloVe embeddings.json.gz (empty: <data_path>/embeddings.json.gz)");
+            "GloVe embeddings.json.gz, rows in vocabulary order (empty: "
+            "<data_path>/embeddings.json.gz)");
     v.field("train_split", train_split, "Training split name");
-    v.field("aug_split", aug_split, "Augmentation split name");
+    v.field("aug_split", aug_split,
+            "Augmentation split name, mixed into training when "
+            "trainer.use_aug");
     v.field("max_train_episodes", max_train_episodes,
-            "Cap on training episodes (-1: all)", common::atLeast(-1));
+            "Cap on training episodes, for small runs (-1: all)",
+            common::atLeast(-1));
     v.field("max_aug_episodes", max_aug_episodes,
             "Cap on augmentation episodes (-1: all)", common::atLeast(-1));
     v.field("max_instruction_length", max_instruction_length,
-            "Instruction tokens fed to the encoder", common::inRange(1, 1000));
+            "Instruction tokens fed to the encoder (R2R pads to 200): longer "
+            "instructions are truncated, trailing PAD is trimmed per batch",
+            common::inRange(1, 1000));
   }
   bool operator==(const DatasetConfig&) const = default;
 

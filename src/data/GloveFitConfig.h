@@ -11,16 +11,16 @@ namespace vln::data {
 
 /// Hyper-parameters of fitGlove(); defaults are the GloVe paper's.
 struct GloveFitConfig {
-  int dim = 50;                 ///< vector size
-  int window = 10;              ///< symmetric context window, words each side
-  int min_count = 1;            ///< rarer words are dropped from the corpus
-  double x_max = 100.0;         ///< weighting cutoff x_max of f(x)
-  double alpha = 0.75;          ///< weighting exponent of f(x)
-  double learning_rate = 0.05;  ///< AdaGrad initial learning rate
-  int epochs = 25;              ///< passes over the co-occurrence entries
-  double grad_clip = 100.0;     ///< per-component gradient clip (as glove.c)
-  int64_t seed = 1;             ///< initialisation and shuffling seed
-  int threads = 1;              ///< > 1 trains Hogwild (not deterministic)
+  int dim = 50;
+  int window = 10;
+  int min_count = 1;
+  double x_max = 100.0;
+  double alpha = 0.75;
+  double learning_rate = 0.05;
+  int epochs = 25;
+  double grad_clip = 100.0;
+  int64_t seed = 1;
+  int threads = 1;
 
   void visit(common::ConfigVisitor& v) {
     v.field("dim", dim, "Vector size", common::inRange(1, 4096));
@@ -28,7 +28,8 @@ struct GloveFitConfig {
             "Symmetric context window (words each side); a pair at "
             "distance d adds 1/d",
             common::inRange(1, 1000));
-    v.field("min_count", min_count, "Words rarer than this are dropped",
+    v.field("min_count", min_count,
+            "Words rarer than this are dropped from the corpus",
             common::atLeast(1));
     v.field("x_max", x_max, "Cutoff of the weighting f(x) = (x/x_max)^alpha",
             common::inRange(1e-6, 1e12));
@@ -38,7 +39,7 @@ struct GloveFitConfig {
             common::inRange(1e-9, 10.0));
     v.field("epochs", epochs, "Passes over the co-occurrence entries",
             common::inRange(1, 100000));
-    v.field("grad_clip", grad_clip, "Per-component gradient clip",
+    v.field("grad_clip", grad_clip, "Per-component gradient clip (as glove.c)",
             common::inRange(1e-9, 1e12));
     v.field("seed", seed, "Initialisation and shuffling seed");
     v.field("threads", threads,

@@ -12,58 +12,58 @@ namespace vln::data {
 /// Section 3.2: projecting panorama nodes onto the navmesh and checking
 /// that an agent can follow the transferred trajectory.
 struct TransferConfig {
-  float cast_distance = 2.0f;     ///< length of the downward ray (paper: 2 m)
-  float cast_step = 0.05f;        ///< spacing of projections along the ray
-  float max_displacement = 0.5f;  ///< farther nodes are invalid (paper: 0.5 m)
-  /// Vertical half extent of each projection box: a sample projects only to
-  /// navmesh surfaces this close in height (covers Recast's height
-  /// quantisation, cell_height).
+  float cast_distance = 2.0f;
+  float cast_step = 0.05f;
+  float max_displacement = 0.5f;
   float snap_vertical_extent = 0.25f;
-  /// Displacements above this count as "adjusted" in the statistics.
   float adjusted_threshold = 0.01f;
-  /// Islands at least this large (m^2) are floors a ground agent may use;
-  /// smaller ones are furniture tops. The largest island always counts.
   float min_floor_island_area = 4.0f;
-  /// Waypoint radius of the follower (paper: 0.5 m).
   float follower_goal_radius = 0.5f;
-  /// Step cap of one waypoint-to-waypoint leg: this many actions plus
-  /// leg_steps_per_meter per metre of geodesic distance.
   int leg_base_steps = 60;
   float leg_steps_per_meter = 8.0f;
-  /// Beyond the paper: a leg whose navmesh geodesic exceeds this multiple
-  /// of its straight length (at least 1 m) fails as a detour. Such legs
-  /// cross a doorway the reconstruction closed, and an instruction saying
-  /// "go through the door" would then supervise a walk through other rooms.
-  /// 0 disables the check, as in the paper.
+  // Detours: such legs cross a doorway the reconstruction closed, and an
+  // instruction saying "go through the door" would then supervise a walk
+  // through other rooms.
   float max_leg_detour = 2.0f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("cast_distance", cast_distance, "Length of the downward ray (m)",
+    v.field("cast_distance", cast_distance,
+            "Length of the downward ray (m; paper: 2)",
             common::inRange(0.1, 10.0));
     v.field("cast_step", cast_step, "Spacing of projections along the ray (m)",
             common::inRange(0.005, 1.0));
     v.field("max_displacement", max_displacement,
-            "Largest horizontal displacement of a valid node (m)",
+            "Largest horizontal displacement of a valid node; farther nodes "
+            "are invalid (m; paper: 0.5)",
             common::inRange(0.0, 5.0));
     v.field("snap_vertical_extent", snap_vertical_extent,
-            "Vertical half extent of each projection (m)",
+            "Vertical half extent of each projection box: a sample projects "
+            "only to navmesh surfaces this close in height, which covers "
+            "Recast's height quantisation (cell_height) (m)",
             common::inRange(0.01, 2.0));
     v.field("adjusted_threshold", adjusted_threshold,
-            "Displacement counted as an adjustment (m)",
+            "Displacements above this count as adjusted in the statistics (m)",
             common::inRange(0.0, 1.0));
     v.field("min_floor_island_area", min_floor_island_area,
-            "Smallest navmesh island that is a floor (m^2)",
+            "Navmesh islands at least this large are floors a ground agent "
+            "may use, smaller ones are furniture tops; the largest island "
+            "always counts (m^2)",
             common::inRange(0.0, 1e6));
     v.field("follower_goal_radius", follower_goal_radius,
-            "Follower waypoint radius (m)", common::inRange(0.01, 10.0));
+            "Follower waypoint radius (m; paper: 0.5)",
+            common::inRange(0.01, 10.0));
     v.field("leg_base_steps", leg_base_steps,
-            "Step cap of one leg: constant part", common::inRange(1, 100000));
+            "Step cap of one waypoint-to-waypoint leg: this many actions plus "
+            "leg_steps_per_meter per metre of geodesic distance",
+            common::inRange(1, 100000));
     v.field("leg_steps_per_meter", leg_steps_per_meter,
-            "Step cap of one leg: per metre of geodesic distance",
+            "Step cap of one leg: actions per metre of geodesic distance, on "
+            "top of leg_base_steps",
             common::inRange(0.0, 1000.0));
     v.field("max_leg_detour", max_leg_detour,
-            "Longest leg geodesic as a multiple of its straight length (0 = "
-            "no limit)",
+            "Beyond the paper: a leg whose navmesh geodesic exceeds this "
+            "multiple of its straight length (at least 1 m) fails as a detour "
+            "(0: no limit, as in the paper)",
             common::inRange(0.0, 1000.0));
   }
   bool operator==(const TransferConfig&) const = default;

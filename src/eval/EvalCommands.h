@@ -9,7 +9,10 @@
 //                                                     the best (best.json)
 //   eval --config C --checkpoint policy.pt           a TorchScript export
 //   eval --config C --agent random|handcrafted       a no-learning baseline
-//   eval tables --runs results/ --out docs/results.md
+//   eval tables --runs results/ --out docs/results.md [--claimed-only]
+//   eval compare --runs results/ --out findings.md   the paper's findings
+//                                                     judged by paired
+//                                                     differences over seeds
 //
 // Per evaluated (checkpoint i, split) the output directory receives the
 // files of rollout::evaluateSplit() (stats, per-episode file with
@@ -98,11 +101,26 @@ std::string summaryLine(const SplitReport& report);
 struct TablesCommandOptions {
   std::filesystem::path runs;  ///< results directory (Tables.h layout)
   std::filesystem::path out;   ///< Markdown file; the LaTeX goes beside it (.tex)
+  /// only the rows some run claims (eval::claimedRowsOnly()), for a job
+  /// that ran a few rows rather than the whole reproduction
+  bool claimed_only = false;
 };
 
 /// Builds Tables 1-3 from `runs` (eval::buildTables()) and writes Markdown
 /// to `out` and LaTeX to `out` with the extension .tex; prints both paths.
 /// Returns the exit code.
 int runTablesCommand(const TablesCommandOptions& options, std::ostream& out);
+
+/// Options of `eval compare`.
+struct CompareCommandOptions {
+  std::filesystem::path runs;  ///< results directory (Tables.h layout)
+  std::filesystem::path out;   ///< Markdown file
+};
+
+/// Judges the paper's findings (eval::paperFindings()) by paired
+/// differences over the seeds of the runs under `runs`, on kFindingSplit
+/// and kFindingMetrics, and writes the Markdown to `out`; prints the path
+/// and the count of each verdict. Returns the exit code.
+int runCompareCommand(const CompareCommandOptions& options, std::ostream& out);
 
 }  // namespace vln::eval

@@ -8,6 +8,7 @@
 #include "common/Check.h"
 #include "common/Json.h"
 #include "data/NodeTransfer.h"
+#include "rollout/Metrics.h"
 
 namespace vln::eval {
 namespace {
@@ -133,15 +134,8 @@ GraphEpisodeMetrics scoreContinuousPath(const data::NavGraph& graph,
 // ---------------------------------------------------------------------------
 
 GraphSplitStats aggregateGraph(std::span<const GraphEpisodeMetrics> episodes) {
-  VLN_CHECK_ARG(!episodes.empty(), "aggregateGraph(): no episodes to average");
-  GraphSplitStats stats;
-  stats.num_episodes = static_cast<int>(episodes.size());
-  for (const auto& [key, member] : kGraphKeys) {
-    double sum = 0.0;
-    for (const auto& e : episodes) sum += e.*member;
-    stats.mean.*member = sum / static_cast<double>(episodes.size());
-  }
-  return stats;
+  return rollout::averageMetrics<GraphSplitStats>(episodes, kGraphKeys,
+                                                  "aggregateGraph()");
 }
 
 std::string graphStatsFileName(int checkpoint, std::string_view split) {

@@ -1,5 +1,7 @@
 #include "eval/PaperResults.h"
 
+#include <algorithm>
+
 #include "common/Check.h"
 
 namespace vln::eval {
@@ -11,6 +13,21 @@ const std::string kX(kCheck);
 const std::string kXs(kCheckStar);
 const std::string kNo(kNone);
 
+// Metric columns of Tables 1 and 2: the paper's six, then the two VLN-CE's
+// code reports (habitat_extensions/measures.py) and the paper does not.
+const std::vector<std::string> kPaperMetrics = {"TL", "NE", "nDTW",
+                                                "OS", "SR", "SPL"};
+const std::vector<std::string> kAddedMetrics = {"ONE", "OSPL"};
+
+// Appends the added metrics to a table transcribed with the paper's
+// columns: a column each, kNone in every paper row.
+void appendAddedMetrics(PaperTable& t) {
+  t.metrics.insert(t.metrics.end(), kAddedMetrics.begin(), kAddedMetrics.end());
+  for (auto& row : t.rows)
+    for (auto& split : row.values)
+      split.insert(split.end(), kAddedMetrics.size(), kNo);
+}
+
 // Table 1 of the paper (\label{tab:ablate}), rows top to bottom.
 PaperTable makeTable1() {
   PaperTable t;
@@ -20,7 +37,7 @@ PaperTable makeTable1() {
       "sequence-to-sequence model.";
   t.attribute_columns = {"Vision", "Instr.", "History"};
   t.splits = {"val_seen", "val_unseen"};
-  t.metrics = {"TL", "NE", "nDTW", "OS", "SR", "SPL"};
+  t.metrics = kPaperMetrics;
   t.rows = {
       {"Random",
        "Random",
@@ -58,6 +75,7 @@ PaperTable makeTable1() {
        Values{{"7.86", "9.09", "0.42", "0.26", "0.18", "0.17"},
               {"7.27", "9.03", "0.42", "0.22", "0.17", "0.16"}}},
   };
+  appendAddedMetrics(t);
   return t;
 }
 
@@ -71,7 +89,7 @@ PaperTable makeTable2() {
       "augmentation (Aug.).";
   t.attribute_columns = {"PM", "DA", "Aug."};
   t.splits = {"val_seen", "val_unseen"};
-  t.metrics = {"TL", "NE", "nDTW", "OS", "SR", "SPL"};
+  t.metrics = kPaperMetrics;
   const std::string s2s = "Seq2Seq";
   const std::string cma = "Cross-Modal Attention";
   t.rows = {
@@ -136,6 +154,7 @@ PaperTable makeTable2() {
        Values{{"9.32", "6.76", "0.55", "0.47", "0.37", "0.33"},
               {"8.27", "7.76", "0.50", "0.37", "0.29", "0.26"}}},
   };
+  appendAddedMetrics(t);
   return t;
 }
 
@@ -222,12 +241,19 @@ std::string_view metricStatsKey(std::string_view metric) {
   if (metric == "OS") return "oracle_success";
   if (metric == "SR") return "success";
   if (metric == "SPL") return "spl";
+  if (metric == "ONE") return "oracle_navigation_error";
+  if (metric == "OSPL") return "oracle_spl";
   throw std::invalid_argument(
       strCat("metricStatsKey(): unknown metric column '", metric, "'"));
 }
 
 bool lowerIsBetter(std::string_view metric) {
-  return metric == "TL" || metric == "NE";
+  return metric == "TL" || metric == "NE" || metric == "ONE";
+}
+
+bool addedMetric(std::string_view metric) {
+  return std::find(kAddedMetrics.begin(), kAddedMetrics.end(), metric) !=
+         kAddedMetrics.end();
 }
 
 }  // namespace vln::eval

@@ -3,7 +3,8 @@
 // verbatim from its LaTeX source: Table 1 (no-learning baselines and input
 // ablations), Table 2 (training regimes of Seq2Seq and Cross-Modal
 // Attention) and Table 3 (nav-graph VLN comparison). The tables builder
-// prints them beside our runs.
+// prints them beside our runs. Tables 1 and 2 also get columns for the two
+// metrics VLN-CE's code reports and the paper does not (addedMetric()).
 
 #include <string>
 #include <string_view>
@@ -46,8 +47,8 @@ struct PaperTable {
   std::vector<std::string>
       attribute_columns;            ///< e.g. {"Vision", "Instr.", "History"}
   std::vector<std::string> splits;  ///< e.g. {"val_seen", "val_unseen"}
-  std::vector<std::string>
-      metrics;  ///< e.g. {"TL", "NE", "nDTW", "OS", "SR", "SPL"}
+  /// e.g. {"TL", "NE", "nDTW", "OS", "SR", "SPL", "ONE", "OSPL"}
+  std::vector<std::string> metrics;
   std::vector<PaperRow> rows;
   /// The row with `key`, or nullptr.
   const PaperRow* findRow(std::string_view key) const;
@@ -58,10 +59,17 @@ const PaperTable& paperTable(int number);
 
 /// Key in our stats files of a metric column: TL -> path_length,
 /// NE -> distance_to_goal, nDTW -> ndtw, OS -> oracle_success,
-/// SR -> success, SPL -> spl. Throws std::invalid_argument otherwise.
+/// SR -> success, SPL -> spl, ONE -> oracle_navigation_error,
+/// OSPL -> oracle_spl. Throws std::invalid_argument otherwise.
 std::string_view metricStatsKey(std::string_view metric);
 
-/// True when lower is better for the metric (TL, NE).
+/// True when lower is better for the metric (TL, NE, ONE).
 bool lowerIsBetter(std::string_view metric);
+
+/// True for the columns of Tables 1 and 2 that VLN-CE's code reports and
+/// the paper does not (ONE: oracle navigation error, OSPL: oracle SPL):
+/// the paper's rows show kNone for them, and so do our stats files written
+/// before these metrics existed.
+bool addedMetric(std::string_view metric);
 
 }  // namespace vln::eval

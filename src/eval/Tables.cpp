@@ -1,7 +1,9 @@
 #include "eval/Tables.h"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <set>
 #include <sstream>
@@ -16,8 +18,9 @@ namespace vln::eval {
 namespace {
 
 const std::set<std::string> kRunKeys = {
-    "model",       "rows",    "checkpoint", "config", "command", "vision",
-    "instruction", "history", "pm",         "da",     "aug",     "notes"};
+    "model",   "rows",   "seed",        "checkpoint", "config",
+    "command", "vision", "instruction", "history",    "pm",
+    "da",      "aug",    "notes"};
 const std::vector<std::string> kVisionValues = {"RGBD", "RGB", "D", "-"};
 const std::vector<std::string> kDaValues = {"none", "dagger",
                                             "dagger_finetune"};
@@ -64,29 +67,72 @@ std::vector<std::string> runAttributes(const RunInfo& run, int number) {
 }
 
 // The metric values of one split, or nullopt when its stats file is absent.
-std::optional<std::vector<double>> splitValues(const RunInfo& run,
-                                               const PaperTable& table,
-                                               const std::string& split,
-                                               int* numEpisodes) {
+std::optional<SplitValues> splitValues(const RunInfo& run,
+                                       const PaperTable& table,
+                                       const std::string& split) {
   nlohmann::json stats;
+  SplitValues values;
+  std::string where;
   if (table.number == 3) {
     const auto file = run.dir / graphStatsFileName(run.checkpoint, split);
     if (!std::filesystem::exists(file)) return std::nullopt;
     const GraphSplitStats s = readGraphStatsFile(file);
     stats = graphStatsToJson(s);
-    *numEpisodes = s.num_episodes;
+    values.num_episodes = s.num_episodes;
+    where = file.string();
   } else {
+    // read here, not by rollout::readStatsFile(): files written before the
+    // added metrics existed lack them and must still print
     const auto file = run.dir / rollout::statsFileName(run.checkpoint, split);
     if (!std::filesystem::exists(file)) return std::nullopt;
-    const rollout::SplitStats s = rollout::readStatsFile(file);
-    stats = rollout::statsToJson(s);
-    *numEpisodes = s.num_episodes;
+    where = file.string();
+    stats = common::readJsonFile(file);
+    values.num_episodes =
+        common::requireField<int>(stats, "num_episodes", where);
+    VLN_CHECK_ARG(values.num_episodes > 0, where,
+                  ": field 'num_episodes' must be positive, got ",
+                  values.num_episodes);
   }
-  std::vector<double> values;
-  for (const auto& metric : table.metrics)
-    values.push_back(
-        stats.at(std::string(metricStatsKey(metric))).get<double>());
+  for (const auto& metric : table.metrics) {
+    const std::string key(metricStatsKey(metric));
+    const auto it = stats.find(key);
+    if (it == stats.end()) {
+      VLN_CHECK_ARG(addedMetric(metric), where, ": field '", key,
+                    "' is missing");
+      values.metrics.push_back(std::nullopt);
+    } else if (it->is_null()) {
+      // JSON has no infinity: the stats writers store a non-finite mean
+      // (an unreachable goal's distance) as null
+      values.metrics.push_back(std::numeric_limits<double>::infinity());
+    } else {
+      VLN_CHECK_ARG(it->is_number(), where, ": field '", key,
+                    "' must be a number, got ", it->dump());
+      values.metrics.push_back(it->get<double>());
+    }
+  }
   return values;
+}
+
+// Mean and interval of every metric of every split over a row's seeds.
+void aggregateSeeds(const PaperTable& table, OurRow& ours) {
+  ours.seeds_with_split.assign(table.splits.size(), 0);
+  ours.cells.assign(table.splits.size(), {});
+  for (size_t s = 0; s < table.splits.size(); ++s) {
+    std::vector<const SplitValues*> present;
+    for (const auto& seed : ours.seeds)
+      if (seed.splits[s]) present.push_back(&*seed.splits[s]);
+    ours.seeds_with_split[s] = static_cast<int>(present.size());
+    for (size_t m = 0; m < table.metrics.size(); ++m) {
+      std::vector<double> values;
+      for (const SplitValues* split : present)
+        if (split->metrics[m]) values.push_back(*split->metrics[m]);
+      // a metric some seed lacks is not averaged over the others: the cell
+      // would silently rest on fewer seeds than the row says
+      const bool complete = !present.empty() && values.size() == present.size();
+      ours.cells[s].push_back(complete ? std::optional(meanInterval(values))
+                                       : std::nullopt);
+    }
+  }
 }
 
 std::string formatValue(double v) {
@@ -170,14 +216,87 @@ std::string texToken(const std::string& token) {
 
 bool numbered(const PaperTable& table) { return table.number == 2; }
 
-std::string reference(const OurRow& ours, const PaperTable& table) {
-  std::string episodes;
+// Plus-minus sign between a mean and its half-width, per format.
+constexpr std::string_view kMdPlusMinus = " ± ";
+constexpr std::string_view kTexPlusMinus = " $\\pm$ ";
+
+// One of our metric cells: "missing" without the split, kNone without the
+// metric, the value for one seed, "mean ± half-width" for several.
+std::string formatCell(const OurRow& ours, size_t split, size_t metric,
+                       std::string_view plusMinus) {
+  if (ours.seeds_with_split[split] == 0) return "missing";
+  const std::optional<Interval>& cell = ours.cells[split][metric];
+  if (!cell) return std::string(kNone);
+  if (cell->n == 1 || !std::isfinite(cell->mean))
+    return formatValue(cell->mean);
+  return strCat(formatValue(cell->mean), plusMinus,
+                formatValue(cell->half_width));
+}
+
+// The "n" cell: seeds claiming the row, and the splits fewer of them have.
+std::string seedCount(const OurRow& ours, const PaperTable& table) {
+  const int n = static_cast<int>(ours.seeds.size());
+  std::string partial;
   for (size_t s = 0; s < table.splits.size(); ++s)
-    episodes += strCat(s ? ", " : "", table.splits[s], " ",
-                       ours.values[s] ? std::to_string(ours.num_episodes[s])
-                                      : std::string("missing"));
-  return strCat("run ", ours.run, ", checkpoint ", ours.checkpoint,
-                ", episodes ", episodes);
+    if (ours.seeds_with_split[s] != n)
+      partial += strCat(partial.empty() ? "" : ", ", table.splits[s], " ",
+                        ours.seeds_with_split[s]);
+  return partial.empty() ? std::to_string(n) : strCat(n, " (", partial, ")");
+}
+
+// The folder holding a row's runs when several share one (<experiment> of
+// <experiment>/seed<S>), else the run names.
+std::string sourceName(const OurRow& ours) {
+  const auto parent = std::filesystem::path(ours.seeds[0].run).parent_path();
+  bool shared = ours.seeds.size() > 1 && !parent.empty();
+  for (const auto& seed : ours.seeds)
+    shared &= std::filesystem::path(seed.run).parent_path() == parent;
+  if (shared) return parent.generic_string();
+  std::vector<std::string> names;
+  for (const auto& seed : ours.seeds) names.push_back(seed.run);
+  return joined(names);
+}
+
+// A row's footnote: each run with its seed and checkpoint, the episodes
+// per split, the configs and the commands. `text` escapes prose, `code`
+// formats a path or a command.
+template <class Text, class Code>
+std::string reference(const OurRow& ours, const PaperTable& table, Text text,
+                      Code code) {
+  const bool several = ours.seeds.size() > 1;
+  std::vector<std::string> runs, configs, commands;
+  for (const auto& seed : ours.seeds) {
+    runs.push_back(text(strCat(seed.run, " (seed ", seed.seed, ", checkpoint ",
+                               seed.checkpoint, ")")));
+    if (std::find(configs.begin(), configs.end(), code(seed.config)) ==
+        configs.end())
+      configs.push_back(code(seed.config));
+    commands.push_back(code(seed.command));
+  }
+  std::vector<std::string> episodes;
+  for (size_t s = 0; s < table.splits.size(); ++s) {
+    std::vector<std::string> counts;
+    for (const auto& seed : ours.seeds) {
+      if (!seed.splits[s]) continue;
+      const std::string n = std::to_string(seed.splits[s]->num_episodes);
+      if (std::find(counts.begin(), counts.end(), n) == counts.end())
+        counts.push_back(n);
+    }
+    std::string list;
+    for (const auto& n : counts) list += (list.empty() ? "" : "/") + n;
+    episodes.push_back(
+        text(strCat(table.splits[s], " ", list.empty() ? "missing" : list)));
+  }
+  return strCat(
+      several ? "runs " : "run ", joined(runs), "; episodes ", joined(episodes),
+      configs.size() > 1 ? "; configs " : "; config ", joined(configs),
+      several ? "; commands " : "; command ", joined(commands));
+}
+
+std::string identity(const std::string& text) { return text; }
+
+std::string texCode(const std::string& text) {
+  return "\\texttt{" + texEscape(text) + "}";
 }
 
 }  // namespace
@@ -200,6 +319,9 @@ RunInfo readRunInfo(const std::filesystem::path& runDir) {
   if (run.name.empty()) run.name = runDir.parent_path().filename().string();
   run.dir = runDir;
   run.model = common::requireField<std::string>(json, "model", where);
+  run.seed = optionalField<int>(json, "seed", 0, /*required=*/false, where, "");
+  VLN_CHECK_ARG(run.seed >= 0, where, ": field 'seed' must be >= 0, got ",
+                run.seed);
   run.checkpoint = common::requireField<int>(json, "checkpoint", where);
   VLN_CHECK_ARG(run.checkpoint >= 0, where,
                 ": field 'checkpoint' must be >= 0, got ", run.checkpoint);
@@ -260,30 +382,45 @@ RunInfo readRunInfo(const std::filesystem::path& runDir) {
 // building
 // ---------------------------------------------------------------------------
 
+const TableRow* BuiltTable::findRow(std::string_view key) const {
+  for (const auto& row : rows)
+    if (row.paper->key == key) return &row;
+  return nullptr;
+}
+
 std::vector<BuiltTable> buildTables(const std::filesystem::path& runsDir) {
   VLN_CHECK_IO(std::filesystem::is_directory(runsDir),
                "buildTables(): results directory '", runsDir.string(),
                "' does not exist or is not a directory");
 
-  // runs in name order so the output does not depend on the file system
+  // runs at any depth (<experiment>/seed<S>/), in name order so the output
+  // does not depend on the file system
   std::vector<std::filesystem::path> dirs;
-  for (const auto& entry : std::filesystem::directory_iterator(runsDir))
+  for (const auto& entry :
+       std::filesystem::recursive_directory_iterator(runsDir))
     if (entry.is_directory() &&
         std::filesystem::exists(entry.path() / "run.json"))
       dirs.push_back(entry.path());
   std::sort(dirs.begin(), dirs.end());
   std::vector<RunInfo> runs;
-  for (const auto& dir : dirs) runs.push_back(readRunInfo(dir));
+  for (const auto& dir : dirs) {
+    runs.push_back(readRunInfo(dir));
+    runs.back().name = dir.lexically_relative(runsDir).generic_string();
+  }
 
-  // which run claims which row
-  std::map<std::pair<int, std::string>, const RunInfo*> claims;
+  // which runs claim which row: one per seed
+  std::map<std::pair<int, std::string>, std::vector<const RunInfo*>> claims;
   for (const auto& run : runs) {
     for (const auto& claim : run.rows) {
-      auto [it, inserted] = claims.emplace(claim, &run);
-      VLN_CHECK_ARG(inserted, "buildTables(): table ", claim.first, " row '",
-                    claim.second, "' is claimed by both '",
-                    (it->second->dir / "run.json").string(), "' and '",
-                    (run.dir / "run.json").string(), "'");
+      auto& claimants = claims[claim];
+      for (const RunInfo* other : claimants)
+        VLN_CHECK_ARG(other->seed != run.seed, "buildTables(): table ",
+                      claim.first, " row '", claim.second,
+                      "' is claimed by both '",
+                      (other->dir / "run.json").string(), "' and '",
+                      (run.dir / "run.json").string(), "' with seed ", run.seed,
+                      " (the runs of one row need distinct seeds)");
+      claimants.push_back(&run);
     }
   }
 
@@ -296,20 +433,35 @@ std::vector<BuiltTable> buildTables(const std::filesystem::path& runsDir) {
       row.paper = &paperRow;
       auto it = claims.find({number, paperRow.key});
       if (it != claims.end()) {
-        const RunInfo& run = *it->second;
+        std::vector<const RunInfo*> claimants = it->second;
+        std::sort(claimants.begin(), claimants.end(),
+                  [](const RunInfo* a, const RunInfo* b) {
+                    return a->seed < b->seed;
+                  });
         OurRow ours;
-        ours.run = run.name;
-        ours.model = run.model;
-        ours.attributes = runAttributes(run, number);
-        ours.checkpoint = run.checkpoint;
-        ours.config = run.config;
-        ours.command = run.command;
-        for (const auto& split : built.paper->splits) {
-          int episodes = 0;
-          ours.values.push_back(
-              splitValues(run, *built.paper, split, &episodes));
-          ours.num_episodes.push_back(episodes);
+        ours.model = claimants.front()->model;
+        ours.attributes = runAttributes(*claimants.front(), number);
+        for (const RunInfo* run : claimants) {
+          // seeds of one row differ in the seed only: a row whose runs
+          // disagree would average different experiments
+          VLN_CHECK_ARG(run->model == ours.model &&
+                            runAttributes(*run, number) == ours.attributes,
+                        "buildTables(): the runs of table ", number, " row '",
+                        paperRow.key,
+                        "' disagree on the model or its attributes: '",
+                        (claimants.front()->dir / "run.json").string(),
+                        "' and '", (run->dir / "run.json").string(), "'");
+          SeedRun seed;
+          seed.run = run->name;
+          seed.seed = run->seed;
+          seed.checkpoint = run->checkpoint;
+          seed.config = run->config;
+          seed.command = run->command;
+          for (const auto& split : built.paper->splits)
+            seed.splits.push_back(splitValues(*run, *built.paper, split));
+          ours.seeds.push_back(std::move(seed));
         }
+        aggregateSeeds(*built.paper, ours);
         row.ours = std::move(ours);
       }
       built.rows.push_back(std::move(row));
@@ -317,6 +469,15 @@ std::vector<BuiltTable> buildTables(const std::filesystem::path& runsDir) {
     tables.push_back(std::move(built));
   }
   return tables;
+}
+
+std::vector<BuiltTable> claimedRowsOnly(std::vector<BuiltTable> tables) {
+  std::vector<BuiltTable> kept;
+  for (auto& table : tables) {
+    std::erase_if(table.rows, [](const TableRow& row) { return !row.ours; });
+    if (!table.rows.empty()) kept.push_back(std::move(table));
+  }
+  return kept;
 }
 
 // ---------------------------------------------------------------------------
@@ -332,14 +493,14 @@ std::string renderMarkdown(const BuiltTable& table) {
   out << "|" << (numbered(paper) ? " # |" : "") << " Model |";
   for (const auto& column : paper.attribute_columns)
     out << " " << column << " |";
-  out << " Source |";
+  out << " Source | n |";
   for (const auto& split : paper.splits)
     for (const auto& metric : paper.metrics)
       out << " " << splitTitle(split) << " " << metric
           << (lowerIsBetter(metric) ? " ↓" : " ↑") << " |";
   out << "\n|" << (numbered(paper) ? " --: |" : "") << " :-- |";
   for (size_t i = 0; i < paper.attribute_columns.size(); ++i) out << " :-: |";
-  out << " :-- |";
+  out << " :-- | --: |";
   for (size_t i = 0; i < paper.splits.size() * paper.metrics.size(); ++i)
     out << " --: |";
   out << "\n";
@@ -351,7 +512,7 @@ std::string renderMarkdown(const BuiltTable& table) {
     out << "|" << (numbered(paper) ? " " + p.key + " |" : "") << " " << p.model
         << " |";
     for (const auto& token : p.attributes) out << " " << mdToken(token) << " |";
-    out << " paper |";
+    out << " paper | " << kNone << " |";
     for (const auto& split : p.values)
       for (const auto& value : split) out << " " << value << " |";
     out << "\n";
@@ -360,7 +521,7 @@ std::string renderMarkdown(const BuiltTable& table) {
     if (!row.ours) {
       out << "*ours* |";
       for (size_t i = 0; i < paper.attribute_columns.size(); ++i) out << " |";
-      out << " missing (no run) |";
+      out << " missing (no run) | 0 |";
       for (size_t i = 0; i < paper.splits.size() * paper.metrics.size(); ++i)
         out << " missing |";
       out << "\n";
@@ -371,26 +532,27 @@ std::string renderMarkdown(const BuiltTable& table) {
     out << "*ours: " << ours.model << "* |";
     for (const auto& token : ours.attributes)
       out << " " << mdToken(token) << " |";
-    out << " " << mdCode(ours.run) << " [" << cited.size() << "] |";
-    for (const auto& split : ours.values)
+    out << " " << mdCode(sourceName(ours)) << " [" << cited.size() << "] | "
+        << seedCount(ours, paper) << " |";
+    for (size_t s = 0; s < paper.splits.size(); ++s)
       for (size_t m = 0; m < paper.metrics.size(); ++m)
-        out << " " << (split ? formatValue((*split)[m]) : "missing") << " |";
+        out << " " << formatCell(ours, s, m, kMdPlusMinus) << " |";
     out << "\n";
   }
 
   // references
   if (!cited.empty()) out << "\n";
   for (size_t i = 0; i < cited.size(); ++i)
-    out << "[" << i + 1 << "] " << reference(*cited[i], paper) << "; config "
-        << mdCode(cited[i]->config) << "; command " << mdCode(cited[i]->command)
+    out << "[" << i + 1 << "] " << reference(*cited[i], paper, identity, mdCode)
         << "\n";
   return out.str();
 }
 
 std::string renderLatex(const BuiltTable& table) {
   const PaperTable& paper = *table.paper;
+  // leading columns: number, model, attributes, source, n
   const size_t lead =
-      (numbered(paper) ? 1 : 0) + 1 + paper.attribute_columns.size() + 1;
+      (numbered(paper) ? 1 : 0) + 1 + paper.attribute_columns.size() + 2;
   const size_t nm = paper.metrics.size();
   std::ostringstream out;
   out << "% Table " << paper.number
@@ -402,7 +564,7 @@ std::string renderLatex(const BuiltTable& table) {
   // column layout and headers
   out << "\\begin{tabular}{" << (numbered(paper) ? "r" : "") << "l";
   for (size_t i = 0; i < paper.attribute_columns.size(); ++i) out << "c";
-  out << "l";
+  out << "lr";
   for (size_t s = 0; s < paper.splits.size(); ++s) out << std::string(nm, 'c');
   out << "}\n\\toprule\n";
   out << std::string(lead - 1, '&');
@@ -415,7 +577,7 @@ std::string renderLatex(const BuiltTable& table) {
   out << "\n" << (numbered(paper) ? "\\# & " : "") << "Model";
   for (const auto& column : paper.attribute_columns)
     out << " & " << texEscape(column);
-  out << " & Source";
+  out << " & Source & $n$";
   for (size_t s = 0; s < paper.splits.size(); ++s)
     for (const auto& metric : paper.metrics)
       out << " & " << texEscape(metric)
@@ -429,7 +591,7 @@ std::string renderLatex(const BuiltTable& table) {
     const std::string number = numbered(paper) ? texEscape(p.key) + " & " : "";
     out << number << texEscape(p.model);
     for (const auto& token : p.attributes) out << " & " << texToken(token);
-    out << " & paper";
+    out << " & paper & " << kNone;
     for (const auto& split : p.values)
       for (const auto& value : split) out << " & " << texEscape(value);
     out << " \\\\\n";
@@ -437,7 +599,7 @@ std::string renderLatex(const BuiltTable& table) {
     out << number << "\\quad\\textit{ours}";
     if (!row.ours) {
       for (size_t i = 0; i < paper.attribute_columns.size(); ++i) out << " & ";
-      out << " & missing";
+      out << " & missing & 0";
       for (size_t i = 0; i < paper.splits.size() * nm; ++i) out << " & missing";
       out << " \\\\\n";
       continue;
@@ -445,10 +607,11 @@ std::string renderLatex(const BuiltTable& table) {
     const OurRow& ours = *row.ours;
     cited.push_back(&ours);
     for (const auto& token : ours.attributes) out << " & " << texToken(token);
-    out << " & [" << cited.size() << "]";
-    for (const auto& split : ours.values)
+    out << " & [" << cited.size() << "] & "
+        << texEscape(seedCount(ours, paper));
+    for (size_t s = 0; s < paper.splits.size(); ++s)
       for (size_t m = 0; m < nm; ++m)
-        out << " & " << (split ? formatValue((*split)[m]) : "missing");
+        out << " & " << formatCell(ours, s, m, kTexPlusMinus);
     out << " \\\\\n";
   }
   out << "\\bottomrule\n\\end{tabular}\n";
@@ -457,10 +620,8 @@ std::string renderLatex(const BuiltTable& table) {
   if (!cited.empty()) {
     out << "\\par\\raggedright\n";
     for (size_t i = 0; i < cited.size(); ++i)
-      out << "[" << i + 1 << "] " << texEscape(reference(*cited[i], paper))
-          << "; config \\texttt{" << texEscape(cited[i]->config)
-          << "}; command \\texttt{" << texEscape(cited[i]->command)
-          << "}\\\\\n";
+      out << "[" << i + 1 << "] "
+          << reference(*cited[i], paper, texEscape, texCode) << "\\\\\n";
   }
   out << "\\end{table}\n";
   return out.str();
@@ -468,22 +629,28 @@ std::string renderLatex(const BuiltTable& table) {
 
 std::pair<std::filesystem::path, std::filesystem::path> writeTables(
     const std::vector<BuiltTable>& tables,
-    const std::filesystem::path& outDir) {
-  std::string markdown =
-      "<!-- Generated by vln::eval::writeTables(); numbers marked ours come "
-      "from the result files they cite. -->\n\n";
+    const std::filesystem::path& markdownFile, const std::string& generatedBy) {
+  std::filesystem::path texFile = markdownFile;
+  texFile.replace_extension(".tex");
+  VLN_CHECK_ARG(texFile != markdownFile, "writeTables(): '",
+                markdownFile.string(),
+                "' must not end in .tex (the LaTeX goes beside the Markdown)");
+  std::string markdown = "<!-- Generated by `" + generatedBy +
+                         "`; numbers marked ours come from the result files "
+                         "they cite. -->\n\n";
   std::string latex =
-      "% Generated by vln::eval::writeTables(); needs booktabs and "
-      "amssymb.\n\n";
+      "% Generated by `" + generatedBy + "`; needs booktabs and amssymb.\n\n";
+  if (tables.empty()) {
+    markdown += "No run claims a row of the paper's tables.\n";
+    latex += "% No run claims a row of the paper's tables.\n";
+  }
   for (const auto& table : tables) {
     markdown += renderMarkdown(table) + "\n";
     latex += renderLatex(table) + "\n";
   }
-  const auto md = outDir / "tables.md";
-  const auto tex = outDir / "tables.tex";
-  common::writeFileAtomic(md, markdown);
-  common::writeFileAtomic(tex, latex);
-  return {md, tex};
+  common::writeFileAtomic(markdownFile, markdown);
+  common::writeFileAtomic(texFile, latex);
+  return {markdownFile, texFile};
 }
 
 }  // namespace vln::eval

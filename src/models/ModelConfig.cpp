@@ -92,20 +92,4 @@ FeatureShape depthFeatureShape(const ModelConfig& config) {
           ddppoSpatial(config.depth_height), ddppoSpatial(config.depth_width)};
 }
 
-const char* policyName(PolicyType type) {
-  return type == PolicyType::kCma ? "cma" : "seq2seq";
-}
-
-const char* encoderName(EncoderType type) {
-  switch (type) {
-    case EncoderType::kResNet50:
-      return "resnet50";
-    case EncoderType::kResNet18:
-      return "resnet18";
-    case EncoderType::kSmallCnn:
-      return "small_cnn";
-  }
-  return "?";
-}
-
 }  // namespace vln::models

@@ -22,6 +22,15 @@ enum class PolicyType { kSeq2Seq, kCma };
 /// small_cnn is a three-layer CNN for fast CPU runs.
 enum class EncoderType { kResNet50, kResNet18, kSmallCnn };
 
+/// YAML names of the policy types (policyName()).
+inline constexpr common::EnumNames<PolicyType, 2> kPolicyNames = {
+    {{"seq2seq", PolicyType::kSeq2Seq}, {"cma", PolicyType::kCma}}};
+/// YAML names of the encoder types (encoderName()).
+inline constexpr common::EnumNames<EncoderType, 3> kEncoderNames = {
+    {{"resnet50", EncoderType::kResNet50},
+     {"resnet18", EncoderType::kResNet18},
+     {"small_cnn", EncoderType::kSmallCnn}}};
+
 /// Number of actions: STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT (Habitat ids).
 inline constexpr int64_t kNumActions = 4;
 
@@ -31,115 +40,107 @@ using FeatureShape = std::array<int64_t, 3>;
 /// Everything that defines a model's architecture and where its pretrained
 /// encoder weights come from.
 struct ModelConfig {
-  /// Agent architecture.
   PolicyType policy = PolicyType::kCma;
-  /// RGB encoder architecture.
   EncoderType rgb_encoder = EncoderType::kResNet50;
-  /// Depth encoder architecture.
   EncoderType depth_encoder = EncoderType::kResNet50;
-  /// TorchScript file holding the RGB encoder's tensors by name (see
-  /// scripts/convert_torchvision_resnet50.py); empty = random init.
   std::string rgb_weights;
-  /// TorchScript file holding the depth encoder's tensors by name (see
-  /// scripts/convert_ddppo_depth.py); empty = random init.
   std::string depth_weights;
-  /// Train the RGB CNN (features cannot then be cached).
   bool rgb_trainable = false;
-  /// Train the depth CNN (features cannot then be cached).
+  bool rgb_batch_statistics = false;
   bool depth_trainable = false;
-
-  /// Ablations: the input is removed from the network, not zeroed. No vision
-  /// is no_rgb + no_depth.
   bool no_rgb = false;
   bool no_depth = false;
   bool no_instruction = false;
-
-  /// Instruction vocabulary size (R2R_VLNCE v1-3: 2504), PAD = token 0.
   int vocab_size = 2504;
-  /// Word embedding width (GloVe 50-d).
   int embedding_dim = 50;
-  /// Train the word embeddings (VLN-CE keeps GloVe frozen).
   bool fine_tune_embeddings = false;
-  /// Instruction LSTM hidden size per direction (CMA is bidirectional, so
-  /// its instruction states are twice this wide).
   int instruction_hidden_size = 128;
-  /// Hidden size of the state GRU(s).
   int hidden_size = 512;
-  /// Width of the learned previous-action embedding (CMA; Seq2Seq only
-  /// when seq2seq_prev_action).
   int prev_action_embedding_dim = 32;
-  /// Seq2Seq also feeds the previous-action embedding (VLN-CE
-  /// SEQ2SEQ.use_prev_action, off in the paper).
   bool seq2seq_prev_action = false;
-  /// Width of the RGB projection (and CMA's attended RGB value).
   int rgb_projection_size = 256;
-  /// Width of the depth projection (and CMA's attended depth value).
   int depth_projection_size = 128;
-  /// Width of CMA's learned per-position embedding appended to each visual
-  /// feature-map location.
   int spatial_embedding_dim = 64;
-  /// Adds the progress-monitor head (tanh of a linear map of the action
-  /// GRU state).
   bool progress_monitor = false;
-  /// Base width of DD-PPO's depth ResNet (ngroups = half of it).
   int depth_resnet_base_planes = 32;
-
-  /// RGB observation size, pixels.
   int rgb_height = 224;
   int rgb_width = 224;
-  /// Depth observation size, pixels.
   int depth_height = 256;
   int depth_width = 256;
-
-  /// Torch device string: "cpu", "cuda", "cuda:1", ...
   std::string device = "cpu";
 
   void visit(common::ConfigVisitor& v) {
-    v.enumeration(
-        "policy", policy,
-        {{"seq2seq", PolicyType::kSeq2Seq}, {"cma", PolicyType::kCma}},
-        "Agent architecture (paper Section 4)");
-    const std::initializer_list<std::pair<const char*, EncoderType>> encoders =
-        {{"resnet50", EncoderType::kResNet50},
-         {"resnet18", EncoderType::kResNet18},
-         {"small_cnn", EncoderType::kSmallCnn}};
-    v.enumeration("rgb_encoder", rgb_encoder, encoders,
+    v.enumeration("policy", policy, kPolicyNames,
+                  "Agent architecture (paper Section 4)");
+    v.enumeration("rgb_encoder", rgb_encoder, kEncoderNames,
                   "RGB CNN (torchvision ResNet or small CNN)");
-    v.enumeration("depth_encoder", depth_encoder, encoders,
+    v.enumeration("depth_encoder", depth_encoder, kEncoderNames,
                   "Depth CNN (DD-PPO GroupNorm ResNet or small CNN)");
     v.field("rgb_weights", rgb_weights,
-            "TorchScript file with RGB encoder weights (empty: random)");
+            "TorchScript file holding the RGB encoder's tensors by name, as "
+            "scripts/convert_torchvision_resnet50.py writes (empty: random "
+            "init)");
     v.field("depth_weights", depth_weights,
-            "TorchScript file with depth encoder weights (empty: random)");
-    v.field("rgb_trainable", rgb_trainable, "Train the RGB CNN");
-    v.field("depth_trainable", depth_trainable, "Train the depth CNN");
-    v.field("no_rgb", no_rgb, "Ablation: remove the RGB input");
-    v.field("no_depth", no_depth, "Ablation: remove the depth input");
+            "TorchScript file holding the depth encoder's tensors by name, as "
+            "scripts/convert_ddppo_depth.py writes (empty: random init)");
+    v.field("rgb_trainable", rgb_trainable,
+            "Train the RGB CNN (its features cannot then be cached)");
+    v.field("rgb_batch_statistics", rgb_batch_statistics,
+            "While collecting training data, normalise the frozen RGB "
+            "ResNet's BatchNorm by the statistics of the batch being encoded, "
+            "as VLN-CE does (its Net calls self.train(), so the ResNet runs "
+            "in train mode during collection): stored features then depend on "
+            "the observations encoded together (trainer.num_envs, one with "
+            "exact_resume). The running (ImageNet) statistics are not updated "
+            "and evaluation always uses them (docs/models.md). No effect on "
+            "small_cnn, which has no BatchNorm");
+    v.field("depth_trainable", depth_trainable,
+            "Train the depth CNN (its features cannot then be cached)");
+    v.field("no_rgb", no_rgb,
+            "Ablation: remove the RGB input from the network, not zero it "
+            "(no vision: no_rgb and no_depth)");
+    v.field("no_depth", no_depth,
+            "Ablation: remove the depth input from the network, not zero it");
     v.field("no_instruction", no_instruction,
-            "Ablation: remove the instruction input");
-    v.field("vocab_size", vocab_size, "Instruction vocabulary size",
+            "Ablation: remove the instruction input from the network, not "
+            "zero it");
+    v.field("vocab_size", vocab_size,
+            "Instruction vocabulary size, PAD = token 0 (R2R_VLNCE v1-3: 2504)",
             common::atLeast(2));
-    v.field("embedding_dim", embedding_dim, "Word embedding width",
+    v.field("embedding_dim", embedding_dim, "Word embedding width (GloVe: 50)",
             common::atLeast(1));
     v.field("fine_tune_embeddings", fine_tune_embeddings,
-            "Train the word embeddings");
+            "Train the word embeddings (VLN-CE keeps GloVe frozen)");
     v.field("instruction_hidden_size", instruction_hidden_size,
-            "Instruction LSTM hidden size per direction", common::atLeast(1));
-    v.field("hidden_size", hidden_size, "State GRU hidden size",
+            "Instruction LSTM hidden size per direction (CMA is bidirectional, "
+            "so its instruction states are twice this wide)",
+            common::atLeast(1));
+    v.field("hidden_size", hidden_size, "Hidden size of the state GRU(s)",
             common::atLeast(2));
     v.field("prev_action_embedding_dim", prev_action_embedding_dim,
-            "Previous-action embedding width", common::atLeast(1));
+            "Width of the learned previous-action embedding (CMA; Seq2Seq only "
+            "with seq2seq_prev_action)",
+            common::atLeast(1));
     v.field("seq2seq_prev_action", seq2seq_prev_action,
-            "Seq2Seq also receives the previous action");
-    v.field("rgb_projection_size", rgb_projection_size, "RGB projection width",
+            "Seq2Seq also receives the previous-action embedding (VLN-CE "
+            "SEQ2SEQ.use_prev_action, off in the paper)");
+    v.field("rgb_projection_size", rgb_projection_size,
+            "Width of the RGB projection (and of CMA's attended RGB value)",
             common::atLeast(1));
     v.field("depth_projection_size", depth_projection_size,
-            "Depth projection width", common::atLeast(1));
+            "Width of the depth projection (and of CMA's attended depth value)",
+            common::atLeast(1));
     v.field("spatial_embedding_dim", spatial_embedding_dim,
-            "CMA per-position embedding width", common::atLeast(1));
-    v.field("progress_monitor", progress_monitor, "Add the progress head");
+            "Width of CMA's learned per-position embedding appended to each "
+            "visual feature-map location",
+            common::atLeast(1));
+    v.field("progress_monitor", progress_monitor,
+            "Add the progress-monitor head (tanh of a linear map of the action "
+            "GRU state)");
     v.field("depth_resnet_base_planes", depth_resnet_base_planes,
-            "DD-PPO depth ResNet base width (even)", common::atLeast(2));
+            "Base width of DD-PPO's depth ResNet (even: GroupNorm groups are "
+            "half of it)",
+            common::atLeast(2));
     v.field("rgb_height", rgb_height, "RGB image height (px)",
             common::inRange(8, 4096));
     v.field("rgb_width", rgb_width, "RGB image width (px)",
@@ -184,8 +185,12 @@ FeatureShape rgbFeatureShape(const ModelConfig& config);
 FeatureShape depthFeatureShape(const ModelConfig& config);
 
 /// Short name of a policy type as spelled in YAML ("seq2seq", "cma").
-const char* policyName(PolicyType type);
+inline const char* policyName(PolicyType type) {
+  return common::enumName(kPolicyNames, type);
+}
 /// Short name of an encoder type as spelled in YAML.
-const char* encoderName(EncoderType type);
+inline const char* encoderName(EncoderType type) {
+  return common::enumName(kEncoderNames, type);
+}
 
 }  // namespace vln::models

@@ -149,6 +149,18 @@ void ObservationEncoderImpl::loadPretrained() {
     loadModule(depth->cnnModule(), config_.depth_weights);
 }
 
+void ObservationEncoderImpl::useRgbBatchStatistics(bool on) {
+  if (!rgb) return;
+  for (auto& module : rgb->cnnModule().modules(/*include_self=*/false)) {
+    auto* bn = module->as<torch::nn::BatchNorm2d>();
+    if (bn == nullptr) continue;
+    // momentum 0 keeps running = (1 - 0) * running + 0 * batch exactly
+    bn->options.momentum(
+        on ? 0.0 : torch::nn::BatchNormOptions(1).momentum().value());
+    bn->train(on);
+  }
+}
+
 void ObservationEncoderImpl::train(bool on) {
   torch::nn::Module::train(on);
   if (rgb && !config_.rgb_trainable) rgb->train(false);

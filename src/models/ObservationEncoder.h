@@ -71,6 +71,12 @@ class ObservationEncoderImpl : public torch::nn::Module {
   /// Keeps frozen encoders in eval mode.
   void train(bool on = true) override;
 
+  /// With `on`, the RGB CNN's BatchNorm layers normalise by the statistics
+  /// of each batch they see, without updating their running statistics
+  /// (model.rgb_batch_statistics during collection); off restores the
+  /// running statistics. Gradients are unaffected.
+  void useRgbBatchStatistics(bool on);
+
   const ModelConfig& config() const { return config_; }
 
   RgbEncoder rgb{nullptr};      ///< undefined when model.no_rgb

@@ -26,6 +26,18 @@ std::array<int64_t, 4> stageBlocks(int layers) {
   return {3, 4, 6, 3};
 }
 
+// both ResNets after their stem: the 3x3/2 max pool, then the four stages
+torch::Tensor poolAndStages(const torch::Tensor& stem, nn::Sequential& layer1,
+                            nn::Sequential& layer2, nn::Sequential& layer3,
+                            nn::Sequential& layer4) {
+  torch::Tensor out = torch::max_pool2d(stem, /*kernel_size=*/3, /*stride=*/2,
+                                        /*padding=*/1);
+  out = layer1->forward(out);
+  out = layer2->forward(out);
+  out = layer3->forward(out);
+  return layer4->forward(out);
+}
+
 }  // namespace
 
 // ===========================================================================
@@ -105,13 +117,8 @@ TorchVisionResNetImpl::TorchVisionResNetImpl(int layers) {
 }
 
 torch::Tensor TorchVisionResNetImpl::forward(const torch::Tensor& x) {
-  torch::Tensor out = torch::relu(bn1(conv1(x)));
-  out = torch::max_pool2d(out, /*kernel_size=*/3, /*stride=*/2,
-                          /*padding=*/1);
-  out = layer1->forward(out);
-  out = layer2->forward(out);
-  out = layer3->forward(out);
-  return layer4->forward(out);
+  return poolAndStages(torch::relu(bn1(conv1(x))), layer1, layer2, layer3,
+                       layer4);
 }
 
 // ===========================================================================
@@ -178,13 +185,7 @@ DdppoResNetImpl::DdppoResNetImpl(int layers, int64_t inChannels,
 }
 
 torch::Tensor DdppoResNetImpl::forward(const torch::Tensor& x) {
-  torch::Tensor out = conv1->forward(x);
-  out = torch::max_pool2d(out, /*kernel_size=*/3, /*stride=*/2,
-                          /*padding=*/1);
-  out = layer1->forward(out);
-  out = layer2->forward(out);
-  out = layer3->forward(out);
-  return layer4->forward(out);
+  return poolAndStages(conv1->forward(x), layer1, layer2, layer3, layer4);
 }
 
 DdppoResNetEncoderImpl::DdppoResNetEncoderImpl(int layers, int64_t basePlanes,

@@ -4,7 +4,8 @@
 //
 // Every definition follows the code that produced the paper's numbers:
 // jacobkrantz/VLN-CE habitat_extensions/measures.py (PathLength,
-// OracleSuccess, NDTW, SDTW, StepsTaken) and habitat-lab
+// OracleNavigationError, OracleSuccess, OracleSPL, NDTW, SDTW, StepsTaken)
+// and habitat-lab
 // habitat/tasks/nav/nav.py (DistanceToGoal, Success, SPL), with VLN-CE's
 // SUCCESS_DISTANCE of 3.0 m. Positions are in the Habitat world frame
 // (+Y up, metres). Geodesic distances come from a caller-supplied function,
@@ -13,7 +14,8 @@
 // Files (all written atomically):
 //  - stats_ckpt_<idx>_<split>.json: per-split means with VLN-CE's keys
 //    (distance_to_goal, success, spl, ndtw, path_length, oracle_success,
-//    steps_taken) plus sdtw and num_episodes, as VLN-CE's
+//    oracle_navigation_error, oracle_spl, steps_taken) plus sdtw and
+//    num_episodes, as VLN-CE's
 //    _eval_checkpoint() writes them.
 //  - episodes_ckpt_<idx>_<split>.json(.gz): one entry per episode with its
 //    metrics, agent path (positions and headings), actions and reference
@@ -34,6 +36,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "common/Check.h"
 #include "common/Math.h"
 
 namespace vln::rollout {
@@ -96,6 +99,8 @@ struct EpisodeMetrics {
   double sdtw = 0.0;              ///< success * ndtw
   double path_length = 0.0;       ///< TL: sum of 3-D step lengths (m)
   double oracle_success = 0.0;    ///< OS: 1 when ever within the radius
+  double oracle_navigation_error = 0.0;  ///< ONE: nearest to goal (m)
+  double oracle_spl = 0.0;  ///< SPL had the agent stopped on first arrival
   double steps_taken = 0.0;       ///< actions taken, STOP included
   bool operator==(const EpisodeMetrics&) const = default;
 };
@@ -103,7 +108,7 @@ struct EpisodeMetrics {
 /// Every metric of EpisodeMetrics with its VLN-CE name, in declaration
 /// order: the one list the files, the logs and the multi-process sums use.
 inline constexpr std::array<std::pair<const char*, double EpisodeMetrics::*>,
-                            8>
+                            10>
     kMetricFields{{{"distance_to_goal", &EpisodeMetrics::distance_to_goal},
                    {"success", &EpisodeMetrics::success},
                    {"spl", &EpisodeMetrics::spl},
@@ -111,7 +116,15 @@ inline constexpr std::array<std::pair<const char*, double EpisodeMetrics::*>,
                    {"sdtw", &EpisodeMetrics::sdtw},
                    {"path_length", &EpisodeMetrics::path_length},
                    {"oracle_success", &EpisodeMetrics::oracle_success},
+                   {"oracle_navigation_error",
+                    &EpisodeMetrics::oracle_navigation_error},
+                   {"oracle_spl", &EpisodeMetrics::oracle_spl},
                    {"steps_taken", &EpisodeMetrics::steps_taken}}};
+
+/// Metrics that files written before they existed lack: reading such a
+/// file gives NaN for them (tables print "-"), not an error.
+inline constexpr std::array<const char*, 2> kMetricsAddedLater{
+    "oracle_navigation_error", "oracle_spl"};
 
 /// {"distance_to_goal": ..., ..., "steps_taken": ...} (kMetricFields).
 nlohmann::json metricsToJson(const EpisodeMetrics& metrics);
@@ -149,6 +162,24 @@ double pathLength(std::span<const Vec3f> positions);
 bool oracleSuccess(std::span<const Vec3f> positions, const Vec3f& goal,
                    const GeodesicFn& geodesic,
                    double successDistance = kSuccessDistance);
+
+/// ONE: the smallest geodesic distance to `goal` over `positions`, the start
+/// included (VLN-CE OracleNavigationError, which updates on reset and after
+/// every step), metres; +infinity when no position has a path to the goal.
+/// OS is ONE < successDistance.
+double oracleNavigationError(std::span<const Vec3f> positions,
+                             const Vec3f& goal, const GeodesicFn& geodesic);
+
+/// Oracle SPL: d0 / max(d0, TL so far) at the first position after a step
+/// whose geodesic distance to `goal` is < `successDistance`, 0 when there is
+/// none: SPL had the agent stopped where it first arrived (OracleSPL of
+/// VLN-CE's v1 measures.py, which updates after steps only). VLN-CE's later
+/// measures.py takes the maximum of habitat's SPL over the steps instead,
+/// which is SPL itself (habitat's success needs STOP), so it would add
+/// nothing to the tables.
+double oracleSplScore(std::span<const Vec3f> positions, const Vec3f& goal,
+                      const GeodesicFn& geodesic, double startDistance,
+                      double successDistance = kSuccessDistance);
 
 /// SR: STOP was called and the final geodesic distance is strictly below
 /// `successDistance` (habitat-lab Success uses `<`). Reaching the step limit
@@ -206,6 +237,25 @@ EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
 /// Means over `episodes` (VLN-CE: sum / num_episodes for every key).
 /// Throws std::invalid_argument when `episodes` is empty.
 SplitStats aggregate(std::span<const EpisodeMetrics> episodes);
+
+/// Means of the `fields` of `episodes` as a Stats (`mean`, `num_episodes`):
+/// aggregate() and the nav-graph comparison's eval::aggregateGraph(). Throws
+/// std::invalid_argument naming `caller` when `episodes` is empty.
+template <class Stats, class Metrics, size_t N>
+Stats averageMetrics(
+    std::span<const Metrics> episodes,
+    const std::array<std::pair<const char*, double Metrics::*>, N>& fields,
+    std::string_view caller) {
+  VLN_CHECK_ARG(!episodes.empty(), caller, ": no episodes to average");
+  Stats stats;
+  stats.num_episodes = static_cast<int>(episodes.size());
+  for (const auto& [key, member] : fields) {
+    double sum = 0.0;
+    for (const auto& e : episodes) sum += e.*member;
+    stats.mean.*member = sum / static_cast<double>(episodes.size());
+  }
+  return stats;
+}
 
 // --- files ----------------------------------------------------------------
 

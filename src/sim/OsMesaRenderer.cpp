@@ -120,6 +120,20 @@ GLuint compileShader(GLenum stage, const std::string& source) {
   return shader;
 }
 
+// uploads `bytes` of one vertex attribute array into `buffer` and enables
+// it at `location`: `components` values of `type` per vertex, `stride`
+// bytes apart
+void uploadAttribute(GLuint buffer, GLuint location, const void* data,
+                     size_t bytes, GLint components, GLenum type,
+                     GLboolean normalized, GLsizei stride) {
+  glBindBuffer(GL_ARRAY_BUFFER, buffer);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(bytes), data,
+               GL_STATIC_DRAW);
+  glVertexAttribPointer(location, components, type, normalized, stride,
+                        nullptr);
+  glEnableVertexAttribArray(location);
+}
+
 struct Program {
   GLuint id = 0;
   GLint viewProj = -1;
@@ -279,29 +293,20 @@ void OsMesaRenderer::uploadMesh(const TriangleMesh& mesh) {
   // constant attribute value stands in otherwise: white, uv 0)
   GLuint buffers[5];
   glGenBuffers(5, buffers);
-  glBindBuffer(GL_ARRAY_BUFFER, buffers[0]);
-  glBufferData(GL_ARRAY_BUFFER,
-               static_cast<GLsizeiptr>(mesh.positions.size() * sizeof(float) * 3),
-               mesh.positions.data(), GL_STATIC_DRAW);
-  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 3 * sizeof(float), nullptr);
-  glEnableVertexAttribArray(0);
+  uploadAttribute(buffers[0], 0, mesh.positions.data(),
+                  mesh.positions.size() * sizeof(float) * 3, 3, GL_FLOAT,
+                  GL_FALSE, 3 * sizeof(float));
   if (!mesh.colors.empty()) {
-    glBindBuffer(GL_ARRAY_BUFFER, buffers[1]);
-    glBufferData(GL_ARRAY_BUFFER,
-                 static_cast<GLsizeiptr>(mesh.colors.size() * sizeof(Rgb8)),
-                 mesh.colors.data(), GL_STATIC_DRAW);
-    glVertexAttribPointer(1, 3, GL_UNSIGNED_BYTE, GL_TRUE, sizeof(Rgb8), nullptr);
-    glEnableVertexAttribArray(1);
+    uploadAttribute(buffers[1], 1, mesh.colors.data(),
+                    mesh.colors.size() * sizeof(Rgb8), 3, GL_UNSIGNED_BYTE,
+                    GL_TRUE, sizeof(Rgb8));
   } else {
     glVertexAttrib3f(1, 1.0f, 1.0f, 1.0f);
   }
   if (!mesh.uvs.empty()) {
-    glBindBuffer(GL_ARRAY_BUFFER, buffers[2]);
-    glBufferData(GL_ARRAY_BUFFER,
-                 static_cast<GLsizeiptr>(mesh.uvs.size() * sizeof(float) * 2),
-                 mesh.uvs.data(), GL_STATIC_DRAW);
-    glVertexAttribPointer(2, 2, GL_FLOAT, GL_FALSE, 2 * sizeof(float), nullptr);
-    glEnableVertexAttribArray(2);
+    uploadAttribute(buffers[2], 2, mesh.uvs.data(),
+                    mesh.uvs.size() * sizeof(float) * 2, 2, GL_FLOAT, GL_FALSE,
+                    2 * sizeof(float));
   } else {
     glVertexAttrib2f(2, 0.0f, 0.0f);
   }

@@ -7,6 +7,7 @@
 #include <mutex>
 #include <string>
 
+#include "common/App.h"
 #include "common/Check.h"
 #include "sim/GeometryCheck.h"
 
@@ -55,10 +56,14 @@ std::string lastEmbreeError() {
 
 // One device per process: creating a device starts Embree's task system, which
 // is far too costly per scene. Each tracer retains it, so the static's
-// destruction order at exit does not matter.
+// destruction order at exit does not matter. Its kernels stop at AVX2 (as
+// LibTorch's, common::pinNumericalRuntime): Embree's AVX-512 traversal
+// rendered other depth bits than its AVX2 one, so identical configs trained
+// different weights on machines with and without AVX-512.
 RTCDevice sharedDevice() {
   static DevicePtr device = [] {
-    RTCDevice created = rtcNewDevice("verbose=0");
+    RTCDevice created = rtcNewDevice(
+        common::nativeCpuDispatch() ? "verbose=0" : "verbose=0,max_isa=avx2");
     VLN_CHECK_IO(created != nullptr,
                  "RayTracer: cannot create an Embree device (",
                  rtcGetDeviceError(nullptr) == RTC_ERROR_UNSUPPORTED_CPU

@@ -1,6 +1,8 @@
 #pragma once
 // Configuration of the simulator, one documented aggregate per concern. The
-// YAML section `sim:` mirrors SimConfig and `task:` mirrors TaskConfig.
+// YAML section `sim:` mirrors SimConfig and `task:` mirrors TaskConfig. Each
+// field is documented once, by its description in visit(), which `train
+// --dry-run` prints beside the key.
 
 #include <string>
 
@@ -14,13 +16,16 @@ enum class UpAxis { kY, kZ };
 
 /// How mesh files are brought into the world frame.
 struct MeshLoadConfig {
-  UpAxis up_axis = UpAxis::kY;  ///< up axis of the file
-  float scale = 1.0f;           ///< multiplies every coordinate (file units to metres)
+  UpAxis up_axis = UpAxis::kY;
+  float scale = 1.0f;
 
   void visit(common::ConfigVisitor& v) {
     v.enumeration("up_axis", up_axis, {{"y", UpAxis::kY}, {"z", UpAxis::kZ}},
-                  "Up axis of scene files");
-    v.field("scale", scale, "Scale from file units to metres",
+                  "Up axis of scene files (MP3D .glb: y; many scanned "
+                  ".ply/.obj: z)");
+    v.field("scale", scale,
+            "Multiplies every coordinate of a scene file (file units to "
+            "metres)",
             common::inRange(1e-6, 1e6));
   }
   bool operator==(const MeshLoadConfig&) const = default;
@@ -28,23 +33,26 @@ struct MeshLoadConfig {
 
 /// Recast navmesh parameters. Defaults are Habitat-Sim's NavMeshSettings.
 struct NavMeshConfig {
-  float cell_size = 0.05f;            ///< xz voxel size, metres
-  float cell_height = 0.2f;           ///< y voxel size, metres
-  float agent_height = 1.5f;          ///< metres
-  float agent_radius = 0.1f;          ///< metres
-  float agent_max_climb = 0.2f;       ///< metres
-  float agent_max_slope = 45.0f;      ///< degrees
-  float region_min_size = 20.0f;      ///< cells^(1/2), Recast minRegionArea = this^2
-  float region_merge_size = 20.0f;    ///< cells^(1/2)
-  float edge_max_len = 12.0f;         ///< world units / cell_size
-  float edge_max_error = 1.3f;        ///< cells
+  float cell_size = 0.05f;
+  float cell_height = 0.2f;
+  float agent_height = 1.5f;
+  float agent_radius = 0.1f;
+  float agent_max_climb = 0.2f;
+  float agent_max_slope = 45.0f;
+  float region_min_size = 20.0f;  // Recast's minRegionArea is its square
+  float region_merge_size = 20.0f;
+  float edge_max_len = 12.0f;  // Recast takes it divided by cell_size
+  float edge_max_error = 1.3f;
   int verts_per_poly = 6;
-  float detail_sample_dist = 6.0f;    ///< cells
-  float detail_sample_max_error = 1.0f;  ///< cells
+  float detail_sample_dist = 6.0f;
+  float detail_sample_max_error = 1.0f;
   bool filter_low_hanging_obstacles = true;
   bool filter_ledge_spans = true;
   bool filter_walkable_low_height_spans = true;
 
+  // The descriptions below are frozen: worldHouseName() hashes this
+  // section's YAML, comments included, so a changed description would
+  // rename every house of a generated world.
   void visit(common::ConfigVisitor& v) {
     v.field("cell_size", cell_size, "Voxel size in x and z (m)", common::inRange(0.005, 1.0));
     v.field("cell_height", cell_height, "Voxel size in y (m)", common::inRange(0.005, 1.0));
@@ -68,30 +76,34 @@ struct NavMeshConfig {
 
 /// The agent's body and action space (LoCoBot-like, as in VLN-CE).
 struct AgentConfig {
-  float forward_step_size = 0.25f;  ///< MOVE_FORWARD distance, metres
-  float turn_angle = 15.0f;         ///< TURN_LEFT/RIGHT angle, degrees
-  bool allow_sliding = true;        ///< slide along walls on collision (Habitat allow_sliding)
+  float forward_step_size = 0.25f;
+  float turn_angle = 15.0f;
+  bool allow_sliding = true;
 
   void visit(common::ConfigVisitor& v) {
     v.field("forward_step_size", forward_step_size, "MOVE_FORWARD distance (m)", common::inRange(0.01, 5.0));
     v.field("turn_angle", turn_angle, "TURN_LEFT/TURN_RIGHT angle (degrees)", common::inRange(0.1, 180.0));
-    v.field("allow_sliding", allow_sliding, "Slide along obstacles instead of stopping");
+    v.field("allow_sliding", allow_sliding,
+            "Slide along obstacles instead of stopping (Habitat "
+            "allow_sliding)");
   }
   bool operator==(const AgentConfig&) const = default;
 };
 
 /// One egocentric camera.
 struct CameraConfig {
-  int width = 256;          ///< pixels
-  int height = 256;         ///< pixels
-  float hfov = 90.0f;       ///< horizontal field of view, degrees
-  float position_y = 1.25f; ///< height above the agent's feet, metres
+  int width = 256;
+  int height = 256;
+  float hfov = 90.0f;
+  float position_y = 1.25f;
 
   void visit(common::ConfigVisitor& v) {
     v.field("width", width, "Image width (pixels)", common::inRange(1, 4096));
     v.field("height", height, "Image height (pixels)", common::inRange(1, 4096));
     v.field("hfov", hfov, "Horizontal field of view (degrees)", common::inRange(1.0, 170.0));
-    v.field("position_y", position_y, "Camera height above the feet (m)", common::inRange(0.0, 5.0));
+    v.field("position_y", position_y,
+            "Camera height above the agent's feet (m)",
+            common::inRange(0.0, 5.0));
   }
   bool operator==(const CameraConfig&) const = default;
 };
@@ -99,15 +111,20 @@ struct CameraConfig {
 /// Depth camera: a camera plus clipping and normalisation of the output.
 struct DepthCameraConfig {
   CameraConfig camera;
-  float min_depth = 0.0f;        ///< metres; closer values clip to this
-  float max_depth = 10.0f;       ///< metres; farther values (and misses) clip to this
-  bool normalize_depth = true;   ///< map [min_depth, max_depth] to [0, 1]
+  float min_depth = 0.0f;
+  float max_depth = 10.0f;
+  bool normalize_depth = true;
 
   void visit(common::ConfigVisitor& v) {
     camera.visit(v);
-    v.field("min_depth", min_depth, "Depth clip minimum (m)", common::inRange(0.0, 100.0));
-    v.field("max_depth", max_depth, "Depth clip maximum (m)", common::inRange(0.01, 1000.0));
-    v.field("normalize_depth", normalize_depth, "Normalise depth to [0, 1]");
+    v.field("min_depth", min_depth,
+            "Depth clip minimum: closer values read as this (m)",
+            common::inRange(0.0, 100.0));
+    v.field("max_depth", max_depth,
+            "Depth clip maximum: farther values and misses read as this (m)",
+            common::inRange(0.01, 1000.0));
+    v.field("normalize_depth", normalize_depth,
+            "Map depth from [min_depth, max_depth] to [0, 1]");
   }
   bool operator==(const DepthCameraConfig&) const = default;
 };
@@ -117,14 +134,14 @@ enum class RendererBackend { kEmbree, kOsMesa };
 
 /// The simulator: scenes, navmesh, agent and sensors.
 struct SimConfig {
-  std::string scenes_dir = "data/scene_datasets";  ///< root for relative scene ids
+  std::string scenes_dir = "data/scene_datasets";
   MeshLoadConfig mesh;
   NavMeshConfig navmesh;
   AgentConfig agent;
   CameraConfig rgb{224, 224, 90.0f, 1.25f};
   DepthCameraConfig depth;
   RendererBackend renderer = RendererBackend::kEmbree;
-  bool cache_navmesh = true;  ///< save/load <scene>.navmesh beside the scene file
+  bool cache_navmesh = true;
 
   void visit(common::ConfigVisitor& v) {
     v.field("scenes_dir", scenes_dir, "Directory that scene ids are relative to");
@@ -134,23 +151,34 @@ struct SimConfig {
     v.section("rgb", rgb, "RGB camera");
     v.section("depth", depth, "Depth camera");
     v.enumeration("renderer", renderer,
-                  {{"embree", RendererBackend::kEmbree}, {"osmesa", RendererBackend::kOsMesa}},
-                  "Rendering backend");
-    v.field("cache_navmesh", cache_navmesh, "Cache built navmeshes as <scene>.navmesh");
+                  {{"embree", RendererBackend::kEmbree},
+                   {"osmesa", RendererBackend::kOsMesa}},
+                  "Rendering backend (both render the same images)");
+    v.field("cache_navmesh", cache_navmesh,
+            "Save built navmeshes as <scene>.navmesh beside the scene file "
+            "and load them from there");
   }
   bool operator==(const SimConfig&) const = default;
 };
 
 /// Episode rules of the VLN-CE task.
 struct TaskConfig {
-  int max_episode_steps = 500;     ///< an episode ends (unsuccessfully) after this many actions
-  float success_distance = 3.0f;   ///< STOP within this geodesic distance of the goal succeeds
-  float follower_goal_radius = 0.5f;  ///< the oracle follower stops within this distance of a waypoint
+  int max_episode_steps = 500;
+  float success_distance = 3.0f;
+  float follower_goal_radius = 0.5f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("max_episode_steps", max_episode_steps, "Action limit per episode", common::inRange(1, 100000));
-    v.field("success_distance", success_distance, "Success radius around the goal (m)", common::inRange(0.01, 100.0));
-    v.field("follower_goal_radius", follower_goal_radius, "Oracle follower waypoint radius (m)", common::inRange(0.01, 10.0));
+    v.field("max_episode_steps", max_episode_steps,
+            "Action limit per episode; an episode ends unsuccessfully after "
+            "this many actions",
+            common::inRange(1, 100000));
+    v.field("success_distance", success_distance,
+            "STOP within this geodesic distance of the goal succeeds (m)",
+            common::inRange(0.01, 100.0));
+    v.field("follower_goal_radius", follower_goal_radius,
+            "The oracle follower stops within this distance of a waypoint "
+            "(m)",
+            common::inRange(0.01, 10.0));
   }
   bool operator==(const TaskConfig&) const = default;
 };

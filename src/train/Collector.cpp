@@ -43,11 +43,38 @@ sim::Action WaypointOracle::next(const sim::AgentState& state) {
   return follower_.nextAction(state, waypoints_[static_cast<size_t>(last)]);
 }
 
-float progressTarget(float startDistance, float distance) {
+std::vector<Vec3f> expertWaypoints(const data::Episode& episode,
+                                   const std::string& expert) {
+  if (expert == "reference_path") return episode.reference_path;
+  VLN_CHECK_ARG(expert == "goal", "trainer.expert: unknown expert '", expert,
+                "'");
+  VLN_CHECK_ARG(!episode.goals.empty(), "episode ", episode.episode_id,
+                ": no goal for trainer.expert goal");
+  return {episode.goals.front().position};
+}
+
+float progressTarget(float startDistance, float distance, bool clip) {
   if (!std::isfinite(distance) || !std::isfinite(startDistance) ||
       startDistance <= 0.0f)
     return 0.0f;
-  return std::clamp((startDistance - distance) / startDistance, -1.0f, 1.0f);
+  const float progress = (startDistance - distance) / startDistance;
+  return clip ? std::clamp(progress, -1.0f, 1.0f) : progress;
+}
+
+int64_t sampleFromLogits(std::span<const float> logits, double u) {
+  VLN_CHECK_ARG(!logits.empty(), "sampleFromLogits(): no logits");
+  // softmax in double, shifted by the maximum so exp() cannot overflow
+  const double top = *std::max_element(logits.begin(), logits.end());
+  std::vector<double> weights(logits.size());
+  double total = 0.0;
+  for (size_t i = 0; i < logits.size(); ++i)
+    total += weights[i] = std::exp(static_cast<double>(logits[i]) - top);
+  double cumulative = 0.0;
+  for (size_t i = 0; i + 1 < logits.size(); ++i) {
+    cumulative += weights[i];
+    if (u * total < cumulative) return static_cast<int64_t>(i);
+  }
+  return static_cast<int64_t>(logits.size()) - 1;
 }
 
 // ---------------------------------------------------------------------------
@@ -74,7 +101,7 @@ struct Collector::Slot {
         episode(round.episodes[static_cast<size_t>(index)]),
         source(round.sources[static_cast<size_t>(index)]),
         oracle(navmesh, config.sim.agent, config.task.follower_goal_radius,
-               episode->reference_path),
+               expertWaypoints(*episode, config.trainer.expert)),
         coins(coinSeed(round, index)),
         goal(episode->goals.front().position),
         startDistance(episode->geodesic_distance
@@ -222,14 +249,16 @@ class Collector::Job : public rollout::EpisodeJob {
       targets[k] = progressTarget(
           s.startDistance,
           c_.envs_->simulator(env).scene().navmesh().geodesicDistance(
-              agent.position, s.goal));
+              agent.position, s.goal),
+          config_.trainer.clip_progress_target);
     });
 
-    // the policy's argmax, with its recurrent state carried along
-    torch::Tensor policyActions;
+    // the policy's logits, with its recurrent state carried along
+    torch::Tensor logits;
     if (stepper_)
-      policyActions =
-          stepper_->step(active, features).argmax(-1).to(torch::kCPU).contiguous();
+      logits = stepper_->step(active, features)
+                   .to(torch::kCPU, torch::kFloat)
+                   .contiguous();
 
     // record the step and choose the action taken: the oracle's, or with
     // probability 1 - beta the policy's
@@ -243,14 +272,25 @@ class Collector::Job : public rollout::EpisodeJob {
       s.record(rgb, depth, static_cast<int64_t>(k), oracle[k], targets[k]);
       sim::Action taken = oracle[k];
       if (stepper_ && common::uniform01(s.coins) >= round_.beta)
-        taken = sim::actionFromInt(static_cast<int>(
-            policyActions.data_ptr<int64_t>()[static_cast<int64_t>(k)]));
+        taken = sim::actionFromInt(static_cast<int>(policyAction(logits, k, s)));
       s.oracleSteps += taken == oracle[k];
       actions[k] = taken;
       s.prevAction = static_cast<int64_t>(taken);
       if (stepper_) stepper_->took(active[k], s.prevAction);
     }
     return actions;
+  }
+
+  // the policy's action of row k: sampled with the slot's generator, or
+  // the argmax (the first of equal maxima, as torch.argmax)
+  int64_t policyAction(const torch::Tensor& logits, size_t k, Slot& s) const {
+    const int64_t n = logits.size(-1);
+    const std::span<const float> row(
+        logits.data_ptr<float>() + static_cast<int64_t>(k) * n,
+        static_cast<size_t>(n));
+    if (config_.trainer.dagger_action == "sample")
+      return sampleFromLogits(row, common::uniform01(s.coins));
+    return std::max_element(row.begin(), row.end()) - row.begin();
   }
 
   // finished episodes go to the store, one transaction each
@@ -347,6 +387,16 @@ CollectionStats Collector::collect(
   torch::NoGradGuard noGrad;
   encoder_->eval();
   if (policy) policy->eval();
+  // VLN-CE's BatchNorm in train mode, for collection only: evaluation
+  // shares this encoder
+  struct BatchStatistics {
+    models::ObservationEncoder& encoder;
+    explicit BatchStatistics(models::ObservationEncoder& e, bool on)
+        : encoder(e) {
+      encoder->useRgbBatchStatistics(on);
+    }
+    ~BatchStatistics() { encoder->useRgbBatchStatistics(false); }
+  } batchStatistics(encoder_, config_.model.rgb_batch_statistics);
 
   // the slots of this shard still missing from the store, in round order
   CollectionStats stats;
@@ -430,11 +480,15 @@ std::string storeConfigHash(const ExperimentConfig& config) {
       "model.depth_height",
       "model.depth_width",
       "model.depth_resnet_base_planes",
+      "model.rgb_batch_statistics",
       "trainer.seed",
       "trainer.use_aug",
       "trainer.dagger_episodes",
       "trainer.dagger_beta",
       "trainer.fine_tune_dagger",
+      "trainer.expert",
+      "trainer.dagger_action",
+      "trainer.clip_progress_target",
       "trainer.store_fp16"};
   // env_threads and num_envs are left out on purpose: collection does not
   // depend on them (per-slot coins)
@@ -485,7 +539,7 @@ StoreTotals totalsOverRanks(const FeatureStore& store, Distributed* dist) {
 
 void logCollection(const CollectionStats& stats, const CollectionRound& round,
                    const StoreTotals& totals, const std::string& trainSplit,
-                   MetricsLog* metrics) {
+                   bool expertFollowsGroundTruth, MetricsLog* metrics) {
   const int iteration = round.iteration;
   nlohmann::json record = {{"iteration", iteration},
                            {"beta", round.beta},
@@ -519,7 +573,10 @@ void logCollection(const CollectionStats& stats, const CollectionRound& round,
     record["gt_identical_rate"] = identical;
     record["gt_step_agreement"] = steps;
     scalars.emplace_back("collect/gt_identical_rate", identical);
-    auto level = identical < 1.0 ? spdlog::level::warn : spdlog::level::info;
+    // the goal expert takes shortcuts the ground truth does not
+    auto level = identical < 1.0 && expertFollowsGroundTruth
+                     ? spdlog::level::warn
+                     : spdlog::level::info;
     spdlog::log(level,
                 "oracle vs ground truth ({}): {}/{} episodes identical "
                 "({:.1f}%), {:.1f}% of "

@@ -5,18 +5,22 @@
 // and every step's encoded observation, previous action, oracle action
 // (the label, always) and progress target is recorded.
 //
-// The oracle (WaypointOracle) produces ground-truth actions the way the
-// R2R_VLNCE ground truth was produced (data/NodeTransfer.h): the
-// shortest-path follower with radius task.follower_goal_radius heads for
-// reference-path waypoint i until it would STOP there, then for waypoint
-// i + 1, and STOP at the last one. Teacher forcing is collection with
-// beta = 1, i.e. the oracle's own trajectory, which must reproduce the
-// split's _gt actions (the agreement is measured and logged).
+// The oracle (WaypointOracle, trainer.expert) is VLN-CE's by default: the
+// shortest-path follower with radius task.follower_goal_radius heading for
+// the episode's goal (VLN-CE's ShortestPathSensor). With expert
+// reference_path it produces actions the way the R2R_VLNCE ground truth was
+// produced (data/NodeTransfer.h): the follower heads for reference-path
+// waypoint i until it would STOP there, then for waypoint i + 1, and STOPs
+// at the last one; teacher forcing (collection with beta = 1, the oracle's
+// own trajectory) then reproduces the split's _gt actions (the agreement is
+// measured and logged for either expert).
 //
 // DAgger (beta < 1): at each step the action taken is the oracle's with
-// probability beta, else the policy's argmax (the policy runs at every step
-// so that its recurrent state follows the trajectory). The coin of slot k
-// of round n is drawn from its own generator seeded by (seed, n, k), so
+// probability beta, else the policy's: sampled from its softmax
+// (trainer.dagger_action sample, VLN-CE) or its argmax (the policy runs at
+// every step so that its recurrent state follows the trajectory). The coin
+// and the sample of slot k of round n are drawn from its own generator
+// seeded by (seed, n, k), so
 // which episodes are collected, and their coins, do not depend on the
 // number of environments or on where a run was interrupted. The features
 // and the policy's actions do, by float rounding, unless
@@ -35,6 +39,7 @@
 #include <functional>
 #include <memory>
 #include <random>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -53,7 +58,8 @@ namespace vln::train {
 
 class Distributed;
 
-/// The ground-truth follower over an episode's reference-path waypoints.
+/// The shortest-path follower over waypoints in order: an episode's
+/// reference path (trainer.expert reference_path) or its goal alone (goal).
 class WaypointOracle {
  public:
   /// `waypoints` world frame, metres (at least one).
@@ -71,12 +77,22 @@ class WaypointOracle {
   int current_ = 1;
 };
 
+/// The waypoints WaypointOracle follows in `episode` under trainer.expert
+/// `expert`: {goal} or the reference path.
+std::vector<Vec3f> expertWaypoints(const data::Episode& episode,
+                                   const std::string& expert);
+
 /// Progress target of VLN-CE's oracle progress sensor, (d0 - d) / d0 with d
 /// the geodesic distance to the goal and d0 the episode's
-/// info.geodesic_distance; 0 when d is not finite (VLN-CE's rule) and
-/// clipped to [-1, 1], the range of the tanh progress head (VLN-CE leaves
-/// it unclipped, so the two differ only more than 2 d0 from the goal).
-float progressTarget(float startDistance, float distance);
+/// info.geodesic_distance; 0 when d is not finite (VLN-CE's rule). VLN-CE
+/// leaves it unclipped (below -1 more than 2 d0 from the goal); `clip`
+/// clips it to [-1, 1], the range of the tanh progress head.
+float progressTarget(float startDistance, float distance, bool clip);
+
+/// The index drawn from the softmax of `logits` by a uniform number `u` in
+/// [0, 1): the first index whose cumulative probability exceeds u (inverse
+/// CDF sampling, as torch.multinomial over one draw).
+int64_t sampleFromLogits(std::span<const float> logits, double u);
 
 /// The episodes of one collection round: slot k runs episodes[k].
 struct CollectionRound {
@@ -175,9 +191,10 @@ StoreTotals totalsOverRanks(const FeatureStore& store, Distributed* dist);
 
 /// Logs what collection round `round` collected and writes its "collect"
 /// record to `metrics` (may be null); the oracle's agreement with the
-/// ground truth of split `trainSplit` is a warning when not perfect.
+/// ground truth of split `trainSplit` is a warning when not perfect and
+/// `expertFollowsGroundTruth` (trainer.expert reference_path).
 void logCollection(const CollectionStats& stats, const CollectionRound& round,
                    const StoreTotals& totals, const std::string& trainSplit,
-                   MetricsLog* metrics);
+                   bool expertFollowsGroundTruth, MetricsLog* metrics);
 
 }  // namespace vln::train

@@ -219,6 +219,19 @@ struct Distributed::Impl {
     run(what, [&] { return group->allreduce(tensors, o); });
   }
 
+  // all-reduces `values` with `op` as one tensor of `dtype` on the
+  // communication device
+  template <class T>
+  std::vector<T> allReduceValues(const std::vector<T>& values,
+                                 torch::ScalarType dtype, c10d::ReduceOp op,
+                                 const char* what) {
+    if (values.empty()) return {};
+    torch::Tensor t = torch::tensor(values, dtype).to(commDevice);
+    allReduce(t, op, what);
+    t = t.to(torch::kCPU).contiguous();
+    return std::vector<T>(t.data_ptr<T>(), t.data_ptr<T>() + t.numel());
+  }
+
   void broadcast(torch::Tensor& tensor, int root, const char* what) {
     std::vector<torch::Tensor> tensors = {tensor};
     c10d::BroadcastOptions o;
@@ -481,24 +494,14 @@ std::string Distributed::broadcastBytes(const std::string& bytes, int root) {
 
 std::vector<double> Distributed::allReduceSum(
     const std::vector<double>& values) {
-  Impl& d = *impl_;
-  if (values.empty()) return {};
-  torch::Tensor t = torch::tensor(values, torch::kFloat64).to(d.commDevice);
-  d.allReduce(t, c10d::ReduceOp::SUM, "the all-reduce of metrics");
-  t = t.to(torch::kCPU).contiguous();
-  return std::vector<double>(t.data_ptr<double>(),
-                             t.data_ptr<double>() + t.numel());
+  return impl_->allReduceValues(values, torch::kFloat64, c10d::ReduceOp::SUM,
+                                "the all-reduce of metrics");
 }
 
 std::vector<int64_t> Distributed::allReduceMax(
     const std::vector<int64_t>& values) {
-  Impl& d = *impl_;
-  if (values.empty()) return {};
-  torch::Tensor t = torch::tensor(values, torch::kInt64).to(d.commDevice);
-  d.allReduce(t, c10d::ReduceOp::MAX, "the all-reduce (max) of counters");
-  t = t.to(torch::kCPU).contiguous();
-  return std::vector<int64_t>(t.data_ptr<int64_t>(),
-                              t.data_ptr<int64_t>() + t.numel());
+  return impl_->allReduceValues(values, torch::kInt64, c10d::ReduceOp::MAX,
+                                "the all-reduce (max) of counters");
 }
 
 void Distributed::checkIdentical(const torch::nn::Module& module,

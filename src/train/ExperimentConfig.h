@@ -20,159 +20,178 @@ namespace vln::train {
 
 /// Imitation learning of the VLN policy (paper Sections 4.3 and 5).
 struct TrainerConfig {
-  /// What the run trains: the VLN policy, or one of the encoder pretraining
-  /// tasks that stand in for the downloads the paper uses.
   std::string task = "vln";
-  /// Seed of everything random in the run (episode order, DAgger coins,
-  /// initialisation).
   int seed = 0;
-  /// Threads for LibTorch intra-op parallelism (LibTorch here defaults to 1).
   int torch_threads = 2;
-  /// Environments stepped together while collecting.
   int num_envs = 8;
-  /// Threads stepping/rendering environments while collecting.
   int env_threads = 2;
-  /// Collection encodes observations and steps the policy one environment
-  /// at a time, so an episode's features and actions do not depend on the
-  /// episodes sharing its batch (batched float arithmetic rounds
-  /// differently for other batch shapes). A round resumed after a kill then
-  /// stores exactly what an uninterrupted run stores and training continues
-  /// bit for bit. Off: batched and faster; a resumed round's features
-  /// differ from an uninterrupted run's by float rounding (~1e-4).
+  // exact_resume: batched float arithmetic rounds differently for other
+  // batch shapes, so batched features depend on the episodes sharing a batch
   bool exact_resume = false;
 
-  /// Adam learning rate (paper: 2.5e-4).
   double lr = 2.5e-4;
-  /// Whole episodes per update (paper: 5).
   int batch_size = 5;
-  /// Inflection weighting coefficient (paper: 3.2); <= 0 computes it as the
-  /// inverse inflection frequency of the training ground truth.
   double inflection_weight = 3.2;
-  /// Weight alpha of the progress-monitor MSE (used when
-  /// model.progress_monitor).
   double progress_loss_weight = 1.0;
-  /// Clip the gradient norm to this value (0: no clipping).
   double grad_clip = 0.0;
 
-  /// Teacher-forcing epochs over the oracle trajectories (paper: up to 30,
-  /// early-stopped on val_unseen). Used when dagger_iterations == 0.
   int epochs = 30;
-  /// DAgger iterations (0: teacher forcing only). Iteration n takes the
-  /// oracle action with probability beta = dagger_beta^n (n+1 when
-  /// fine_tune_dagger), collects dagger_episodes episodes, appends them to
-  /// the aggregated store and trains dagger_epochs epochs on all of it.
   int dagger_iterations = 0;
   int dagger_episodes = 5000;
   int dagger_epochs = 4;
   double dagger_beta = 0.75;
-  /// The paper's DA*: beta = dagger_beta^(n+1), for fine-tuning from
-  /// init_checkpoint.
   bool fine_tune_dagger = false;
-  /// Policy weights to start from (strictly loaded; empty: fresh init): a
-  /// checkpoint, a run directory (its best checkpoint by selection-split
-  /// SPL, else its latest) or a tensor file.
   std::string init_checkpoint;
 
-  /// Mix the dataset's augmentation split into teacher forcing (paper "Aug").
   bool use_aug = false;
+  std::string expert = "goal";
+  std::string dagger_action = "sample";
+  bool clip_progress_target = false;
+  std::string evaluate_every = "epoch";
 
-  /// Store encoder features in fp16 in the on-disk store (half the bytes).
   bool store_fp16 = true;
-  /// LMDB map size of the feature store, GiB.
   double store_max_gib = 64.0;
 
-  /// Evaluate on eval.splits after every epoch (teacher forcing) or DAgger
-  /// iteration and keep the best checkpoint by eval.selection_split SPL.
   bool eval_during_training = true;
-  /// Stop after this many evaluations without SPL improvement (0: never).
   int early_stopping_patience = 0;
-  /// Abort after this many consecutive non-finite losses (each one skips
-  /// its update and is counted).
   int max_nonfinite_updates = 5;
-  /// Log a training line every this many updates.
   int log_every_updates = 20;
 
-  /// Data-parallel training over several processes (docs/distributed.md):
-  /// auto trains with every process of a torchrun-style launch when the
-  /// environment sets WORLD_SIZE > 1; off always trains in this process
-  /// alone (WORLD_SIZE is then ignored).
   std::string distributed = "auto";
-  /// Collective backend: auto (nccl when model.device is a GPU and this
-  /// LibTorch has NCCL, else gloo), gloo, nccl.
   std::string distributed_backend = "auto";
-  /// Rendezvous and every collective (gradient all-reduce, ...) fail after
-  /// this many seconds.
   double distributed_timeout_s = 600.0;
-  /// How long a rank waits for the others at the end of a collection round
-  /// or an evaluation (uneven phases), seconds.
   double distributed_wait_s = 86400.0;
-  /// Gradients are all-reduced in flat buckets of at most this many MiB.
   double distributed_bucket_mib = 25.0;
 
   void visit(common::ConfigVisitor& v) {
-    v.choice("task", task, {"vln", "depth_pointnav", "rgb_semantic"},
-             "What to train");
-    v.field("seed", seed, "Seed of the run", common::atLeast(0));
-    v.field("torch_threads", torch_threads, "LibTorch threads",
+    v.choice(
+        "task", task, {"vln", "depth_pointnav", "rgb_semantic"},
+        "What the run trains: the VLN policy, or one of the encoder "
+        "pretraining tasks that stand in for the downloads the paper uses");
+    v.field("seed", seed,
+            "Seed of everything random in the run (episode order, DAgger "
+            "coins, initialisation)",
+            common::atLeast(0));
+    v.field("torch_threads", torch_threads,
+            "Threads for LibTorch intra-op parallelism (LibTorch here defaults "
+            "to 1)",
             common::inRange(1, 256));
-    v.field("num_envs", num_envs, "Environments stepped together",
+    v.field("num_envs", num_envs,
+            "Environments stepped together while collecting",
             common::inRange(1, 1024));
-    v.field("env_threads", env_threads, "Environment threads",
+    v.field("env_threads", env_threads,
+            "Threads stepping and rendering environments while collecting",
             common::inRange(1, 256));
     v.field("exact_resume", exact_resume,
-            "Collect one environment at a time (bitwise-exact resume)");
-    v.field("lr", lr, "Adam learning rate", common::inRange(0.0, 1.0));
-    v.field("batch_size", batch_size, "Episodes per update",
+            "Collect one environment at a time, so that an episode's features "
+            "and actions do not depend on the episodes sharing its batch and "
+            "a round resumed after a kill continues bit for bit (off: batched "
+            "and faster; a resumed round's features then differ by float "
+            "rounding, ~1e-4)");
+    v.field("lr", lr, "Adam learning rate (paper: 2.5e-4)",
+            common::inRange(0.0, 1.0));
+    v.field("batch_size", batch_size, "Whole episodes per update (paper: 5)",
             common::inRange(1, 100000));
     v.field("inflection_weight", inflection_weight,
-            "Inflection weight (<= 0: inverse inflection frequency)",
+            "Inflection weighting coefficient (paper: 3.2); <= 0 computes it "
+            "as the inverse inflection frequency of the training ground truth",
             common::inRange(-1.0, 1000.0));
     v.field("progress_loss_weight", progress_loss_weight,
-            "Progress-monitor loss weight alpha", common::inRange(0.0, 1000.0));
-    v.field("grad_clip", grad_clip, "Gradient norm clip (0: none)",
+            "Weight alpha of the progress-monitor MSE (with "
+            "model.progress_monitor)",
+            common::inRange(0.0, 1000.0));
+    v.field("grad_clip", grad_clip,
+            "Clip the gradient norm to this value (0: no clipping)",
             common::inRange(0.0, 1e6));
-    v.field("epochs", epochs, "Teacher-forcing epochs",
+    v.field("epochs", epochs,
+            "Teacher-forcing epochs over the oracle trajectories, when "
+            "dagger_iterations is 0 (paper: up to 30, early-stopped on "
+            "val_unseen)",
             common::inRange(0, 100000));
     v.field("dagger_iterations", dagger_iterations,
-            "DAgger iterations (0: teacher forcing only)",
+            "DAgger iterations (0: teacher forcing only); iteration n takes "
+            "the oracle action with probability beta = dagger_beta^n (n+1 "
+            "with fine_tune_dagger), collects dagger_episodes episodes into "
+            "the aggregated store and trains dagger_epochs epochs on all of it",
             common::inRange(0, 100000));
-    v.field("dagger_episodes", dagger_episodes, "Episodes per DAgger iteration",
+    v.field("dagger_episodes", dagger_episodes,
+            "Episodes collected per DAgger iteration (paper: 5000)",
             common::inRange(1, 10000000));
-    v.field("dagger_epochs", dagger_epochs, "Epochs per DAgger iteration",
+    v.field("dagger_epochs", dagger_epochs,
+            "Epochs over the aggregated store per DAgger iteration (paper: 4)",
             common::inRange(1, 100000));
-    v.field("dagger_beta", dagger_beta, "DAgger oracle probability base",
+    v.field("dagger_beta", dagger_beta,
+            "Base of the DAgger oracle probability beta (paper: 0.75)",
             common::inRange(0.0, 1.0));
     v.field("fine_tune_dagger", fine_tune_dagger,
-            "DA*: beta = dagger_beta^(n+1)");
+            "The paper's DA*: beta = dagger_beta^(n+1), for fine-tuning from "
+            "init_checkpoint");
     v.field("init_checkpoint", init_checkpoint,
-            "Checkpoint, run directory (its best checkpoint) or tensor file to "
-            "start from (empty: fresh)");
-    v.field("use_aug", use_aug, "Mix the augmentation split into training");
-    v.field("store_fp16", store_fp16, "Store features as fp16");
-    v.field("store_max_gib", store_max_gib, "Feature store map size (GiB)",
+            "Policy weights to start from, strictly loaded: a checkpoint, a "
+            "run directory (its best checkpoint by selection-split SPL, else "
+            "its latest) or a tensor file (empty: fresh init)");
+    v.field("use_aug", use_aug,
+            "Mix the dataset's augmentation split into teacher forcing (paper: "
+            "Aug)");
+    v.choice("expert", expert, {"goal", "reference_path"},
+             "The oracle of teacher forcing and DAgger: goal is VLN-CE's "
+             "ShortestPathSensor (the shortest-path action to the episode's "
+             "goal, STOP within task.follower_goal_radius); reference_path "
+             "follows the reference path's waypoints in order, as the "
+             "ground truth was generated, so an agent that drifted past a "
+             "waypoint is sent back to it");
+    v.choice("dagger_action", dagger_action, {"sample", "argmax"},
+             "The policy's action where DAgger does not take the oracle's: "
+             "sampled from its softmax (VLN-CE) or its most likely action");
+    v.field("clip_progress_target", clip_progress_target,
+            "Clip the progress monitor's target (d0 - d) / d0 to [-1, 1], "
+            "the range of its tanh head (VLN-CE does not: more than 2 d0 "
+            "from the goal the target is below -1)");
+    v.choice("evaluate_every", evaluate_every, {"epoch", "iteration"},
+             "DAgger: evaluate (and keep as a candidate for the best "
+             "checkpoint) after every epoch, as VLN-CE evaluates every saved "
+             "checkpoint, or only after each iteration's last epoch "
+             "(teacher forcing evaluates every epoch either way)");
+    v.field("store_fp16", store_fp16,
+            "Store encoder features as fp16 in the on-disk store (half the "
+            "bytes)");
+    v.field("store_max_gib", store_max_gib,
+            "LMDB map size of the feature store (GiB)",
             common::inRange(0.01, 1e6));
     v.field("eval_during_training", eval_during_training,
-            "Evaluate after every epoch / DAgger iteration");
+            "Evaluate on eval.splits after every epoch (teacher forcing) or "
+            "DAgger iteration and keep the best checkpoint by "
+            "eval.selection_split SPL");
     v.field("early_stopping_patience", early_stopping_patience,
-            "Evaluations without improvement before stopping (0: never)",
+            "Stop after this many evaluations without SPL improvement (0: "
+            "never)",
             common::atLeast(0));
     v.field("max_nonfinite_updates", max_nonfinite_updates,
-            "Consecutive non-finite losses before aborting",
+            "Abort after this many consecutive non-finite losses (each one "
+            "skips its update and is counted)",
             common::inRange(1, 1000000));
-    v.field("log_every_updates", log_every_updates, "Updates per log line",
-            common::atLeast(1));
-    v.choice(
-        "distributed", distributed, {"auto", "off"},
-        "Multi-process training when WORLD_SIZE > 1 (auto) or never (off)");
+    v.field("log_every_updates", log_every_updates,
+            "Log a training line every this many updates", common::atLeast(1));
+    v.choice("distributed", distributed, {"auto", "off"},
+             "Data-parallel training over several processes "
+             "(docs/distributed.md): auto trains with every process of a "
+             "torchrun-style launch when WORLD_SIZE > 1, off always trains in "
+             "this process alone");
     v.choice("distributed_backend", distributed_backend,
-             {"auto", "gloo", "nccl"}, "Collective backend");
+             {"auto", "gloo", "nccl"},
+             "Collective backend (auto: nccl when model.device is a GPU and "
+             "this LibTorch has NCCL, else gloo)");
     v.field("distributed_timeout_s", distributed_timeout_s,
-            "Rendezvous and collective timeout (s)", common::inRange(0.1, 1e7));
+            "Rendezvous and every collective (gradient all-reduce, ...) fail "
+            "after this long (s)",
+            common::inRange(0.1, 1e7));
     v.field("distributed_wait_s", distributed_wait_s,
-            "Wait for the other ranks after collection/evaluation (s)",
+            "How long a rank waits for the others at the end of a collection "
+            "round or an evaluation, phases of uneven length (s)",
             common::inRange(0.1, 1e8));
     v.field("distributed_bucket_mib", distributed_bucket_mib,
-            "Gradient all-reduce bucket size (MiB)",
+            "Gradients are all-reduced in flat buckets of at most this size "
+            "(MiB)",
             common::inRange(0.001, 1e5));
   }
   bool operator==(const TrainerConfig&) const = default;
@@ -181,78 +200,75 @@ struct TrainerConfig {
 /// Encoder pretraining on tasks the procedural world supports, standing in
 /// for ImageNet (RGB) and DD-PPO point-goal navigation (depth).
 struct PretrainConfig {
-  /// Houses (generated by seed) used for pretraining; held-out houses for
-  /// the reported metrics come after them.
   int train_houses = 24;
   int heldout_houses = 6;
-  /// Seed of the first pretraining house (kept apart from the VLN houses).
   int house_seed = 100000;
-  /// Point-goal episodes per DAgger iteration / semantic images per epoch.
   int samples = 2000;
-  /// DAgger iterations (point-goal) or epochs (semantic).
   int iterations = 4;
-  /// Epochs over the aggregated point-goal data per iteration.
   int epochs_per_iteration = 2;
-  /// Held-out evaluation episodes / images.
   int eval_samples = 200;
-  /// Point-goal success radius (DD-PPO: 0.2 m) and geodesic range of goals.
   float success_distance = 0.2f;
   float min_goal_distance = 1.0f;
   float max_goal_distance = 8.0f;
-  /// Where the trained encoder weights go (a TorchScript tensor file that
-  /// model.rgb_weights / model.depth_weights can point at).
   std::string encoder_out;
-  /// Generation parameters of the pretraining houses.
   world::HouseConfig house;
-  /// Adam learning rate of both pretraining tasks.
   double lr = 1e-3;
-  /// Point-goal episodes / semantic images per update.
   int batch_size = 16;
-  /// Hidden size of the point-goal policy's GRU (DD-PPO: 512).
   int hidden_size = 128;
-  /// Semantic task: an object is "in view" when it covers at least this
-  /// fraction of the image's pixels.
   float min_object_fraction = 0.02f;
-  /// Point-goal task: the aggregated DAgger frames may hold at most this
-  /// much memory (depth is kept as uint16), GiB.
   double max_memory_gib = 4.0;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("train_houses", train_houses, "Pretraining houses",
+    v.field("train_houses", train_houses,
+            "Houses (generated by seed) that pretraining trains on",
             common::inRange(1, 100000));
-    v.field("heldout_houses", heldout_houses, "Held-out houses",
+    v.field("heldout_houses", heldout_houses,
+            "Held-out houses of the reported metrics (generated after the "
+            "training houses)",
             common::inRange(1, 100000));
-    v.field("house_seed", house_seed, "Seed of the first house",
+    v.field("house_seed", house_seed,
+            "Seed of the first pretraining house (kept apart from the VLN "
+            "houses)",
             common::atLeast(0));
     v.field("samples", samples,
-            "Episodes (point-goal) or images (semantic) per iteration",
+            "Point-goal episodes per DAgger iteration or semantic images per "
+            "epoch",
             common::inRange(1, 100000000));
-    v.field("iterations", iterations, "DAgger iterations or epochs",
+    v.field("iterations", iterations,
+            "DAgger iterations (point-goal) or epochs (semantic)",
             common::inRange(1, 100000));
     v.field("epochs_per_iteration", epochs_per_iteration,
-            "Epochs per DAgger iteration", common::inRange(1, 100000));
-    v.field("eval_samples", eval_samples, "Held-out evaluation samples",
+            "Epochs over the aggregated point-goal data per DAgger iteration",
+            common::inRange(1, 100000));
+    v.field("eval_samples", eval_samples,
+            "Held-out evaluation episodes (point-goal) or images (semantic)",
             common::inRange(1, 10000000));
     v.field("success_distance", success_distance,
-            "Point-goal success radius (m)", common::inRange(0.01, 10.0));
-    v.field("min_goal_distance", min_goal_distance, "Nearest goal (geodesic m)",
-            common::inRange(0.0, 100.0));
+            "Point-goal success radius (m; DD-PPO: 0.2)",
+            common::inRange(0.01, 10.0));
+    v.field("min_goal_distance", min_goal_distance,
+            "Nearest point goal (geodesic m)", common::inRange(0.0, 100.0));
     v.field("max_goal_distance", max_goal_distance,
-            "Farthest goal (geodesic m)", common::inRange(0.1, 1000.0));
+            "Farthest point goal (geodesic m)", common::inRange(0.1, 1000.0));
     v.field("encoder_out", encoder_out,
-            "Output file of the trained encoder weights");
+            "Output file of the trained encoder weights, a TorchScript tensor "
+            "file that model.rgb_weights or model.depth_weights can point at");
     v.section("house", house, "Pretraining house generation");
-    v.field("lr", lr, "Adam learning rate", common::inRange(0.0, 1.0));
+    v.field("lr", lr, "Adam learning rate of both pretraining tasks",
+            common::inRange(0.0, 1.0));
     v.field("batch_size", batch_size,
             "Episodes (point-goal) or images (semantic) per update",
             common::inRange(1, 100000));
-    v.field("hidden_size", hidden_size, "Point-goal policy GRU size",
+    v.field("hidden_size", hidden_size,
+            "Hidden size of the point-goal policy's GRU (DD-PPO: 512)",
             common::inRange(1, 65536));
     v.field("min_object_fraction", min_object_fraction,
-            "Smallest image fraction of an object labelled in view",
+            "Semantic task: an object is in view when it covers at least this "
+            "fraction of the image's pixels",
             common::inRange(0.0, 1.0));
     v.field("max_memory_gib", max_memory_gib,
-            "Memory bound of the aggregated point-goal frames (GiB)",
+            "Point-goal task: memory bound of the aggregated DAgger frames, "
+            "depth kept as uint16 (GiB)",
             common::inRange(0.001, 1e6));
   }
   bool operator==(const PretrainConfig&) const = default;
@@ -260,22 +276,22 @@ struct PretrainConfig {
 
 /// Where a run writes and how it logs.
 struct OutputConfig {
-  /// Run directory: config.yaml, checkpoints/, store/, logs, metrics.
   std::string dir = "runs/default";
-  /// spdlog level: trace, debug, info, warn, error.
   std::string log_level = "info";
-  /// Write TensorBoard event files (tfevents) beside the JSON-lines metrics.
   bool tensorboard = true;
-  /// Checkpoints kept besides the best one (-1: all).
   int keep_checkpoints = -1;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("dir", dir, "Run directory");
+    v.field("dir", dir,
+            "Run directory: config.yaml, checkpoints/, store/, logs, metrics");
     v.choice("log_level", log_level,
-             {"trace", "debug", "info", "warn", "error"}, "Log level");
-    v.field("tensorboard", tensorboard, "Write TensorBoard event files");
+             {"trace", "debug", "info", "warn", "error"}, "Log level (spdlog)");
+    v.field("tensorboard", tensorboard,
+            "Write TensorBoard event files (tfevents) beside the JSON-lines "
+            "metrics");
     v.field("keep_checkpoints", keep_checkpoints,
-            "Checkpoints kept besides the best (-1: all)", common::atLeast(-1));
+            "Checkpoints kept besides the best one (-1: all)",
+            common::atLeast(-1));
   }
   bool operator==(const OutputConfig&) const = default;
 };

@@ -69,8 +69,11 @@ std::vector<ScheduledIteration> TrainingSchedule::remaining(
       ScheduledEpoch s;
       s.epoch = e;
       const bool last = e + 1 == perIteration;
-      // teacher forcing validates every epoch, DAgger every iteration
-      s.evaluate_after = trainer_.eval_during_training && (!dagger() || last);
+      // teacher forcing validates every epoch, DAgger every epoch or only
+      // after an iteration's last
+      s.evaluate_after =
+          trainer_.eval_during_training &&
+          (!dagger() || last || trainer_.evaluate_every == "epoch");
       // teacher forcing counts epochs only; DAgger moves on to the next
       // iteration after its last epoch
       s.iterations_done = dagger() && last ? n + 1 : n;

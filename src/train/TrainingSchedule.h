@@ -12,7 +12,8 @@
 // beta = dagger_beta^n (n + 1 with fine_tune_dagger; 0 when dagger_beta is
 // 0, as VLN-CE) into the aggregated store, then trains trainer.dagger_epochs
 // epochs over everything collected so far, a checkpoint after each and an
-// evaluation after the iteration's last. Round n's episodes are the pool
+// evaluation after each (trainer.evaluate_every: epoch, VLN-CE) or after
+// the iteration's last (iteration). Round n's episodes are the pool
 // shuffled by (seed, n) and repeated up to dagger_episodes; with beta = 1
 // each episode at most once (VLN-CE collects unique episodes then).
 //

@@ -189,7 +189,8 @@ struct VlnTrainer::Impl {
     }
     storeTotals = totalsOverRanks(*store, dist);
     if (master())
-      logCollection(stats, round, storeTotals, data.train.name, metrics.get());
+      logCollection(stats, round, storeTotals, data.train.name,
+                    config.trainer.expert == "reference_path", metrics.get());
   }
 
   // epoch `epoch` of iteration `iteration`; its batch order is a function

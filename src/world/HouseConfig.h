@@ -10,21 +10,20 @@ namespace vln::world {
 
 /// House generation parameters.
 struct HouseConfig {
-  int min_rooms = 5;  ///< rooms per house, inclusive range
+  int min_rooms = 5;  // min_rooms to max_rooms, inclusive
   int max_rooms = 9;
-  float min_room_size =
-      2.6f;  ///< shortest room side (hallways excepted), metres
-  float max_room_size =
-      6.0f;                  ///< longest room side (hallways excepted), metres
-  float wall_height = 2.7f;  ///< floor to ceiling, metres
-  float wall_thickness = 0.12f;    ///< metres
-  float door_width = 1.0f;         ///< clear doorway width, metres
-  float furniture_density = 1.0f;  ///< multiplies objects per room
-  float floor_hole_probability =
-      0.15f;  ///< chance a house gets a hole in a floor (as scans do)
-  float texture_detail =
-      1.0f;  ///< strength of procedural surface patterns (0 = flat colours)
+  float min_room_size = 2.6f;  // room sides: hallways excepted
+  float max_room_size = 6.0f;
+  float wall_height = 2.7f;
+  float wall_thickness = 0.12f;
+  float door_width = 1.0f;
+  float furniture_density = 1.0f;
+  float floor_hole_probability = 0.15f;  // as scans have them
+  float texture_detail = 1.0f;           // 0: flat colours
 
+  // The descriptions below are frozen: worldHouseName() hashes this
+  // section's YAML, comments included, so a changed description would
+  // rename every house of a generated world.
   void visit(common::ConfigVisitor& v) {
     v.field("min_rooms", min_rooms, "Fewest rooms per house",
             common::inRange(1, 40));

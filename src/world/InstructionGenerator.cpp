@@ -42,6 +42,12 @@ const std::string& pick(std::mt19937_64& rng,
       common::uniformIndex(rng, static_cast<int>(options.size())))];
 }
 
+// `form` with its '#' replaced by `side` ("take a #" -> "take a left")
+std::string withSide(std::string form, const char* side) {
+  form.replace(form.find('#'), 1, side);
+  return form;
+}
+
 const char* sideWord(Side side) {
   return side == Side::kLeft ? "left" : "right";
 }
@@ -137,59 +143,31 @@ class Writer {
 
   // --- clauses -----------------------------------------------------------
 
+  // A turn to the left or right: the template style's `form`, or one of the
+  // human `forms` (equally likely), with '#' replaced by the side.
+  std::string sidedTurn(bool left, const char* form,
+                        std::initializer_list<const char*> forms) {
+    return withSide(human_ ? pick(rng_, forms) : form, left ? "left" : "right");
+  }
+
   std::string turnPhrase(TurnKind kind) {
     switch (kind) {
+      // the plain "turn #" is the most common human form
       case TurnKind::kLeft:
-      case TurnKind::kRight: {
-        const char* side = kind == TurnKind::kLeft ? "left" : "right";
-        if (!human_) return strCat("turn ", side);
-        switch (common::uniformIndex(rng_, 7)) {
-          case 0:
-            return strCat("take a ", side);
-          case 1:
-            return strCat("make a ", side);
-          case 2:
-            return strCat("turn to your ", side);
-          case 3:
-            return strCat("go ", side);
-          case 4:
-            return strCat("take a ", side, " turn");
-          default:
-            return strCat("turn ", side);
-        }
-      }
+      case TurnKind::kRight:
+        return sidedTurn(kind == TurnKind::kLeft, "turn #",
+                         {"take a #", "make a #", "turn to your #", "go #",
+                          "take a # turn", "turn #", "turn #"});
       case TurnKind::kSlightLeft:
-      case TurnKind::kSlightRight: {
-        const char* side = kind == TurnKind::kSlightLeft ? "left" : "right";
-        if (!human_) return strCat("turn slightly ", side);
-        switch (common::uniformIndex(rng_, 5)) {
-          case 0:
-            return strCat("veer ", side);
-          case 1:
-            return strCat("bear ", side);
-          case 2:
-            return strCat("take a slight ", side);
-          case 3:
-            return strCat("turn slightly to the ", side);
-          default:
-            return strCat("turn slightly ", side);
-        }
-      }
+      case TurnKind::kSlightRight:
+        return sidedTurn(kind == TurnKind::kSlightLeft, "turn slightly #",
+                         {"veer #", "bear #", "take a slight #",
+                          "turn slightly to the #", "turn slightly #"});
       case TurnKind::kSharpLeft:
-      case TurnKind::kSharpRight: {
-        const char* side = kind == TurnKind::kSharpLeft ? "left" : "right";
-        if (!human_) return strCat("turn ", side);
-        switch (common::uniformIndex(rng_, 4)) {
-          case 0:
-            return strCat("make a sharp ", side);
-          case 1:
-            return strCat("turn sharply ", side);
-          case 2:
-            return strCat("take a sharp ", side);
-          default:
-            return strCat("turn sharp ", side);
-        }
-      }
+      case TurnKind::kSharpRight:
+        return sidedTurn(kind == TurnKind::kSharpLeft, "turn #",
+                         {"make a sharp #", "turn sharply #", "take a sharp #",
+                          "turn sharp #"});
       case TurnKind::kAround:
         if (!human_) return "turn around";
         return pick(rng_, {"turn around", "turn around", "turn around",

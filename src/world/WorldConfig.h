@@ -26,71 +26,68 @@ namespace vln::world {
 
 /// Where the panorama nodes of a house go and which pairs are joined.
 struct NavGraphBuildConfig {
-  float node_spacing = 2.1f;         ///< grid step of nodes inside a room
-  float spacing_jitter = 0.35f;      ///< +- uniform jitter of each grid node
-  float wall_margin = 0.55f;         ///< nodes keep this far from room walls
-  float min_node_separation = 1.1f;  ///< closer nodes are merged away
-  float min_camera_height = 1.2f;    ///< tripod camera height above the floor
+  float node_spacing = 2.1f;
+  float spacing_jitter = 0.35f;
+  float wall_margin = 0.55f;
+  float min_node_separation = 1.1f;
+  float min_camera_height = 1.2f;
   float max_camera_height = 1.6f;
-  float doorway_node_probability = 0.6f;  ///< a doorway gets its own node
-  /// Nodes closer than this to furniture are pushed out, to a gap drawn
-  /// uniformly from [object_clearance, object_clearance +
-  /// object_clearance_spread] (tripods end up at varied distances).
+  float doorway_node_probability = 0.6f;
   float object_clearance = 0.1f;
   float object_clearance_spread = 0.4f;
-  /// Chance that a node over a large flat object (table, counter, bed top)
-  /// stays there, as R2R tripods over tables appear in the scans.
   float furniture_node_probability = 0.2f;
-  /// Footprint (m^2) of a "large flat" object.
   float flat_object_min_area = 0.7f;
-  /// Its top is at most this above the floor.
   float flat_object_max_height = 1.15f;
-  /// Chance that a detected floor hole gets a node above it.
   float hole_node_probability = 0.7f;
-  float max_edge_length = 3.75f;  ///< horizontal length of the longest edge
-  /// Chance that a visible pair within reach is left unconnected (annotators
-  /// pruned redundant edges).
+  float max_edge_length = 3.75f;
   float edge_drop_probability = 0.1f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("node_spacing", node_spacing, "Grid step of nodes in a room (m)",
-            common::inRange(0.5, 10.0));
+    v.field("node_spacing", node_spacing,
+            "Grid step of nodes inside a room (m)", common::inRange(0.5, 10.0));
     v.field("spacing_jitter", spacing_jitter,
-            "Uniform jitter of grid nodes (m)", common::inRange(0.0, 2.0));
+            "Uniform jitter of each grid node, either way (m)",
+            common::inRange(0.0, 2.0));
     v.field("wall_margin", wall_margin, "Distance of nodes from room walls (m)",
             common::inRange(0.0, 3.0));
     v.field("min_node_separation", min_node_separation,
             "Closer nodes are merged (m)", common::inRange(0.0, 5.0));
     v.field("min_camera_height", min_camera_height,
-            "Lowest camera height above the floor (m)",
+            "Lowest tripod camera height above the floor (m)",
             common::inRange(0.2, 3.0));
     v.field("max_camera_height", max_camera_height,
-            "Highest camera height above the floor (m)",
+            "Highest tripod camera height above the floor (m)",
             common::inRange(0.2, 3.0));
     v.field("doorway_node_probability", doorway_node_probability,
             "Chance a doorway gets a node", common::inRange(0.0, 1.0));
     v.field("object_clearance", object_clearance,
-            "Nodes closer than this to furniture are pushed out (m)",
+            "Nodes closer than this to furniture are pushed out, to a gap "
+            "drawn uniformly from [object_clearance, object_clearance + "
+            "object_clearance_spread] (m)",
             common::inRange(0.0, 2.0));
     v.field("object_clearance_spread", object_clearance_spread,
-            "Pushed nodes keep a gap up to this much larger (m)",
+            "Pushed nodes keep a gap up to this much larger than "
+            "object_clearance, so tripods end up at varied distances (m)",
             common::inRange(0.0, 2.0));
     v.field("furniture_node_probability", furniture_node_probability,
-            "Chance a node over a large flat object stays there",
+            "Chance a node over a large flat object (table, counter, bed top) "
+            "stays there, as R2R tripods over tables appear in the scans",
             common::inRange(0.0, 1.0));
     v.field("flat_object_min_area", flat_object_min_area,
             "Footprint of a large flat object (m^2)",
             common::inRange(0.0, 100.0));
     v.field("flat_object_max_height", flat_object_max_height,
-            "Top height of a large flat object above the floor (m)",
+            "Highest top of a large flat object above the floor (m)",
             common::inRange(0.1, 3.0));
     v.field("hole_node_probability", hole_node_probability,
             "Chance a floor hole gets a node above it",
             common::inRange(0.0, 1.0));
-    v.field("max_edge_length", max_edge_length, "Longest edge, horizontal (m)",
+    v.field("max_edge_length", max_edge_length,
+            "Horizontal length of the longest edge (m)",
             common::inRange(0.5, 20.0));
     v.field("edge_drop_probability", edge_drop_probability,
-            "Chance a visible pair is left unconnected",
+            "Chance a visible pair within reach is left unconnected, as "
+            "annotators pruned redundant edges",
             common::inRange(0.0, 1.0));
   }
   void validate() const {
@@ -108,10 +105,8 @@ struct NavGraphBuildConfig {
 /// The nav-graph is placed in the house as captured; these changes are then
 /// made to the scene that agents move in.
 struct ReconstructionConfig {
-  float closed_door_probability = 0.04f;  ///< per interior doorway
-  /// Per nav-graph node: a movable object ends up on it.
+  float closed_door_probability = 0.04f;
   float moved_object_probability = 0.02f;
-  /// Largest horizontal offset of that object from the node.
   float moved_object_offset = 0.3f;
 
   void visit(common::ConfigVisitor& v) {
@@ -119,10 +114,10 @@ struct ReconstructionConfig {
             "Chance an interior doorway is closed in the scene",
             common::inRange(0.0, 1.0));
     v.field("moved_object_probability", moved_object_probability,
-            "Chance per node that a movable object covers it",
+            "Chance per nav-graph node that a movable object ends up on it",
             common::inRange(0.0, 1.0));
     v.field("moved_object_offset", moved_object_offset,
-            "Largest offset of a moved object from its node (m)",
+            "Largest horizontal offset of a moved object from its node (m)",
             common::inRange(0.0, 2.0));
   }
   bool operator==(const ReconstructionConfig&) const = default;
@@ -132,15 +127,15 @@ struct ReconstructionConfig {
 /// sampled shortest paths of at least 5 m with 4-6 edges (Anderson et al.
 /// 2018); the VLN-CE paper reports 4-6 nodes on average.
 struct TrajectoryConfig {
-  int min_nodes = 4;         ///< fewest nodes on a path, inclusive
-  int max_nodes = 7;         ///< most nodes on a path, inclusive
-  float min_length = 5.0f;   ///< shortest path length along edges (m)
-  float max_length = 16.0f;  ///< longest path length along edges (m)
+  int min_nodes = 4;
+  int max_nodes = 7;
+  float min_length = 5.0f;
+  float max_length = 16.0f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("min_nodes", min_nodes, "Fewest nodes per trajectory",
+    v.field("min_nodes", min_nodes, "Fewest nodes per trajectory, inclusive",
             common::inRange(2, 100));
-    v.field("max_nodes", max_nodes, "Most nodes per trajectory",
+    v.field("max_nodes", max_nodes, "Most nodes per trajectory, inclusive",
             common::inRange(2, 100));
     v.field("min_length", min_length, "Shortest trajectory along its edges (m)",
             common::inRange(0.0, 1000.0));
@@ -158,25 +153,18 @@ struct TrajectoryConfig {
 
 /// Generated instructions.
 struct InstructionConfig {
-  int per_trajectory = 3;  ///< instructions per trajectory (R2R: 3)
-  /// Speaker instructions per train_aug trajectory.
+  int per_trajectory = 3;
   int aug_per_trajectory = 1;
-  /// Objects within this of the path may be named (m).
   float landmark_distance = 2.2f;
-  /// The stop object is within this of the goal (m).
   float stop_landmark_distance = 2.0f;
-  /// Chance of each optional detail (colour, second landmark).
   float detail = 0.55f;
-  /// Speaker style: chance a side is flipped.
   float speaker_wrong_side = 0.15f;
-  /// Speaker style: chance a colour is wrong.
   float speaker_wrong_color = 0.15f;
-  /// Speaker style: chance a landmark is left out.
   float speaker_drop_landmark = 0.5f;
 
   void visit(common::ConfigVisitor& v) {
-    v.field("per_trajectory", per_trajectory, "Instructions per trajectory",
-            common::inRange(1, 20));
+    v.field("per_trajectory", per_trajectory,
+            "Instructions per trajectory (R2R: 3)", common::inRange(1, 20));
     v.field("aug_per_trajectory", aug_per_trajectory,
             "Speaker instructions per train_aug trajectory",
             common::inRange(1, 20));
@@ -186,7 +174,8 @@ struct InstructionConfig {
     v.field("stop_landmark_distance", stop_landmark_distance,
             "The stop object is within this of the goal (m)",
             common::inRange(0.1, 20.0));
-    v.field("detail", detail, "Chance of each optional detail",
+    v.field("detail", detail,
+            "Chance of each optional detail (colour, second landmark)",
             common::inRange(0.0, 1.0));
     v.field("speaker_wrong_side", speaker_wrong_side,
             "Speaker style: chance of a flipped side",
@@ -204,15 +193,13 @@ struct InstructionConfig {
 /// How houses and trajectories are divided into R2R's splits. R2R holds
 /// out 11 of 90 scans for val_unseen and 18 for test.
 struct SplitConfig {
-  /// Share of houses held out for val_unseen.
   float val_unseen_fraction = 0.14f;
-  float test_fraction = 0.14f;  ///< share of houses held out for test
-  int train_per_house = 20;  ///< navigable train trajectories per train house
-  /// New trajectories per train house for val_seen.
+  float test_fraction = 0.14f;
+  int train_per_house = 20;
   int val_seen_per_house = 2;
-  int val_unseen_per_house = 15;  ///< trajectories per val_unseen house
-  int test_per_house = 15;        ///< trajectories per test house
-  int aug_per_house = 60;         ///< train_aug trajectories per train house
+  int val_unseen_per_house = 15;
+  int test_per_house = 15;
+  int aug_per_house = 60;
 
   void visit(common::ConfigVisitor& v) {
     v.field("val_unseen_fraction", val_unseen_fraction,
@@ -221,9 +208,10 @@ struct SplitConfig {
     v.field("test_fraction", test_fraction, "Share of houses held out for test",
             common::inRange(0.0, 1.0));
     v.field("train_per_house", train_per_house,
-            "Train trajectories per train house", common::inRange(0, 100000));
+            "Navigable train trajectories per train house",
+            common::inRange(0, 100000));
     v.field("val_seen_per_house", val_seen_per_house,
-            "val_seen trajectories per train house",
+            "New trajectories per train house for val_seen",
             common::inRange(0, 100000));
     v.field("val_unseen_per_house", val_unseen_per_house,
             "Trajectories per val_unseen house", common::inRange(0, 100000));
@@ -244,9 +232,8 @@ struct SplitConfig {
 
 /// The whole world: configs/world/default.yaml.
 struct WorldConfig {
-  int houses = 40;   ///< number of procedural houses
-  int64_t seed = 1;  ///< master seed; every house and stage derives from it
-  /// Scene ids are <prefix>/<house>/<house>.glb.
+  int houses = 40;
+  int64_t seed = 1;
   std::string scene_prefix = "procedural";
   HouseConfig house;
   sim::NavMeshConfig navmesh;
@@ -262,7 +249,8 @@ struct WorldConfig {
   void visit(common::ConfigVisitor& v) {
     v.field("houses", houses, "Number of procedural houses",
             common::inRange(1, 100000));
-    v.field("seed", seed, "Master seed of the world");
+    v.field("seed", seed,
+            "Master seed of the world; every house and stage derives from it");
     v.field("scene_prefix", scene_prefix,
             "Scene ids are <prefix>/<house>/<house>.glb");
     v.section("house", house, "Procedural house generation");

@@ -59,28 +59,29 @@ TEST(ConfigTest, UnknownKeyIsAnErrorWithPathAndHint) {
 }
 
 TEST(ConfigTest, WrongTypesAndRangesNameTheKey) {
-  EXPECT_THAT(
-      [] { loadConfigText<RootConfig>("batch: many\n", "x.yaml"); },
-      ::testing::ThrowsMessage<std::invalid_argument>(
-          HasSubstr("key 'batch': expected an integer, got 'many'")));
-  EXPECT_THAT([] { loadConfigText<RootConfig>("batch: 1.5\n"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("expected an integer")));
-  EXPECT_THAT([] { loadConfigText<RootConfig>("trainer: {lr: 3}\n"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("key 'trainer.lr': value 3 is outside [0, 1]")));
-  EXPECT_THAT([] { loadConfigText<RootConfig>("trainer: {mode: turbo}\n"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("expected one of {fast, slow}, got 'turbo'")));
-  EXPECT_THAT([] { loadConfigText<RootConfig>("trainer: 3\n"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("expected a mapping")));
-  EXPECT_THAT([] { loadConfigText<RootConfig>("batch: [1\n", "bad.yaml"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("bad.yaml:")));
-  EXPECT_THAT([] { loadConfigText<RootConfig>("flag:\n"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("key 'flag': value is empty")));
+  // each file text (called `source` in errors) is rejected with a message
+  // holding `message`
+  const struct {
+    const char* text;
+    const char* source;
+    const char* message;
+  } cases[] = {
+      {"batch: many\n", "x.yaml",
+       "key 'batch': expected an integer, got 'many'"},
+      {"batch: 1.5\n", "<string>", "expected an integer"},
+      {"trainer: {lr: 3}\n", "<string>",
+       "key 'trainer.lr': value 3 is outside [0, 1]"},
+      {"trainer: {mode: turbo}\n", "<string>",
+       "expected one of {fast, slow}, got 'turbo'"},
+      {"trainer: 3\n", "<string>", "expected a mapping"},
+      {"batch: [1\n", "bad.yaml", "bad.yaml:"},
+      {"flag:\n", "<string>", "key 'flag': value is empty"},
+  };
+  for (const auto& c : cases)
+    EXPECT_THAT(
+        [&] { loadConfigText<RootConfig>(c.text, c.source); },
+        ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr(c.message)))
+        << c.text;
 }
 
 TEST(ConfigTest, OverridesApplyAfterTheFile) {

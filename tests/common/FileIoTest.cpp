@@ -9,6 +9,7 @@
 
 #include "common/Json.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 
 namespace vln::common {
 namespace {
@@ -41,12 +42,7 @@ TEST(FileIoTest, AtomicWriteKeepsNoTemporaries) {
   test::TempDir dir;
   writeFileAtomic(dir / "sub" / "a.json", "{}");
   writeFileAtomic(dir / "sub" / "a.json", "{\"k\": 1}");
-  int files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(dir / "sub")) {
-    (void)entry;
-    ++files;
-  }
-  EXPECT_EQ(files, 1);
+  EXPECT_EQ(test::countEntries(dir / "sub"), 1);
   EXPECT_EQ(readJsonFile(dir / "sub" / "a.json")["k"], 1);
 }
 

@@ -15,6 +15,7 @@
 #include "common/Json.h"
 #include "data/GroundTruth.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 
 namespace vln::data {
 namespace {
@@ -309,12 +310,7 @@ TEST(EpisodeTest, WriterRejectsInvalidEpisodesWithoutTouchingTheDisk) {
   // the previous file is intact and no half-written file appeared
   EXPECT_EQ(common::readFile(file), before);
   EXPECT_FALSE(std::filesystem::exists(dir / "new.json"));
-  int files = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
-    (void)entry;
-    ++files;
-  }
-  EXPECT_EQ(files, 1);
+  EXPECT_EQ(test::countEntries(dir.path()), 1);
 }
 
 // =========================================================================

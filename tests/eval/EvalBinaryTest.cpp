@@ -18,8 +18,10 @@
 #include "models/Policy.h"
 #include "models/StateDict.h"
 #include "rollout/Metrics.h"
+#include "support/TestUtil.h"
 #include "train/Checkpoint.h"
 #include "train/ExperimentConfig.h"
+#include "train/TinyWorldBinaryTest.h"
 #include "train/TrainTestWorld.h"
 
 namespace vln::train {
@@ -27,16 +29,14 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using vln::test::binary;
 
-std::string bin(const std::string& name) {
-  return (vln::test::binaryPath() / "bin" / name).string();
-}
-
-class EvalBinaryTest : public ::testing::Test {
+class EvalBinaryTest : public test::TinyWorldBinaryTest {
  protected:
+  EvalBinaryTest() : TinyWorldBinaryTest("eval") {}
   void SetUp() override {
-    if (!fs::exists(bin("eval"))) GTEST_SKIP() << "build the eval binary first";
-    world_ = &test::tinyWorld();
+    TinyWorldBinaryTest::SetUp();
+    if (IsSkipped()) return;
     configFile_ = vln::test::writeText(
         dir_ / "config.yaml",
         test::tinyRunConfig(*world_, dir_ / "run", "  epochs: 1\n"));
@@ -62,11 +62,9 @@ class EvalBinaryTest : public ::testing::Test {
 
   int eval(const std::string& args, std::string* output) {
     return vln::test::runCommand(
-        bin("eval") + " --log-level warn " + args + " 2>&1", output);
+        binary("eval") + " --log-level warn " + args + " 2>&1", output);
   }
 
-  const test::TinyWorld* world_ = nullptr;
-  vln::test::TempDir dir_;
   fs::path configFile_;
   ExperimentConfig config_;
 };
@@ -186,7 +184,7 @@ TEST_F(EvalBinaryTest, BaselinesNavGraphPicturesAndTables) {
 
   ASSERT_EQ(
       vln::test::runCommand(
-          bin("eval") + " tables --runs " +
+          binary("eval") + " tables --runs " +
               (vln::test::testDataPath() / "eval" / "results").string() +
               " --out " + (dir_ / "docs" / "results.md").string() + " 2>&1",
           &output),
@@ -194,6 +192,22 @@ TEST_F(EvalBinaryTest, BaselinesNavGraphPicturesAndTables) {
       << output;
   EXPECT_TRUE(fs::exists(dir_ / "docs" / "results.md"));
   EXPECT_TRUE(fs::exists(dir_ / "docs" / "results.tex"));
+
+  // the seeds fixture: only its rows, then the paper's findings judged
+  const std::string seeds =
+      " --runs " + (vln::test::testDataPath() / "eval" / "seeds").string();
+  ASSERT_EQ(eval("tables" + seeds + " --claimed-only --out " +
+                     (dir_ / "claimed.md").string(),
+                 &output),
+            0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("(2 tables, 5 rows of ours)"));
+  ASSERT_EQ(
+      eval("compare" + seeds + " --out " + (dir_ / "findings.md").string(),
+           &output),
+      0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("1 hold, 1 do not hold"));
 }
 
 TEST_F(EvalBinaryTest, ErrorsAreReported) {
@@ -232,10 +246,11 @@ TEST_F(EvalBinaryTest, ErrorsAreReported) {
 // A short training run evaluates its checkpoints during training; the
 // binary, re-evaluating the same checkpoint, must get the same numbers.
 TEST_F(EvalBinaryTest, ReproducesTheTrainersValidation) {
-  if (!fs::exists(bin("train"))) GTEST_SKIP() << "build the train binary first";
+  if (!fs::exists(binary("train")))
+    GTEST_SKIP() << "build the train binary first";
   std::string output;
   ASSERT_EQ(vln::test::runCommand(
-                bin("train") + " --config " + configFile_.string() + " 2>&1",
+                binary("train") + " --config " + configFile_.string() + " 2>&1",
                 &output),
             0)
       << output;

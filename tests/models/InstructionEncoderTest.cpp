@@ -6,6 +6,7 @@
 #include "ModelTestUtil.h"
 #include "common/Json.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 
 namespace vln::models {
 namespace {
@@ -13,15 +14,7 @@ namespace {
 using test::randomTokens;
 using test::tinyConfig;
 using ::testing::HasSubstr;
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
+using vln::test::errorOf;
 
 TEST(InstructionEncoderTest, BidirectionalForCmaUnidirectionalForSeq2Seq) {
   torch::manual_seed(0);

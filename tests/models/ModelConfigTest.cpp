@@ -3,10 +3,13 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "support/TestUtil.h"
+
 namespace vln::models {
 namespace {
 
 using ::testing::HasSubstr;
+using vln::test::errorOf;
 
 // the config as the `model:` section of a larger file
 struct Root {
@@ -14,15 +17,6 @@ struct Root {
   void visit(common::ConfigVisitor& v) { v.section("model", model, "Model"); }
   void validate() const { model.validate(); }
 };
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
 
 TEST(ModelConfigTest, DefaultsAreVlnCePaperSizes) {
   const ModelConfig c;

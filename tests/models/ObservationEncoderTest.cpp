@@ -52,6 +52,42 @@ TEST(ObservationEncoderTest, FeatureShapesMatchTheReportedShapes) {
   EXPECT_EQ(sizesOf(fb.depth), (Shape{1, db[0], db[1], db[2]}));
 }
 
+// model.rgb_batch_statistics: VLN-CE's train-mode BatchNorm while
+// collecting, without touching the running statistics
+TEST(ObservationEncoderTest, RgbBatchStatisticsNormaliseByTheBatchOnly) {
+  torch::NoGradGuard g;
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  c.rgb_encoder = EncoderType::kResNet18;
+  c.rgb_height = c.rgb_width = 64;
+  ObservationEncoder enc(c);
+  enc->eval();
+  std::vector<torch::Tensor> buffers;
+  for (const auto& b : enc->rgb->cnnModule().buffers()) buffers.push_back(b.clone());
+  const torch::Tensor images = randomRgb({3}, 64, 64);
+  const torch::Tensor running = enc->forward(images, randomDepth({3}, 32, 32)).rgb;
+
+  enc->useRgbBatchStatistics(true);
+  const torch::Tensor batch = enc->forward(images, randomDepth({3}, 32, 32)).rgb;
+  // image 0 alone: another batch, other statistics
+  const torch::Tensor alone =
+      enc->forward(images.slice(0, 0, 1), randomDepth({1}, 32, 32)).rgb;
+  EXPECT_FALSE(torch::allclose(batch, running));
+  EXPECT_FALSE(torch::allclose(batch.slice(0, 0, 1), alone));
+  enc->useRgbBatchStatistics(false);
+
+  // the running statistics (and every other buffer but the batch counter)
+  // are bit for bit what they were, and eval mode gives the same features
+  size_t i = 0;
+  for (const auto& item : enc->rgb->cnnModule().named_buffers()) {
+    if (!item.key().ends_with("num_batches_tracked")) {
+      EXPECT_TRUE(torch::equal(item.value(), buffers[i])) << item.key();
+    }
+    ++i;
+  }
+  EXPECT_TRUE(torch::equal(
+      enc->forward(images, randomDepth({3}, 32, 32)).rgb, running));
+}
+
 TEST(ObservationEncoderTest, FrozenEncodersStayInEvalModeWithoutGradients) {
   ModelConfig c = tinyConfig(PolicyType::kCma);
   c.rgb_encoder = EncoderType::kResNet18;

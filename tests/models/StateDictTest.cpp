@@ -7,12 +7,14 @@
 
 #include "common/FileIo.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 
 namespace vln::models {
 namespace {
 
 using ::testing::HasSubstr;
 using ::testing::Not;
+using vln::test::errorOf;
 
 // a module with nested names, a parameter and buffers
 struct NetImpl : torch::nn::Module {
@@ -26,15 +28,6 @@ struct NetImpl : torch::nn::Module {
   torch::nn::Sequential seq{nullptr};
 };
 TORCH_MODULE(Net);
-
-std::string errorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const std::exception& e) {
-    return e.what();
-  }
-  return "";
-}
 
 TEST(StateDictTest, NamedStateHasParametersThenBuffersWithDottedNames) {
   Net net;

@@ -3,7 +3,10 @@
 // states, identical stores and identical metrics (timings aside);
 // (b) evaluating a checkpoint twice, and with another eval.threads and
 // eval.num_envs, gives identical stats and per-episode files; (c) the
-// generated world is byte-identical for a seed, whatever --threads.
+// generated world is byte-identical for a seed, whatever --threads;
+// (d) training does not depend on the vector units the CPU offers
+// (common::pinNumericalRuntime), and does without the pin where the CPU has
+// AVX-512, so the comparison can fail.
 // Label "slow": these drive the train, eval and vlnce-data binaries.
 
 #include <gmock/gmock.h>
@@ -102,13 +105,17 @@ class DeterminismTest : public ::testing::Test {
     for (const char* name : {"train", "eval", "vlnce-data"})
       if (!fs::exists(binary(name))) GTEST_SKIP() << "build the " << name << " binary first";
   }
-  // trains the tiny DAgger run into <dir>/<name>; returns the run directory
-  fs::path train(const std::string& name) {
+  // trains the tiny DAgger run into <dir>/<name> with the environment
+  // variables `env` ("A=1 B=2"); returns the run directory
+  fs::path train(const std::string& name, const std::string& env = "") {
     const fs::path run = dir_ / name;
     const fs::path config =
         vln::test::writeText(dir_ / (name + ".yaml"), daggerRunConfig(run, 2, 3));
     std::string output;
-    EXPECT_EQ(vln::test::runCommand(binary("train") + " --config " + config.string(), &output), 0)
+    EXPECT_EQ(vln::test::runCommand("env " + env + " " + binary("train") + " --config " +
+                                        config.string(),
+                                    &output),
+              0)
         << output;
     return run;
   }
@@ -161,6 +168,32 @@ TEST_F(DeterminismTest, TrainingAndEvaluationAreReproducible) {
       }
     }
   }
+}
+
+// (d) what an AVX-512 machine's libraries pick by themselves, asked for
+// explicitly: the pinned binary trains the same weights as with no such
+// request; with VLN_NATIVE_DISPATCH=1 they differ (on a CPU with AVX-512)
+TEST_F(DeterminismTest, TrainingDoesNotDependOnTheCpusVectorUnits) {
+  if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma"))
+    GTEST_SKIP() << "the pin needs AVX2 and FMA";
+  const std::string avx512 =
+      "ATEN_CPU_CAPABILITY=avx512 DNNL_MAX_CPU_ISA=AVX512_CORE "
+      "ONEDNN_MAX_CPU_ISA=AVX512_CORE OPENBLAS_CORETYPE=SkylakeX";
+  const fs::path pinned = train("pinned"), asked = train("asked", avx512);
+  const auto checkpoints = train::listCheckpoints(pinned / "checkpoints");
+  ASSERT_FALSE(checkpoints.empty());
+  const fs::path last = checkpoints.back().filename();
+  expectSameCheckpoint(pinned / "checkpoints" / last, asked / "checkpoints" / last);
+  if (!__builtin_cpu_supports("avx512f"))
+    GTEST_SKIP() << "no AVX-512 here: native dispatch would pick AVX2 too";
+  const fs::path native = train("native", "VLN_NATIVE_DISPATCH=1 " + avx512);
+  const train::Checkpoint a = train::loadCheckpoint(pinned / "checkpoints" / last);
+  const train::Checkpoint b = train::loadCheckpoint(native / "checkpoints" / last);
+  bool anyDifference = false;
+  for (size_t i = 0; i < a.policy.size() && i < b.policy.size(); ++i)
+    anyDifference = anyDifference || !torch::equal(a.policy[i].second, b.policy[i].second);
+  EXPECT_TRUE(anyDifference) << "AVX-512 kernels trained the same weights: this test "
+                                "no longer shows that the pin matters";
 }
 
 // (c) the world of configs/world/tiny.yaml, generated twice with different

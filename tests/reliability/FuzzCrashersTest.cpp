@@ -62,6 +62,21 @@ fs::path writeBytes(const fs::path& file, std::string_view bytes) {
 // which is not a documented reader error, when violated)
 using Reader = std::function<void(std::string_view input, const fs::path& dir)>;
 
+// fuzz/MeshFuzzing.h: the input as scene.<extension>; a mesh that loads
+// must be valid
+Reader sceneReader(const std::string& extension) {
+  return [extension](std::string_view in, const fs::path& dir) {
+    auto scene =
+        sim::loadScene(writeBytes(dir / ("scene." + extension), in), {});
+    try {
+      scene.mesh.validate("replay");
+    } catch (const std::invalid_argument& e) {
+      throw std::logic_error(
+          std::string("loadScene returned an invalid mesh: ") + e.what());
+    }
+  };
+}
+
 const std::map<std::string, Reader>& readers() {
   static const std::map<std::string, Reader> table = {
       {"fuzz_experiment_config",
@@ -69,7 +84,8 @@ const std::map<std::string, Reader>& readers() {
          auto config = train::loadExperimentConfig(writeBytes(dir / "run.yaml", in));
          auto again = common::loadConfigText<train::ExperimentConfig>(
              train::experimentConfigYaml(config), "round trip");
-         if (!(again == config)) throw std::logic_error("config changed in a YAML round trip");
+         if (!(again == config))
+           throw std::logic_error("config changed in a YAML round trip");
        }},
       {"fuzz_episodes",
        [](std::string_view in, const fs::path& dir) {
@@ -84,7 +100,9 @@ const std::map<std::string, Reader>& readers() {
          if (in.empty()) return;
          data::GloveReadOptions options;
          if (in[0] & 1) options.dim = 3;
-         if (in[0] & 2) options.only_words = std::unordered_set<std::string>{"the", ".", "a b"};
+         if (in[0] & 2)
+           options.only_words =
+               std::unordered_set<std::string>{"the", ".", "a b"};
          auto vectors = data::readGloveText(writeBytes(dir / "glove.txt", in.substr(1)), options);
          for (int i = 0; i < vectors.size(); ++i)
            if (static_cast<int>(vectors.vector(i).size()) != vectors.dim())
@@ -96,24 +114,8 @@ const std::map<std::string, Reader>& readers() {
          if (static_cast<size_t>(m.rows) * static_cast<size_t>(m.dim) != m.values.size())
            throw std::logic_error("embedding matrix shape disagrees with its values");
        }},
-      {"fuzz_mesh_obj",
-       [](std::string_view in, const fs::path& dir) {
-         auto scene = sim::loadScene(writeBytes(dir / "scene.obj", in), {});
-         try {
-           scene.mesh.validate("replay");
-         } catch (const std::invalid_argument& e) {
-           throw std::logic_error(std::string("loadScene returned an invalid mesh: ") + e.what());
-         }
-       }},
-      {"fuzz_mesh_ply",
-       [](std::string_view in, const fs::path& dir) {
-         auto scene = sim::loadScene(writeBytes(dir / "scene.ply", in), {});
-         try {
-           scene.mesh.validate("replay");
-         } catch (const std::invalid_argument& e) {
-           throw std::logic_error(std::string("loadScene returned an invalid mesh: ") + e.what());
-         }
-       }},
+      {"fuzz_mesh_obj", sceneReader("obj")},
+      {"fuzz_mesh_ply", sceneReader("ply")},
       {"fuzz_navgraph",
        [](std::string_view in, const fs::path& dir) {
          auto graph = data::readNavGraph(writeBytes(dir / "graph.json", in));

@@ -25,16 +25,15 @@
 #include "common/FileIo.h"
 #include "data/Glove.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 #include "train/TrainTestWorld.h"
 
 namespace vln::reliability {
 
 namespace fs = std::filesystem;
 
-/// bin/<name> of the build tree under test.
-inline std::string binary(const std::string& name) {
-  return (vln::test::binaryPath() / "bin" / name).string();
-}
+using vln::test::binary;
+using vln::test::readJsonLines;
 
 /// The generated tiny world, made on first use.
 inline const train::test::TinyWorld& reliabilityWorld() {
@@ -87,16 +86,6 @@ inline std::string daggerRunConfig(const fs::path& outDir, int iterations, int e
       "  seed: 17\n  dagger_iterations: " + std::to_string(iterations) +
           "\n  dagger_episodes: " + std::to_string(episodes) +
           "\n  dagger_epochs: 1\n  eval_during_training: true\n" + extraTrainer);
-}
-
-/// The lines of a JSON-lines file, parsed.
-inline std::vector<nlohmann::json> readJsonLines(const fs::path& file) {
-  std::vector<nlohmann::json> lines;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line))
-    if (!line.empty()) lines.push_back(nlohmann::json::parse(line));
-  return lines;
 }
 
 /// `record` without the fields that measure time (wall clock, durations

@@ -362,6 +362,63 @@ TEST(MetricsTest, AggregateAveragesEveryKey) {
               ::testing::Throws<std::invalid_argument>());
 }
 
+// ONE and oracle SPL by hand from VLN-CE's definitions (measures.py:
+// OracleNavigationError, min over the path with the start; v1 OracleSPL,
+// d0 / max(d0, TL so far) at the first step ending within 3 m)
+TEST(MetricsTest, OracleNavigationErrorAndOracleSplFollowVlnCe) {
+  EpisodeRecord r;
+  r.episode_id = "detour";
+  // goal at z = -10, start 5 m away; a 4 m detour sideways (6.40 m away),
+  // 5 m to 2 m from the goal (inside 3 m: TL so far 9), 5 m away again
+  // (7 m from the goal) and STOP
+  r.goal = {0, 0, -10};
+  r.positions = {{0, 0, -5}, {4, 0, -5}, {0, 0, -8}, {0, 0, -3}, {0, 0, -3}};
+  r.actions = {1, 1, 1, 0};
+  r.steps_taken = 4;
+  r.called_stop = true;
+  r.reference_path = {r.positions.front(), r.goal};
+  r.start_distance = 5.0;
+  const EpisodeMetrics m = computeEpisodeMetrics(r, euclid);
+  EXPECT_DOUBLE_EQ(m.oracle_navigation_error, 2.0);
+  EXPECT_EQ(m.oracle_success, 1.0);
+  EXPECT_DOUBLE_EQ(m.oracle_spl, 5.0 / 9.0);
+  EXPECT_EQ(m.success, 0.0);
+  EXPECT_EQ(m.spl, 0.0);
+  EXPECT_DOUBLE_EQ(m.distance_to_goal, 7.0);
+
+  // never within 3 m: oracle SPL 0, ONE the nearest approach
+  const EpisodeMetrics far =
+      computeEpisodeMetrics(stopAt({0, 0, -6}, {0, 0, -10}), euclid);
+  EXPECT_DOUBLE_EQ(far.oracle_navigation_error, 4.0);
+  EXPECT_EQ(far.oracle_spl, 0.0);
+
+  // ONE counts the start (VLN-CE updates it on reset); oracle SPL only
+  // positions after a step: 2 m away at the start, one 1 m step closer
+  const EpisodeMetrics near =
+      computeEpisodeMetrics(stopAt({0, 0, -1}, {0, 0, -2}), euclid);
+  EXPECT_DOUBLE_EQ(near.oracle_navigation_error, 1.0);
+  EXPECT_DOUBLE_EQ(near.oracle_spl, 1.0);  // 2 / max(2, 1)
+  EXPECT_DOUBLE_EQ(near.spl, 1.0);
+  EpisodeRecord away = stopAt({0, 0, 1}, {0, 0, -2});
+  const EpisodeMetrics awayMetrics = computeEpisodeMetrics(away, euclid);
+  EXPECT_DOUBLE_EQ(awayMetrics.oracle_navigation_error, 2.0);
+  EXPECT_EQ(awayMetrics.oracle_success, 1.0);
+  EXPECT_EQ(awayMetrics.oracle_spl, 0.0);  // 3 m away after its step
+}
+
+TEST(MetricsTest, StatsFilesWrittenBeforeTheOracleMetricsStillRead) {
+  test::TempDir dir;
+  test::writeText(dir / "old.json",
+                  R"({"distance_to_goal": 6.5, "success": 0.2, "spl": 0.1,
+                      "ndtw": 0.4, "sdtw": 0.1, "path_length": 9.0,
+                      "oracle_success": 0.3, "steps_taken": 40,
+                      "num_episodes": 10})");
+  const SplitStats old = readStatsFile(dir / "old.json");
+  EXPECT_DOUBLE_EQ(old.mean.spl, 0.1);
+  EXPECT_TRUE(std::isnan(old.mean.oracle_navigation_error));
+  EXPECT_TRUE(std::isnan(old.mean.oracle_spl));
+}
+
 TEST(MetricsTest, StatsFileHasVlnceKeysAndRoundTrips) {
   test::TempDir dir;
   EpisodeMetrics m = computeEpisodeMetrics(straightEpisode(8, true), euclid);
@@ -372,7 +429,8 @@ TEST(MetricsTest, StatsFileHasVlnceKeysAndRoundTrips) {
   const auto json = common::readJsonFile(file);
   for (const char* key :
        {"distance_to_goal", "success", "spl", "ndtw", "path_length",
-        "oracle_success", "steps_taken", "sdtw", "num_episodes"})
+        "oracle_success", "oracle_navigation_error", "oracle_spl",
+        "steps_taken", "sdtw", "num_episodes"})
     EXPECT_TRUE(json.contains(key)) << key;
   EXPECT_EQ(readStatsFile(file), stats);
 

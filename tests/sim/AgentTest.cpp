@@ -8,6 +8,7 @@
 
 #include "sim/NavMesh.h"
 #include "sim/SimTestScenes.h"
+#include "sim/SimTestSuites.h"
 
 namespace vln::sim {
 namespace {
@@ -36,27 +37,7 @@ TriangleMesh roomWithRamp() {
   return m;
 }
 
-class AgentTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    navmesh_ = NavMesh::build(roomWithRamp(), NavMeshConfig{}).release();
-  }
-  static void TearDownTestSuite() {
-    delete navmesh_;
-    navmesh_ = nullptr;
-  }
-  static const NavMesh& navmesh() { return *navmesh_; }
-  // An agent standing (snapped) at (x, z) with `heading` radians.
-  static AgentState standing(float x, float z, float heading) {
-    const auto p = navmesh().snapPoint({x, 0.0f, z});
-    VLN_ASSERT(p.has_value());
-    return {*p, heading};
-  }
-
- private:
-  static NavMesh* navmesh_;
-};
-NavMesh* AgentTest::navmesh_ = nullptr;
+class AgentTest : public test::NavMeshSuite<roomWithRamp> {};
 
 // ---------------------------------------------------------------------------
 // action names and codes

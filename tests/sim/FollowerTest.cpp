@@ -8,6 +8,7 @@
 #include <random>
 
 #include "sim/SimTestScenes.h"
+#include "sim/SimTestSuites.h"
 
 namespace vln::sim {
 namespace {
@@ -39,24 +40,7 @@ TriangleMesh threeRoomHouse() {
   return m;
 }
 
-class FollowerTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() {
-    navmesh_ = NavMesh::build(threeRoomHouse(), NavMeshConfig{}).release();
-  }
-  static void TearDownTestSuite() {
-    delete navmesh_;
-    navmesh_ = nullptr;
-  }
-  static const NavMesh& navmesh() { return *navmesh_; }
-  static AgentState standing(float x, float z, float heading) {
-    return {*navmesh().snapPoint({x, 0.0f, z}), heading};
-  }
-
- private:
-  static NavMesh* navmesh_;
-};
-NavMesh* FollowerTest::navmesh_ = nullptr;
+class FollowerTest : public test::NavMeshSuite<threeRoomHouse> {};
 
 TEST_F(FollowerTest, SceneHasTheExpectedIslands) {
   ASSERT_EQ(navmesh().islandCount(), 2);  // floor and table top

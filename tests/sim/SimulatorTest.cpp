@@ -11,6 +11,7 @@
 
 #include "sim/Mesh.h"
 #include "sim/SimTestScenes.h"
+#include "sim/SimTestSuites.h"
 
 namespace vln::sim {
 namespace {
@@ -30,13 +31,7 @@ SimConfig smallConfig() {
   return config;
 }
 
-class SimulatorTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { scene_ = testScene(); }
-  static void TearDownTestSuite() { scene_.reset(); }
-  static std::shared_ptr<const Scene> scene_;
-};
-std::shared_ptr<const Scene> SimulatorTest::scene_;
+class SimulatorTest : public test::SceneSuite<testScene> {};
 
 TEST_F(SimulatorTest, ResetSnapsStartToNavmesh) {
   Simulator sim(scene_, smallConfig(), TaskConfig{});

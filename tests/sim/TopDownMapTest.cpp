@@ -10,7 +10,9 @@
 #include "common/FileIo.h"
 #include "sim/Scene.h"
 #include "sim/SimTestScenes.h"
+#include "sim/SimTestSuites.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 
 namespace vln::sim {
 namespace {
@@ -35,13 +37,7 @@ Rgb8 pixelAt(const TopDownMap& map, const Vec3f& p) {
   return {map.rgb()[i], map.rgb()[i + 1], map.rgb()[i + 2]};
 }
 
-class TopDownMapTest : public ::testing::Test {
- protected:
-  static void SetUpTestSuite() { scene_ = roomScene(); }
-  static void TearDownTestSuite() { scene_.reset(); }
-  static std::shared_ptr<const Scene> scene_;
-};
-std::shared_ptr<const Scene> TopDownMapTest::scene_;
+class TopDownMapTest : public test::SceneSuite<roomScene> {};
 
 TEST_F(TopDownMapTest, CanvasCoversNavigableAreaWithMargin) {
   TopDownMap map(*scene_, 0.05f);
@@ -139,12 +135,7 @@ TEST_F(TopDownMapTest, SavesAPngAtomically) {
   EXPECT_EQ(be32(16), static_cast<uint32_t>(map.width()));
   EXPECT_EQ(be32(20), static_cast<uint32_t>(map.height()));
   // no temporary file left beside it
-  int entries = 0;
-  for (const auto& entry : std::filesystem::directory_iterator(file.parent_path())) {
-    (void)entry;
-    ++entries;
-  }
-  EXPECT_EQ(entries, 1);
+  EXPECT_EQ(vln::test::countEntries(file.parent_path()), 1);
 }
 
 TEST_F(TopDownMapTest, RefusesPointsFarOutsideTheScene) {

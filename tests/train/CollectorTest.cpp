@@ -12,6 +12,9 @@
 
 #include "TrainTestWorld.h"
 #include "common/Config.h"
+#include "common/Math.h"
+#include "sim/SimTestScenes.h"
+#include "sim/SimTestSuites.h"
 
 namespace vln::train {
 namespace {
@@ -44,21 +47,109 @@ struct Fixture {
       data::readGroundTruth(data::splitGroundTruthPath(world.data, "train"));
 };
 
-TEST(WaypointOracleTest, ProgressTargetFollowsVlnCe) {
-  EXPECT_FLOAT_EQ(progressTarget(10.0f, 10.0f), 0.0f);
-  EXPECT_FLOAT_EQ(progressTarget(10.0f, 2.5f), 0.75f);
-  EXPECT_FLOAT_EQ(progressTarget(10.0f, 0.0f), 1.0f);
-  EXPECT_FLOAT_EQ(progressTarget(10.0f, 15.0f), -0.5f);
-  EXPECT_FLOAT_EQ(progressTarget(10.0f, 35.0f),
-                  -1.0f);  // clipped to the tanh range
-  EXPECT_FLOAT_EQ(progressTarget(10.0f, INFINITY),
-                  0.0f);  // VLN-CE's non-finite rule
-  EXPECT_FLOAT_EQ(progressTarget(0.0f, 1.0f), 0.0f);
+// VLN-CE's progress target (habitat_extensions/sensors.py,
+// VLNOracleProgressSensor): (d0 - d) / d0, not clipped; 0 when d is inf
+TEST(ProgressTargetTest, FollowsVlnCeUnclippedOrClipsOnRequest) {
+  for (bool clip : {false, true}) {
+    EXPECT_FLOAT_EQ(progressTarget(10.0f, 10.0f, clip), 0.0f);
+    EXPECT_FLOAT_EQ(progressTarget(10.0f, 2.5f, clip), 0.75f);
+    EXPECT_FLOAT_EQ(progressTarget(10.0f, 0.0f, clip), 1.0f);
+    EXPECT_FLOAT_EQ(progressTarget(10.0f, 15.0f, clip), -0.5f);
+    EXPECT_FLOAT_EQ(progressTarget(10.0f, INFINITY, clip), 0.0f);
+    EXPECT_FLOAT_EQ(progressTarget(0.0f, 1.0f, clip), 0.0f);
+  }
+  // 35 m away from a goal 10 m from the start: (10 - 35) / 10
+  EXPECT_FLOAT_EQ(progressTarget(10.0f, 35.0f, /*clip=*/false), -2.5f);
+  EXPECT_FLOAT_EQ(progressTarget(10.0f, 35.0f, /*clip=*/true), -1.0f);
+}
+
+// torch.multinomial over one draw by inverse CDF: softmax([0, ln 3]) =
+// [0.25, 0.75]
+TEST(SampleFromLogitsTest, InvertsTheSoftmaxCdf) {
+  const std::vector<float> logits = {0.0f, std::log(3.0f)};
+  EXPECT_EQ(sampleFromLogits(logits, 0.0), 0);
+  EXPECT_EQ(sampleFromLogits(logits, 0.2499), 0);
+  EXPECT_EQ(sampleFromLogits(logits, 0.2501), 1);
+  EXPECT_EQ(sampleFromLogits(logits, 0.9999), 1);
+  // four actions, one overwhelming: every u picks it; huge logits do not
+  // overflow
+  const std::vector<float> sure = {1000.0f, -1000.0f, 900.0f, 0.0f};
+  for (double u : {0.0, 0.5, 0.999999}) EXPECT_EQ(sampleFromLogits(sure, u), 0);
+  // frequencies of a fine grid of u follow the probabilities
+  const std::vector<float> four = {0.0f, 1.0f, 2.0f, 0.5f};
+  std::vector<int> counts(4, 0);
+  const int n = 100000;
+  for (int i = 0; i < n; ++i)
+    ++counts[static_cast<size_t>(sampleFromLogits(four, (i + 0.5) / n))];
+  double total = 0.0;
+  for (float l : four) total += std::exp(static_cast<double>(l));
+  for (size_t a = 0; a < 4; ++a)
+    EXPECT_NEAR(counts[a] / static_cast<double>(n),
+                std::exp(static_cast<double>(four[a])) / total, 1e-4);
+}
+
+// A 12 m x 2 m corridor along +X.
+sim::TriangleMesh corridor() {
+  sim::TriangleMesh m;
+  vln::test::addWalledFloor(m, 12, 2);
+  return m;
+}
+
+class ExpertTest : public vln::test::NavMeshSuite<corridor> {
+ protected:
+  // an episode from (1, 1) whose reference path turns back at x = 6 only
+  // in name: waypoints (1, 1), (6, 1), (9, 1), goal (9, 1)
+  data::Episode episode() const {
+    data::Episode e;
+    e.episode_id = 7;
+    for (float x : {1.0f, 6.0f, 9.0f})
+      e.reference_path.push_back(standing(x, 1.0f, 0.0f).position);
+    e.start_position = e.reference_path.front();
+    e.goals.push_back({e.reference_path.back(), 3.0f});
+    return e;
+  }
+  // the expert's actions from `state` until it STOPs (at most 40 steps)
+  std::vector<sim::Action> rollout(const std::string& expert,
+                                   sim::AgentState state) const {
+    const sim::AgentConfig agent;
+    WaypointOracle oracle(navmesh(), agent, 0.5f,
+                          expertWaypoints(episode(), expert));
+    std::vector<sim::Action> actions;
+    while (actions.size() < 40) {
+      actions.push_back(oracle.next(state));
+      if (actions.back() == sim::Action::kStop) break;
+      (void)sim::applyAction(navmesh(), agent, state, actions.back());
+    }
+    return actions;
+  }
+};
+
+// An agent that drifted past waypoint (6, 1) to x = 7.9, facing the goal
+// (heading -pi/2 faces +X): VLN-CE's goal expert goes on to the goal, 1.1 m
+// ahead, in 0.25 m steps and STOPs within 0.5 m (at x = 8.65, 0.35 m
+// away); the reference-path expert first turns back to the waypoint.
+TEST_F(ExpertTest, GoalExpertGoesStraightOnWhereTheReferencePathTurnsBack) {
+  const sim::AgentState drifted = standing(7.9f, 1.0f, -kPi / 2);
+  using sim::Action;
+  EXPECT_EQ(rollout("goal", drifted),
+            (std::vector<Action>{Action::kMoveForward, Action::kMoveForward,
+                                 Action::kMoveForward, Action::kStop}));
+  const std::vector<Action> back = rollout("reference_path", drifted);
+  ASSERT_FALSE(back.empty());
+  EXPECT_TRUE(back.front() == Action::kTurnLeft ||
+              back.front() == Action::kTurnRight);
+  // it does arrive, later
+  EXPECT_EQ(back.back(), Action::kStop);
+  EXPECT_GT(back.size(), 4u);
+  EXPECT_THAT([&] { (void)expertWaypoints(episode(), "nearest"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  ::testing::HasSubstr("trainer.expert")));
 }
 
 TEST(CollectorTest, TeacherForcingReproducesTheGroundTruthActions) {
   Fixture f;
-  const ExperimentConfig c = worldConfig(f.world, 3);
+  ExperimentConfig c = worldConfig(f.world, 3);
+  c.trainer.expert = "reference_path";
   vln::test::TempDir dir;
   FeatureStore store(dir / "store", layoutOf(c), 0.25);
   models::ObservationEncoder encoder(c.model);

@@ -9,12 +9,8 @@
 #include "train/Distributed.h"
 
 #include <ATen/CPUGeneratorImpl.h>
-#include <arpa/inet.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 #include <torch/csrc/distributed/c10d/TCPStore.hpp>
 
 #include <array>
@@ -24,6 +20,7 @@
 
 #include "common/Check.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 #include "train/Checkpoint.h"
 #include "train/ImitationLearner.h"
 #include "train/LearnerTestUtil.h"
@@ -32,23 +29,10 @@ namespace vln::train {
 namespace {
 
 namespace fs = std::filesystem;
-using ::testing::HasSubstr;
 using test::layoutOf;
 using test::tinyLearnerConfig;
-
-// a TCP port nobody listens on right now
-int freePort() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  addr.sin_port = 0;
-  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
-  socklen_t length = sizeof(addr);
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length);
-  ::close(fd);
-  return ntohs(addr.sin_port);
-}
+using ::testing::HasSubstr;
+using vln::test::freePort;
 
 DistributedOptions testOptions() {
   DistributedOptions o;
@@ -58,25 +42,43 @@ DistributedOptions testOptions() {
   return o;
 }
 
-// runs body(dist) on ranks 0 and 1 (threads) over one FileStore; returns
-// each rank's exception (null when it returned)
-std::array<std::exception_ptr, 2> onTwoRanks(
-    const std::function<void(Distributed&)>& body,
-    DistributedOptions options = testOptions()) {
-  vln::test::TempDir dir;
+// runs body(rank) for ranks 0 and 1 on two threads; returns each rank's
+// exception (null when it returned)
+std::array<std::exception_ptr, 2> onTwoThreads(
+    const std::function<void(int)>& body) {
   std::array<std::exception_ptr, 2> errors;
   std::array<std::thread, 2> threads;
   for (int r = 0; r < 2; ++r)
     threads[static_cast<size_t>(r)] = std::thread([&, r] {
       try {
-        auto dist = Distributed::overFileStore(dir / "store", r, 2, options);
-        body(*dist);
+        body(r);
       } catch (...) {
         errors[static_cast<size_t>(r)] = std::current_exception();
       }
     });
   for (auto& t : threads) t.join();
   return errors;
+}
+
+// runs body(dist) on ranks 0 and 1 (threads) over one FileStore
+std::array<std::exception_ptr, 2> onTwoRanks(
+    const std::function<void(Distributed&)>& body,
+    DistributedOptions options = testOptions()) {
+  vln::test::TempDir dir;
+  return onTwoThreads([&](int r) {
+    auto dist = Distributed::overFileStore(dir / "store", r, 2, options);
+    body(*dist);
+  });
+}
+
+// rank `rank` of two whose master is on loopback at `port`
+DistributedEnv loopbackEnv(int rank, int port) {
+  DistributedEnv env;
+  env.rank = rank;
+  env.world_size = 2;
+  env.master_addr = "127.0.0.1";
+  env.master_port = port;
+  return env;
 }
 
 std::string messageOf(const std::exception_ptr& error) {
@@ -352,35 +354,18 @@ TEST(DistributedTest, WaitForAllEndsWithAnotherRanksAbortOrItsTimeout) {
 TEST(DistributedTest, RendezvousThroughTcpStoreAndAnUnreachableMaster) {
   const int port = freePort();
   std::array<std::vector<double>, 2> sums;
-  std::array<std::exception_ptr, 2> errors;
-  std::array<std::thread, 2> threads;
-  for (int r = 0; r < 2; ++r)
-    threads[static_cast<size_t>(r)] = std::thread([&, r] {
-      try {
-        DistributedEnv env;
-        env.rank = r;
-        env.world_size = 2;
-        env.master_addr = "127.0.0.1";
-        env.master_port = port;
-        auto dist = Distributed::connect(env, testOptions());
-        EXPECT_EQ(dist->backendName(), "gloo");
-        sums[static_cast<size_t>(r)] = dist->allReduceSum({2.0 * (r + 1)});
-        dist->waitForAll("the end");
-      } catch (...) {
-        errors[static_cast<size_t>(r)] = std::current_exception();
-      }
-    });
-  for (auto& t : threads) t.join();
+  const auto errors = onTwoThreads([&](int r) {
+    auto dist = Distributed::connect(loopbackEnv(r, port), testOptions());
+    EXPECT_EQ(dist->backendName(), "gloo");
+    sums[static_cast<size_t>(r)] = dist->allReduceSum({2.0 * (r + 1)});
+    dist->waitForAll("the end");
+  });
   expectNoErrors(errors);
   EXPECT_EQ(sums[0], std::vector<double>{6.0});
   EXPECT_EQ(sums[1], std::vector<double>{6.0});
 
   // a rank whose master never comes names the address and the timeout
-  DistributedEnv env;
-  env.rank = 1;
-  env.world_size = 2;
-  env.master_addr = "127.0.0.1";
-  env.master_port = freePort();
+  const DistributedEnv env = loopbackEnv(1, freePort());
   DistributedOptions options = testOptions();
   options.timeout = std::chrono::milliseconds(1500);
   EXPECT_THAT(
@@ -403,26 +388,14 @@ TEST(DistributedTest, JoinsThroughTorchrunsAgentStore) {
   // a key of an earlier attempt does not disturb this one
   agent->set("/worker/attempt_0/vln/abort", std::vector<uint8_t>{'x'});
   std::array<std::vector<double>, 2> sums;
-  std::array<std::exception_ptr, 2> errors;
-  std::array<std::thread, 2> threads;
-  for (int r = 0; r < 2; ++r)
-    threads[static_cast<size_t>(r)] = std::thread([&, r] {
-      try {
-        DistributedEnv env;
-        env.rank = r;
-        env.world_size = 2;
-        env.master_addr = "127.0.0.1";
-        env.master_port = port;
-        env.use_agent_store = true;
-        env.restart_count = 1;
-        auto dist = Distributed::connect(env, testOptions());
-        sums[static_cast<size_t>(r)] = dist->allReduceSum({1.0 + r});
-        dist->waitForAll("the end");
-      } catch (...) {
-        errors[static_cast<size_t>(r)] = std::current_exception();
-      }
-    });
-  for (auto& t : threads) t.join();
+  const auto errors = onTwoThreads([&](int r) {
+    DistributedEnv env = loopbackEnv(r, port);
+    env.use_agent_store = true;
+    env.restart_count = 1;
+    auto dist = Distributed::connect(env, testOptions());
+    sums[static_cast<size_t>(r)] = dist->allReduceSum({1.0 + r});
+    dist->waitForAll("the end");
+  });
   expectNoErrors(errors);
   EXPECT_EQ(sums[0], std::vector<double>{3.0});
   EXPECT_EQ(sums[1], std::vector<double>{3.0});
@@ -448,13 +421,7 @@ void fillStore(FeatureStore& store, const ExperimentConfig& c, int first,
     e.tokens = {1 + i % 10, 2, 3};
     e.rgb = torch::rand({T, r[0], r[1], r[2]}, gen);
     e.depth = torch::rand({T, d[0], d[1], d[2]}, gen);
-    for (int t = 0; t < T; ++t) {
-      const int action = t == T - 1 ? 0 : 1 + (i + t) % 3;
-      e.oracle_actions.push_back(static_cast<uint8_t>(action));
-      e.prev_actions.push_back(static_cast<uint8_t>(
-          t == 0 ? 0 : e.oracle_actions[static_cast<size_t>(t - 1)]));
-      e.progress.push_back(static_cast<float>(t + 1) / static_cast<float>(T));
-    }
+    test::setMadeUpActions(e, i, T);
     store.append(e);
   }
 }

@@ -13,28 +13,25 @@
 //    configs, more ranks than episodes, --resume on one rank only, a resume
 //    with another WORLD_SIZE.
 
-#include <arpa/inet.h>
 #include <fcntl.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
-#include <netinet/in.h>
 #include <signal.h>
-#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <map>
 #include <set>
-#include <sstream>
 #include <thread>
 
+#include "TinyWorldBinaryTest.h"
 #include "TrainTestWorld.h"
 #include "common/Json.h"
 #include "models/StateDict.h"
 #include "rollout/Metrics.h"
+#include "support/TestUtil.h"
 #include "train/Checkpoint.h"
 #include "train/FeatureStore.h"
 
@@ -45,38 +42,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-
-std::string bin(const std::string& name) {
-  return (vln::test::binaryPath() / "bin" / name).string();
-}
-
-int freePort() {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof(addr));
-  socklen_t length = sizeof(addr);
-  ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &length);
-  ::close(fd);
-  return ntohs(addr.sin_port);
-}
-
-std::string readText(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-std::vector<nlohmann::json> readJsonLines(const fs::path& file) {
-  std::vector<nlohmann::json> lines;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line))
-    if (!line.empty()) lines.push_back(nlohmann::json::parse(line));
-  return lines;
-}
+using vln::test::binary;
+using vln::test::freePort;
+using vln::test::readJsonLines;
+using vln::test::readText;
 
 // starts `train` with `args` and the environment of this process minus the
 // torchrun variables, plus `env`; stdout and stderr go to `log`
@@ -96,7 +65,7 @@ pid_t launchTrain(const std::vector<std::string>& args,
   std::vector<char*> envp;
   for (auto& e : envText) envp.push_back(e.data());
   envp.push_back(nullptr);
-  const std::string program = bin("train");
+  const std::string program = binary("train");
   std::vector<std::string> argText = {"train"};
   argText.insert(argText.end(), args.begin(), args.end());
   std::vector<char*> argv;
@@ -134,13 +103,9 @@ struct RankRun {
   std::string log;
 };
 
-class DistributedTrainingTest : public ::testing::Test {
+class DistributedTrainingTest : public test::TinyWorldBinaryTest {
  protected:
-  void SetUp() override {
-    if (!fs::exists(bin("train")))
-      GTEST_SKIP() << "build the train binary first";
-    world_ = &test::tinyWorld();
-  }
+  DistributedTrainingTest() : TinyWorldBinaryTest("train") {}
 
   fs::path writeConfig(const std::string& name, const std::string& trainer) {
     return vln::test::writeText(
@@ -186,9 +151,6 @@ class DistributedTrainingTest : public ::testing::Test {
     run.log = readText(dir_ / (tag + ".out"));
     return run;
   }
-
-  const test::TinyWorld* world_ = nullptr;
-  vln::test::TempDir dir_;
 };
 
 std::vector<torch::Tensor> tensorsOf(const models::NamedTensors& named) {
@@ -337,7 +299,7 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
   std::string output;
   ASSERT_EQ(
       vln::test::runCommand(
-          bin("eval") + " --log-level warn --config " + distConfig.string() +
+          binary("eval") + " --log-level warn --config " + distConfig.string() +
               " --checkpoint " + distCkpts.back().string() +
               " --episodes 2 --out " + (dir_ / "evalcheck").string() + " 2>&1",
           &output),

@@ -32,14 +32,9 @@ void fillStore(FeatureStore& store, const ExperimentConfig& c, int episodes) {
     e.tokens = {1 + i % 10, 2, 3};
     e.rgb = torch::rand({T, r[0], r[1], r[2]}) * 0.1;
     e.depth = torch::rand({T, d[0], d[1], d[2]}) * 0.1;
-    for (int t = 0; t < T; ++t) {
-      const int action = t == T - 1 ? 0 : 1 + (i + t) % 3;
-      e.oracle_actions.push_back(static_cast<uint8_t>(action));
-      e.prev_actions.push_back(static_cast<uint8_t>(
-          t == 0 ? 0 : e.oracle_actions[static_cast<size_t>(t - 1)]));
-      e.progress.push_back(static_cast<float>(t + 1) / static_cast<float>(T));
-      e.depth[t][action].fill_(1.0);
-    }
+    test::setMadeUpActions(e, i, T);
+    for (int t = 0; t < T; ++t)
+      e.depth[t][e.oracle_actions[static_cast<size_t>(t)]].fill_(1.0);
     store.append(e);
   }
 }

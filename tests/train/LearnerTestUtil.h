@@ -1,7 +1,7 @@
 #pragma once
 // Shared by the learner tests (ImitationLearnerTest.cpp, DistributedTest.cpp):
-// a Seq2Seq policy small enough to train in milliseconds, and the feature
-// store layout that matches it.
+// a Seq2Seq policy small enough to train in milliseconds, made-up oracle
+// actions of stored episodes, and the feature store layout that matches it.
 
 #include "models/ModelConfig.h"
 #include "train/ExperimentConfig.h"
@@ -31,6 +31,19 @@ inline ExperimentConfig tinyLearnerConfig(int batchSize) {
   c.trainer.lr = 1e-2;
   c.trainer.max_nonfinite_updates = 3;
   return c;
+}
+
+/// Gives `e`, episode number `i` with `steps` steps, a made-up oracle
+/// trajectory (1 + (i + t) % 3 at step t, STOP last) with the previous
+/// actions and progress labels that follow from it.
+inline void setMadeUpActions(StoredEpisode& e, int i, int steps) {
+  for (int t = 0; t < steps; ++t) {
+    const int action = t == steps - 1 ? 0 : 1 + (i + t) % 3;
+    e.oracle_actions.push_back(static_cast<uint8_t>(action));
+    e.prev_actions.push_back(static_cast<uint8_t>(
+        t == 0 ? 0 : e.oracle_actions[static_cast<size_t>(t - 1)]));
+    e.progress.push_back(static_cast<float>(t + 1) / static_cast<float>(steps));
+  }
 }
 
 /// The float32 store layout of `c`'s feature shapes.

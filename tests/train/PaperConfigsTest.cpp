@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <iterator>
+#include <map>
 #include <set>
 #include <string>
 #include <utility>
@@ -69,7 +70,8 @@ Shape sizesOf(const torch::Tensor& t) {
   return Shape(t.sizes().begin(), t.sizes().end());
 }
 
-// What a run's file name promises: <policy>[_no_<input>][_pm][_da][_aug].
+// What a run's file name promises:
+// <policy>[_no_<input>][_pm][_da][_aug][_tune].
 struct RunTraits {
   models::PolicyType policy = models::PolicyType::kSeq2Seq;
   bool no_rgb = false;
@@ -78,11 +80,22 @@ struct RunTraits {
   bool pm = false;
   bool dagger = false;
   bool aug = false;
-  /// DA*: DAgger with Aug fine-tunes the same name without "_da", which was
-  /// trained with Aug; the fine-tuning itself uses the original data.
+  /// DA*: DAgger with Aug fine-tunes an Aug run (kDaStarSources); the
+  /// fine-tuning itself uses the original data.
   bool fine_tune = false;
+  /// Aug's second stage (VLN-CE's *_aug_tune): teacher forcing on the
+  /// original data from the best checkpoint of the name without "_tune".
+  bool aug_tune = false;
   std::string fine_tunes;
 };
+
+// The run each DA* run starts from, as VLN-CE's *_da_aug_tune configs load
+// it (IL.DAGGER.ckpt_to_load): CMA's from the tuned Aug run, the PM runs
+// from the Aug run itself.
+const std::map<std::string, std::string> kDaStarSources = {
+    {"cma_da_aug", "cma_aug_tune"},
+    {"cma_pm_da_aug", "cma_pm_aug"},
+    {"seq2seq_pm_da_aug", "seq2seq_pm_aug"}};
 
 RunTraits traitsOf(const std::string& name) {
   std::vector<std::string> tokens;
@@ -106,10 +119,12 @@ RunTraits traitsOf(const std::string& name) {
   r.dagger = has("da");
   r.aug = has("aug");
   r.fine_tune = r.dagger && r.aug;
+  r.aug_tune = has("tune");
   if (r.fine_tune) {
-    r.fine_tunes = name;
-    r.fine_tunes.erase(r.fine_tunes.find("_da_"), 3);
+    EXPECT_TRUE(kDaStarSources.count(name)) << name << ": DA* from where?";
+    if (kDaStarSources.count(name)) r.fine_tunes = kDaStarSources.at(name);
   }
+  if (r.aug_tune) r.fine_tunes = name.substr(0, name.size() - 5);
   return r;
 }
 
@@ -128,8 +143,8 @@ void expectFollowsName(const ExperimentConfig& config, const fs::path& file,
   EXPECT_EQ(m.progress_monitor, r.pm);
   EXPECT_EQ(config.trainer.dagger_iterations > 0, r.dagger);
   EXPECT_EQ(config.trainer.fine_tune_dagger, r.fine_tune);
-  EXPECT_EQ(config.trainer.use_aug, r.aug && !r.fine_tune);
-  if (r.fine_tune) {
+  EXPECT_EQ(config.trainer.use_aug, r.aug && !r.fine_tune && !r.aug_tune);
+  if (r.fine_tune || r.aug_tune) {
     EXPECT_EQ(config.trainer.init_checkpoint, runsRoot + "/" + r.fine_tunes);
   } else {
     EXPECT_EQ(config.trainer.init_checkpoint, "");
@@ -175,7 +190,20 @@ void expectPaperScale(const ExperimentConfig& config, const fs::path& file) {
   EXPECT_DOUBLE_EQ(t.lr, 2.5e-4);
   EXPECT_EQ(t.batch_size, 5);
   EXPECT_DOUBLE_EQ(t.inflection_weight, 3.2);
-  EXPECT_EQ(t.epochs, 30);
+  // Aug's second stage: VLN-CE's epochs (cma_aug_tune 45, seq2seq_aug_tune
+  // 15), which the paper does not state
+  const std::string name = file.stem().string();
+  if (name.ends_with("_aug_tune")) {
+    EXPECT_EQ(t.epochs, config.model.policy == models::PolicyType::kCma ? 45 : 15);
+  } else {
+    EXPECT_EQ(t.epochs, 30);
+  }
+  // VLN-CE's training: the goal expert, sampled DAgger actions, the
+  // unclipped progress target, every epoch's checkpoint evaluated
+  EXPECT_EQ(t.expert, "goal");
+  EXPECT_EQ(t.dagger_action, "sample");
+  EXPECT_FALSE(t.clip_progress_target);
+  EXPECT_EQ(t.evaluate_every, "epoch");
   // DAgger: 5000 episodes per collection, 4 epochs, beta 0.75^n, and
   // VLN-CE's 10 collections where it is on
   EXPECT_EQ(t.dagger_episodes, 5000);
@@ -193,7 +221,8 @@ void expectPaperScale(const ExperimentConfig& config, const fs::path& file) {
 TEST(PaperConfigsTest, BothSetsHoldTheSameRuns) {
   const auto paper = runFiles(paperDir());
   const auto cpu = runFiles(experimentsDir());
-  EXPECT_EQ(paper.size(), 17u);
+  // the paper's 17 runs and three second stages of Aug runs
+  EXPECT_EQ(paper.size(), 20u);
   EXPECT_EQ(stems(paper), stems(cpu));
   EXPECT_TRUE(fs::exists(paperDir() / "base.yaml"));
 }
@@ -212,15 +241,15 @@ TEST(PaperConfigsTest, EveryRunDoesWhatItsNameSays) {
     expectFollowsName(loadExperimentConfig(file), file, "runs/experiments");
 }
 
-// init_checkpoint is loaded strictly, so a DA* run and the run it fine-tunes
-// must build the same network; the latter must be a run of the same set
-// that trains from scratch.
+// init_checkpoint is loaded strictly, so a DA* or *_aug_tune run and the
+// run it fine-tunes must build the same network; the latter must be an Aug
+// run of the same set.
 TEST(PaperConfigsTest, FineTuningRunsNameARunOfTheSameModel) {
   int fineTuning = 0;
   for (const fs::path& dir : {paperDir(), experimentsDir()}) {
     for (const auto& file : runFiles(dir)) {
       const RunTraits r = traitsOf(file.stem().string());
-      if (!r.fine_tune) continue;
+      if (!r.fine_tune && !r.aug_tune) continue;
       ++fineTuning;
       SCOPED_TRACE(file.string());
       const fs::path source = dir / (r.fine_tunes + ".yaml");
@@ -228,14 +257,14 @@ TEST(PaperConfigsTest, FineTuningRunsNameARunOfTheSameModel) {
       const ExperimentConfig config = loadExperimentConfig(file);
       const ExperimentConfig base = loadExperimentConfig(source);
       EXPECT_TRUE(config.model == base.model);
-      EXPECT_TRUE(base.trainer.use_aug);
+      EXPECT_TRUE(base.trainer.use_aug || traitsOf(r.fine_tunes).aug_tune);
       EXPECT_FALSE(base.trainer.fine_tune_dagger);
-      EXPECT_EQ(base.trainer.init_checkpoint, "");
       EXPECT_EQ(config.trainer.init_checkpoint, base.output.dir);
     }
   }
-  // seq2seq_pm_da_aug, cma_pm_da_aug and cma_da_aug in each set
-  EXPECT_EQ(fineTuning, 6);
+  // seq2seq_pm_da_aug, cma_pm_da_aug, cma_da_aug and three *_aug_tune in
+  // each set
+  EXPECT_EQ(fineTuning, 12);
 }
 
 // Every distinct model of both sets (built once each) on the CPU: the policy

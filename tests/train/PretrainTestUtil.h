@@ -1,19 +1,19 @@
 #pragma once
 // Shared by the pretraining task tests (PointNavPretrainerTest.cpp,
 // SemanticPretrainerTest.cpp): the settings of a tiny run, the metrics log
-// read back, and the check that an encoder file loaded into a VLN model's
-// encoder as it was saved.
+// read back (support/TestUtil.h), and the check that an encoder file loaded
+// into a VLN model's encoder as it was saved.
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
+#include "models/ObservationEncoder.h"
 #include "models/StateDict.h"
+#include "support/TestUtil.h"
 #include "train/ExperimentConfig.h"
 
 namespace vln::train::test {
@@ -41,15 +41,7 @@ inline ExperimentConfig tinyPretrainConfig(
   return c;
 }
 
-/// The records of a metrics.jsonl file, in order.
-inline std::vector<nlohmann::json> readJsonLines(
-    const std::filesystem::path& file) {
-  std::ifstream in(file);
-  std::vector<nlohmann::json> lines;
-  for (std::string line; std::getline(in, line);)
-    lines.push_back(nlohmann::json::parse(line));
-  return lines;
-}
+using vln::test::readJsonLines;
 
 /// Expects the tensors `loaded` into an encoder (models::namedState() after
 /// loadPretrained()) to be those `saved` in its weight file, name by name,
@@ -63,6 +55,22 @@ inline void expectLoadedFrozen(const models::NamedTensors& saved,
         << saved[i].first;
     EXPECT_FALSE(loaded[i].second.requires_grad())
         << saved[i].first << " is not frozen";
+  }
+}
+
+/// Expects loadPretrained() of an observation encoder built from `config`
+/// to throw std::invalid_argument naming every one of `names` (the weight
+/// file, mismatched tensors); `what` says what must not load.
+inline void expectLoadRejected(const models::ModelConfig& config,
+                               const std::string& what,
+                               const std::vector<std::string>& names) {
+  models::ObservationEncoder encoder(config);
+  try {
+    encoder->loadPretrained();
+    FAIL() << what;
+  } catch (const std::invalid_argument& e) {
+    for (const auto& name : names)
+      EXPECT_THAT(e.what(), ::testing::HasSubstr(name));
   }
 }
 

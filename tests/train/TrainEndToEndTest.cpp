@@ -17,10 +17,12 @@
 
 #include <torch/script.h>
 
+#include "TinyWorldBinaryTest.h"
 #include "TrainTestWorld.h"
 #include "common/Json.h"
 #include "data/Episode.h"
 #include "rollout/Metrics.h"
+#include "support/TestUtil.h"
 #include "train/Checkpoint.h"
 #include "train/FeatureStore.h"
 #include "train/TensorBoardWriter.h"
@@ -30,23 +32,13 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-
-std::string bin(const std::string& name) {
-  return (vln::test::binaryPath() / "bin" / name).string();
-}
+using vln::test::binary;
+using vln::test::readJsonLines;
 
 std::string trainCommand(const fs::path& config,
                          const std::string& extra = "") {
-  return bin("train") + " --config " + config.string() + " " + extra + " 2>&1";
-}
-
-std::vector<nlohmann::json> readJsonLines(const fs::path& file) {
-  std::vector<nlohmann::json> lines;
-  std::ifstream in(file);
-  std::string line;
-  while (std::getline(in, line))
-    if (!line.empty()) lines.push_back(nlohmann::json::parse(line));
-  return lines;
+  return binary("train") + " --config " + config.string() + " " + extra +
+         " 2>&1";
 }
 
 std::vector<fs::path> eventFiles(const fs::path& dir) {
@@ -58,13 +50,9 @@ std::vector<fs::path> eventFiles(const fs::path& dir) {
   return files;
 }
 
-class TrainEndToEndTest : public ::testing::Test {
+class TrainEndToEndTest : public test::TinyWorldBinaryTest {
  protected:
-  void SetUp() override {
-    if (!fs::exists(bin("train")))
-      GTEST_SKIP() << "build the train binary first";
-    world_ = &test::tinyWorld();
-  }
+  TrainEndToEndTest() : TinyWorldBinaryTest("train") {}
   // `output` is appended to the last section (output:)
   fs::path writeConfig(const std::string& trainer,
                        const std::string& policy = "cma",
@@ -73,8 +61,6 @@ class TrainEndToEndTest : public ::testing::Test {
         dir_ / "config.yaml",
         test::tinyRunConfig(*world_, dir_ / "run", trainer, policy) + output);
   }
-  const test::TinyWorld* world_ = nullptr;
-  vln::test::TempDir dir_;
 };
 
 TEST_F(TrainEndToEndTest, TeacherForcingRunProducesEverything) {
@@ -170,7 +156,7 @@ TEST_F(TrainEndToEndTest, TeacherForcingRunProducesEverything) {
             (std::vector<int64_t>{1, 4}));
 
   // vlnce-export from a checkpoint with its embedded config
-  ASSERT_EQ(vln::test::runCommand(bin("vlnce-export") + " --checkpoint " +
+  ASSERT_EQ(vln::test::runCommand(binary("vlnce-export") + " --checkpoint " +
                                       checkpoints.back().string() + " --out " +
                                       (dir_ / "again.pt").string() + " 2>&1",
                                   &output),
@@ -236,7 +222,7 @@ TEST_F(TrainEndToEndTest, KillDuringCollectionThenResume) {
                           O_CREAT | O_WRONLY | O_TRUNC, 0644);
     ::dup2(fd, 1);
     ::dup2(fd, 2);
-    const std::string train = bin("train");
+    const std::string train = binary("train");
     ::execl(train.c_str(), "train", "--config", config.c_str(),
             static_cast<char*>(nullptr));
     ::_exit(127);

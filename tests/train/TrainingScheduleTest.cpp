@@ -37,8 +37,11 @@ TrainerConfig teacherForcing(int epochs) {
   return t;
 }
 
-TrainerConfig dagger(int iterations, int epochs, int episodes, double beta) {
+// evaluating after each iteration's last epoch only, unless told
+TrainerConfig dagger(int iterations, int epochs, int episodes, double beta,
+                     const std::string& evaluateEvery = "iteration") {
   TrainerConfig t;
+  t.evaluate_every = evaluateEvery;
   t.dagger_iterations = iterations;
   t.dagger_epochs = epochs;
   t.dagger_episodes = episodes;
@@ -63,6 +66,17 @@ TEST(TrainingScheduleTest, DaggerValidatesAfterEachIterationsLastEpoch) {
               ElementsAre("collect 0", "train 0.0 -> (0,1)",
                           "train 0.1 eval -> (1,0)", "collect 1",
                           "train 1.0 -> (1,1)", "train 1.1 eval -> (2,0)"));
+}
+
+// VLN-CE evaluates every checkpoint it saves, one per epoch
+TEST(TrainingScheduleTest, DaggerCanValidateAfterEveryEpochAsVlnCe) {
+  EXPECT_EQ(TrainerConfig{}.evaluate_every, "epoch");
+  const TrainingSchedule s(dagger(2, 2, 10, 0.75, "epoch"));
+  EXPECT_THAT(describe(s.remaining(0, 0)),
+              ElementsAre("collect 0", "train 0.0 eval -> (0,1)",
+                          "train 0.1 eval -> (1,0)", "collect 1",
+                          "train 1.0 eval -> (1,1)",
+                          "train 1.1 eval -> (2,0)"));
 }
 
 TEST(TrainingScheduleTest, WithoutValidationNothingIsEvaluated) {

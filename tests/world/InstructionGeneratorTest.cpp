@@ -87,65 +87,61 @@ const sim::SemanticObject& objectById(const sim::SceneSemantics& s, int id) {
 // tests
 // ---------------------------------------------------------------------------
 
-TEST(InstructionGeneratorTest, LeftTurnSaysLeftRightTurnSaysRight) {
+// The human-style instructions (three per seed, seeds 0 to seeds - 1) of
+// `path` from `heading` in one empty 20 x 20 m office: turns are all there
+// is to describe.
+std::vector<GeneratedInstruction> inEmptyOffice(const std::vector<Vec3f>& path,
+                                                float heading, uint64_t seeds) {
   sim::SceneSemantics empty;
   empty.rooms = {room(0, "office", -10, -10, 10, 10)};
   const InstructionGenerator generator(empty, InstructionConfig{});
+  std::vector<GeneratedInstruction> all;
+  for (uint64_t seed = 0; seed < seeds; ++seed)
+    for (auto& g :
+         generator.generate(path, heading, InstructionStyle::kHuman, 3, seed))
+      all.push_back(std::move(g));
+  return all;
+}
+
+TEST(InstructionGeneratorTest, LeftTurnSaysLeftRightTurnSaysRight) {
   // facing -Z, walk 4 m along -Z, then turn to -X: a left turn (+90 deg)
   const std::vector<Vec3f> left = {{0, 0, 0}, {0, 0, -4}, {-4, 0, -4}};
   const std::vector<Vec3f> right = {{0, 0, 0}, {0, 0, -4}, {4, 0, -4}};
-  for (uint64_t seed = 0; seed < 30; ++seed) {
-    for (const auto& g :
-         generator.generate(left, 0.0f, InstructionStyle::kHuman, 3, seed)) {
-      EXPECT_TRUE(containsWord(g.text, "left")) << g.text;
-      EXPECT_FALSE(containsWord(g.text, "right")) << g.text;
-    }
-    for (const auto& g :
-         generator.generate(right, 0.0f, InstructionStyle::kHuman, 3, seed)) {
-      EXPECT_TRUE(containsWord(g.text, "right")) << g.text;
-      EXPECT_FALSE(containsWord(g.text, "left")) << g.text;
-    }
+  for (const auto& g : inEmptyOffice(left, 0.0f, 30)) {
+    EXPECT_TRUE(containsWord(g.text, "left")) << g.text;
+    EXPECT_FALSE(containsWord(g.text, "right")) << g.text;
+  }
+  for (const auto& g : inEmptyOffice(right, 0.0f, 30)) {
+    EXPECT_TRUE(containsWord(g.text, "right")) << g.text;
+    EXPECT_FALSE(containsWord(g.text, "left")) << g.text;
   }
 }
 
 TEST(InstructionGeneratorTest, DoublingBackIsASharpTurn) {
-  sim::SceneSemantics empty;
-  empty.rooms = {room(0, "office", -10, -10, 10, 10)};
-  const InstructionGenerator generator(empty, InstructionConfig{});
   // along -Z, then back towards +Z and -X: a 150 degree left turn
   const float back = degToRad(150.0f);
   const Vec3f corner(0, 0, -4);
   const std::vector<Vec3f> path = {
       {0, 0, 0}, corner, corner + 4.0f * headingToForward(back)};
-  for (uint64_t seed = 0; seed < 20; ++seed) {
-    for (const auto& g :
-         generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
-      EXPECT_TRUE(containsWord(g.text, "sharp") ||
-                  containsWord(g.text, "sharply"))
-          << g.text;
-      EXPECT_TRUE(containsWord(g.text, "left")) << g.text;
-      EXPECT_FALSE(containsWord(g.text, "around")) << g.text;
-    }
+  for (const auto& g : inEmptyOffice(path, 0.0f, 20)) {
+    EXPECT_TRUE(containsWord(g.text, "sharp") ||
+                containsWord(g.text, "sharply"))
+        << g.text;
+    EXPECT_TRUE(containsWord(g.text, "left")) << g.text;
+    EXPECT_FALSE(containsWord(g.text, "around")) << g.text;
   }
 }
 
 TEST(InstructionGeneratorTest, StartFacingAwayTurnsAround) {
-  sim::SceneSemantics empty;
-  empty.rooms = {room(0, "office", -10, -10, 10, 10)};
-  const InstructionGenerator generator(empty, InstructionConfig{});
   const std::vector<Vec3f> path = {{0, 0, 0}, {0, 0, -4}, {0, 0, -8}};
   // heading pi looks along +Z, away from the path
-  for (uint64_t seed = 0; seed < 20; ++seed)
-    for (const auto& g :
-         generator.generate(path, kPi, InstructionStyle::kHuman, 3, seed))
-      EXPECT_TRUE(containsWord(g.text, "around")) << g.text;
+  for (const auto& g : inEmptyOffice(path, kPi, 20))
+    EXPECT_TRUE(containsWord(g.text, "around")) << g.text;
   // facing the path: no turn is mentioned
-  for (uint64_t seed = 0; seed < 20; ++seed)
-    for (const auto& g :
-         generator.generate(path, 0.0f, InstructionStyle::kHuman, 3, seed)) {
-      EXPECT_FALSE(containsWord(g.text, "around")) << g.text;
-      EXPECT_FALSE(containsWord(g.text, "left")) << g.text;
-    }
+  for (const auto& g : inEmptyOffice(path, 0.0f, 20)) {
+    EXPECT_FALSE(containsWord(g.text, "around")) << g.text;
+    EXPECT_FALSE(containsWord(g.text, "left")) << g.text;
+  }
 }
 
 TEST(InstructionGeneratorTest, MentionsAreGrounded) {
