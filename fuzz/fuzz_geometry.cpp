@@ -2,17 +2,8 @@
 // written as valid OBJ, PLY and GLB files: load, both renderers, the
 // navmesh build, navmesh queries, agent steps and a Simulator episode
 // (fuzz/GeometryFuzzing.h describes the recipe the input encodes).
-#include <cstdlib>
-
 #include "FuzzUtil.h"
 #include "GeometryFuzzing.h"
-
-extern "C" int LLVMFuzzerInitialize(int*, char***) {
-  vln::fuzz::quietLogging();
-  // llvmpipe's rasteriser threads only cost time here
-  setenv("LP_NUM_THREADS", "0", /*overwrite=*/0);
-  return 0;
-}
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
