@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "common/Check.h"
+#include "rollout/Metrics.h"
 
 namespace vln::eval {
 namespace {
@@ -252,8 +253,8 @@ bool lowerIsBetter(std::string_view metric) {
 }
 
 bool addedMetric(std::string_view metric) {
-  return std::find(kAddedMetrics.begin(), kAddedMetrics.end(), metric) !=
-         kAddedMetrics.end();
+  // one list of the metrics older files lack: rollout's
+  return rollout::addedLaterMetric(metricStatsKey(metric));
 }
 
 }  // namespace vln::eval

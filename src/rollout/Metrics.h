@@ -125,6 +125,12 @@ inline constexpr std::array<std::pair<const char*, double EpisodeMetrics::*>,
 /// file gives NaN for them (tables print "-"), not an error.
 inline constexpr std::array<const char*, 2> kMetricsAddedLater{
     "oracle_navigation_error", "oracle_spl"};
+/// True when stats key `key` is one of kMetricsAddedLater.
+inline bool addedLaterMetric(std::string_view key) {
+  for (const char* later : kMetricsAddedLater)
+    if (key == later) return true;
+  return false;
+}
 
 /// {"distance_to_goal": ..., ..., "steps_taken": ...} (kMetricFields).
 nlohmann::json metricsToJson(const EpisodeMetrics& metrics);

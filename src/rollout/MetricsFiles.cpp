@@ -61,12 +61,7 @@ EpisodeMetrics metricsFromJson(const nlohmann::json& j,
                 j.type_name());
   EpisodeMetrics m;
   for (const auto& [key, member] : kMetricFields) {
-    const bool addedLater =
-        std::find_if(kMetricsAddedLater.begin(), kMetricsAddedLater.end(),
-                     [&](const char* later) {
-                       return std::string_view(later) == key;
-                     }) != kMetricsAddedLater.end();
-    m.*member = addedLater && !j.contains(key)
+    m.*member = addedLaterMetric(key) && !j.contains(key)
                     ? std::numeric_limits<double>::quiet_NaN()
                     : numberField(j, key, where);
   }
