@@ -20,7 +20,7 @@
 #include "data/Split.h"
 #include "data/TransferConfig.h"
 #include "eval/BaselineAgents.h"
-#include "eval/EpisodePictures.h"
+#include "viz/EpisodePictures.h"
 #include "eval/PaperFindings.h"
 #include "eval/Tables.h"
 #include "models/ObservationEncoder.h"
@@ -137,7 +137,7 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   const train::ExperimentConfig& c = ctx.config;
 
   // pictures of the first episodes, when asked for
-  PicturesConfig pictures;
+  viz::PicturesConfig pictures;
   pictures.dir = ctx.outDir / "pictures";
   pictures.prefix =
       "ckpt_" + std::to_string(candidate.index) + "_" + split.name + "_";
@@ -145,9 +145,9 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   pictures.video_episodes = ctx.options.videos.value_or(c.eval.video_episodes);
   pictures.video_format = ctx.options.video_format;
   pictures.success_distance = c.task.success_distance;
-  std::unique_ptr<EpisodePictures> observer;
+  std::unique_ptr<viz::EpisodePictures> observer;
   if (pictures.map_episodes > 0 || pictures.video_episodes > 0)
-    observer = std::make_unique<EpisodePictures>(pictures);
+    observer = std::make_unique<viz::EpisodePictures>(pictures);
 
   rollout::SplitEvaluationOptions options;
   options.checkpoint = candidate.index;

@@ -16,7 +16,7 @@
 #include "common/Json.h"
 #include "data/NavGraph.h"
 #include "eval/BaselineAgents.h"
-#include "eval/EpisodePictures.h"
+#include "viz/EpisodePictures.h"
 #include "eval/Tables.h"
 #include "models/Export.h"
 #include "models/StateDict.h"
@@ -287,9 +287,9 @@ TEST_F(EvalCommandsTest, NavGraphComparisonAndPictures) {
   EXPECT_EQ(aggregateGraph(metrics), g);
   EXPECT_THAT(printed, HasSubstr("| nav-graph TL "));
   const fs::path pictures = dir_ / "out" / "pictures";
-  EXPECT_TRUE(fs::exists(pictures / mapFileName("ckpt_5_val_seen_", episodes[1].record.episode_id)));
-  EXPECT_FALSE(fs::exists(pictures / mapFileName("ckpt_5_val_seen_", episodes[2].record.episode_id)));
-  EXPECT_EQ(summarizeVideo(pictures / videoFileName("ckpt_5_val_seen_", episodes[0].record.episode_id, "avi"))
+  EXPECT_TRUE(fs::exists(pictures / viz::mapFileName("ckpt_5_val_seen_", episodes[1].record.episode_id)));
+  EXPECT_FALSE(fs::exists(pictures / viz::mapFileName("ckpt_5_val_seen_", episodes[2].record.episode_id)));
+  EXPECT_EQ(viz::summarizeVideo(pictures / viz::videoFileName("ckpt_5_val_seen_", episodes[0].record.episode_id, "avi"))
                 .frames,
             episodes[0].record.steps_taken + 1);
 }

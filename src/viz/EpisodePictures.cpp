@@ -1,4 +1,4 @@
-#include "eval/EpisodePictures.h"
+#include "viz/EpisodePictures.h"
 
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -10,7 +10,7 @@
 
 #include "common/Check.h"
 
-namespace vln::eval {
+namespace vln::viz {
 namespace fs = std::filesystem;
 
 namespace {
@@ -405,4 +405,4 @@ void EpisodePictures::episodeFinished(int index, rollout::VectorEnv& envs,
   files_.push_back(file);
 }
 
-}  // namespace vln::eval
+}  // namespace vln::viz

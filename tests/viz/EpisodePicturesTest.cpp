@@ -2,7 +2,7 @@
 // episodes only, with one frame per position, the expected size, and
 // content that is neither blank nor frozen.
 
-#include "eval/EpisodePictures.h"
+#include "viz/EpisodePictures.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -13,7 +13,7 @@
 #include "rollout/Evaluator.h"
 #include "rollout/RolloutTestWorld.h"
 
-namespace vln::eval {
+namespace vln::viz {
 namespace {
 
 namespace fs = std::filesystem;
@@ -210,4 +210,4 @@ TEST(EpisodePicturesTest, AnAbandonedVideoLeavesNoFile) {
 }
 
 }  // namespace
-}  // namespace vln::eval
+}  // namespace vln::viz

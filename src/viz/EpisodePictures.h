@@ -26,7 +26,7 @@
 #include "sim/Simulator.h"
 #include "sim/TopDownMap.h"
 
-namespace vln::eval {
+namespace vln::viz {
 
 /// What is drawn and where.
 struct PicturesConfig {
@@ -149,4 +149,4 @@ class EpisodePictures : public rollout::EpisodeObserver {
   std::vector<std::filesystem::path> files_;
 };
 
-}  // namespace vln::eval
+}  // namespace vln::viz
