@@ -14,6 +14,8 @@ the weights are random.
         OUT_DIR/vlnce.pth   the checkpoint, torch.save({"state_dict", "config"})
         OUT_DIR/source.pt   every state_dict tensor by its VLN-CE name
         OUT_DIR/io.pt       inputs [T, B, ...] and VLN-CE's logits [T, B, 4]
+    vlnce_reference.py make-many DIR 'NAME: options' ...
+        make DIR/NAME for each, in one process, without source.pt and io.pt
     vlnce_reference.py from-ours OUT POLICY RGB DEPTH [options]
         a VLN-CE checkpoint holding the tensors of our checkpoint POLICY and
         our encoder files RGB, DEPTH (the names mapped the other way)
@@ -21,6 +23,7 @@ the weights are random.
 import argparse
 import ast
 import os
+import shlex
 import sys
 import types
 
@@ -594,7 +597,9 @@ def model_config(o, layout):
         try:
             value = ast.literal_eval(text)
         except (ValueError, SyntaxError):
-            value = text
+            value = text  # a bare word; [a, b] is a list of bare words
+            if text.startswith("[") and text.endswith("]"):
+                value = [w.strip() for w in text[1:-1].split(",") if w.strip()]
         node = config
         *path, leaf = key.split(".")
         for part in path:
@@ -658,15 +663,16 @@ def save_checkpoint(path, state, config, attack=None, legacy=False):
                _use_new_zipfile_serialization=not legacy)
 
 
-def make(o):
+def make(o, reference=True):
     torch.manual_seed(o.seed)
     policy = build_policy(o, o.layout)
     state = policy.state_dict()
-    io = random_inputs(o, torch.Generator().manual_seed(o.seed + 1))
-    io["logits"] = run_steps(policy, io)
     os.makedirs(o.out, exist_ok=True)
-    tensor_archive(dict(state)).save(os.path.join(o.out, "source.pt"))
-    tensor_archive(io).save(os.path.join(o.out, "io.pt"))
+    if reference:
+        io = random_inputs(o, torch.Generator().manual_seed(o.seed + 1))
+        io["logits"] = run_steps(policy, io)
+        tensor_archive(dict(state)).save(os.path.join(o.out, "source.pt"))
+        tensor_archive(io).save(os.path.join(o.out, "io.pt"))
     if o.extra_key:
         state["net.extra_head.weight"] = torch.zeros(2, 3)
     if o.bad_shape:
@@ -712,7 +718,7 @@ def vlnce_names(ours_policy, ours_rgb, ours_depth, cma, layout):
     for name, t in ours_policy.items():
         module, leaf = name.rsplit(".", 1)
         target = rename.get(module, "net." + module)
-        if module in ("rgb_kv", "depth_kv", "text_k"):
+        if module in ("rgb_kv", "depth_kv", "text_k") and leaf == "weight":
             t = t.unsqueeze(2)
         state[f"{target}.{leaf}"] = t
     if "net.progress_monitor.weight" not in state:
@@ -730,6 +736,7 @@ def from_ours(o):
     if o.layout != "2021":
         sys.exit("vlnce_reference.py from-ours: writes the 2021 layout only")
     state = vlnce_names(policy, rgb, depth, o.policy == "cma", o.layout)
+    os.makedirs(os.path.dirname(os.path.abspath(o.out)), exist_ok=True)
     save_checkpoint(o.out, state, model_config(o, o.layout))
 
 
@@ -738,6 +745,9 @@ def main():
     sub = parser.add_subparsers(dest="command", required=True)
     make_parser = sub.add_parser("make")
     make_parser.add_argument("out")
+    many_parser = sub.add_parser("make-many")
+    many_parser.add_argument("dir")
+    many_parser.add_argument("cases", nargs="+")
     ours_parser = sub.add_parser("from-ours")
     for name in ("out", "policy_file", "rgb_file", "depth_file"):
         ours_parser.add_argument(name)
@@ -769,10 +779,20 @@ def main():
         p.add_argument("--attack", help="file that os.system would touch")
         p.add_argument("--legacy-format", action="store_true",
                        help="torch.save's format before torch 1.6")
-    o = parser.parse_args()
-    if o.layout == "2020":
-        o.rgb_arch = "resnet50"  # the release's only RGB encoder
-    (make if o.command == "make" else from_ours)(o)
+    def parse(argv):
+        o = parser.parse_args(argv)
+        if getattr(o, "layout", None) == "2020":
+            o.rgb_arch = "resnet50"  # the release's only RGB encoder
+        return o
+
+    o = parse(sys.argv[1:])
+    if o.command == "make-many":
+        for case in o.cases:
+            name, args = case.split(":", 1)
+            make(parse(["make", os.path.join(o.dir, name.strip())] +
+                       shlex.split(args)), reference=False)
+    else:
+        (make if o.command == "make" else from_ours)(o)
 
 
 if __name__ == "__main__":

@@ -62,12 +62,15 @@ TEST(ObservationEncoderTest, RgbBatchStatisticsNormaliseByTheBatchOnly) {
   ObservationEncoder enc(c);
   enc->eval();
   std::vector<torch::Tensor> buffers;
-  for (const auto& b : enc->rgb->cnnModule().buffers()) buffers.push_back(b.clone());
+  for (const auto& b : enc->rgb->cnnModule().buffers())
+    buffers.push_back(b.clone());
   const torch::Tensor images = randomRgb({3}, 64, 64);
-  const torch::Tensor running = enc->forward(images, randomDepth({3}, 32, 32)).rgb;
+  const torch::Tensor running =
+      enc->forward(images, randomDepth({3}, 32, 32)).rgb;
 
   enc->useRgbBatchStatistics(true);
-  const torch::Tensor batch = enc->forward(images, randomDepth({3}, 32, 32)).rgb;
+  const torch::Tensor batch =
+      enc->forward(images, randomDepth({3}, 32, 32)).rgb;
   // image 0 alone: another batch, other statistics
   const torch::Tensor alone =
       enc->forward(images.slice(0, 0, 1), randomDepth({1}, 32, 32)).rgb;
@@ -84,8 +87,8 @@ TEST(ObservationEncoderTest, RgbBatchStatisticsNormaliseByTheBatchOnly) {
     }
     ++i;
   }
-  EXPECT_TRUE(torch::equal(
-      enc->forward(images, randomDepth({3}, 32, 32)).rgb, running));
+  EXPECT_TRUE(torch::equal(enc->forward(images, randomDepth({3}, 32, 32)).rgb,
+                           running));
 }
 
 TEST(ObservationEncoderTest, FrozenEncodersStayInEvalModeWithoutGradients) {
@@ -129,6 +132,30 @@ TEST(ObservationEncoderTest, RgbNormalisationUsesImageNetStatistics) {
       torch::adaptive_avg_pool2d(enc->resnet->forward(expectedInput), {4, 4});
   EXPECT_TRUE(torch::allclose(enc->forward(img), expected, 1e-4, 1e-5));
   EXPECT_LT(expectedInput.abs().max().item<float>(), 0.01f);
+}
+
+TEST(ObservationEncoderTest, WithoutNormalizeRgbPixelsAreDividedBy255) {
+  // model.normalize_rgb: false is VLN-CE's TorchVisionResNet input
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  c.rgb_encoder = EncoderType::kResNet18;
+  c.normalize_rgb = false;
+  torch::manual_seed(31);
+  RgbEncoder plain(c);
+  c.normalize_rgb = true;
+  RgbEncoder imageNet(c);
+  loadStateStrict(*imageNet, namedState(*plain));
+  plain->eval();
+  imageNet->eval();
+  torch::NoGradGuard g;
+  const torch::Tensor img =
+      torch::randint(0, 256, {2, 32, 32, 3}, torch::kUInt8);
+  const torch::Tensor x = img.permute({0, 3, 1, 2}).to(torch::kFloat32) / 255;
+  const torch::Tensor expected =
+      torch::adaptive_avg_pool2d(plain->resnet->forward(x), {4, 4});
+  EXPECT_TRUE(torch::allclose(plain->forward(img), expected, 1e-5, 1e-6));
+  EXPECT_FALSE(plain->normalizesWithImageNet());
+  EXPECT_TRUE(imageNet->normalizesWithImageNet());
+  EXPECT_FALSE(torch::allclose(imageNet->forward(img), expected, 1e-3, 1e-3));
 }
 
 TEST(ObservationEncoderTest, AblatedModalitiesHaveNoEncoder) {
