@@ -39,8 +39,9 @@ ours does and is exact at any size.
 On a machine with the checkpoint (docs/paper_scale.md, "Evaluating VLN-CE's
 released checkpoints"):
 
-    python3 scripts/convert_vlnce_checkpoint.py data/checkpoints/CMA_PM_DA_Aug.pth \\
-        --out-dir data/vlnce/cma_pm_da_aug --base configs/paper/base.yaml
+    python3 scripts/convert_vlnce_checkpoint.py \\
+        data/checkpoints/CMA_PM_DA_Aug.pth --out-dir data/vlnce/cma_pm_da_aug \\
+        --base configs/paper/base.yaml
     build/bin/eval --config data/vlnce/cma_pm_da_aug/config.yaml \\
         --checkpoint data/vlnce/cma_pm_da_aug/ckpt.0.pth --split val_unseen
 
@@ -49,7 +50,6 @@ the directory the binaries run in, the repository root).
 """
 import argparse
 import json
-import math
 import os
 import sys
 
@@ -64,7 +64,8 @@ SPATIAL_DIM = 64
 NUM_ACTIONS = 4
 RGB_POOL = 4
 
-RGB_ARCHS = {"TorchVisionResNet50": "resnet50", "TorchVisionResNet18": "resnet18"}
+RGB_ARCHS = {"TorchVisionResNet50": "resnet50",
+             "TorchVisionResNet18": "resnet18"}
 DEPTH_BACKBONES = ("resnet50", "resnet18")
 RESNET_BLOCKS = {"resnet18": (2, 2, 2, 2), "resnet50": (3, 4, 6, 3)}
 
@@ -206,18 +207,18 @@ class Settings:
         self.config = config
         self.path = path
 
-    def get(self, key, default=None, required=False):
+    def get(self, key, default=None):
+        """The value at a dotted key, `default` when a part is missing."""
         node = self.config
         for part in key.split("."):
             if not isinstance(node, dict) or part not in node:
-                if required:
-                    raise ConversionError(
-                        f"{self.path}: its config has no {key}")
                 return default
             node = node[part]
         return node
 
     def require(self, key, allowed, default, why):
+        """get(key, default), which must be one of `allowed`; else an error
+        naming the setting, its value and `why`."""
         value = self.get(key, default)
         if value not in allowed:
             raise ConversionError(
@@ -227,7 +228,7 @@ class Settings:
         return value
 
 
-def read_settings(settings, state, args):
+def read_settings(settings, state):
     """The model and environment settings of the checkpoint, checked."""
     s = settings
     path = s.path
@@ -331,7 +332,8 @@ def read_settings(settings, state, args):
         "forward_step_size": (sim + "FORWARD_STEP_SIZE", float),
         "turn_angle": (sim + "TURN_ANGLE", float),
         "allow_sliding": (sim + "HABITAT_SIM_V0.ALLOW_SLIDING", bool),
-        "max_episode_steps": ("TASK_CONFIG.ENVIRONMENT.MAX_EPISODE_STEPS", int),
+        "max_episode_steps": ("TASK_CONFIG.ENVIRONMENT.MAX_EPISODE_STEPS",
+                              int),
         "success_distance": ("TASK_CONFIG.TASK.SUCCESS_DISTANCE", float),
     }
     for field, (key, kind) in optional.items():
@@ -482,8 +484,9 @@ def convert_state(state, model, env, layout, path):
     # encoders
     rgb, rgb_channels = rgb_resnet_tensors(reader, layout,
                                            model["rgb_encoder"])
-    conv1 = state.get("net.depth_encoder.visual_encoder.backbone.conv1.0.weight")
-    if conv1 is None or not isinstance(conv1, torch.Tensor) or conv1.dim() != 4:
+    conv1 = state.get(
+        "net.depth_encoder.visual_encoder.backbone.conv1.0.weight")
+    if not isinstance(conv1, torch.Tensor) or conv1.dim() != 4:
         raise ConversionError(
             f"{path}: the state_dict has no depth ResNet "
             "(net.depth_encoder.visual_encoder.backbone.conv1.0.weight)")
@@ -635,7 +638,7 @@ def yaml_scalar(value):
 def run_config_yaml(model, env, rgb_path, depth_path, source, base):
     """The run config: model (every key but device), the cameras, the
     agent's actions and the task limits the policy was trained with."""
-    lines = [f"# Converted by scripts/convert_vlnce_checkpoint.py from",
+    lines = ["# Converted by scripts/convert_vlnce_checkpoint.py from",
              f"# {source}"]
     if base:
         lines.append(f"_base_: {yaml_scalar(base)}")
@@ -759,7 +762,7 @@ def convert(args):
     state = checkpoint["state_dict"]
     config = to_plain(checkpoint["config"])
     layout = detect_layout(state, path)
-    model, env = read_settings(Settings(config, path), state, args)
+    model, env = read_settings(Settings(config, path), state)
     approximation = check_seq2seq_pooling(
         model, args.accept_seq2seq_rgb_pooling, path)
     policy, rgb, depth, notes = convert_state(state, model, env, layout, path)

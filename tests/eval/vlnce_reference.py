@@ -11,7 +11,7 @@ beside the weights. Nothing of VLN-CE, habitat or torchvision is imported;
 the weights are random.
 
     vlnce_reference.py make OUT_DIR [options]
-        OUT_DIR/vlnce.pth   the checkpoint, torch.save({"state_dict", "config"})
+        OUT_DIR/vlnce.pth   the checkpoint: torch.save of state_dict, config
         OUT_DIR/source.pt   every state_dict tensor by its VLN-CE name
         OUT_DIR/io.pt       inputs [T, B, ...] and VLN-CE's logits [T, B, 4]
     vlnce_reference.py make-many DIR 'NAME: options' ...
