@@ -62,15 +62,12 @@ TEST(ObservationEncoderTest, RgbBatchStatisticsNormaliseByTheBatchOnly) {
   ObservationEncoder enc(c);
   enc->eval();
   std::vector<torch::Tensor> buffers;
-  for (const auto& b : enc->rgb->cnnModule().buffers())
-    buffers.push_back(b.clone());
+  for (const auto& b : enc->rgb->cnnModule().buffers()) buffers.push_back(b.clone());
   const torch::Tensor images = randomRgb({3}, 64, 64);
-  const torch::Tensor running =
-      enc->forward(images, randomDepth({3}, 32, 32)).rgb;
+  const torch::Tensor running = enc->forward(images, randomDepth({3}, 32, 32)).rgb;
 
   enc->useRgbBatchStatistics(true);
-  const torch::Tensor batch =
-      enc->forward(images, randomDepth({3}, 32, 32)).rgb;
+  const torch::Tensor batch = enc->forward(images, randomDepth({3}, 32, 32)).rgb;
   // image 0 alone: another batch, other statistics
   const torch::Tensor alone =
       enc->forward(images.slice(0, 0, 1), randomDepth({1}, 32, 32)).rgb;
@@ -87,8 +84,8 @@ TEST(ObservationEncoderTest, RgbBatchStatisticsNormaliseByTheBatchOnly) {
     }
     ++i;
   }
-  EXPECT_TRUE(torch::equal(enc->forward(images, randomDepth({3}, 32, 32)).rgb,
-                           running));
+  EXPECT_TRUE(torch::equal(
+      enc->forward(images, randomDepth({3}, 32, 32)).rgb, running));
 }
 
 TEST(ObservationEncoderTest, FrozenEncodersStayInEvalModeWithoutGradients) {

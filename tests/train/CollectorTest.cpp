@@ -236,7 +236,8 @@ TwoCollections collectTwice(bool exactResume) {
   FeatureStore b(dir / "b", layoutOf(c3), 0.25);
   {
     FeatureStore scratch(dir / "scratch", layoutOf(c3), 0.25);
-    Collector(c3, scenes, encoder).collect(round, scratch, policy, nullptr);
+    Collector(c3, scenes, encoder)
+        .collect(round, scratch, policy, nullptr);
     for (int64_t i = 0; i < scratch.size(); ++i) {
       const StoredEpisode e = scratch.read(i);
       if (e.key.slot == 1 || e.key.slot == 4) b.append(e);
