@@ -52,6 +52,30 @@ class EpisodeObserver {
                                const EpisodeResult& result, bool scored) = 0;
 };
 
+/// Several observers watching one evaluation (e.g. pictures and an
+/// observation dump): every call goes to each observer in the order they
+/// were added; frames are wanted when any observer wants them.
+class EpisodeObservers : public EpisodeObserver {
+ public:
+  /// Adds `observer` (not owned; must outlive this; null is ignored).
+  void add(EpisodeObserver* observer);
+  /// Observers added.
+  size_t size() const { return observers_.size(); }
+  /// What to hand to evaluateEpisodes(): null without observers, the only
+  /// one itself, else this fan-out.
+  EpisodeObserver* single();
+
+  bool wantsFrames(int index) const override;
+  void episodeStarted(int index, VectorEnv& envs, int env) override;
+  void episodeStepped(int index, VectorEnv& envs, int env,
+                      sim::Action action) override;
+  void episodeFinished(int index, VectorEnv& envs, int env,
+                       const EpisodeResult& result, bool scored) override;
+
+ private:
+  std::vector<EpisodeObserver*> observers_;
+};
+
 /// Runs `agent` on every episode of `episodes` (the caller caps the list;
 /// batched over envs.size() environments, an environment is refilled with
 /// the next episode as soon as its episode ends; argmax or sampling is the
