@@ -61,6 +61,7 @@ class EpisodeObservers : public EpisodeObserver {
   void add(EpisodeObserver* observer);
   /// Observers added.
   size_t size() const { return observers_.size(); }
+  bool empty() const { return observers_.empty(); }
   /// What to hand to evaluateEpisodes(): null without observers, the only
   /// one itself, else this fan-out.
   EpisodeObserver* single();
