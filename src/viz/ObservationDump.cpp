@@ -39,8 +39,15 @@ nlohmann::json vec3(const Vec3f& v) { return {v.x(), v.y(), v.z()}; }
 // "<id>.tmp.<pid>.<n>": a folder being written by process <pid>
 std::string temporaryName(int episodeId) {
   static std::atomic<uint64_t> counter{0};
-  return "." + std::to_string(episodeId) + ".tmp." +
-         std::to_string(::getpid()) + "." + std::to_string(counter++);
+  // appended rather than "." + to_string(): GCC 12 at -O3 warns falsely
+  // (stringop-overflow) about the operator+ form
+  std::string name = ".";
+  name += std::to_string(episodeId);
+  name += ".tmp.";
+  name += std::to_string(::getpid());
+  name += ".";
+  name += std::to_string(counter++);
+  return name;
 }
 
 // the pid of a temporary folder name, 0 when `name` is not one
