@@ -246,7 +246,7 @@ void ObservationDump::writeFrame(InProgress& e, rollout::VectorEnv& envs,
         config_.format == "jpg"
             ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, config_.jpeg_quality}
             : std::vector<int>{};
-    common::writeFileAtomic(
+    common::writeFileUnsynced(
         e.temp / name, encodeImage(bgr, config_.format, params, e.temp / name));
     step["rgb"] = name;
   } else {
@@ -256,7 +256,7 @@ void ObservationDump::writeFrame(InProgress& e, rollout::VectorEnv& envs,
     const std::string name = "depth/" + frameFileName(frame, "png");
     std::vector<uint16_t> mm = depthMillimetres(obs, config_.depth);
     const cv::Mat depth(obs.depth_height, obs.depth_width, CV_16UC1, mm.data());
-    common::writeFileAtomic(e.temp / name,
+    common::writeFileUnsynced(e.temp / name,
                             encodeImage(depth, "png", {}, e.temp / name));
     step["depth"] = name;
   } else {
@@ -293,7 +293,7 @@ void ObservationDump::episodeFinished(int /*index*/, rollout::VectorEnv& envs,
   // the frames
   std::string lines;
   for (const auto& step : e.steps) lines += step.dump() + "\n";
-  common::writeFileAtomic(e.temp / "steps.jsonl", lines);
+  common::writeFileUnsynced(e.temp / "steps.jsonl", lines);
 
   // the episode
   const auto& tokens = episode.instruction.instruction_tokens;
@@ -353,9 +353,11 @@ void ObservationDump::episodeFinished(int /*index*/, rollout::VectorEnv& envs,
        {{"position", "agent feet, world frame, Y up, metres"},
         {"heading", "radians about +Y, 0 looks along -Z"},
         {"rotation", "yaw quaternion [x, y, z, w]"}}}};
-  common::writeFileAtomic(e.temp / "episode.json", json.dump(2) + "\n");
+  common::writeFileUnsynced(e.temp / "episode.json", json.dump(2) + "\n");
 
-  // complete: renamed into place
+  // complete: durable (one sync for the folder's files), then renamed
+  // into place
+  common::syncFileSystem(e.temp);
   const fs::path folder = episodeFolder(episode.episode_id);
   std::error_code ec;
   fs::rename(e.temp, folder, ec);

@@ -35,10 +35,12 @@
 // the two cannot be told apart) or beyond 65.535 m is 0, "no valid depth";
 // a pixel nearer than min_depth reads min_depth.
 //
-// An episode's folder is written under a temporary name (every file with
-// common::writeFileAtomic()) and renamed into place when the episode ends,
-// so it is either complete or absent; temporaries left by a killed process
-// are removed by the next dump into the same split folder. Existing episode
+// An episode's folder is written under a temporary name, made durable with
+// one sync when the episode ends (common::writeFileUnsynced() and
+// syncFileSystem(): one fsync per file, as writeFileAtomic() does, made a
+// dump 16 times slower) and only then renamed into place, so it is either
+// complete or absent; temporaries left by a killed process are removed by
+// the next dump into the same split folder. Existing episode
 // folders are never overwritten (construction fails naming the first one).
 
 #include <cstdint>
