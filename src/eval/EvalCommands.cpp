@@ -82,8 +82,8 @@ std::unique_ptr<rollout::Agent> makeAgent(
     const BaselineStatistics* baselineStats) {
   const rollout::EvalConfig& ec = config.eval;
   if (candidate.baseline == "oracle")
-    return makeOracleAgent(config.sim.agent, config.task,
-                           config.trainer.expert, ec.num_envs);
+    return makeOracleAgent(config.sim.agent, config.task, config.trainer.expert,
+                           ec.num_envs);
   if (!candidate.baseline.empty()) {
     VLN_ASSERT(baselineStats != nullptr);
     return std::make_unique<BaselineAgentAdapter>(

@@ -257,7 +257,7 @@ void ObservationDump::writeFrame(InProgress& e, rollout::VectorEnv& envs,
     std::vector<uint16_t> mm = depthMillimetres(obs, config_.depth);
     const cv::Mat depth(obs.depth_height, obs.depth_width, CV_16UC1, mm.data());
     common::writeFileUnsynced(e.temp / name,
-                            encodeImage(depth, "png", {}, e.temp / name));
+                              encodeImage(depth, "png", {}, e.temp / name));
     step["depth"] = name;
   } else {
     step["depth"] = nullptr;

@@ -262,8 +262,7 @@ TEST_F(EvalBinaryTest, OracleDumpsItsObservations) {
   EXPECT_EQ(stats.num_episodes, 3);
   EXPECT_EQ(stats.mean.success, 1.0);
   ASSERT_EQ(vln::test::countEntries(dump / "val_unseen"), 1);
-  const fs::path episode =
-      fs::directory_iterator(dump / "val_unseen")->path();
+  const fs::path episode = fs::directory_iterator(dump / "val_unseen")->path();
   const auto json = common::readJsonFile(episode / "episode.json");
   EXPECT_EQ(json["agent"], "oracle");
   EXPECT_EQ(json["metrics"]["success"], 1.0);
@@ -277,15 +276,14 @@ TEST_F(EvalBinaryTest, OracleDumpsItsObservations) {
   // bad flags
   const std::string oracle =
       "--config " + configFile_.string() + " --agent oracle ";
-  EXPECT_EQ(eval(oracle + "--dump " + dump.string() + " --dump-format gif",
-                 &output),
-            1);
+  EXPECT_EQ(
+      eval(oracle + "--dump " + dump.string() + " --dump-format gif", &output),
+      1);
   EXPECT_THAT(output, HasSubstr("--dump-format must be png or jpg, got 'gif'"));
   EXPECT_EQ(eval(oracle + "--dump-episodes 2", &output), 1);
   EXPECT_THAT(output, HasSubstr("--dump-episodes needs --dump DIR"));
-  EXPECT_EQ(eval(oracle + "--dump " + dump.string() + " --dump-ids 3,x",
-                 &output),
-            1);
+  EXPECT_EQ(
+      eval(oracle + "--dump " + dump.string() + " --dump-ids 3,x", &output), 1);
   EXPECT_THAT(output, HasSubstr("--dump-ids: 'x' is not an episode id"));
 }
 

@@ -455,7 +455,8 @@ TEST_F(EvalCommandsTest, OracleRefusesSplitsWithoutGoals) {
   options.out = dir_ / "out";
   EXPECT_THAT(vln::test::errorOf([&] { run(options); }),
               HasSubstr("eval --agent oracle: split 'test' has no goals"));
-  EXPECT_FALSE(fs::exists(dir_ / "out" / rollout::statsFileName(0, "val_seen")));
+  EXPECT_FALSE(
+      fs::exists(dir_ / "out" / rollout::statsFileName(0, "val_seen")));
   options.checkpoint = dir_ / "x.pth";
   EXPECT_THAT(vln::test::errorOf([&] { run(options); }),
               HasSubstr("give either --checkpoint or --agent"));
@@ -489,8 +490,7 @@ TEST_F(EvalCommandsTest, BadDumpFlagsAreNamed) {
               HasSubstr("give --dump-episodes or --dump-ids, not both"));
   bad.episodes.reset();
   bad.ids = "100,x";
-  EXPECT_THAT(errorOf(bad),
-              HasSubstr("--dump-ids: 'x' is not an episode id"));
+  EXPECT_THAT(errorOf(bad), HasSubstr("--dump-ids: 'x' is not an episode id"));
   bad.ids = "99999";
   EXPECT_THAT(errorOf(bad),
               HasSubstr("--dump-ids: episode 99999 is in none of the "
