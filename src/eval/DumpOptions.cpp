@@ -97,6 +97,7 @@ std::unique_ptr<viz::ObservationDump> makeObservationDump(
   dump.rgb = config.sim.rgb;
   dump.depth = config.sim.depth;
   dump.agent = agent;
+  dump.vocabulary = split.vocabulary ? &*split.vocabulary : nullptr;
   return std::make_unique<viz::ObservationDump>(std::move(dump),
                                                 split.episodes);
 }

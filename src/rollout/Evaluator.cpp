@@ -73,9 +73,14 @@ class EvaluationJob : public EpisodeJob {
                 const EvalConfig& config,
                 const std::function<void(int, int)>& progress,
                 EpisodeObserver* observer, EvaluationResult& result)
-      : agent_(agent), envs_(envs), episodes_(episodes),
-        references_(std::move(references)), config_(config),
-        progress_(progress), observer_(observer), result_(result),
+      : agent_(agent),
+        envs_(envs),
+        episodes_(episodes),
+        references_(std::move(references)),
+        config_(config),
+        progress_(progress),
+        observer_(observer),
+        result_(result),
         records_(static_cast<size_t>(envs.size())) {}
 
   EpisodeStart startOf(int index) override {
@@ -100,9 +105,11 @@ class EvaluationJob : public EpisodeJob {
 
   std::vector<sim::Action> act(const EnvBatch& running) override {
     std::vector<sim::Action> actions = agent_.act(envs_, running.envs);
-    VLN_CHECK_ARG(actions.size() == running.size(), "evaluateEpisodes(): the "
-                  "agent returned ", actions.size(), " actions for ",
-                  running.size(), " environments");
+    VLN_CHECK_ARG(actions.size() == running.size(),
+                  "evaluateEpisodes(): the "
+                  "agent returned ",
+                  actions.size(), " actions for ", running.size(),
+                  " environments");
     return actions;
   }
 

@@ -52,9 +52,9 @@ class EpisodeObserver {
                                const EpisodeResult& result, bool scored) = 0;
 };
 
-/// Several observers watching one evaluation (e.g. pictures and an
-/// observation dump): every call goes to each observer in the order they
-/// were added; frames are wanted when any observer wants them.
+/// Several observers watching one evaluation (pictures, a report, dumps):
+/// each call goes to every observer in the order added; frames are wanted
+/// when any observer wants them. Null observers are skipped.
 class EpisodeObservers : public EpisodeObserver {
  public:
   /// Adds `observer` (not owned; must outlive this; null is ignored).

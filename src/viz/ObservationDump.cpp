@@ -303,6 +303,16 @@ void ObservationDump::episodeFinished(int /*index*/, rollout::VectorEnv& envs,
         {{"position", vec3(goal.position)}, {"radius", goal.radius}});
   nlohmann::json reference = nlohmann::json::array();
   for (const auto& p : episode.reference_path) reference.push_back(vec3(p));
+  const std::vector<int> unpadded(
+      tokens.begin(), tokens.begin() + data::unpaddedLength(tokens));
+  nlohmann::json words = nullptr;
+  if (config_.vocabulary != nullptr) {
+    words = nlohmann::json::array();
+    for (int token : unpadded)
+      words.push_back(token >= 0 && token < config_.vocabulary->size()
+                          ? nlohmann::json(config_.vocabulary->word(token))
+                          : nlohmann::json(nullptr));
+  }
   const sim::Observation& obs = envs.observation(env);
   nlohmann::json json = {
       {"format_version", kFormatVersion},
@@ -313,9 +323,8 @@ void ObservationDump::episodeFinished(int /*index*/, rollout::VectorEnv& envs,
       {"agent", config_.agent},
       {"instruction",
        {{"text", episode.instruction.instruction_text},
-        {"tokens",
-         std::vector<int>(tokens.begin(),
-                          tokens.begin() + data::unpaddedLength(tokens))}}},
+        {"tokens", unpadded},
+        {"words", words}}},
       {"start_position", vec3(episode.start_position)},
       {"start_rotation", episode.start_rotation},
       {"goals", goals},

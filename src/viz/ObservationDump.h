@@ -9,7 +9,8 @@
 // scripts/read_observation_dump.py):
 //
 //   <dir>/<split>/<episode_id>/
-//     episode.json        the episode (instruction text and tokens, start,
+//     episode.json        the episode (instruction text, tokens and their
+//                         words when the vocabulary is known, start,
 //                         goals, reference path), the agent, the cameras,
 //                         the frame count and, with goals, the metrics
 //     steps.jsonl         one JSON object per frame t = 0..T (T actions):
@@ -53,6 +54,7 @@
 #include <vector>
 
 #include "data/Episode.h"
+#include "data/Vocabulary.h"
 #include "rollout/Evaluator.h"
 #include "sim/SimConfig.h"
 #include "sim/Simulator.h"
@@ -80,6 +82,9 @@ struct DumpConfig {
   sim::DepthCameraConfig depth;
   /// What acted, written to episode.json (e.g. "oracle", "ckpt.3.pth").
   std::string agent;
+  /// The dataset's instruction vocabulary (data::Split::vocabulary), to
+  /// write the tokens' words too; may be null (must outlive the dump).
+  const data::Vocabulary* vocabulary = nullptr;
 };
 
 /// Throws std::invalid_argument naming the field when `config` is invalid:

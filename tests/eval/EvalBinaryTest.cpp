@@ -266,6 +266,12 @@ TEST_F(EvalBinaryTest, OracleDumpsItsObservations) {
   const auto json = common::readJsonFile(episode / "episode.json");
   EXPECT_EQ(json["agent"], "oracle");
   EXPECT_EQ(json["metrics"]["success"], 1.0);
+  // the tokens with their words from the split's vocabulary
+  ASSERT_TRUE(json["instruction"]["words"].is_array());
+  EXPECT_EQ(json["instruction"]["words"].size(),
+            json["instruction"]["tokens"].size());
+  EXPECT_FALSE(json["instruction"]["tokens"].empty());
+  EXPECT_TRUE(json["instruction"]["words"][0].is_string());
   const int frames = json["num_frames"].get<int>();
   EXPECT_EQ(frames, json["num_actions"].get<int>() + 1);
   EXPECT_EQ(vln::test::countEntries(episode / "rgb"), frames);

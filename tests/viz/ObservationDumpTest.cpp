@@ -223,6 +223,7 @@ TEST_F(ObservationDumpTest, StepsHoldPosesActionsAndTheEpisode) {
     EXPECT_EQ(e["instruction"]["tokens"].get<std::vector<int>>(),
               std::vector<int>(tokens.begin(),
                                tokens.begin() + data::unpaddedLength(tokens)));
+    EXPECT_TRUE(e["instruction"]["words"].is_null());  // no vocabulary
     EXPECT_EQ(e["num_frames"], steps.size());
     EXPECT_EQ(e["num_actions"], record.actions.size());
     EXPECT_EQ(e["called_stop"], true);
