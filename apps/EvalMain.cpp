@@ -28,7 +28,8 @@ int main(int argc, char** argv) {
         "--checkpoint", options.checkpoint,
         "ckpt.<i>.pth, a directory of them, or a TorchScript .pt export");
     app.add_option("--agent", options.agent,
-                   "Evaluate a baseline instead: random or handcrafted");
+                   "Evaluate a baseline instead: random, handcrafted or oracle "
+                   "(trainer.expert's shortest-path expert)");
     app.add_option("--split", options.splits,
                    "Split to evaluate (repeatable; default eval.splits)");
     auto* episodesOption = app.add_option(
@@ -56,6 +57,18 @@ int main(int argc, char** argv) {
         "Checkpoint index in file names for an export or a baseline");
     app.add_option("--log-level", logLevel,
                    "trace, debug, info, warn or error");
+    // observation dumps (src/eval/DumpOptions.h, docs/dumps.md)
+    int dumpEpisodes = 0;
+    app.add_option("--dump", options.dump.dir,
+                   "Write per-step RGB, depth (mm), pose and action of the "
+                   "episodes to DIR/<split>/<episode_id>/ (docs/dumps.md)");
+    auto* dumpEpisodesOption =
+        app.add_option("--dump-episodes", dumpEpisodes,
+                       "Dump the first N episodes of each split (default: all)");
+    app.add_option("--dump-ids", options.dump.ids,
+                   "Dump these episode ids (comma-separated)");
+    app.add_option("--dump-format", options.dump.format,
+                   "RGB images of the dump: png or jpg");
 
     // the subcommands that read result folders: both take --runs and --out
     auto resultsCommand = [&](const char* name, const char* help,
@@ -105,6 +118,7 @@ int main(int argc, char** argv) {
     if (*mapsOption) options.maps = maps;
     if (*videosOption) options.videos = videos;
     if (*indexOption) options.index = index;
+    if (*dumpEpisodesOption) options.dump.episodes = dumpEpisodes;
     const auto experiment = vln::train::loadExperimentConfig(config, overrides);
     return vln::eval::runEvalCommand(options, experiment, std::cout);
   });

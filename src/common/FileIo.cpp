@@ -163,6 +163,40 @@ void writeFileAtomic(const std::filesystem::path& file,
   syncDirectory(dir);
 }
 
+void writeFileUnsynced(const std::filesystem::path& file,
+                       std::string_view contents) {
+  const std::filesystem::path dir = file.parent_path();
+  if (!dir.empty()) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    VLN_CHECK_IO(!ec, "writeFileUnsynced(): cannot create directory '",
+                 dir.string(), "': ", ec.message());
+  }
+  const int fd =
+      ::open(file.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  VLN_CHECK_IO(fd >= 0, "writeFileUnsynced(): cannot create '", file.string(),
+               "': ", errnoText(errno));
+  try {
+    writeAll(fd, contents, file.string());
+  } catch (...) {
+    ::close(fd);
+    throw;
+  }
+  VLN_CHECK_IO(::close(fd) == 0, "writeFileUnsynced(): cannot close '",
+               file.string(), "': ", errnoText(errno));
+}
+
+void syncFileSystem(const std::filesystem::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  VLN_CHECK_IO(fd >= 0, "syncFileSystem(): cannot open '", path.string(),
+               "': ", errnoText(errno));
+  const int status = ::syncfs(fd);
+  const int err = errno;
+  ::close(fd);
+  VLN_CHECK_IO(status == 0, "syncFileSystem(): syncfs failed for '",
+               path.string(), "': ", errnoText(err));
+}
+
 namespace {
 
 // The pid of a writeFileAtomic() temporary name, or 0 when `name` is not one.

@@ -27,6 +27,20 @@ bool isGzipPath(const std::filesystem::path& path);
 void writeFileAtomic(const std::filesystem::path& file,
                      std::string_view contents);
 
+/// Writes `contents` to `file` (creating missing parent directories)
+/// without fsync: for the files of a folder that is written under a
+/// temporary name, made durable as a whole with syncFileSystem() and then
+/// renamed into place (e.g. an observation dump's episode), where one sync
+/// per folder replaces one per file. Throws std::runtime_error naming the
+/// file.
+void writeFileUnsynced(const std::filesystem::path& file,
+                       std::string_view contents);
+
+/// Flushes every pending write of the file system holding `path` to disk
+/// (syncfs(2)). Throws std::runtime_error naming the path when it cannot be
+/// opened or synced.
+void syncFileSystem(const std::filesystem::path& path);
+
 /// Removes the temporaries writeFileAtomic() leaves when its process is
 /// killed between creating and renaming them ("<name>.tmp.<pid>.<n>") from
 /// `dir` and its subdirectories, skipping those of processes still running.

@@ -3,6 +3,7 @@
 #include <string>
 
 #include "common/Check.h"
+#include "rollout/WaypointOracle.h"
 
 namespace vln::eval {
 
@@ -88,6 +89,27 @@ std::vector<sim::Action> BaselineAgentAdapter::act(
     actions.push_back(agent.act());
   }
   return actions;
+}
+
+// ---------------------------------------------------------------------------
+// the oracle
+
+std::unique_ptr<rollout::Agent> makeOracleAgent(const sim::AgentConfig& agent,
+                                                const sim::TaskConfig& task,
+                                                const std::string& expert,
+                                                int numEnvs) {
+  return std::make_unique<rollout::OracleAgent>(
+      agent, task.follower_goal_radius,
+      rollout::parseOracleMode(expert, "trainer.expert"), numEnvs);
+}
+
+void checkOracleSplits(std::span<const data::Split> splits) {
+  for (const data::Split& split : splits)
+    for (const data::Episode& episode : split.episodes)
+      VLN_CHECK_ARG(!episode.goals.empty(), "eval --agent oracle: split '",
+                    split.name, "' has no goals (episode ", episode.episode_id,
+                    "; a split without ground truth, such as test): the "
+                    "oracle needs the goal of every episode");
 }
 
 }  // namespace vln::eval

@@ -13,8 +13,10 @@
 #include <vector>
 
 #include "data/GroundTruth.h"
+#include "data/Split.h"
 #include "eval/Baselines.h"
 #include "rollout/Agent.h"
+#include "sim/SimConfig.h"
 
 namespace vln::eval {
 
@@ -63,5 +65,20 @@ class BaselineAgentAdapter : public rollout::Agent {
   std::vector<std::unique_ptr<BaselineAgent>> agents_;
   std::vector<bool> started_;
 };
+
+/// The oracle as `eval --agent oracle` runs it: rollout::OracleAgent
+/// following trainer.expert `expert` ("goal", VLN-CE's shortest path to the
+/// goal, by default; or "reference_path"), stopping within
+/// task.follower_goal_radius, on `numEnvs` environments. Throws
+/// std::invalid_argument naming trainer.expert for another expert.
+std::unique_ptr<rollout::Agent> makeOracleAgent(const sim::AgentConfig& agent,
+                                                const sim::TaskConfig& task,
+                                                const std::string& expert,
+                                                int numEnvs);
+
+/// Throws std::invalid_argument naming the split and the episode when an
+/// episode of `splits` has no goal (a split without ground truth, such as
+/// test): the oracle needs every episode's goal.
+void checkOracleSplits(std::span<const data::Split> splits);
 
 }  // namespace vln::eval

@@ -82,6 +82,9 @@ std::unique_ptr<rollout::Agent> makeAgent(
     const Candidate& candidate, const train::ExperimentConfig& config,
     const BaselineStatistics* baselineStats) {
   const rollout::EvalConfig& ec = config.eval;
+  if (candidate.baseline == "oracle")
+    return makeOracleAgent(config.sim.agent, config.task, config.trainer.expert,
+                           ec.num_envs);
   if (!candidate.baseline.empty()) {
     VLN_ASSERT(baselineStats != nullptr);
     return std::make_unique<BaselineAgentAdapter>(
@@ -149,6 +152,9 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   std::unique_ptr<viz::EpisodePictures> observer;
   if (pictures.map_episodes > 0 || pictures.video_episodes > 0)
     observer = std::make_unique<viz::EpisodePictures>(pictures);
+  // observation dumps (--dump), watching beside the pictures
+  const std::unique_ptr<viz::ObservationDump> dump =
+      makeObservationDump(ctx.options.dump, split, c, candidate.label);
 
   // the HTML report, when asked for
   std::unique_ptr<viz::EpisodeReport> htmlReport;
@@ -168,6 +174,7 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   rollout::EpisodeObservers observers;
   observers.add(observer.get());
   observers.add(htmlReport.get());
+  observers.add(dump.get());
 
   rollout::SplitEvaluationOptions options;
   options.checkpoint = candidate.index;
@@ -204,6 +211,8 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   }
   if (observer)
     for (const auto& file : observer->files()) report.files.push_back(file);
+  if (dump)
+    for (const auto& folder : dump->folders()) report.files.push_back(folder);
   if (htmlReport) report.files.push_back(htmlReport->write());
   return report;
 }
@@ -260,14 +269,20 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   std::vector<Candidate> candidates;
   bool directoryMode = false;
   std::unique_ptr<BaselineStatistics> baselineStats;
-  if (!options.agent.empty()) {
+  if (options.agent == "oracle" && options.checkpoint.empty()) {
+    out << "oracle: trainer.expert " << settings.trainer.expert
+        << ", stopping within task.follower_goal_radius "
+        << settings.task.follower_goal_radius << " m\n";
+    candidates.push_back(
+        {options.index.value_or(0), "oracle", {}, {}, options.agent});
+  } else if (!options.agent.empty()) {
     VLN_CHECK_ARG(options.checkpoint.empty(),
                   "eval: give either --checkpoint "
                   "or --agent, not both (got --checkpoint '",
                   options.checkpoint.string(), "' and --agent '", options.agent,
                   "')");
     VLN_CHECK_ARG(options.agent == "random" || options.agent == "handcrafted",
-                  "eval: --agent must be random or handcrafted, got '",
+                  "eval: --agent must be random, handcrafted or oracle, got '",
                   options.agent, "'");
     const fs::path gt = data::splitGroundTruthPath(
         settings.dataset.data_path, settings.dataset.train_split);
@@ -320,6 +335,8 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   std::vector<data::Split> splits;
   for (const auto& name : splitNames)
     splits.push_back(loadSplit(settings, name, cap));
+  if (options.agent == "oracle") checkOracleSplits(splits);
+  checkDumpOptions(options.dump, splits, candidates.size(), settings);
 
   std::unique_ptr<NavGraphs> navgraphs;
   if (!options.navgraph.empty()) {

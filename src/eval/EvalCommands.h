@@ -9,6 +9,11 @@
 //                                                     the best (best.json)
 //   eval --config C --checkpoint policy.pt           a TorchScript export
 //   eval --config C --agent random|handcrafted       a no-learning baseline
+//   eval --config C --agent oracle                   the shortest-path oracle
+//                                                     (trainer.expert)
+//   eval ... --dump DIR [--dump-episodes N | --dump-ids a,b]
+//            [--dump-format png|jpg]                 observation dumps
+//                                                     (DumpOptions.h)
 //   eval tables --runs results/ --out docs/results.md [--claimed-only]
 //   eval compare --runs results/ --out findings.md   the paper's findings
 //                                                     judged by paired
@@ -31,6 +36,7 @@
 #include <string>
 #include <vector>
 
+#include "eval/DumpOptions.h"
 #include "eval/NavGraphEval.h"
 #include "rollout/SplitEvaluation.h"
 #include "train/ExperimentConfig.h"
@@ -43,7 +49,9 @@ struct EvalCommandOptions {
   /// (.pt). Empty when `agent` is set.
   std::filesystem::path checkpoint;
   /// "random" or "handcrafted": evaluate a baseline instead (its statistics
-  /// come from dataset.train_split's ground truth).
+  /// come from dataset.train_split's ground truth); "oracle": the
+  /// shortest-path oracle of trainer.expert (rollout::OracleAgent; splits
+  /// without goals are refused).
   std::string agent;
   /// Splits to evaluate; empty: eval.splits.
   std::vector<std::string> splits;
@@ -68,6 +76,8 @@ struct EvalCommandOptions {
   /// Index used in file names for an export or a baseline; unset: parsed
   /// from the file name (ckpt.<i>.*), else 0.
   std::optional<int> index;
+  /// Observation dumps of the evaluated episodes (--dump ...).
+  DumpOptions dump;
 };
 
 /// What one (checkpoint, split) evaluation produced.

@@ -176,6 +176,45 @@ class EvaluationJob : public EpisodeJob {
 
 }  // namespace
 
+// ---------------------------------------------------------------------------
+// several observers
+
+void EpisodeObservers::add(EpisodeObserver* observer) {
+  if (observer != nullptr) observers_.push_back(observer);
+}
+
+EpisodeObserver* EpisodeObservers::single() {
+  if (observers_.empty()) return nullptr;
+  return observers_.size() == 1 ? observers_.front() : this;
+}
+
+bool EpisodeObservers::wantsFrames(int index) const {
+  for (const EpisodeObserver* observer : observers_)
+    if (observer->wantsFrames(index)) return true;
+  return false;
+}
+
+void EpisodeObservers::episodeStarted(int index, VectorEnv& envs, int env) {
+  for (EpisodeObserver* observer : observers_)
+    observer->episodeStarted(index, envs, env);
+}
+
+void EpisodeObservers::episodeStepped(int index, VectorEnv& envs, int env,
+                                      sim::Action action) {
+  for (EpisodeObserver* observer : observers_)
+    observer->episodeStepped(index, envs, env, action);
+}
+
+void EpisodeObservers::episodeFinished(int index, VectorEnv& envs, int env,
+                                       const EpisodeResult& result,
+                                       bool scored) {
+  for (EpisodeObserver* observer : observers_)
+    observer->episodeFinished(index, envs, env, result, scored);
+}
+
+// ---------------------------------------------------------------------------
+// evaluation
+
 EvaluationResult evaluateEpisodes(Agent& agent, VectorEnv& envs,
                                   const std::vector<data::Episode>& episodes,
                                   const data::GroundTruth* groundTruth,
@@ -209,29 +248,6 @@ EvaluationResult evaluateEpisodes(Agent& agent, VectorEnv& envs,
     if (result.scored[i]) scored.push_back(result.episodes[i].metrics);
   if (!scored.empty()) result.stats = aggregate(scored);
   return result;
-}
-
-bool EpisodeObservers::wantsFrames(int index) const {
-  for (const EpisodeObserver* o : observers_)
-    if (o->wantsFrames(index)) return true;
-  return false;
-}
-
-void EpisodeObservers::episodeStarted(int index, VectorEnv& envs, int env) {
-  for (EpisodeObserver* o : observers_) o->episodeStarted(index, envs, env);
-}
-
-void EpisodeObservers::episodeStepped(int index, VectorEnv& envs, int env,
-                                      sim::Action action) {
-  for (EpisodeObserver* o : observers_)
-    o->episodeStepped(index, envs, env, action);
-}
-
-void EpisodeObservers::episodeFinished(int index, VectorEnv& envs, int env,
-                                       const EpisodeResult& result,
-                                       bool scored) {
-  for (EpisodeObserver* o : observers_)
-    o->episodeFinished(index, envs, env, result, scored);
 }
 
 }  // namespace vln::rollout

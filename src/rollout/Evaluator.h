@@ -57,10 +57,14 @@ class EpisodeObserver {
 /// when any observer wants them. Null observers are skipped.
 class EpisodeObservers : public EpisodeObserver {
  public:
-  void add(EpisodeObserver* observer) {
-    if (observer != nullptr) observers_.push_back(observer);
-  }
+  /// Adds `observer` (not owned; must outlive this; null is ignored).
+  void add(EpisodeObserver* observer);
+  /// Observers added.
+  size_t size() const { return observers_.size(); }
   bool empty() const { return observers_.empty(); }
+  /// What to hand to evaluateEpisodes(): null without observers, the only
+  /// one itself, else this fan-out.
+  EpisodeObserver* single();
 
   bool wantsFrames(int index) const override;
   void episodeStarted(int index, VectorEnv& envs, int env) override;

@@ -20,37 +20,10 @@ namespace vln::train {
 // ---------------------------------------------------------------------------
 // oracle and progress
 
-WaypointOracle::WaypointOracle(const sim::NavMesh& navmesh,
-                               const sim::AgentConfig& agent, float goalRadius,
-                               std::vector<Vec3f> waypoints)
-    : follower_(navmesh, agent, goalRadius), waypoints_(std::move(waypoints)) {
-  VLN_CHECK_ARG(!waypoints_.empty(),
-                "WaypointOracle: an episode needs at least one waypoint");
-  // waypoint 0 is the start: the first leg heads for waypoint 1
-  current_ = std::min<int>(1, static_cast<int>(waypoints_.size()) - 1);
-}
-
-sim::Action WaypointOracle::next(const sim::AgentState& state) {
-  const int last = static_cast<int>(waypoints_.size()) - 1;
-  // a leg ends where the follower would stop at its waypoint; the next leg
-  // starts from the same state, as the ground truth was generated
-  while (current_ < last) {
-    const sim::Action action =
-        follower_.nextAction(state, waypoints_[static_cast<size_t>(current_)]);
-    if (action != sim::Action::kStop) return action;
-    ++current_;
-  }
-  return follower_.nextAction(state, waypoints_[static_cast<size_t>(last)]);
-}
-
 std::vector<Vec3f> expertWaypoints(const data::Episode& episode,
                                    const std::string& expert) {
-  if (expert == "reference_path") return episode.reference_path;
-  VLN_CHECK_ARG(expert == "goal", "trainer.expert: unknown expert '", expert,
-                "'");
-  VLN_CHECK_ARG(!episode.goals.empty(), "episode ", episode.episode_id,
-                ": no goal for trainer.expert goal");
-  return {episode.goals.front().position};
+  return rollout::oracleWaypoints(
+      episode, rollout::parseOracleMode(expert, "trainer.expert"));
 }
 
 float progressTarget(float startDistance, float distance, bool clip) {

@@ -5,9 +5,9 @@
 // and every step's encoded observation, previous action, oracle action
 // (the label, always) and progress target is recorded.
 //
-// The oracle (WaypointOracle, trainer.expert) is VLN-CE's by default: the
-// shortest-path follower with radius task.follower_goal_radius heading for
-// the episode's goal (VLN-CE's ShortestPathSensor). With expert
+// The oracle (rollout::WaypointOracle, trainer.expert) is VLN-CE's by
+// default: the shortest-path follower with radius task.follower_goal_radius
+// heading for the episode's goal (VLN-CE's ShortestPathSensor). With expert
 // reference_path it produces actions the way the R2R_VLNCE ground truth was
 // produced (data/NodeTransfer.h): the follower heads for reference-path
 // waypoint i until it would STOP there, then for waypoint i + 1, and STOPs
@@ -49,7 +49,7 @@
 #include "models/Policy.h"
 #include "rollout/ObservationBatch.h"
 #include "rollout/VectorEnv.h"
-#include "sim/Follower.h"
+#include "rollout/WaypointOracle.h"
 #include "train/ExperimentConfig.h"
 #include "train/FeatureStore.h"
 #include "train/MetricsLog.h"
@@ -58,27 +58,13 @@ namespace vln::train {
 
 class Distributed;
 
-/// The shortest-path follower over waypoints in order: an episode's
-/// reference path (trainer.expert reference_path) or its goal alone (goal).
-class WaypointOracle {
- public:
-  /// `waypoints` world frame, metres (at least one).
-  WaypointOracle(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
-                 float goalRadius, std::vector<Vec3f> waypoints);
-  /// The oracle action at `state`; advances to the next waypoint whenever
-  /// the follower would STOP at the current one (not the last).
-  sim::Action next(const sim::AgentState& state);
-  /// Index of the waypoint currently headed for.
-  int waypoint() const { return current_; }
-
- private:
-  sim::ShortestPathFollower follower_;
-  std::vector<Vec3f> waypoints_;
-  int current_ = 1;
-};
+/// The oracle of trainer.expert (rollout/WaypointOracle.h), in the rollout
+/// layer so that the evaluator can run it as an agent too.
+using rollout::WaypointOracle;
 
 /// The waypoints WaypointOracle follows in `episode` under trainer.expert
-/// `expert`: {goal} or the reference path.
+/// `expert`: {goal} or the reference path (rollout::oracleWaypoints()).
+/// Throws std::invalid_argument naming trainer.expert for another value.
 std::vector<Vec3f> expertWaypoints(const data::Episode& episode,
                                    const std::string& expert);
 

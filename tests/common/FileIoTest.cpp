@@ -74,6 +74,25 @@ TEST(FileIoTest, StaleTemporariesOfDeadWritersAreRemoved) {
   EXPECT_TRUE(removeStaleTemporaries(dir / "missing").empty());
 }
 
+// writeFileUnsynced() + syncFileSystem(): a folder's files written without
+// a sync each (parents created, the name as given, no temporaries), then
+// synced once; failures name the path
+TEST(FileIoTest, UnsyncedWritesThenOneSync) {
+  vln::test::TempDir dir;
+  writeFileUnsynced(dir / "a" / "b" / "frame.png", "bytes");
+  writeFileUnsynced(dir / "a" / "b" / "frame.png", "new");
+  EXPECT_EQ(readFile(dir / "a" / "b" / "frame.png"), "new");
+  EXPECT_EQ(vln::test::countEntries(dir / "a" / "b"), 1);
+  EXPECT_NO_THROW(syncFileSystem(dir / "a"));
+  EXPECT_THAT(vln::test::errorOf([&] { syncFileSystem(dir / "missing"); }),
+              HasSubstr("syncFileSystem(): cannot open '" +
+                        (dir / "missing").string() + "'"));
+  vln::test::writeText(dir / "file", "x");
+  EXPECT_THAT(
+      vln::test::errorOf([&] { writeFileUnsynced(dir / "file" / "f", "x"); }),
+      HasSubstr("writeFileUnsynced(): cannot create"));
+}
+
 TEST(FileIoTest, JsonErrorsNameFileAndField) {
   test::TempDir dir;
   test::writeText(dir / "bad.json", "{\"a\": [1, 2");

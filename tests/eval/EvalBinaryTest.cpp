@@ -243,6 +243,56 @@ TEST_F(EvalBinaryTest, ErrorsAreReported) {
   EXPECT_THAT(output, HasSubstr("eval.num_envs"));
 }
 
+// `eval --agent oracle --dump` end to end: the oracle succeeds, its first
+// episode is dumped with one RGB and one depth image per frame, and bad
+// dump flags are errors naming the flag.
+TEST_F(EvalBinaryTest, OracleDumpsItsObservations) {
+  std::string output;
+  const fs::path dump = dir_ / "dump";
+  ASSERT_EQ(eval("--config " + configFile_.string() +
+                     " --agent oracle --split val_unseen --episodes 3 --out " +
+                     (dir_ / "oracle").string() + " --dump " + dump.string() +
+                     " --dump-episodes 1",
+                 &output),
+            0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("oracle: trainer.expert goal"));
+  const auto stats = rollout::readStatsFile(
+      dir_ / "oracle" / rollout::statsFileName(0, "val_unseen"));
+  EXPECT_EQ(stats.num_episodes, 3);
+  EXPECT_EQ(stats.mean.success, 1.0);
+  ASSERT_EQ(vln::test::countEntries(dump / "val_unseen"), 1);
+  const fs::path episode = fs::directory_iterator(dump / "val_unseen")->path();
+  const auto json = common::readJsonFile(episode / "episode.json");
+  EXPECT_EQ(json["agent"], "oracle");
+  EXPECT_EQ(json["metrics"]["success"], 1.0);
+  // the tokens with their words from the split's vocabulary
+  ASSERT_TRUE(json["instruction"]["words"].is_array());
+  EXPECT_EQ(json["instruction"]["words"].size(),
+            json["instruction"]["tokens"].size());
+  EXPECT_FALSE(json["instruction"]["tokens"].empty());
+  EXPECT_TRUE(json["instruction"]["words"][0].is_string());
+  const int frames = json["num_frames"].get<int>();
+  EXPECT_EQ(frames, json["num_actions"].get<int>() + 1);
+  EXPECT_EQ(vln::test::countEntries(episode / "rgb"), frames);
+  EXPECT_EQ(vln::test::countEntries(episode / "depth"), frames);
+  EXPECT_EQ(vln::test::readJsonLines(episode / "steps.jsonl").size(),
+            static_cast<size_t>(frames));
+
+  // bad flags
+  const std::string oracle =
+      "--config " + configFile_.string() + " --agent oracle ";
+  EXPECT_EQ(
+      eval(oracle + "--dump " + dump.string() + " --dump-format gif", &output),
+      1);
+  EXPECT_THAT(output, HasSubstr("--dump-format must be png or jpg, got 'gif'"));
+  EXPECT_EQ(eval(oracle + "--dump-episodes 2", &output), 1);
+  EXPECT_THAT(output, HasSubstr("--dump-episodes needs --dump DIR"));
+  EXPECT_EQ(
+      eval(oracle + "--dump " + dump.string() + " --dump-ids 3,x", &output), 1);
+  EXPECT_THAT(output, HasSubstr("--dump-ids: 'x' is not an episode id"));
+}
+
 // A short training run evaluates its checkpoints during training; the
 // binary, re-evaluating the same checkpoint, must get the same numbers.
 TEST_F(EvalBinaryTest, ReproducesTheTrainersValidation) {

@@ -408,7 +408,8 @@ TEST_F(EvalCommandsTest, BadInputIsNamed) {
   expectError(split, "val_nowhere");
   EvalCommandOptions greedy;
   greedy.agent = "greedy";
-  expectError(greedy, "--agent must be random or handcrafted, got 'greedy'");
+  expectError(greedy,
+              "--agent must be random, handcrafted or oracle, got 'greedy'");
 
   // a checkpoint of another architecture: every mismatched tensor listed
   models::ModelConfig wide = settings_.model;
@@ -424,6 +425,134 @@ TEST_F(EvalCommandsTest, BadInputIsNamed) {
     EXPECT_THAT(e.what(), HasSubstr("action_head.weight"));
     EXPECT_THAT(e.what(), HasSubstr("second_state_encoder"));
   }
+}
+
+// ---------------------------------------------------------------------------
+// the oracle and observation dumps
+
+TEST_F(EvalCommandsTest, OracleSucceedsEverywhereAndIsDumped) {
+  const auto& w = rolloutTestWorld();
+  EvalCommandOptions options;
+  options.agent = "oracle";
+  options.out = dir_ / "oracle";
+  options.dump.dir = dir_ / "dump";
+  options.dump.episodes = 2;
+  std::string printed;
+  const EvalCommandResult r = run(options, &printed);
+  EXPECT_THAT(printed, HasSubstr("oracle: trainer.expert goal, stopping "
+                                 "within task.follower_goal_radius 0.5 m"));
+  ASSERT_EQ(r.reports.size(), 2u);
+  for (const auto& report : r.reports) {
+    SCOPED_TRACE(report.split);
+    // the test world's ground truth is the same follower: SR 1
+    EXPECT_EQ(report.stats.mean.success, 1.0);
+    EXPECT_GT(report.stats.mean.spl, 0.8);
+    EXPECT_THAT(printed, HasSubstr("ckpt 0 " + report.split + ": 5 episodes"));
+  }
+  // the first two episodes of each split, listed with the report's files
+  const std::vector<std::pair<std::string, size_t>> splits = {
+      {"val_seen", 0}, {"val_unseen", 5}};
+  for (const auto& [split, first] : splits) {
+    EXPECT_EQ(vln::test::countEntries(dir_ / "dump" / split), 2) << split;
+    for (size_t i = first; i < first + 2; ++i) {
+      const fs::path folder =
+          dir_ / "dump" / split / std::to_string(w.episodes[i].episode_id);
+      EXPECT_TRUE(fs::exists(folder / "episode.json")) << folder;
+      const auto& files = r.reports[first == 0 ? 0 : 1].files;
+      EXPECT_NE(std::find(files.begin(), files.end(), folder), files.end());
+      EXPECT_EQ(common::readJsonFile(folder / "episode.json")["agent"],
+                "oracle");
+    }
+  }
+}
+
+TEST_F(EvalCommandsTest, AnyAgentIsDumpedByIdWithPictures) {
+  const auto& w = rolloutTestWorld();
+  EvalCommandOptions options;
+  options.checkpoint = writeCheckpoint(dir_ / "ckpt.3.pth", 1.0);
+  options.out = dir_ / "out";
+  options.splits = {"val_unseen"};
+  options.maps = 1;
+  options.dump.dir = dir_ / "dump";
+  options.dump.ids = std::to_string(w.episodes[7].episode_id) + ", " +
+                     std::to_string(w.episodes[9].episode_id);
+  options.dump.format = "jpg";
+  const EvalCommandResult r = run(options);
+  const fs::path split = dir_ / "dump" / "val_unseen";
+  EXPECT_EQ(vln::test::countEntries(split), 2);
+  const fs::path folder = split / std::to_string(w.episodes[7].episode_id);
+  EXPECT_TRUE(fs::exists(folder / "rgb" / "000000.jpg"));
+  EXPECT_EQ(common::readJsonFile(folder / "episode.json")["agent"],
+            "ckpt.3.pth");
+  // the pictures were drawn beside the dump
+  EXPECT_EQ(vln::test::countEntries(dir_ / "out" / "pictures"), 1);
+  // a second dump into the same folder is refused before anything runs
+  EXPECT_THAT(vln::test::errorOf([&] { run(options); }),
+              HasSubstr(folder.string() + "' exists already"));
+}
+
+TEST_F(EvalCommandsTest, OracleRefusesSplitsWithoutGoals) {
+  EvalCommandOptions options;
+  options.agent = "oracle";
+  options.splits = {"val_seen", "test"};
+  options.out = dir_ / "out";
+  EXPECT_THAT(vln::test::errorOf([&] { run(options); }),
+              HasSubstr("eval --agent oracle: split 'test' has no goals"));
+  EXPECT_FALSE(
+      fs::exists(dir_ / "out" / rollout::statsFileName(0, "val_seen")));
+  options.checkpoint = dir_ / "x.pth";
+  EXPECT_THAT(vln::test::errorOf([&] { run(options); }),
+              HasSubstr("give either --checkpoint or --agent"));
+}
+
+TEST_F(EvalCommandsTest, BadDumpFlagsAreNamed) {
+  const auto errorOf = [&](const DumpOptions& dump) {
+    EvalCommandOptions options;
+    options.agent = "oracle";
+    options.out = dir_ / "out";
+    options.dump = dump;
+    return vln::test::errorOf([&] { run(options); });
+  };
+  DumpOptions none;
+  none.episodes = 2;
+  EXPECT_THAT(errorOf(none), HasSubstr("--dump-episodes needs --dump DIR"));
+  none = {};
+  none.ids = "100";
+  EXPECT_THAT(errorOf(none), HasSubstr("--dump-ids needs --dump DIR"));
+  none = {};
+  none.format = "jpg";
+  EXPECT_THAT(errorOf(none), HasSubstr("--dump-format needs --dump DIR"));
+
+  DumpOptions bad;
+  bad.dir = dir_ / "dump";
+  bad.episodes = 0;
+  EXPECT_THAT(errorOf(bad), HasSubstr("--dump-episodes must be >= 1, got 0"));
+  bad.episodes = 1;
+  bad.ids = "100";
+  EXPECT_THAT(errorOf(bad),
+              HasSubstr("give --dump-episodes or --dump-ids, not both"));
+  bad.episodes.reset();
+  bad.ids = "100,x";
+  EXPECT_THAT(errorOf(bad), HasSubstr("--dump-ids: 'x' is not an episode id"));
+  bad.ids = "99999";
+  EXPECT_THAT(errorOf(bad),
+              HasSubstr("--dump-ids: episode 99999 is in none of the "
+                        "evaluated splits (val_seen, val_unseen"));
+  bad.ids.clear();
+  bad.format = "bmp";
+  EXPECT_THAT(errorOf(bad),
+              HasSubstr("--dump-format must be png or jpg, got 'bmp'"));
+  EXPECT_FALSE(fs::exists(dir_ / "dump"));
+
+  // a directory of checkpoints would dump every one into the same folders
+  const fs::path ckpts = dir_ / "checkpoints";
+  for (int i : {1, 2}) writeCheckpoint(ckpts / checkpointName(i), 1.0);
+  EvalCommandOptions directory;
+  directory.checkpoint = ckpts;
+  directory.dump.dir = dir_ / "dump";
+  EXPECT_THAT(vln::test::errorOf([&] { run(directory); }),
+              HasSubstr("--dump takes one checkpoint, export or agent, not a "
+                        "directory of 2 checkpoints"));
 }
 
 TEST(EvalTablesCommandTest, WritesMarkdownAndLatexFromResultFiles) {
