@@ -103,8 +103,12 @@ std::vector<std::string> instructionWords(const data::Episode& episode,
     const int token = tokens[static_cast<size_t>(i)];
     if (vocabulary != nullptr && token >= 0 && token < vocabulary->size())
       words.push_back(vocabulary->word(token));
-    else
-      words.push_back("#" + std::to_string(token));
+    else {
+      // appended, not "#" + to_string(): GCC 12 warns (-Wstringop-overflow)
+      std::string number = "#";
+      number += std::to_string(token);
+      words.push_back(std::move(number));
+    }
   }
   return words;
 }
