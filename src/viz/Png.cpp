@@ -1,0 +1,35 @@
+#include "viz/Png.h"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <vector>
+
+#include "common/Check.h"
+
+namespace vln::viz {
+
+std::string encodePng(std::span<const uint8_t> pixels, int width, int height,
+                      int channels) {
+  VLN_CHECK_ARG(channels == 1 || channels == 3 || channels == 4,
+                "encodePng(): channels must be 1, 3 or 4, got ", channels);
+  VLN_CHECK_ARG(width > 0 && height > 0 &&
+                    pixels.size() ==
+                        static_cast<size_t>(width) * height * channels,
+                "encodePng(): expected ", width, "x", height, "x", channels,
+                " bytes, got ", pixels.size());
+  // OpenCV writes BGR(A) in the order its Mat holds
+  const cv::Mat image(height, width, CV_8UC(channels),
+                      const_cast<uint8_t*>(pixels.data()));
+  cv::Mat ordered = image;
+  if (channels == 3) cv::cvtColor(image, ordered, cv::COLOR_RGB2BGR);
+  if (channels == 4) cv::cvtColor(image, ordered, cv::COLOR_RGBA2BGRA);
+  std::vector<uint8_t> png;
+  VLN_CHECK_IO(cv::imencode(".png", ordered, png),
+               "encodePng(): OpenCV cannot encode a ", width, "x", height,
+               "x", channels, " image as PNG");
+  return std::string(png.begin(), png.end());
+}
+
+}  // namespace vln::viz
