@@ -32,4 +32,25 @@ std::string encodePng(std::span<const uint8_t> pixels, int width, int height,
   return std::string(png.begin(), png.end());
 }
 
+DecodedImage decodePng(std::string_view bytes) {
+  VLN_CHECK_IO(bytes.size() >= 8 && bytes.substr(0, 8) == "\x89PNG\r\n\x1a\n",
+               "decodePng(): not a PNG signature (", bytes.size(), " bytes)");
+  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1,
+                    const_cast<char*>(bytes.data()));
+  const cv::Mat image = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
+  VLN_CHECK_IO(!image.empty() && image.depth() == CV_8U,
+               "decodePng(): OpenCV cannot decode the ", bytes.size(),
+               " bytes as an 8-bit PNG");
+  DecodedImage out;
+  out.width = image.cols;
+  out.height = image.rows;
+  out.channels = image.channels();
+  cv::Mat ordered = image;
+  if (out.channels == 3) cv::cvtColor(image, ordered, cv::COLOR_BGR2RGB);
+  if (out.channels == 4) cv::cvtColor(image, ordered, cv::COLOR_BGRA2RGBA);
+  const cv::Mat packed = ordered.isContinuous() ? ordered : ordered.clone();
+  out.pixels.assign(packed.data, packed.data + packed.total() * packed.elemSize());
+  return out;
+}
+
 }  // namespace vln::viz
