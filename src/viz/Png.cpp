@@ -22,9 +22,15 @@ std::string encodePng(std::span<const uint8_t> pixels, int width, int height,
   // OpenCV writes BGR(A) in the order its Mat holds
   const cv::Mat image(height, width, CV_8UC(channels),
                       const_cast<uint8_t*>(pixels.data()));
-  cv::Mat ordered = image;
-  if (channels == 3) cv::cvtColor(image, ordered, cv::COLOR_RGB2BGR);
-  if (channels == 4) cv::cvtColor(image, ordered, cv::COLOR_RGBA2BGRA);
+  // converted into a Mat of its own: the caller's pixels are const
+  cv::Mat ordered;
+  if (channels == 3) {
+    cv::cvtColor(image, ordered, cv::COLOR_RGB2BGR);
+  } else if (channels == 4) {
+    cv::cvtColor(image, ordered, cv::COLOR_RGBA2BGRA);
+  } else {
+    ordered = image;
+  }
   std::vector<uint8_t> png;
   VLN_CHECK_IO(cv::imencode(".png", ordered, png),
                "encodePng(): OpenCV cannot encode a ", width, "x", height,
@@ -45,9 +51,14 @@ DecodedImage decodePng(std::string_view bytes) {
   out.width = image.cols;
   out.height = image.rows;
   out.channels = image.channels();
-  cv::Mat ordered = image;
-  if (out.channels == 3) cv::cvtColor(image, ordered, cv::COLOR_BGR2RGB);
-  if (out.channels == 4) cv::cvtColor(image, ordered, cv::COLOR_BGRA2RGBA);
+  cv::Mat ordered;
+  if (out.channels == 3) {
+    cv::cvtColor(image, ordered, cv::COLOR_BGR2RGB);
+  } else if (out.channels == 4) {
+    cv::cvtColor(image, ordered, cv::COLOR_BGRA2RGBA);
+  } else {
+    ordered = image;
+  }
   const cv::Mat packed = ordered.isContinuous() ? ordered : ordered.clone();
   out.pixels.assign(packed.data, packed.data + packed.total() * packed.elemSize());
   return out;
