@@ -9,12 +9,13 @@
 namespace vln::viz {
 namespace {
 
-// the colour cube's six levels are k * 51; the 40 extra greys sit between
-// them at round((i + 1) * 255 / 41), none equal to a cube level
+// the colour cube's six levels are k * 51; the 39 extra greys sit between
+// them at round((i + 1) * 255 / 41), none equal to a cube level; the last
+// entry is the transparent one
 constexpr int kCubeLevels = 6;
 constexpr int kCubeStep = 51;
 constexpr int kCubeColors = kCubeLevels * kCubeLevels * kCubeLevels;
-constexpr int kExtraGreys = kGifPaletteSize - kCubeColors;
+constexpr int kExtraGreys = kGifTransparentIndex - kCubeColors;
 
 // LZW over 8-bit indices (GIF89a appendix F): codes 0-255 are the indices
 // themselves, 256 clears the table, 257 ends the data
@@ -48,12 +49,12 @@ struct PaletteTables {
       const auto level = static_cast<uint8_t>(((i + 1) * 255 * 2 + 41) / 82);
       colors[static_cast<size_t>(kCubeColors + i)] = {level, level, level};
     }
-    // every grey of the palette (the cube's six and the extra 40); the
+    // every grey of the palette (the cube's six and the extra 39); the
     // distance from (r, g, b) to grey v is minimal where |3v - sum| is
     for (int sum = 0; sum <= 3 * 255; ++sum) {
       int best = 0;
       int bestDistance = 1 << 30;
-      for (int i = 0; i < kGifPaletteSize; ++i) {
+      for (int i = 0; i < kGifTransparentIndex; ++i) {
         const auto& c = colors[static_cast<size_t>(i)];
         if (c[0] != c[1] || c[1] != c[2]) continue;
         const int distance = std::abs(3 * c[0] - sum);
@@ -230,26 +231,60 @@ void GifEncoder::addFrame(std::span<const uint8_t> rgb, int delayCentiseconds) {
                 "GifEncoder::addFrame(): delay must be in 0..65535 "
                 "centiseconds, got ",
                 delayCentiseconds);
-  // graphic control extension: disposal 1 (leave the frame in place), no
-  // user input, no transparent colour
-  bytes_ += "\x21\xF9\x04";
-  bytes_.push_back(static_cast<char>(1 << 2));
-  putU16(bytes_, delayCentiseconds);
-  bytes_.push_back('\0');
-  bytes_.push_back('\0');
-  // image descriptor: the whole screen, global colour table, not interlaced
-  bytes_.push_back(static_cast<char>(0x2C));
-  putU16(bytes_, 0);
-  putU16(bytes_, 0);
-  putU16(bytes_, width_);
-  putU16(bytes_, height_);
-  bytes_.push_back('\0');
-
-  // palette indices, their LZW codes, then sub-blocks of <= 255 bytes
+  // palette indices of the whole frame
   std::vector<uint8_t> indices(static_cast<size_t>(width_) * height_);
   for (size_t i = 0; i < indices.size(); ++i)
     indices[i] = nearestGifColor(rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]);
-  const std::string packed = lzwCompress(indices);
+
+  // the rectangle to send: all of the first frame, then what changed
+  int left = 0, top = 0, right = width_, bottom = height_;  // exclusive
+  if (!previous_.empty()) {
+    left = width_;
+    top = height_;
+    right = 0;
+    bottom = 0;
+    for (int y = 0; y < height_; ++y)
+      for (int x = 0; x < width_; ++x) {
+        const size_t i = static_cast<size_t>(y) * width_ + x;
+        if (indices[i] == previous_[i]) continue;
+        left = std::min(left, x);
+        right = std::max(right, x + 1);
+        top = std::min(top, y);
+        bottom = std::max(bottom, y + 1);
+      }
+    if (right == 0) {  // nothing changed: one pixel, as it is
+      left = top = 0;
+      right = bottom = 1;
+    }
+  }
+std::vector<uint8_t> rectangle;
+  rectangle.reserve(static_cast<size_t>(right - left) * (bottom - top));
+  for (int y = top; y < bottom; ++y)
+    for (int x = left; x < right; ++x) {
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      const bool same = !previous_.empty() && indices[i] == previous_[i];
+      rectangle.push_back(same ? static_cast<uint8_t>(kGifTransparentIndex)
+                               : indices[i]);
+    }
+  previous_ = std::move(indices);
+
+  // graphic control extension: disposal 1 (leave the frame in place), no
+  // user input, transparent colour kGifTransparentIndex
+  bytes_ += "\x21\xF9\x04";
+  bytes_.push_back(static_cast<char>((1 << 2) | 1));
+  putU16(bytes_, delayCentiseconds);
+  bytes_.push_back(static_cast<char>(kGifTransparentIndex));
+  bytes_.push_back('\0');
+  // image descriptor: the rectangle, global colour table, not interlaced
+  bytes_.push_back(static_cast<char>(0x2C));
+  putU16(bytes_, left);
+  putU16(bytes_, top);
+  putU16(bytes_, right - left);
+  putU16(bytes_, bottom - top);
+  bytes_.push_back('\0');
+
+  // LZW codes, then sub-blocks of <= 255 bytes
+  const std::string packed = lzwCompress(rectangle);
   bytes_.push_back(static_cast<char>(kMinCodeSize));
   for (size_t at = 0; at < packed.size(); at += 255) {
     const size_t n = std::min<size_t>(255, packed.size() - at);
@@ -264,6 +299,7 @@ std::string GifEncoder::finish() {
   VLN_CHECK_ARG(!finished_, "GifEncoder::finish(): the GIF is finished");
   VLN_CHECK_ARG(frames_ > 0, "GifEncoder::finish(): a GIF needs a frame");
   finished_ = true;
+  previous_ = {};
   bytes_.push_back(static_cast<char>(0x3B));
   return std::move(bytes_);
 }

@@ -158,7 +158,8 @@ DecodedGif decodeGif(std::string_view bytes) {
         const uint8_t fields = in.u8();
         pending.disposal = (fields >> 2) & 0x07;
         pending.delay_cs = in.u16();
-        in.u8();  // transparent colour index
+        const uint8_t transparent = in.u8();
+        pending.transparent_index = (fields & 1) ? transparent : -1;
         if (in.u8() != 0) fail(blockAt, "graphic control terminator");
         pending.has_control = true;
       } else if (label == 0xFF) {
@@ -215,6 +216,7 @@ DecodedGif decodeGif(std::string_view bytes) {
       for (int x = 0; x < frame.width; ++x) {
         const uint8_t index =
             frame.indices[static_cast<size_t>(k) * frame.width + x];
+        if (index == frame.transparent_index) continue;
         if (index >= palette.size())
           fail(blockAt, "index " + std::to_string(index) +
                             " beyond the colour table");

@@ -17,13 +17,16 @@ struct GifFrame {
   int left = 0, top = 0, width = 0, height = 0;
   int delay_cs = 0;      ///< graphic control extension delay, 1/100 s
   int disposal = 0;      ///< graphic control extension disposal method
+  int transparent_index = -1;  ///< -1: no transparent colour
   bool has_control = false;
   bool interlaced = false;
   int min_code_size = 0;
   /// Palette indices of the frame rectangle in the order transmitted:
   /// [height, width] row-major unless interlaced.
   std::vector<uint8_t> indices;
-  /// The whole canvas after this frame, [screen height, width, 3] RGB.
+  /// The whole canvas after this frame, [screen height, width, 3] RGB
+  /// (transparent pixels keep what was there; disposal methods other than
+  /// 0 and 1 are not applied).
   std::vector<uint8_t> rgb;
   /// Clear codes met in the frame's data, the first one included.
   int clear_codes = 0;

@@ -121,7 +121,7 @@ TEST(TensorBoardWriterTest, ImagesAndVideosDecodeWithValidCrcs) {
   for (int f = 0; f < 3; ++f) {
     std::vector<uint8_t> frame;
     for (int p = 0; p < 12; ++p) {
-      const auto& c = viz::gifPalette()[static_cast<size_t>((p * 7 + f * 50) % 256)];
+      const auto& c = viz::gifPalette()[static_cast<size_t>((p * 7 + f * 50) % viz::kGifTransparentIndex)];
       frame.insert(frame.end(), c.begin(), c.end());
     }
     gif.addFrame(frame, 25);

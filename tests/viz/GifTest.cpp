@@ -2,14 +2,16 @@
 // tests/support/GifDecoder.cpp: the file's blocks, exact pixels after LZW
 // decoding (one frame, several frames, images long and noisy enough to
 // widen the codes to 12 bits and clear the table, every length from 1 to
-// 700 pixels so that the code width changes right at the end code), and
-// the nearest-colour mapping onto the fixed palette.
+// 700 pixels so that the code width changes right at the end code), later
+// frames sent as the rectangle that changed with the unchanged pixels
+// transparent, and the nearest-colour mapping onto the fixed palette.
 
 #include "viz/Gif.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 #include "support/GifDecoder.h"
@@ -43,7 +45,7 @@ int squaredDistance(const std::array<uint8_t, 3>& c, int r, int g, int b) {
 TEST(GifTest, SingleFrameHasTheBlocksAndExactPixels) {
   const int width = 37, height = 23;  // odd sizes
   const auto indices =
-      randomIndices(static_cast<size_t>(width) * height, 1, kGifPaletteSize);
+      randomIndices(static_cast<size_t>(width) * height, 1, kGifTransparentIndex);
   const std::vector<uint8_t> rgb = paletteImage(indices);
   const std::string bytes = encodeGif(rgb, width, height);
   ASSERT_EQ(bytes.substr(0, 6), "GIF89a");
@@ -79,11 +81,11 @@ TEST(GifTest, FramesKeepTheirPixelsAndDelays) {
   GifEncoder encoder(width, height);
   std::vector<std::vector<uint8_t>> frames;
   // noise, one flat colour, a gradient of greys
-  frames.push_back(paletteImage(randomIndices(n, 2, kGifPaletteSize)));
+  frames.push_back(paletteImage(randomIndices(n, 2, kGifTransparentIndex)));
   frames.push_back(paletteImage(std::vector<uint8_t>(n, 17)));
   std::vector<uint8_t> ramp(n);
   for (size_t i = 0; i < n; ++i)
-    ramp[i] = static_cast<uint8_t>(216 + i % 40);
+    ramp[i] = static_cast<uint8_t>(216 + i % 39);
   frames.push_back(paletteImage(ramp));
   const std::vector<int> delays = {25, 0, 400};
   for (size_t k = 0; k < frames.size(); ++k)
@@ -100,12 +102,48 @@ TEST(GifTest, FramesKeepTheirPixelsAndDelays) {
   }
 }
 
+TEST(GifTest, LaterFramesSendOnlyTheChangedRectangle) {
+  const int width = 20, height = 12;
+  const size_t n = static_cast<size_t>(width) * height;
+  const auto base = randomIndices(n, 6, kGifTransparentIndex);
+  // frame 1 changes pixels (3, 2) and (7, 5); frame 2 changes nothing
+  auto changed = base;
+  for (const int at : {2 * width + 3, 5 * width + 7})
+    changed[at] = static_cast<uint8_t>((base[at] + 1) % kGifTransparentIndex);
+  GifEncoder encoder(width, height);
+  encoder.addFrame(paletteImage(base), 10);
+  encoder.addFrame(paletteImage(changed), 10);
+  encoder.addFrame(paletteImage(changed), 10);
+  const test::DecodedGif gif = test::decodeGif(encoder.finish());
+  ASSERT_EQ(gif.frames.size(), 3u);
+  const test::GifFrame& whole = gif.frames[0];
+  EXPECT_EQ(whole.left, 0);
+  EXPECT_EQ(whole.top, 0);
+  EXPECT_EQ(whole.width, width);
+  EXPECT_EQ(whole.height, height);
+  const test::GifFrame& box = gif.frames[1];
+  EXPECT_EQ(box.left, 3);
+  EXPECT_EQ(box.top, 2);
+  EXPECT_EQ(box.width, 5);   // columns 3..7
+  EXPECT_EQ(box.height, 4);  // rows 2..5
+  // in it, the unchanged pixels are transparent
+  EXPECT_EQ(box.transparent_index, kGifTransparentIndex);
+  EXPECT_EQ(std::count(box.indices.begin(), box.indices.end(),
+                       kGifTransparentIndex),
+            5 * 4 - 2);
+  EXPECT_EQ(gif.frames[2].width * gif.frames[2].height, 1);
+  // drawn over the previous frame, every frame shows exactly its pixels
+  EXPECT_EQ(gif.frames[0].rgb, paletteImage(base));
+  EXPECT_EQ(gif.frames[1].rgb, paletteImage(changed));
+  EXPECT_EQ(gif.frames[2].rgb, paletteImage(changed));
+}
+
 TEST(GifTest, LongNoisyFramesWidenCodesAndClearTheTable) {
-  // 256-colour noise adds a table entry for almost every pixel: 4096 codes
+  // 255-colour noise adds a table entry for almost every pixel: 4096 codes
   // are used up after ~3,840 pixels, so 300 x 200 clears the table ~15 times
   const int width = 300, height = 200;
   const auto indices =
-      randomIndices(static_cast<size_t>(width) * height, 3, kGifPaletteSize);
+      randomIndices(static_cast<size_t>(width) * height, 3, kGifTransparentIndex);
   const test::DecodedGif gif =
       test::decodeGif(encodeGif(paletteImage(indices), width, height));
   ASSERT_EQ(gif.frames.size(), 1u);
@@ -133,7 +171,7 @@ TEST(GifTest, EveryLengthDecodes) {
   // the 255th code, so some lengths end exactly where the decoder widens
   // them before reading the end code
   for (int n = 1; n <= 700; ++n) {
-    const auto indices = randomIndices(static_cast<size_t>(n), 100 + n, 256);
+    const auto indices = randomIndices(static_cast<size_t>(n), 100 + n, kGifTransparentIndex);
     const auto decoded =
         test::decodeGif(encodeGif(paletteImage(indices), n, 1));
     ASSERT_EQ(decoded.frames[0].indices, indices) << "length " << n;
@@ -151,16 +189,17 @@ TEST(GifTest, PaletteIsTheColourCubeAndGreys) {
   EXPECT_EQ(palette[0], (std::array<uint8_t, 3>{0, 0, 0}));
   EXPECT_EQ(palette[215], (std::array<uint8_t, 3>{255, 255, 255}));
   EXPECT_EQ(palette[5 * 36 + 0 * 6 + 1], (std::array<uint8_t, 3>{255, 0, 51}));
-  for (int i = 216; i < 256; ++i) {
+  for (int i = 216; i < kGifTransparentIndex; ++i) {
     const auto& c = palette[static_cast<size_t>(i)];
     EXPECT_TRUE(c[0] == c[1] && c[1] == c[2]) << i;
     EXPECT_NE(c[0] % 51, 0) << i;  // not one of the cube's greys
   }
+  EXPECT_EQ(kGifTransparentIndex, 255);
 }
 
 TEST(GifTest, ColoursMapToTheNearestPaletteEntry) {
-  // palette colours map to themselves
-  for (int i = 0; i < kGifPaletteSize; ++i) {
+  // palette colours map to themselves (the transparent entry is no colour)
+  for (int i = 0; i < kGifTransparentIndex; ++i) {
     const auto& c = gifPalette()[static_cast<size_t>(i)];
     EXPECT_EQ(nearestGifColor(c[0], c[1], c[2]), i);
   }
@@ -171,9 +210,11 @@ TEST(GifTest, ColoursMapToTheNearestPaletteEntry) {
     const auto g = k % 3 == 0 ? r : static_cast<uint8_t>(rng());
     const auto b = k % 3 == 0 ? r : static_cast<uint8_t>(rng());
     int best = 1 << 30;
-    for (const auto& c : gifPalette())
-      best = std::min(best, squaredDistance(c, r, g, b));
+    for (int i = 0; i < kGifTransparentIndex; ++i)
+      best = std::min(
+          best, squaredDistance(gifPalette()[static_cast<size_t>(i)], r, g, b));
     const uint8_t chosen = nearestGifColor(r, g, b);
+    ASSERT_NE(chosen, kGifTransparentIndex);
     ASSERT_EQ(squaredDistance(gifPalette()[chosen], r, g, b), best)
         << int(r) << "," << int(g) << "," << int(b);
   }
