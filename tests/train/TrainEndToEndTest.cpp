@@ -219,8 +219,7 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
 // position) at step 0, the checkpoint, and metrics.jsonl lists them.
 // Prints the sizes of the maps and videos.
 TEST_F(TrainEndToEndTest, TensorBoardMapsAndVideosOfThePeriodicEvaluation) {
-  const fs::path config = writeConfig("  epochs: 1
-", "seq2seq");
+  const fs::path config = writeConfig("  epochs: 1\n", "seq2seq");
   std::string output;
   ASSERT_EQ(vln::test::runCommand(
                 trainCommand(config,
