@@ -34,8 +34,8 @@ void writeMedia(std::vector<viz::EpisodeMediaItem> items,
                      {"bytes", item.encoded.size()}});
   }
   metrics.write("eval_media",
-                {{"checkpoint", index}, {"split", split}, {"media", media}},
-                {}, index);
+                {{"checkpoint", index}, {"split", split}, {"media", media}}, {},
+                index);
 }
 
 }  // namespace

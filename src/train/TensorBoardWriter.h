@@ -49,8 +49,8 @@ class TensorBoardWriter {
   /// `channels` 1 (grey), 3 (RGB) or 4 (RGBA); std::invalid_argument names
   /// the tag otherwise.
   void addImage(const std::string& tag, int64_t step,
-                const std::string& encoded, int width, int height,
-                int channels, double wallTime = -1.0);
+                const std::string& encoded, int width, int height, int channels,
+                double wallTime = -1.0);
   const std::filesystem::path& file() const { return file_; }
 
  private:

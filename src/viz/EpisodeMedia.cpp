@@ -68,9 +68,8 @@ class EpisodeMedia::Video {
         depthScale_(depthScale),
         panelHeight_(config.video_height),
         delay_(static_cast<int>(std::lround(100.0 / config.fps))),
-        holdDelay_(std::max(
-            delay_,
-            static_cast<int>(std::lround(100.0 * config.hold_last_seconds)))) {
+        holdDelay_(std::max(delay_, static_cast<int>(std::lround(
+                                        100.0 * config.hold_last_seconds)))) {
     VLN_CHECK_ARG(first.rgb_width > 0 && first.rgb_height > 0 &&
                       first.depth_width > 0 && first.depth_height > 0,
                   "EpisodeMedia: episode ", episodeId_,
@@ -110,12 +109,12 @@ class EpisodeMedia::Video {
         static_cast<double>(kMaxMapAspect * panelHeight_) / map_->width());
     const int mapWidth =
         std::max(1, static_cast<int>(std::lround(map_->width() * mapScale_)));
-    const int mapHeight = std::clamp(
-        static_cast<int>(std::lround(map_->height() * mapScale_)), 1,
-        panelHeight_);
+    const int mapHeight =
+        std::clamp(static_cast<int>(std::lround(map_->height() * mapScale_)), 1,
+                   panelHeight_);
     mapTop_ = (panelHeight_ - mapHeight) / 2;
-    mapPanel_ = cv::Mat(panelHeight_, mapWidth, CV_8UC3,
-                        cv::Scalar(255, 255, 255));
+    mapPanel_ =
+        cv::Mat(panelHeight_, mapWidth, CV_8UC3, cv::Scalar(255, 255, 255));
     const cv::Mat full(map_->height(), map_->width(), CV_8UC3,
                        const_cast<uint8_t*>(map_->rgb().data()));
     scaled(full, mapWidth, mapHeight)
@@ -184,8 +183,8 @@ class EpisodeMedia::Video {
       std::snprintf(caption + n, sizeof(caption) - n, "  %.1f m to goal",
                     static_cast<double>(distance));
     cv::putText(frame, caption, cv::Point(3, panelHeight_ + 10),
-                cv::FONT_HERSHEY_SIMPLEX, kFontScale, cv::Scalar(40, 40, 40),
-                1, cv::LINE_AA);
+                cv::FONT_HERSHEY_SIMPLEX, kFontScale, cv::Scalar(40, 40, 40), 1,
+                cv::LINE_AA);
 
     if (!pending_.empty()) gif_->addFrame(pending_, delay_);
     pending_.assign(frame.data, frame.data + frame.total() * 3);
@@ -208,9 +207,9 @@ class EpisodeMedia::Video {
   // pixel of the map panel showing a world point
   cv::Point toPanel(const Vec3f& p) const {
     const Eigen::Vector2i pixel = map_->toPixel(p);
-    return {static_cast<int>(std::lround((pixel.x() + 0.5) * mapScale_)),
-            mapTop_ +
-                static_cast<int>(std::lround((pixel.y() + 0.5) * mapScale_))};
+    return {
+        static_cast<int>(std::lround((pixel.x() + 0.5) * mapScale_)),
+        mapTop_ + static_cast<int>(std::lround((pixel.y() + 0.5) * mapScale_))};
   }
 
   std::string episodeId_;
@@ -277,8 +276,7 @@ void EpisodeMedia::episodeStepped(int /*index*/, rollout::VectorEnv& envs,
       distanceToGoal(simulator, envs.episode(env), state.agent.position));
 }
 
-void EpisodeMedia::episodeFinished(int index, rollout::VectorEnv& envs,
-                                   int env,
+void EpisodeMedia::episodeFinished(int index, rollout::VectorEnv& envs, int env,
                                    const rollout::EpisodeResult& result,
                                    bool scored) {
   if (const auto it = videos_.find(env); it != videos_.end()) {

@@ -201,8 +201,8 @@ uint8_t nearestGifColor(uint8_t r, uint8_t g, uint8_t b) {
 
 GifEncoder::GifEncoder(int width, int height) : width_(width), height_(height) {
   VLN_CHECK_ARG(width >= 1 && width <= 65535 && height >= 1 && height <= 65535,
-                "GifEncoder: width and height must be in 1..65535, got ",
-                width, "x", height);
+                "GifEncoder: width and height must be in 1..65535, got ", width,
+                "x", height);
   // header and logical screen descriptor: global colour table of 2^(7+1)
   // entries, 8 bits per primary, background index 0, square pixels
   bytes_ = "GIF89a";
@@ -257,7 +257,7 @@ void GifEncoder::addFrame(std::span<const uint8_t> rgb, int delayCentiseconds) {
       right = bottom = 1;
     }
   }
-std::vector<uint8_t> rectangle;
+  std::vector<uint8_t> rectangle;
   rectangle.reserve(static_cast<size_t>(right - left) * (bottom - top));
   for (int y = top; y < bottom; ++y)
     for (int x = left; x < right; ++x) {

@@ -14,11 +14,11 @@ std::string encodePng(std::span<const uint8_t> pixels, int width, int height,
                       int channels) {
   VLN_CHECK_ARG(channels == 1 || channels == 3 || channels == 4,
                 "encodePng(): channels must be 1, 3 or 4, got ", channels);
-  VLN_CHECK_ARG(width > 0 && height > 0 &&
-                    pixels.size() ==
-                        static_cast<size_t>(width) * height * channels,
-                "encodePng(): expected ", width, "x", height, "x", channels,
-                " bytes, got ", pixels.size());
+  VLN_CHECK_ARG(
+      width > 0 && height > 0 &&
+          pixels.size() == static_cast<size_t>(width) * height * channels,
+      "encodePng(): expected ", width, "x", height, "x", channels,
+      " bytes, got ", pixels.size());
   // OpenCV writes BGR(A) in the order its Mat holds
   const cv::Mat image(height, width, CV_8UC(channels),
                       const_cast<uint8_t*>(pixels.data()));
@@ -33,8 +33,8 @@ std::string encodePng(std::span<const uint8_t> pixels, int width, int height,
   }
   std::vector<uint8_t> png;
   VLN_CHECK_IO(cv::imencode(".png", ordered, png),
-               "encodePng(): OpenCV cannot encode a ", width, "x", height,
-               "x", channels, " image as PNG");
+               "encodePng(): OpenCV cannot encode a ", width, "x", height, "x",
+               channels, " image as PNG");
   return std::string(png.begin(), png.end());
 }
 
@@ -60,7 +60,8 @@ DecodedImage decodePng(std::string_view bytes) {
     ordered = image;
   }
   const cv::Mat packed = ordered.isContinuous() ? ordered : ordered.clone();
-  out.pixels.assign(packed.data, packed.data + packed.total() * packed.elemSize());
+  out.pixels.assign(packed.data,
+                    packed.data + packed.total() * packed.elemSize());
   return out;
 }
 

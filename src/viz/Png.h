@@ -21,7 +21,7 @@ std::string encodePng(std::span<const uint8_t> pixels, int width, int height,
 struct DecodedImage {
   int width = 0;
   int height = 0;
-  int channels = 0;  ///< 1 (grey), 3 (RGB) or 4 (RGBA)
+  int channels = 0;             ///< 1 (grey), 3 (RGB) or 4 (RGBA)
   std::vector<uint8_t> pixels;  ///< [height, width, channels] row-major
 };
 

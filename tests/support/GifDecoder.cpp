@@ -201,8 +201,7 @@ DecodedGif decodeGif(std::string_view bytes) {
     frame.min_code_size = in.u8();
     const std::string data = in.subBlocks();
     const size_t count = static_cast<size_t>(frame.width) * frame.height;
-    frame.indices =
-        lzwDecode(data, frame.min_code_size, count, blockAt, frame);
+    frame.indices = lzwDecode(data, frame.min_code_size, count, blockAt, frame);
     // interlaced rows come in passes 0, 4, 2, 1 (every 8th, 8th, 4th, 2nd)
     std::vector<int> rowOrder;
     if (frame.interlaced) {
@@ -218,8 +217,8 @@ DecodedGif decodeGif(std::string_view bytes) {
             frame.indices[static_cast<size_t>(k) * frame.width + x];
         if (index == frame.transparent_index) continue;
         if (index >= palette.size())
-          fail(blockAt, "index " + std::to_string(index) +
-                            " beyond the colour table");
+          fail(blockAt,
+               "index " + std::to_string(index) + " beyond the colour table");
         const size_t at =
             (static_cast<size_t>(frame.top + rowOrder[static_cast<size_t>(k)]) *
                  gif.width +
@@ -231,8 +230,8 @@ DecodedGif decodeGif(std::string_view bytes) {
     gif.frames.push_back(std::move(frame));
   }
   if (in.at != bytes.size())
-    fail(in.at, std::to_string(bytes.size() - in.at) +
-                    " bytes after the trailer");
+    fail(in.at,
+         std::to_string(bytes.size() - in.at) + " bytes after the trailer");
   if (gif.frames.empty()) fail(in.at, "no image");
   return gif;
 }

@@ -15,8 +15,8 @@ namespace vln::test {
 
 struct GifFrame {
   int left = 0, top = 0, width = 0, height = 0;
-  int delay_cs = 0;      ///< graphic control extension delay, 1/100 s
-  int disposal = 0;      ///< graphic control extension disposal method
+  int delay_cs = 0;            ///< graphic control extension delay, 1/100 s
+  int disposal = 0;            ///< graphic control extension disposal method
   int transparent_index = -1;  ///< -1: no transparent colour
   bool has_control = false;
   bool interlaced = false;

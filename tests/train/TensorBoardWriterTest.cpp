@@ -100,13 +100,13 @@ TEST(TensorBoardWriterTest, ImageEventBytesMatchTheProtobufEncoding) {
   expected += '\x09';
   const double wall = 2.0;
   expected.append(reinterpret_cast<const char*>(&wall), 8);
-  expected += "\x10\x07";  // step 7
-  expected += "\x2a\x13";  // field 5, 19 bytes
-  expected += "\x0a\x11";  // Summary.value, 17 bytes
-  expected += "\x0a\x01m";  // tag
-  expected += "\x22\x0c";  // Value.image (field 4), 12 bytes
+  expected += "\x10\x07";                  // step 7
+  expected += "\x2a\x13";                  // field 5, 19 bytes
+  expected += "\x0a\x11";                  // Summary.value, 17 bytes
+  expected += "\x0a\x01m";                 // tag
+  expected += "\x22\x0c";                  // Value.image (field 4), 12 bytes
   expected += "\x08\x02\x10\x03\x18\x03";  // height 2, width 3, colorspace 3
-  expected += "\x22\x04PNG!";  // encoded_image_string
+  expected += "\x22\x04PNG!";              // encoded_image_string
   EXPECT_EQ(event, expected);
 }
 
@@ -121,7 +121,8 @@ TEST(TensorBoardWriterTest, ImagesAndVideosDecodeWithValidCrcs) {
   for (int f = 0; f < 3; ++f) {
     std::vector<uint8_t> frame;
     for (int p = 0; p < 12; ++p) {
-      const auto& c = viz::gifPalette()[static_cast<size_t>((p * 7 + f * 50) % viz::kGifTransparentIndex)];
+      const auto& c = viz::gifPalette()[static_cast<size_t>(
+          (p * 7 + f * 50) % viz::kGifTransparentIndex)];
       frame.insert(frame.end(), c.begin(), c.end());
     }
     gif.addFrame(frame, 25);
@@ -137,9 +138,9 @@ TEST(TensorBoardWriterTest, ImagesAndVideosDecodeWithValidCrcs) {
     writer.addScalar("eval/val_seen/spl", 0.5, 3);
     writer.addImage("eval/val_seen/map/episode_7", 3, png, 5, 4, 3);
     writer.addImage("eval/val_seen/video/episode_7", 3, video, 6, 2, 3, 99.0);
-    EXPECT_THAT([&] { writer.addImage("x", 0, png, 5, 4, 2); },
-                ::testing::ThrowsMessage<std::invalid_argument>(
-                    HasSubstr("'x'")));
+    EXPECT_THAT(
+        [&] { writer.addImage("x", 0, png, 5, 4, 2); },
+        ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("'x'")));
   }
   // every record's CRCs are checked by the reader
   const TensorBoardFile decoded = readTensorBoardFile(file);

@@ -221,12 +221,12 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
 TEST_F(TrainEndToEndTest, TensorBoardMapsAndVideosOfThePeriodicEvaluation) {
   const fs::path config = writeConfig("  epochs: 1\n", "seq2seq");
   std::string output;
-  ASSERT_EQ(vln::test::runCommand(
-                trainCommand(config,
-                             "--set eval.tensorboard_maps=2 --set "
-                             "eval.tensorboard_videos=1"),
-                &output),
-            0)
+  ASSERT_EQ(
+      vln::test::runCommand(trainCommand(config,
+                                         "--set eval.tensorboard_maps=2 --set "
+                                         "eval.tensorboard_videos=1"),
+                            &output),
+      0)
       << output;
   const fs::path run = dir_ / "run";
   const auto events = eventFiles(run / "tb");
@@ -251,8 +251,8 @@ TEST_F(TrainEndToEndTest, TensorBoardMapsAndVideosOfThePeriodicEvaluation) {
     const data::Split episodes = data::loadSplit(world_->data, split, 2);
     ASSERT_EQ(episodes.episodes.size(), 2u);
     for (int i = 0; i < 2; ++i) {
-      const std::string id = std::to_string(
-          episodes.episodes[static_cast<size_t>(i)].episode_id);
+      const std::string id =
+          std::to_string(episodes.episodes[static_cast<size_t>(i)].episode_id);
       const std::string mapTag = "eval/" + split + "/map/episode_" + id;
       ASSERT_TRUE(images.count(mapTag)) << mapTag;
       const TensorBoardImage& map = *images[mapTag];

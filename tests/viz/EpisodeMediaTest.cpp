@@ -108,8 +108,9 @@ TEST(EpisodeMediaTest, MapsAndVideosOfTheFirstEpisodes) {
     EXPECT_EQ(item.kind, i < 3 ? EpisodeMediaItem::Kind::kMap
                                : EpisodeMediaItem::Kind::kVideo);
     EXPECT_EQ(item.index, index);
-    EXPECT_EQ(item.episode_id,
-              std::to_string(w.episodes[static_cast<size_t>(index)].episode_id));
+    EXPECT_EQ(
+        item.episode_id,
+        std::to_string(w.episodes[static_cast<size_t>(index)].episode_id));
     EXPECT_EQ(item.channels, 3);
   }
   EXPECT_STREQ(mediaKindName(items[0].kind), "map");
@@ -118,10 +119,9 @@ TEST(EpisodeMediaTest, MapsAndVideosOfTheFirstEpisodes) {
   // a map is drawEpisodeMap()'s image, losslessly
   for (int i = 0; i < 3; ++i) {
     const EpisodeMediaItem& item = items[static_cast<size_t>(i)];
-    const sim::TopDownMap expected =
-        drawEpisodeMap(*w.scene, result.episodes[static_cast<size_t>(i)].record,
-                       /*hasGoal=*/true, config.success_distance,
-                       config.meters_per_pixel);
+    const sim::TopDownMap expected = drawEpisodeMap(
+        *w.scene, result.episodes[static_cast<size_t>(i)].record,
+        /*hasGoal=*/true, config.success_distance, config.meters_per_pixel);
     const DecodedImage png = decodePng(item.encoded);
     EXPECT_EQ(png.width, expected.width());
     EXPECT_EQ(png.height, expected.height());
@@ -208,15 +208,15 @@ TEST(EpisodeMediaTest, OnlyMapsAskForNoFrames) {
 }
 
 TEST(EpisodeMediaTest, BadSettingsAreErrors) {
-  EXPECT_THAT([] { EpisodeMedia(MediaConfig{.maps = -1}); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("maps -1")));
+  EXPECT_THAT(
+      [] { EpisodeMedia(MediaConfig{.maps = -1}); },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("maps -1")));
   EXPECT_THAT([] { EpisodeMedia(MediaConfig{.videos = 1, .video_height = 8}); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("video height")));
-  EXPECT_THAT([] { EpisodeMedia(MediaConfig{.fps = 0.0}); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("fps")));
+  EXPECT_THAT(
+      [] { EpisodeMedia(MediaConfig{.fps = 0.0}); },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("fps")));
 }
 
 // The sizes docs/paper_scale.md quotes: the main job's 64x64 cameras, a

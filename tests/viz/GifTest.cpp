@@ -44,8 +44,8 @@ int squaredDistance(const std::array<uint8_t, 3>& c, int r, int g, int b) {
 
 TEST(GifTest, SingleFrameHasTheBlocksAndExactPixels) {
   const int width = 37, height = 23;  // odd sizes
-  const auto indices =
-      randomIndices(static_cast<size_t>(width) * height, 1, kGifTransparentIndex);
+  const auto indices = randomIndices(static_cast<size_t>(width) * height, 1,
+                                     kGifTransparentIndex);
   const std::vector<uint8_t> rgb = paletteImage(indices);
   const std::string bytes = encodeGif(rgb, width, height);
   ASSERT_EQ(bytes.substr(0, 6), "GIF89a");
@@ -84,8 +84,7 @@ TEST(GifTest, FramesKeepTheirPixelsAndDelays) {
   frames.push_back(paletteImage(randomIndices(n, 2, kGifTransparentIndex)));
   frames.push_back(paletteImage(std::vector<uint8_t>(n, 17)));
   std::vector<uint8_t> ramp(n);
-  for (size_t i = 0; i < n; ++i)
-    ramp[i] = static_cast<uint8_t>(216 + i % 39);
+  for (size_t i = 0; i < n; ++i) ramp[i] = static_cast<uint8_t>(216 + i % 39);
   frames.push_back(paletteImage(ramp));
   const std::vector<int> delays = {25, 0, 400};
   for (size_t k = 0; k < frames.size(); ++k)
@@ -128,9 +127,9 @@ TEST(GifTest, LaterFramesSendOnlyTheChangedRectangle) {
   EXPECT_EQ(box.height, 4);  // rows 2..5
   // in it, the unchanged pixels are transparent
   EXPECT_EQ(box.transparent_index, kGifTransparentIndex);
-  EXPECT_EQ(std::count(box.indices.begin(), box.indices.end(),
-                       kGifTransparentIndex),
-            5 * 4 - 2);
+  EXPECT_EQ(
+      std::count(box.indices.begin(), box.indices.end(), kGifTransparentIndex),
+      5 * 4 - 2);
   EXPECT_EQ(gif.frames[2].width * gif.frames[2].height, 1);
   // drawn over the previous frame, every frame shows exactly its pixels
   EXPECT_EQ(gif.frames[0].rgb, paletteImage(base));
@@ -142,8 +141,8 @@ TEST(GifTest, LongNoisyFramesWidenCodesAndClearTheTable) {
   // 255-colour noise adds a table entry for almost every pixel: 4096 codes
   // are used up after ~3,840 pixels, so 300 x 200 clears the table ~15 times
   const int width = 300, height = 200;
-  const auto indices =
-      randomIndices(static_cast<size_t>(width) * height, 3, kGifTransparentIndex);
+  const auto indices = randomIndices(static_cast<size_t>(width) * height, 3,
+                                     kGifTransparentIndex);
   const test::DecodedGif gif =
       test::decodeGif(encodeGif(paletteImage(indices), width, height));
   ASSERT_EQ(gif.frames.size(), 1u);
@@ -171,7 +170,8 @@ TEST(GifTest, EveryLengthDecodes) {
   // the 255th code, so some lengths end exactly where the decoder widens
   // them before reading the end code
   for (int n = 1; n <= 700; ++n) {
-    const auto indices = randomIndices(static_cast<size_t>(n), 100 + n, kGifTransparentIndex);
+    const auto indices =
+        randomIndices(static_cast<size_t>(n), 100 + n, kGifTransparentIndex);
     const auto decoded =
         test::decodeGif(encodeGif(paletteImage(indices), n, 1));
     ASSERT_EQ(decoded.frames[0].indices, indices) << "length " << n;
