@@ -13,36 +13,59 @@ int main(int argc, char** argv) {
   // 672 steps/s with PASSIVE (docs/performance.md, "Evaluation").
   vln::common::pinNumericalRuntime("eval", argv, /*passiveOmpWait=*/true);
   return vln::common::runMain("eval", [&] {
-    CLI::App app{"Evaluate VLN-CE checkpoints, exports and baselines; build the paper's tables"};
+    CLI::App app{
+        "Evaluate VLN-CE checkpoints, exports and baselines; build the paper's "
+        "tables"};
     std::filesystem::path config;
     std::vector<std::string> overrides;
     std::string logLevel = "info";
     vln::eval::EvalCommandOptions options;
     int episodes = 0, maps = 0, videos = 0, index = 0;
     app.add_option("--config", config, "Run config YAML");
-    app.add_option("--set", overrides, "Override: section.key=value (repeatable)");
-    app.add_option("--checkpoint", options.checkpoint,
-                   "ckpt.<i>.pth, a directory of them, or a TorchScript .pt export");
-    app.add_option("--agent", options.agent, "Evaluate a baseline instead: random or handcrafted");
-    app.add_option("--split", options.splits, "Split to evaluate (repeatable; default eval.splits)");
-    auto* episodesOption =
-        app.add_option("--episodes", episodes, "Episodes per split (default eval.episodes)");
-    app.add_option("--out", options.out, "Output directory (default <output.dir>/eval)");
+    app.add_option("--set", overrides,
+                   "Override: section.key=value (repeatable)");
+    app.add_option(
+        "--checkpoint", options.checkpoint,
+        "ckpt.<i>.pth, a directory of them, or a TorchScript .pt export");
+    app.add_option("--agent", options.agent,
+                   "Evaluate a baseline instead: random or handcrafted");
+    app.add_option("--split", options.splits,
+                   "Split to evaluate (repeatable; default eval.splits)");
+    auto* episodesOption = app.add_option(
+        "--episodes", episodes, "Episodes per split (default eval.episodes)");
+    app.add_option("--out", options.out,
+                   "Output directory (default <output.dir>/eval)");
     app.add_option("--navgraph", options.navgraph,
-                   "Directory of <scan>_connectivity.json: also score on the nav-graph (Table 3)");
-    auto* mapsOption = app.add_option("--maps", maps, "Top-down maps per split (default eval.map_episodes)");
-    auto* videosOption = app.add_option("--videos", videos, "Videos per split (default eval.video_episodes)");
-    app.add_option("--video-format", options.video_format, "Video container: avi (MJPG) or mp4 (mp4v)");
+                   "Directory of <scan>_connectivity.json: also score on the "
+                   "nav-graph (Table 3)");
+    auto* mapsOption = app.add_option(
+        "--maps", maps, "Top-down maps per split (default eval.map_episodes)");
+    auto* videosOption = app.add_option(
+        "--videos", videos, "Videos per split (default eval.video_episodes)");
+    app.add_option("--video-format", options.video_format,
+                   "Video container: avi (MJPG) or mp4 (mp4v)");
+    app.add_option("--report", options.report,
+                   "Write an HTML report (one page per checkpoint and split, "
+                   "and an index) "
+                   "into this folder");
+    app.add_option("--report-episodes", options.report_episodes,
+                   "Episodes per report page with a map, frames and attention "
+                   "(default 5)");
     auto* indexOption = app.add_option(
-        "--index", index, "Checkpoint index in file names for an export or a baseline");
-    app.add_option("--log-level", logLevel, "trace, debug, info, warn or error");
+        "--index", index,
+        "Checkpoint index in file names for an export or a baseline");
+    app.add_option("--log-level", logLevel,
+                   "trace, debug, info, warn or error");
 
     // the subcommands that read result folders: both take --runs and --out
-    auto resultsCommand = [&](const char* name, const char* help, std::filesystem::path& runs,
+    auto resultsCommand = [&](const char* name, const char* help,
+                              std::filesystem::path& runs,
                               std::filesystem::path& out, const char* outHelp) {
       CLI::App* command = app.add_subcommand(name, help);
-      command->add_option("--runs", runs,
-                          "Results directory (run folders at any depth, each with run.json)")
+      command
+          ->add_option("--runs", runs,
+                       "Results directory (run folders at any depth, each with "
+                       "run.json)")
           ->required();
       command->add_option("--out", out, outHelp)->required();
       return command;
@@ -50,15 +73,19 @@ int main(int argc, char** argv) {
     vln::eval::TablesCommandOptions tables;
     CLI::App* tablesCommand = resultsCommand(
         "tables",
-        "Rebuild the paper's Tables 1-3 from result files, ours beside the paper's; several runs "
-        "of one row (one per seed) print mean ± 95% Student t half-width and their count n",
+        "Rebuild the paper's Tables 1-3 from result files, ours beside the "
+        "paper's; several runs "
+        "of one row (one per seed) print mean ± 95% Student t half-width and "
+        "their count n",
         tables.runs, tables.out, "Markdown file (LaTeX written beside it)");
-    tablesCommand->add_flag("--claimed-only", tables.claimed_only,
-                            "Only the rows some run claims (and tables that have one)");
+    tablesCommand->add_flag(
+        "--claimed-only", tables.claimed_only,
+        "Only the rows some run claims (and tables that have one)");
     vln::eval::CompareCommandOptions compare;
     CLI::App* compareCommand = resultsCommand(
         "compare",
-        "Judge the paper's findings (row A beats row B) by paired differences over seeds on "
+        "Judge the paper's findings (row A beats row B) by paired differences "
+        "over seeds on "
         "val_unseen SR and SPL: holds, does not hold or cannot tell",
         compare.runs, compare.out, "Markdown file");
     try {
@@ -67,10 +94,13 @@ int main(int argc, char** argv) {
       return app.exit(error);
     }
     vln::common::initLogging({}, logLevel);
-    if (tablesCommand->parsed()) return vln::eval::runTablesCommand(tables, std::cout);
-    if (compareCommand->parsed()) return vln::eval::runCompareCommand(compare, std::cout);
+    if (tablesCommand->parsed())
+      return vln::eval::runTablesCommand(tables, std::cout);
+    if (compareCommand->parsed())
+      return vln::eval::runCompareCommand(compare, std::cout);
 
-    if (config.empty()) throw std::invalid_argument("eval: --config is required");
+    if (config.empty())
+      throw std::invalid_argument("eval: --config is required");
     if (*episodesOption) options.episodes = episodes;
     if (*mapsOption) options.maps = maps;
     if (*videosOption) options.videos = videos;

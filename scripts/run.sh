@@ -7,7 +7,8 @@
 #   4. the default Cross-Modal Attention policy (configs/main.yaml);
 #   5. evaluation of its best checkpoint and of the random and hand-crafted
 #      baselines on all of val_seen and val_unseen: metrics JSON,
-#      per-episode files and top-down maps under results/main/<agent>/;
+#      per-episode files and top-down maps under results/main/<agent>/, and
+#      an HTML report of the CMA's episodes (results/main/cma/report);
 #   6. the results table (results/main/table.md, .tex), printed at the end:
 #      the paper rows this job claims, its numbers beside the paper's (the
 #      whole reproduction is scripts/reproduce_paper.sh).
@@ -42,7 +43,7 @@ vln_evaluate $results/cma $config \
     \"seed\": $seed, \"checkpoint\": $best, \"vision\": \"RGBD\", \"instruction\": true, \"history\": true,
     \"pm\": false, \"da\": \"dagger\", \"aug\": true,
     \"notes\": \"one DAgger run from scratch whose iteration 0 is teacher forcing on train + train_aug; the paper's row 12 fine-tunes an Aug run with DA*\"}" \
-  --checkpoint $run/checkpoints/ckpt.$best.pth
+  --checkpoint $run/checkpoints/ckpt.$best.pth --report $results/cma/report
 vln_evaluate $results/random $config \
   '{"model": "Random", "rows": [{"table": 1, "row": "Random"}], "checkpoint": 0,
     "vision": "-", "instruction": false, "history": false}' --agent random --maps 0
@@ -53,4 +54,4 @@ vln_evaluate $results/handcrafted $config \
 vln_stamp "tables"
 "$vln_bin/eval" tables --runs $results --out $results/table.md --claimed-only
 cat $results/table.md
-vln_stamp "done: maps in $results/cma/pictures, metrics in $results/*/stats_ckpt_*.json"
+vln_stamp "done: maps in $results/cma/pictures, report in $results/cma/report/index.html, metrics in $results/*/stats_ckpt_*.json"

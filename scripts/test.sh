@@ -2,6 +2,9 @@
 # Sets up (if needed), builds, and runs the whole test suite.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+# the HTML report's test opens the page in a real headless browser
+source scripts/packages.sh
+vln_install_missing test chromium
 scripts/setup.sh
 build_dir=${VLN_BUILD_DIR:-build}
 cd "$build_dir"

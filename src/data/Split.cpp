@@ -6,7 +6,9 @@ Split loadSplit(const std::filesystem::path& root, const std::string& name,
                 int cap) {
   Split split;
   split.name = name;
-  split.episodes = readEpisodes(splitEpisodesPath(root, name)).episodes;
+  EpisodeDataset dataset = readEpisodes(splitEpisodesPath(root, name));
+  split.episodes = std::move(dataset.episodes);
+  split.vocabulary = std::move(dataset.instruction_vocab);
   keepEvenlySpaced(split.episodes, cap);
   for (const Episode& e : split.episodes)
     if (!e.goals.empty()) split.hasGoals = true;

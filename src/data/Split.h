@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,8 @@ struct Split {
   std::unique_ptr<GroundTruth> groundTruth;
   /// Some episode has a goal (false for a test split without them).
   bool hasGoals = false;
+  /// The file's instruction_vocab, when it has one (what the tokens mean).
+  std::optional<Vocabulary> vocabulary;
 };
 
 /// Reads split `name` under `root` (splitEpisodesPath()), keeps `cap`

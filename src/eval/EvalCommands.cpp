@@ -20,7 +20,6 @@
 #include "data/Split.h"
 #include "data/TransferConfig.h"
 #include "eval/BaselineAgents.h"
-#include "viz/EpisodePictures.h"
 #include "eval/PaperFindings.h"
 #include "eval/Tables.h"
 #include "models/ObservationEncoder.h"
@@ -30,6 +29,8 @@
 #include "rollout/ScriptedPolicyAgent.h"
 #include "rollout/VectorEnv.h"
 #include "train/Checkpoint.h"
+#include "viz/EpisodePictures.h"
+#include "viz/EpisodeReport.h"
 
 namespace vln::eval {
 namespace fs = std::filesystem;
@@ -52,10 +53,10 @@ data::Split loadSplit(const train::ExperimentConfig& config,
 // one thing to evaluate: a checkpoint, an export or a baseline
 struct Candidate {
   int index = 0;
-  std::string label;       // for logs: the file or the baseline name
-  fs::path checkpoint;     // set for checkpoint files
-  fs::path scripted;       // set for TorchScript exports
-  std::string baseline;    // set for baselines
+  std::string label;     // for logs: the file or the baseline name
+  fs::path checkpoint;   // set for checkpoint files
+  fs::path scripted;     // set for TorchScript exports
+  std::string baseline;  // set for baselines
 };
 
 std::unique_ptr<rollout::Agent> policyAgent(
@@ -149,12 +150,31 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   if (pictures.map_episodes > 0 || pictures.video_episodes > 0)
     observer = std::make_unique<viz::EpisodePictures>(pictures);
 
+  // the HTML report, when asked for
+  std::unique_ptr<viz::EpisodeReport> htmlReport;
+  if (!ctx.options.report.empty()) {
+    viz::ReportConfig rc;
+    const std::string who = candidate.baseline.empty()
+                                ? "ckpt_" + std::to_string(candidate.index)
+                                : candidate.baseline;
+    rc.dir = ctx.options.report / (who + "_" + split.name);
+    rc.title = candidate.label + " on " + split.name;
+    rc.detail_episodes = ctx.options.report_episodes;
+    rc.success_distance = c.task.success_distance;
+    rc.vocabulary = split.vocabulary ? &*split.vocabulary : nullptr;
+    rc.max_instruction_length = c.dataset.max_instruction_length;
+    htmlReport = std::make_unique<viz::EpisodeReport>(rc, &agent);
+  }
+  rollout::EpisodeObservers observers;
+  observers.add(observer.get());
+  observers.add(htmlReport.get());
+
   rollout::SplitEvaluationOptions options;
   options.checkpoint = candidate.index;
   options.label = candidate.label;
   options.out_dir = ctx.outDir;
   options.save_episodes = c.eval.save_episodes;
-  options.observer = observer.get();
+  options.observer = observers.empty() ? nullptr : &observers;
   SplitReport report;
   static_cast<rollout::SplitEvaluation&>(report) = rollout::evaluateSplit(
       agent, split, ctx.scenes, c.sim, c.task, c.eval, options);
@@ -184,6 +204,7 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   }
   if (observer)
     for (const auto& file : observer->files()) report.files.push_back(file);
+  if (htmlReport) report.files.push_back(htmlReport->write());
   return report;
 }
 
@@ -220,36 +241,44 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
                               : options.out;
   std::vector<std::string> splitNames =
       options.splits.empty() ? settings.eval.splits : options.splits;
-  VLN_CHECK_ARG(!splitNames.empty(), "eval: no split to evaluate (eval.splits "
+  VLN_CHECK_ARG(!splitNames.empty(),
+                "eval: no split to evaluate (eval.splits "
                 "is empty and no --split was given)");
   VLN_CHECK_ARG(options.video_format == "avi" || options.video_format == "mp4",
                 "eval: --video-format must be avi or mp4, got '",
                 options.video_format, "'");
+  VLN_CHECK_ARG(options.report_episodes >= 0,
+                "eval: --report-episodes must be >= 0, got ",
+                options.report_episodes);
   const int cap = options.episodes.value_or(settings.eval.episodes);
-  VLN_CHECK_ARG(cap == -1 || cap >= 1, "eval: --episodes must be >= 1 (or -1 "
-                "for all), got ", cap);
+  VLN_CHECK_ARG(cap == -1 || cap >= 1,
+                "eval: --episodes must be >= 1 (or -1 "
+                "for all), got ",
+                cap);
 
   // what to evaluate
   std::vector<Candidate> candidates;
   bool directoryMode = false;
   std::unique_ptr<BaselineStatistics> baselineStats;
   if (!options.agent.empty()) {
-    VLN_CHECK_ARG(options.checkpoint.empty(), "eval: give either --checkpoint "
+    VLN_CHECK_ARG(options.checkpoint.empty(),
+                  "eval: give either --checkpoint "
                   "or --agent, not both (got --checkpoint '",
                   options.checkpoint.string(), "' and --agent '", options.agent,
                   "')");
     VLN_CHECK_ARG(options.agent == "random" || options.agent == "handcrafted",
                   "eval: --agent must be random or handcrafted, got '",
                   options.agent, "'");
-    const fs::path gt = data::splitGroundTruthPath(settings.dataset.data_path,
-                                                   settings.dataset.train_split);
+    const fs::path gt = data::splitGroundTruthPath(
+        settings.dataset.data_path, settings.dataset.train_split);
     VLN_CHECK_IO(fs::exists(gt), "eval --agent ", options.agent,
                  ": the baseline's statistics need the ground truth of "
-                 "dataset.train_split '", settings.dataset.train_split,
-                 "': '", gt.string(), "' does not exist");
-    baselineStats = std::make_unique<BaselineStatistics>(baselineStatistics(
-        data::readGroundTruth(gt), settings.sim.agent.forward_step_size,
-        gt.string()));
+                 "dataset.train_split '",
+                 settings.dataset.train_split, "': '", gt.string(),
+                 "' does not exist");
+    baselineStats = std::make_unique<BaselineStatistics>(
+        baselineStatistics(data::readGroundTruth(gt),
+                           settings.sim.agent.forward_step_size, gt.string()));
     out << "baseline " << options.agent << ": " << baselineStats->num_paths
         << " training paths, mean length " << baselineStats->mean_path_length
         << " m (" << baselineStats->forward_steps << " forward steps), actions "
@@ -289,7 +318,8 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
 
   // the splits, loaded once
   std::vector<data::Split> splits;
-  for (const auto& name : splitNames) splits.push_back(loadSplit(settings, name, cap));
+  for (const auto& name : splitNames)
+    splits.push_back(loadSplit(settings, name, cap));
 
   std::unique_ptr<NavGraphs> navgraphs;
   if (!options.navgraph.empty()) {
@@ -309,9 +339,10 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     std::vector<const data::Split*> todo;
     for (const data::Split& split : splits) {
       const fs::path done =
-          outDir / (split.hasGoals
-                        ? rollout::statsFileName(candidate.index, split.name)
-                        : rollout::predictionsFileName(candidate.index, split.name));
+          outDir /
+          (split.hasGoals
+               ? rollout::statsFileName(candidate.index, split.name)
+               : rollout::predictionsFileName(candidate.index, split.name));
       if (directoryMode && fs::exists(done)) {
         SplitReport skipped;
         skipped.checkpoint = candidate.index;
@@ -328,12 +359,18 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     if (todo.empty()) continue;
     const std::unique_ptr<rollout::Agent> agent =
         makeAgent(candidate, settings, baselineStats.get());
+    if (!options.report.empty()) agent->keepInstructionAttention(true);
     for (const data::Split* split : todo) {
       SplitReport report = evaluateSplit(*agent, candidate, *split, ctx);
       out << summaryLine(report) << "\n";
       out.flush();
       result.reports.push_back(std::move(report));
     }
+  }
+
+  if (!options.report.empty()) {
+    const fs::path index = viz::writeReportIndex(options.report);
+    out << "report: " << index.string() << "\n";
   }
 
   // the best checkpoint of a directory by the selection split's SPL, read
@@ -352,14 +389,16 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     }
     if (result.best_checkpoint) {
       const Candidate& best = *std::find_if(
-          candidates.begin(), candidates.end(),
-          [&](const Candidate& c) { return c.index == *result.best_checkpoint; });
-      common::writeJsonFile(outDir / "best.json",
-                            {{"checkpoint", best.checkpoint.filename().string()},
-                             {"index", best.index},
-                             {"split", selection},
-                             {"spl", result.best_spl}},
-                            2);
+          candidates.begin(), candidates.end(), [&](const Candidate& c) {
+            return c.index == *result.best_checkpoint;
+          });
+      common::writeJsonFile(
+          outDir / "best.json",
+          {{"checkpoint", best.checkpoint.filename().string()},
+           {"index", best.index},
+           {"split", selection},
+           {"spl", result.best_spl}},
+          2);
       char spl[32];
       std::snprintf(spl, sizeof(spl), "%.4f", result.best_spl);
       out << "best checkpoint: " << best.checkpoint.filename().string() << " ("

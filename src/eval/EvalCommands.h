@@ -59,6 +59,12 @@ struct EvalCommandOptions {
   std::optional<int> videos;
   /// Video container: "avi" (MJPG) or "mp4" (mp4v).
   std::string video_format = "avi";
+  /// HTML report folder (viz/EpisodeReport.h): one page per evaluation in
+  /// <report>/<ckpt_<i> or agent>_<split>/ and an index of them; empty: no
+  /// report.
+  std::filesystem::path report;
+  /// Episodes per report with a map, frames and attention.
+  int report_episodes = 5;
   /// Index used in file names for an export or a baseline; unset: parsed
   /// from the file name (ckpt.<i>.*), else 0.
   std::optional<int> index;
@@ -100,7 +106,8 @@ std::string summaryLine(const SplitReport& report);
 /// Options of `eval tables`.
 struct TablesCommandOptions {
   std::filesystem::path runs;  ///< results directory (Tables.h layout)
-  std::filesystem::path out;   ///< Markdown file; the LaTeX goes beside it (.tex)
+  std::filesystem::path
+      out;  ///< Markdown file; the LaTeX goes beside it (.tex)
   /// only the rows some run claims (eval::claimedRowsOnly()), for a job
   /// that ran a few rows rather than the whole reproduction
   bool claimed_only = false;

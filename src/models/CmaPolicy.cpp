@@ -159,7 +159,7 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
 
   // attention over the instruction, queried by every GRU1 state at once
   std::vector<torch::Tensor> compressParts{state};
-  torch::Tensor visualQuery;
+  torch::Tensor visualQuery, textAttention;
   if (config_.usesInstruction()) {
     TORCH_CHECK(instruction.states.defined() && instruction.keys.defined() &&
                     instruction.mask.defined() &&
@@ -178,6 +178,7 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
         torch::bmm(alpha, instruction.states).transpose(0, 1);  // [T, B, D]
     compressParts.push_back(text);
     visualQuery = text_q(text).reshape({n, -1});
+    textAttention = alpha.transpose(0, 1);  // [T, B, L]
   } else if (config_.usesRgb() || config_.usesDepth()) {
     visualQuery = visual_query.unsqueeze(0).expand({n, visual_query.size(0)});
   }
@@ -200,6 +201,7 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
   if (progress_monitor)
     out.progress = torch::tanh(progress_monitor(actionState)).squeeze(-1);
   out.hidden = torch::stack({lastState, lastAction}, /*dim=*/1);
+  out.instruction_attention = textAttention;
   return out;
 }
 

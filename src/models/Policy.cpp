@@ -43,6 +43,8 @@ PolicyOutputs PolicyImpl::step(const EncodedInstruction& instruction,
                       hidden);
   out.logits = out.logits.squeeze(0);
   if (out.progress.defined()) out.progress = out.progress.squeeze(0);
+  if (out.instruction_attention.defined())
+    out.instruction_attention = out.instruction_attention.squeeze(0);
   return out;
 }
 

@@ -57,6 +57,10 @@ struct PolicyOutputs {
                            ///< model.progress_monitor
   torch::Tensor hidden;    ///< [B, numRecurrentLayers, hidden_size] after the
                            ///< last step
+  /// [.., B, L] the CMA's attention over the instruction's tokens (softmax
+  /// weights, 0 on padding); undefined for policies that do not attend to
+  /// the instruction (Seq2Seq, model.no_instruction).
+  torch::Tensor instruction_attention;
 };
 
 /// Base of Seq2SeqPolicy and CmaPolicy (use makePolicy()).

@@ -23,6 +23,13 @@ class Agent {
   /// Whether act() reads observations; baselines do not, so rendering can
   /// be skipped for them.
   virtual bool needsObservations() const { return true; }
+  /// Whether instructionAttention() will be asked for (reports); agents that
+  /// have none ignore it.
+  virtual void keepInstructionAttention(bool /*keep*/) {}
+  /// The weights the agent's last act() for `env` gave the instruction's
+  /// tokens (the CMA's attention; one per token, summing to 1), empty when
+  /// it has none or was not asked to keep them.
+  virtual std::vector<float> instructionAttention(int /*env*/) const { return {}; }
 };
 
 }  // namespace vln::rollout

@@ -73,9 +73,14 @@ class EvaluationJob : public EpisodeJob {
                 const EvalConfig& config,
                 const std::function<void(int, int)>& progress,
                 EpisodeObserver* observer, EvaluationResult& result)
-      : agent_(agent), envs_(envs), episodes_(episodes),
-        references_(std::move(references)), config_(config),
-        progress_(progress), observer_(observer), result_(result),
+      : agent_(agent),
+        envs_(envs),
+        episodes_(episodes),
+        references_(std::move(references)),
+        config_(config),
+        progress_(progress),
+        observer_(observer),
+        result_(result),
         records_(static_cast<size_t>(envs.size())) {}
 
   EpisodeStart startOf(int index) override {
@@ -100,9 +105,11 @@ class EvaluationJob : public EpisodeJob {
 
   std::vector<sim::Action> act(const EnvBatch& running) override {
     std::vector<sim::Action> actions = agent_.act(envs_, running.envs);
-    VLN_CHECK_ARG(actions.size() == running.size(), "evaluateEpisodes(): the "
-                  "agent returned ", actions.size(), " actions for ",
-                  running.size(), " environments");
+    VLN_CHECK_ARG(actions.size() == running.size(),
+                  "evaluateEpisodes(): the "
+                  "agent returned ",
+                  actions.size(), " actions for ", running.size(),
+                  " environments");
     return actions;
   }
 
@@ -202,6 +209,29 @@ EvaluationResult evaluateEpisodes(Agent& agent, VectorEnv& envs,
     if (result.scored[i]) scored.push_back(result.episodes[i].metrics);
   if (!scored.empty()) result.stats = aggregate(scored);
   return result;
+}
+
+bool EpisodeObservers::wantsFrames(int index) const {
+  for (const EpisodeObserver* o : observers_)
+    if (o->wantsFrames(index)) return true;
+  return false;
+}
+
+void EpisodeObservers::episodeStarted(int index, VectorEnv& envs, int env) {
+  for (EpisodeObserver* o : observers_) o->episodeStarted(index, envs, env);
+}
+
+void EpisodeObservers::episodeStepped(int index, VectorEnv& envs, int env,
+                                      sim::Action action) {
+  for (EpisodeObserver* o : observers_)
+    o->episodeStepped(index, envs, env, action);
+}
+
+void EpisodeObservers::episodeFinished(int index, VectorEnv& envs, int env,
+                                       const EpisodeResult& result,
+                                       bool scored) {
+  for (EpisodeObserver* o : observers_)
+    o->episodeFinished(index, envs, env, result, scored);
 }
 
 }  // namespace vln::rollout

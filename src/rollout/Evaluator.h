@@ -52,6 +52,27 @@ class EpisodeObserver {
                                const EpisodeResult& result, bool scored) = 0;
 };
 
+/// Several observers watching one evaluation (pictures, a report, dumps):
+/// each call goes to every observer in the order added; frames are wanted
+/// when any observer wants them. Null observers are skipped.
+class EpisodeObservers : public EpisodeObserver {
+ public:
+  void add(EpisodeObserver* observer) {
+    if (observer != nullptr) observers_.push_back(observer);
+  }
+  bool empty() const { return observers_.empty(); }
+
+  bool wantsFrames(int index) const override;
+  void episodeStarted(int index, VectorEnv& envs, int env) override;
+  void episodeStepped(int index, VectorEnv& envs, int env,
+                      sim::Action action) override;
+  void episodeFinished(int index, VectorEnv& envs, int env,
+                       const EpisodeResult& result, bool scored) override;
+
+ private:
+  std::vector<EpisodeObserver*> observers_;
+};
+
 /// Runs `agent` on every episode of `episodes` (the caller caps the list;
 /// batched over envs.size() environments, an environment is refilled with
 /// the next episode as soon as its episode ends; argmax or sampling is the

@@ -37,6 +37,12 @@ class PolicyAgent : public Agent {
   ~PolicyAgent() override;
   void reset(int env, const data::Episode& episode) override;
   std::vector<sim::Action> act(VectorEnv& envs, std::span<const int> active) override;
+  void keepInstructionAttention(bool keep) override {
+    stepper_.keepInstructionAttention(keep);
+  }
+  std::vector<float> instructionAttention(int env) const override {
+    return stepper_.instructionAttention(env);
+  }
 
   /// Action probabilities of the last act() call, float [active, 4] on the
   /// CPU (softmax of the logits), for tests and diagnostics.

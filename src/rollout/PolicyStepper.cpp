@@ -26,6 +26,7 @@ struct PolicyStepper::EnvState {
   const data::Episode* episode = nullptr;
   RecurrentState recurrent;
   models::EncodedInstruction instruction;  ///< one row (not kJoint)
+  std::vector<float> attention;            ///< of the last step, when kept
 };
 
 namespace {
@@ -85,6 +86,7 @@ void PolicyStepper::start(int env, const data::Episode& episode) {
         batchInstructions(one, maxInstructionLength_).to(device_));
   }
   s.recurrent.restart(policy_->initialHidden(1)[0]);
+  s.attention.clear();
 }
 
 torch::Tensor PolicyStepper::step(std::span<const int> envs,
@@ -137,7 +139,27 @@ torch::Tensor PolicyStepper::stepTogether(
       policy_->step(instruction, step, inputs.hidden);
   for (size_t k = 0; k < recurrent.size(); ++k)
     recurrent[k]->advance(out.hidden[static_cast<int64_t>(k)]);
+  if (keepAttention_ && out.instruction_attention.defined()) {
+    // each row over the episode's own tokens (the mask's true prefix)
+    const torch::Tensor weights =
+        out.instruction_attention.to(torch::kCPU, torch::kFloat32).contiguous();
+    const torch::Tensor lengths =
+        instruction.mask.sum(1).to(torch::kCPU, torch::kInt64).contiguous();
+    for (size_t k = 0; k < envs.size(); ++k) {
+      const int64_t length = lengths[static_cast<int64_t>(k)].item<int64_t>();
+      const float* row = weights[static_cast<int64_t>(k)].data_ptr<float>();
+      states_[static_cast<size_t>(envs[k])]->attention.assign(row,
+                                                              row + length);
+    }
+  }
   return out.logits;
+}
+
+const std::vector<float>& PolicyStepper::instructionAttention(int env) const {
+  VLN_CHECK_ARG(env >= 0 && env < static_cast<int>(states_.size()),
+                "PolicyStepper::instructionAttention(): environment ", env,
+                " out of range [0, ", states_.size(), ")");
+  return states_[static_cast<size_t>(env)]->attention;
 }
 
 void PolicyStepper::took(int env, int64_t action) {

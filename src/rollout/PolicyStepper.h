@@ -55,6 +55,15 @@ class PolicyStepper {
   /// action at the next one.
   void took(int env, int64_t action);
 
+  /// Keep each step's attention over the instruction (CMA only) for
+  /// instructionAttention(); off by default (a copy to the CPU per step).
+  void keepInstructionAttention(bool keep) { keepAttention_ = keep; }
+  /// The attention of environment `env`'s last step over its instruction's
+  /// tokens (weights summing to 1, one per token fed to the encoder);
+  /// empty when not kept, before the first step, or for policies without
+  /// instruction attention.
+  const std::vector<float>& instructionAttention(int env) const;
+
   const models::PolicyImpl& policy() const { return *policy_; }
   c10::Device device() const { return device_; }
 
@@ -67,6 +76,7 @@ class PolicyStepper {
   int maxInstructionLength_;
   InstructionBatching batching_;
   c10::Device device_;
+  bool keepAttention_ = false;
   std::vector<std::unique_ptr<EnvState>> states_;
   // kJoint: the encoding of the episodes it was made for
   models::EncodedInstruction joint_;

@@ -43,7 +43,9 @@ constexpr double kMaxPixels = 64.0 * 1024.0 * 1024.0;
 constexpr int kShift = 4;
 constexpr double kSubpixel = 1 << kShift;
 
-cv::Scalar toScalar(Rgb8 color) { return cv::Scalar(color[0], color[1], color[2]); }
+cv::Scalar toScalar(Rgb8 color) {
+  return cv::Scalar(color[0], color[1], color[2]);
+}
 
 // Colour an object is drawn in: its triangles' mean base x vertex colour,
 // so the map shows what the camera sees; mid grey when it has no triangles.
@@ -58,7 +60,8 @@ std::map<int, cv::Scalar> objectColors(const TriangleMesh& mesh) {
     if (object < 0) continue;
     std::array<float, 3> base{1.0f, 1.0f, 1.0f};
     if (!mesh.triangle_material.empty() && mesh.triangle_material[t] >= 0)
-      base = mesh.materials[static_cast<size_t>(mesh.triangle_material[t])].base_color;
+      base = mesh.materials[static_cast<size_t>(mesh.triangle_material[t])]
+                 .base_color;
     Sum& sum = sums[object];
     for (int k = 0; k < 3; ++k) {
       Rgb8 c{255, 255, 255};
@@ -75,6 +78,114 @@ std::map<int, cv::Scalar> objectColors(const TriangleMesh& mesh) {
   return colors;
 }
 
+// The navmesh level nearest a height, its triangles and their x-z bounds.
+struct Floor {
+  float level = 0.0f;
+  std::vector<std::array<Vec3f, 3>> triangles;
+  Eigen::AlignedBox2f area;
+};
+
+Floor findFloor(const Scene& scene, float floorY) {
+  VLN_CHECK_ARG(std::isfinite(floorY),
+                "TopDownMap: floorY must be finite, got ", floorY);
+  const std::vector<std::array<Vec3f, 3>> triangles =
+      scene.navmesh().triangles();
+  VLN_CHECK_ARG(!triangles.empty(), "TopDownMap: scene '", scene.name(),
+                "' has an empty navmesh");
+  Floor floor;
+  floor.level = triangles.front()[0].y();
+  for (const auto& tri : triangles) {
+    const float y = (tri[0].y() + tri[1].y() + tri[2].y()) / 3.0f;
+    if (std::abs(y - floorY) < std::abs(floor.level - floorY)) floor.level = y;
+  }
+  for (const auto& tri : triangles) {
+    const float y = (tri[0].y() + tri[1].y() + tri[2].y()) / 3.0f;
+    if (std::abs(y - floor.level) > kFloorBand) continue;
+    floor.triangles.push_back(tri);
+    for (const Vec3f& p : tri) floor.area.extend(Vec2f(p.x(), p.z()));
+  }
+  return floor;
+}
+
+// Label text: small enough for furniture names beside furniture, large
+// enough to read on a 1,000-pixel map.
+constexpr int kLabelFont = cv::FONT_HERSHEY_SIMPLEX;
+constexpr double kLabelScale = 0.4;
+// gap between an object's box and its label, and around placed labels
+constexpr int kLabelGap = 3;
+
+struct LabelRequest {
+  std::string text;
+  cv::Rect object;  // the object's box in pixels
+};
+
+bool overlapsAny(const cv::Rect& box, const std::vector<cv::Rect>& others) {
+  for (const cv::Rect& other : others)
+    if ((box & other).area() > 0) return true;
+  return false;
+}
+
+// Places each label beside its object (right, left, above, below, then on
+// it), in the first place on the canvas that overlaps no placed label and,
+// when possible, no other object; draws it with a halo. Larger objects go
+// first: they are the landmarks instructions name most.
+void placeLabels(cv::Mat& image, std::vector<LabelRequest> requests,
+                 std::vector<MapLabel>& placed,
+                 std::vector<std::string>& dropped) {
+  std::stable_sort(requests.begin(), requests.end(),
+                   [](const LabelRequest& a, const LabelRequest& b) {
+                     return a.object.area() > b.object.area();
+                   });
+  std::vector<cv::Rect> objects;
+  for (const LabelRequest& r : requests) objects.push_back(r.object);
+  const cv::Rect canvas(0, 0, image.cols, image.rows);
+  std::vector<cv::Rect> taken;
+  for (size_t i = 0; i < requests.size(); ++i) {
+    const LabelRequest& request = requests[i];
+    int baseline = 0;
+    const cv::Size text =
+        cv::getTextSize(request.text, kLabelFont, kLabelScale, 1, &baseline);
+    const int w = text.width + 2;
+    const int h = text.height + baseline + 2;
+    const cv::Rect& o = request.object;
+    const int midX = o.x + o.width / 2 - w / 2;
+    const int midY = o.y + o.height / 2 - h / 2;
+    const cv::Rect candidates[] = {
+        {o.x + o.width + kLabelGap, midY, w, h},   // right
+        {o.x - kLabelGap - w, midY, w, h},         // left
+        {midX, o.y - kLabelGap - h, w, h},         // above
+        {midX, o.y + o.height + kLabelGap, w, h},  // below
+        {midX, midY, w, h},                        // on the object
+    };
+    std::vector<cv::Rect> otherObjects;
+    for (size_t j = 0; j < objects.size(); ++j)
+      if (j != i) otherObjects.push_back(objects[j]);
+    const cv::Rect* chosen = nullptr;
+    for (int pass = 0; pass < 2 && chosen == nullptr; ++pass) {
+      for (const cv::Rect& c : candidates) {
+        if ((c & canvas) != c) continue;
+        const cv::Rect padded(c.x - 1, c.y - 1, c.width + 2, c.height + 2);
+        if (overlapsAny(padded, taken)) continue;
+        if (pass == 0 && overlapsAny(c, otherObjects)) continue;
+        chosen = &c;
+        break;
+      }
+    }
+    if (chosen == nullptr) {
+      dropped.push_back(request.text);
+      continue;
+    }
+    taken.push_back(*chosen);
+    placed.push_back(
+        {request.text, chosen->x, chosen->y, chosen->width, chosen->height});
+    const cv::Point origin(chosen->x + 1, chosen->y + 1 + text.height);
+    cv::putText(image, request.text, origin, kLabelFont, kLabelScale,
+                cv::Scalar(255, 255, 255), 3, cv::LINE_AA);
+    cv::putText(image, request.text, origin, kLabelFont, kLabelScale, kLabel, 1,
+                cv::LINE_AA);
+  }
+}
+
 }  // namespace
 
 struct TopDownMap::Impl {
@@ -86,6 +197,8 @@ struct TopDownMap::Impl {
   // the navmesh's query box: where drawn points may lie (a point at 1e30
   // overflows the int pixel coordinates)
   Eigen::AlignedBox3f accepted;
+  std::vector<MapLabel> placedLabels;
+  std::vector<std::string> droppedLabels;
 
   // continuous map coordinates in OpenCV's fixed-point convention (integer
   // = pixel centre)
@@ -106,34 +219,19 @@ TopDownMap::TopDownMap(const Scene& scene, float metersPerPixel, float floorY)
   VLN_CHECK_ARG(std::isfinite(metersPerPixel) && metersPerPixel > 0.0f,
                 "TopDownMap: metersPerPixel must be positive, got ",
                 metersPerPixel);
-  VLN_CHECK_ARG(std::isfinite(floorY), "TopDownMap: floorY must be finite, got ",
-                floorY);
   impl_->metersPerPixel = metersPerPixel;
   impl_->accepted = scene.navmesh().queryBounds();
-
-  // the floor: the navmesh level nearest to floorY, and its triangles
-  const auto triangles = scene.navmesh().triangles();
-  VLN_CHECK_ARG(!triangles.empty(), "TopDownMap: scene '", scene.name(),
-                "' has an empty navmesh");
-  float level = triangles.front()[0].y();
-  for (const auto& tri : triangles) {
-    const float y = (tri[0].y() + tri[1].y() + tri[2].y()) / 3.0f;
-    if (std::abs(y - floorY) < std::abs(level - floorY)) level = y;
-  }
-  std::vector<const std::array<Vec3f, 3>*> floorTriangles;
-  Eigen::AlignedBox2f area;
-  for (const auto& tri : triangles) {
-    const float y = (tri[0].y() + tri[1].y() + tri[2].y()) / 3.0f;
-    if (std::abs(y - level) > kFloorBand) continue;
-    floorTriangles.push_back(&tri);
-    for (const Vec3f& p : tri) area.extend(Vec2f(p.x(), p.z()));
-  }
+  const Floor floor = findFloor(scene, floorY);
+  const float level = floor.level;
+  const Eigen::AlignedBox2f& area = floor.area;
 
   // canvas: the floor's navigable bounds plus a margin
   impl_->minX = area.min().x() - kMargin;
   impl_->minZ = area.min().y() - kMargin;
-  const double width = std::ceil((area.sizes().x() + 2 * kMargin) / metersPerPixel);
-  const double height = std::ceil((area.sizes().y() + 2 * kMargin) / metersPerPixel);
+  const double width =
+      std::ceil((area.sizes().x() + 2 * kMargin) / metersPerPixel);
+  const double height =
+      std::ceil((area.sizes().y() + 2 * kMargin) / metersPerPixel);
   VLN_CHECK_ARG(width * height <= kMaxPixels, "TopDownMap: scene '",
                 scene.name(), "' at ", metersPerPixel, " m/pixel needs a ",
                 width, "x", height, " canvas; use a coarser metersPerPixel");
@@ -145,16 +243,16 @@ TopDownMap::TopDownMap(const Scene& scene, float metersPerPixel, float floorY)
 
   // obstacles: whatever of the scene's footprint is not navigable
   const Eigen::AlignedBox3f meshBounds = scene.mesh().bounds();
-  cv::rectangle(image,
-                impl_->pixel(Vec3f(meshBounds.min().x(), 0, meshBounds.min().z())),
-                impl_->pixel(Vec3f(meshBounds.max().x(), 0, meshBounds.max().z())),
-                kObstacle, cv::FILLED);
+  cv::rectangle(
+      image, impl_->pixel(Vec3f(meshBounds.min().x(), 0, meshBounds.min().z())),
+      impl_->pixel(Vec3f(meshBounds.max().x(), 0, meshBounds.max().z())),
+      kObstacle, cv::FILLED);
 
   // navigable area of this floor
-  for (const auto* tri : floorTriangles) {
-    const cv::Point corners[3] = {impl_->fixedPoint((*tri)[0]),
-                                  impl_->fixedPoint((*tri)[1]),
-                                  impl_->fixedPoint((*tri)[2])};
+  for (const auto& tri : floor.triangles) {
+    const cv::Point corners[3] = {impl_->fixedPoint(tri[0]),
+                                  impl_->fixedPoint(tri[1]),
+                                  impl_->fixedPoint(tri[2])};
     cv::fillConvexPoly(image, corners, 3, kNavigable, cv::LINE_8, kShift);
   }
 
@@ -182,6 +280,7 @@ TopDownMap::TopDownMap(const Scene& scene, float metersPerPixel, float floorY)
 
   // semantic objects standing on this floor: boxes in their colour, labelled
   const auto colors = objectColors(mesh);
+  std::vector<LabelRequest> labels;
   for (const SemanticObject& object : scene.semantics().objects) {
     if (object.bounds.isEmpty()) continue;
     if (object.bounds.max().y() < level - kFloorBand ||
@@ -197,8 +296,22 @@ TopDownMap::TopDownMap(const Scene& scene, float metersPerPixel, float floorY)
     // only furniture standing on the floor is labelled: windows and pictures
     // on the walls would bury the map in overlapping text
     if (object.bounds.min().y() < level + kLabelMaxBase)
-      drawText(object.bounds.center(), object.category, Rgb8{0, 0, 0});
+      labels.push_back({object.category, cv::Rect(lo, hi)});
   }
+  placeLabels(image, std::move(labels), impl_->placedLabels,
+              impl_->droppedLabels);
+}
+
+float TopDownMap::metersPerPixelForLongSide(const Scene& scene, float floorY,
+                                            int longSidePixels) {
+  VLN_CHECK_ARG(longSidePixels >= 16,
+                "TopDownMap: the long side must be >= 16 pixels, got ",
+                longSidePixels);
+  const Floor floor = findFloor(scene, floorY);
+  const float longSide =
+      std::max(floor.area.sizes().x(), floor.area.sizes().y()) + 2 * kMargin;
+  // a hair coarser, so rounding the canvas up never adds a pixel
+  return longSide / static_cast<float>(longSidePixels) * 1.0001f;
 }
 
 TopDownMap::~TopDownMap() = default;
@@ -216,8 +329,9 @@ void TopDownMap::drawPath(const std::vector<Vec3f>& points, Rgb8 color,
     polyline.push_back(impl_->fixedPoint(points[i]));
   }
   if (polyline.size() == 1) {
-    cv::circle(impl_->image, polyline[0], std::max(1, thickness) * (1 << kShift) / 2,
-               toScalar(color), cv::FILLED, cv::LINE_AA, kShift);
+    cv::circle(impl_->image, polyline[0],
+               std::max(1, thickness) * (1 << kShift) / 2, toScalar(color),
+               cv::FILLED, cv::LINE_AA, kShift);
     return;
   }
   cv::polylines(impl_->image, polyline, /*isClosed=*/false, toScalar(color),
@@ -236,8 +350,7 @@ void TopDownMap::drawCircle(const Vec3f& center, float radiusMeters, Rgb8 color,
   VLN_CHECK_ARG(std::isfinite(radiusMeters) && radiusMeters >= 0.0f,
                 "TopDownMap::drawCircle(): radius must be >= 0, got ",
                 radiusMeters);
-  checkPosition("TopDownMap::drawCircle()", "centre", center,
-                impl_->accepted);
+  checkPosition("TopDownMap::drawCircle()", "centre", center, impl_->accepted);
   const int radius = static_cast<int>(
       std::lround(radiusMeters / impl_->metersPerPixel * kSubpixel));
   cv::circle(impl_->image, impl_->fixedPoint(center), radius, toScalar(color),
@@ -256,7 +369,8 @@ void TopDownMap::drawAgent(const Vec3f& p, float heading, Rgb8 color) {
   const int body = std::max(3, static_cast<int>(std::lround(0.1f / mpp)));
   const int arrow =
       std::max(2 * body + 2, static_cast<int>(std::lround(0.5f / mpp)));
-  const Vec3f tip = p + (static_cast<float>(arrow) * mpp) * headingToForward(heading);
+  const Vec3f tip =
+      p + (static_cast<float>(arrow) * mpp) * headingToForward(heading);
   cv::circle(impl_->image, impl_->fixedPoint(p), body * (1 << kShift),
              toScalar(color), cv::FILLED, cv::LINE_AA, kShift);
   cv::arrowedLine(impl_->image, impl_->fixedPoint(p), impl_->fixedPoint(tip),
@@ -283,6 +397,13 @@ Eigen::Vector2i TopDownMap::toPixel(const Vec3f& p) const {
   return {pixel.x, pixel.y};
 }
 
+float TopDownMap::metersPerPixel() const { return impl_->metersPerPixel; }
+const std::vector<MapLabel>& TopDownMap::placedLabels() const {
+  return impl_->placedLabels;
+}
+const std::vector<std::string>& TopDownMap::droppedLabels() const {
+  return impl_->droppedLabels;
+}
 int TopDownMap::width() const { return impl_->image.cols; }
 int TopDownMap::height() const { return impl_->image.rows; }
 const std::vector<uint8_t>& TopDownMap::rgb() const { return impl_->rgb; }
@@ -292,10 +413,11 @@ void TopDownMap::save(const std::filesystem::path& file) const {
   cv::Mat bgr;
   cv::cvtColor(impl_->image, bgr, cv::COLOR_RGB2BGR);
   std::vector<uint8_t> png;
-  VLN_CHECK_IO(cv::imencode(".png", bgr, png), "TopDownMap::save(): ",
-               file.string(), ": PNG encoding failed");
+  VLN_CHECK_IO(cv::imencode(".png", bgr, png),
+               "TopDownMap::save(): ", file.string(), ": PNG encoding failed");
   common::writeFileAtomic(
-      file, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+      file,
+      std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
 }
 
 }  // namespace vln::sim

@@ -60,7 +60,8 @@ cv::Mat depthPanel(const float* depth, int w, int h, float scale, int width,
 std::string fitText(const std::string& text, int width) {
   int baseline = 0;
   auto fits = [&](const std::string& s) {
-    return cv::getTextSize(s, cv::FONT_HERSHEY_SIMPLEX, kFontScale, 1, &baseline)
+    return cv::getTextSize(s, cv::FONT_HERSHEY_SIMPLEX, kFontScale, 1,
+                           &baseline)
                .width <= width;
   };
   if (fits(text)) return text;
@@ -79,41 +80,13 @@ std::string fitText(const std::string& text, int width) {
 }  // namespace
 
 // ---------------------------------------------------------------------------
-// maps
+// videos
 
-std::string mapFileName(const std::string& prefix, const std::string& episodeId) {
-  return prefix + "episode_" + episodeId + "_map.png";
-}
-
-std::string videoFileName(const std::string& prefix, const std::string& episodeId,
+std::string videoFileName(const std::string& prefix,
+                          const std::string& episodeId,
                           const std::string& format) {
   return prefix + "episode_" + episodeId + "." + format;
 }
-
-sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
-                               const rollout::EpisodeRecord& record,
-                               bool hasGoal, float successDistance,
-                               float metersPerPixel) {
-  VLN_CHECK_ARG(!record.positions.empty(), "drawEpisodeMap(): episode ",
-                record.episode_id, " has no positions");
-  sim::TopDownMap map(scene, metersPerPixel, record.positions.front().y());
-  // reference under the agent's path, markers on top
-  if (record.reference_path.size() >= 2)
-    map.drawPath(record.reference_path, kReferenceColor, /*thickness=*/3);
-  if (record.positions.size() >= 2)
-    map.drawPath(record.positions, kAgentColor, /*thickness=*/2);
-  if (hasGoal) {
-    map.drawCircle(record.goal, successDistance, kGoalColor, /*thickness=*/2);
-    map.drawPoint(record.goal, kGoalColor, /*radiusPixels=*/5);
-  }
-  map.drawPoint(record.positions.front(), kStartColor, /*radiusPixels=*/5);
-  const float heading = record.headings.empty() ? 0.0f : record.headings.back();
-  map.drawAgent(record.positions.back(), heading, kAgentColor);
-  return map;
-}
-
-// ---------------------------------------------------------------------------
-// videos
 
 struct EpisodeVideo::Impl {
   fs::path file;
@@ -134,22 +107,33 @@ struct EpisodeVideo::Impl {
 };
 
 EpisodeVideo::EpisodeVideo(const fs::path& file, const PicturesConfig& config,
-                           const sim::Scene& scene, const data::Episode& episode,
+                           const sim::Scene& scene,
+                           const data::Episode& episode,
                            const std::vector<Vec3f>& reference, int rgbWidth,
                            int rgbHeight, int depthWidth, int depthHeight,
                            float depthScale) {
   VLN_CHECK_ARG(config.video_format == "avi" || config.video_format == "mp4",
                 "EpisodeVideo: video format must be avi or mp4, got '",
                 config.video_format, "'");
-  VLN_CHECK_ARG(rgbWidth > 0 && rgbHeight > 0 && depthWidth > 0 && depthHeight > 0,
-                "EpisodeVideo: episode ", episode.episode_id,
-                ": observation sizes must be positive, got RGB ", rgbWidth, "x",
-                rgbHeight, ", depth ", depthWidth, "x", depthHeight);
-  VLN_CHECK_ARG(config.video_height >= 16, "EpisodeVideo: video height must be "
-                ">= 16 px, got ", config.video_height);
+  VLN_CHECK_ARG(
+      rgbWidth > 0 && rgbHeight > 0 && depthWidth > 0 && depthHeight > 0,
+      "EpisodeVideo: episode ", episode.episode_id,
+      ": observation sizes must be positive, got RGB ", rgbWidth, "x",
+      rgbHeight, ", depth ", depthWidth, "x", depthHeight);
+  VLN_CHECK_ARG(config.video_height >= 16,
+                "EpisodeVideo: video height must be "
+                ">= 16 px, got ",
+                config.video_height);
   VLN_CHECK_ARG(depthScale > 0.0f, "EpisodeVideo: depth scale must be > 0");
-  impl_ = std::make_unique<Impl>(scene, config.meters_per_pixel,
-                                 episode.start_position.y());
+  // the map panel is at most twice the panel height on its long side:
+  // finer maps would only be averaged away when scaled into the frame
+  const int panelHeight = ceil8(config.video_height);
+  MapStyle style = config.map;
+  if (style.meters_per_pixel <= 0.0f)
+    style.long_side = std::min(style.long_side, 2 * panelHeight);
+  impl_ = std::make_unique<Impl>(
+      scene, style.metersPerPixel(scene, episode.start_position.y()),
+      episode.start_position.y());
   Impl& m = *impl_;
   m.file = file;
   m.instruction = episode.instruction.instruction_text;
@@ -169,18 +153,17 @@ EpisodeVideo::EpisodeVideo(const fs::path& file, const PicturesConfig& config,
   m.map.drawPoint(episode.start_position, kStartColor, 5);
 
   // panel sizes: every panel as high as the video, widths keep aspect
-  m.panelHeight = ceil8(config.video_height);
+  m.panelHeight = panelHeight;
   m.rgbWidth = ceil8(static_cast<double>(rgbWidth) * m.panelHeight / rgbHeight);
   m.depthWidth =
       ceil8(static_cast<double>(depthWidth) * m.panelHeight / depthHeight);
   m.mapWidth = ceil8(static_cast<double>(m.map.width()) * m.panelHeight /
-                        std::max(1, m.map.height()));
+                     std::max(1, m.map.height()));
 
   // OpenCV picks the container by extension, so the partial file keeps it
   std::error_code ec;
-  fs::create_directories(file.parent_path().empty() ? fs::path(".")
-                                                    : file.parent_path(),
-                         ec);
+  fs::create_directories(
+      file.parent_path().empty() ? fs::path(".") : file.parent_path(), ec);
   m.partial = file;
   m.partial.replace_filename(file.stem().string() + ".partial" +
                              file.extension().string());
@@ -222,20 +205,20 @@ void EpisodeVideo::addFrame(const sim::Observation& observation,
   Impl& m = *impl_;
   VLN_CHECK_ARG(!m.closed, "EpisodeVideo::addFrame(): '", m.file.string(),
                 "' is already closed");
-  VLN_CHECK_ARG(observation.rgb_width == m.obsRgbWidth &&
-                    observation.rgb_height == m.obsRgbHeight &&
-                    observation.depth_width == m.obsDepthWidth &&
-                    observation.depth_height == m.obsDepthHeight &&
-                    observation.rgb.size() ==
-                        static_cast<size_t>(m.obsRgbWidth) * m.obsRgbHeight * 3 &&
-                    observation.depth.size() ==
-                        static_cast<size_t>(m.obsDepthWidth) * m.obsDepthHeight,
-                "EpisodeVideo::addFrame(): '", m.file.string(),
-                "': observation is RGB ", observation.rgb_width, "x",
-                observation.rgb_height, ", depth ", observation.depth_width, "x",
-                observation.depth_height, " (was the frame rendered?), expected ",
-                m.obsRgbWidth, "x", m.obsRgbHeight, " and ", m.obsDepthWidth,
-                "x", m.obsDepthHeight);
+  VLN_CHECK_ARG(
+      observation.rgb_width == m.obsRgbWidth &&
+          observation.rgb_height == m.obsRgbHeight &&
+          observation.depth_width == m.obsDepthWidth &&
+          observation.depth_height == m.obsDepthHeight &&
+          observation.rgb.size() ==
+              static_cast<size_t>(m.obsRgbWidth) * m.obsRgbHeight * 3 &&
+          observation.depth.size() ==
+              static_cast<size_t>(m.obsDepthWidth) * m.obsDepthHeight,
+      "EpisodeVideo::addFrame(): '", m.file.string(), "': observation is RGB ",
+      observation.rgb_width, "x", observation.rgb_height, ", depth ",
+      observation.depth_width, "x", observation.depth_height,
+      " (was the frame rendered?), expected ", m.obsRgbWidth, "x",
+      m.obsRgbHeight, " and ", m.obsDepthWidth, "x", m.obsDepthHeight);
 
   // the path so far stays on the map; the agent marker only on this frame
   if (m.hasPrevious && !(m.previous == pose.position))
@@ -249,9 +232,11 @@ void EpisodeVideo::addFrame(const sim::Observation& observation,
   const Eigen::Vector2i at = m.map.toPixel(pose.position);
   const Vec3f ahead = pose.position + headingToForward(pose.heading) * 0.6f;
   const Eigen::Vector2i tip = m.map.toPixel(ahead);
-  cv::circle(mapBgr, cv::Point(at.x(), at.y()), 4, bgr(kAgentColor), cv::FILLED);
-  cv::arrowedLine(mapBgr, cv::Point(at.x(), at.y()), cv::Point(tip.x(), tip.y()),
-                  cv::Scalar(0, 0, 0), 2, cv::LINE_AA, 0, 0.4);
+  cv::circle(mapBgr, cv::Point(at.x(), at.y()), 4, bgr(kAgentColor),
+             cv::FILLED);
+  cv::arrowedLine(mapBgr, cv::Point(at.x(), at.y()),
+                  cv::Point(tip.x(), tip.y()), cv::Scalar(0, 0, 0), 2,
+                  cv::LINE_AA, 0, 0.4);
   cv::Mat mapPanel;
   cv::resize(mapBgr, mapPanel, cv::Size(m.mapWidth, m.panelHeight), 0, 0,
              cv::INTER_AREA);
@@ -278,9 +263,9 @@ void EpisodeVideo::addFrame(const sim::Observation& observation,
   cv::putText(frame, fitText(m.instruction, textWidth),
               cv::Point(4, m.panelHeight + 17), cv::FONT_HERSHEY_SIMPLEX,
               kFontScale, cv::Scalar(0, 0, 0), 1, cv::LINE_AA);
-  cv::putText(frame, fitText(status, textWidth), cv::Point(4, m.panelHeight + 37),
-              cv::FONT_HERSHEY_SIMPLEX, kFontScale, cv::Scalar(60, 60, 60), 1,
-              cv::LINE_AA);
+  cv::putText(frame, fitText(status, textWidth),
+              cv::Point(4, m.panelHeight + 37), cv::FONT_HERSHEY_SIMPLEX,
+              kFontScale, cv::Scalar(60, 60, 60), 1, cv::LINE_AA);
   m.writer.write(frame);
   ++frames_;
 }
@@ -291,8 +276,9 @@ void EpisodeVideo::close() {
   m.writer.release();
   std::error_code ec;
   fs::rename(m.partial, m.file, ec);
-  VLN_CHECK_IO(!ec, "EpisodeVideo::close(): cannot rename '", m.partial.string(),
-               "' to '", m.file.string(), "': ", ec.message());
+  VLN_CHECK_IO(!ec, "EpisodeVideo::close(): cannot rename '",
+               m.partial.string(), "' to '", m.file.string(),
+               "': ", ec.message());
   m.closed = true;
 }
 
@@ -343,8 +329,8 @@ bool EpisodePictures::wantsFrames(int index) const {
 namespace {
 
 // geodesic distance to the episode's goal, -1 when it has none
-float distanceToGoal(const sim::Simulator& simulator, const data::Episode& episode,
-                     const Vec3f& position) {
+float distanceToGoal(const sim::Simulator& simulator,
+                     const data::Episode& episode, const Vec3f& position) {
   if (episode.goals.empty()) return -1.0f;
   return simulator.scene().navmesh().geodesicDistance(
       position, episode.goals.front().position);
@@ -361,7 +347,8 @@ void EpisodePictures::episodeStarted(int index, rollout::VectorEnv& envs,
   const auto& depth = simulator.config().depth;
   const float scale = depth.normalize_depth ? 1.0f : depth.max_depth;
   const fs::path file =
-      config_.dir / videoFileName(config_.prefix, std::to_string(episode.episode_id),
+      config_.dir / videoFileName(config_.prefix,
+                                  std::to_string(episode.episode_id),
                                   config_.video_format);
   auto video = std::make_unique<EpisodeVideo>(
       file, config_, simulator.scene(), episode, episode.reference_path,
@@ -378,9 +365,9 @@ void EpisodePictures::episodeStepped(int /*index*/, rollout::VectorEnv& envs,
   if (it == videos_.end()) return;
   const sim::Simulator& simulator = envs.simulator(env);
   const sim::EpisodeState& state = simulator.episode();
-  it->second->addFrame(envs.observation(env), state.agent, state.steps, &action,
-                       distanceToGoal(simulator, envs.episode(env),
-                                      state.agent.position));
+  it->second->addFrame(
+      envs.observation(env), state.agent, state.steps, &action,
+      distanceToGoal(simulator, envs.episode(env), state.agent.position));
 }
 
 void EpisodePictures::episodeFinished(int index, rollout::VectorEnv& envs,
@@ -398,10 +385,11 @@ void EpisodePictures::episodeFinished(int index, rollout::VectorEnv& envs,
   if (index >= config_.map_episodes) return;
   const sim::TopDownMap map =
       drawEpisodeMap(envs.simulator(env).scene(), result.record, scored,
-                     config_.success_distance, config_.meters_per_pixel);
+                     config_.success_distance, config_.map);
   const fs::path file =
       config_.dir / mapFileName(config_.prefix, result.record.episode_id);
-  map.save(file);
+  savePng(mapPicture(map, MapLegend{scored, config_.success_distance, true}),
+          file);
   files_.push_back(file);
 }
 

@@ -1,21 +1,22 @@
 #pragma once
 // Pictures of evaluated episodes, like the paper's qualitative figure:
-//  - a top-down map PNG (sim::TopDownMap) with the reference path (blue),
+//  - a top-down map PNG (viz/EpisodeMap.h) with the reference path (blue),
 //    the agent's path (orange), the start (green), the goal (red) and the
-//    3 m success circle around it, and the agent's final pose;
+//    3 m success circle around it, the agent's final pose, a legend and a
+//    scale bar;
 //  - a video of the episode, one frame after reset and one per action:
 //    egocentric RGB | depth | the top-down map with the path so far, over a
 //    caption band (instruction, step, action, distance to the goal).
 // Videos are MJPG in .avi or mp4v in .mp4, both written through OpenCV's
 // FFmpeg backend (Debian's libopencv-videoio links libavcodec, so no extra
-// codec is needed); OpenCV's built-in MJPEG encoder is the .avi fallback. Frames go to the
-// encoder as they are captured, so memory stays bounded by the number of
-// videos in progress (at most one per environment); each file is written
-// under a temporary name and renamed when complete.
+// codec is needed); OpenCV's built-in MJPEG encoder is the .avi fallback.
+// Frames go to the encoder as they are captured, so memory stays bounded by the
+// number of videos in progress (at most one per environment); each file is
+// written under a temporary name and renamed when complete.
 
 #include <filesystem>
-#include <memory>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -25,6 +26,7 @@
 #include "sim/Scene.h"
 #include "sim/Simulator.h"
 #include "sim/TopDownMap.h"
+#include "viz/EpisodeMap.h"
 
 namespace vln::viz {
 
@@ -46,30 +48,16 @@ struct PicturesConfig {
   int video_height = 256;
   /// Video frame rate (frames per second; one frame per action).
   double fps = 4.0;
-  /// Map resolution, metres per pixel.
-  float meters_per_pixel = 0.05f;
+  /// Map size (1,024 pixels on the long side unless a scale is set); the
+  /// video's map panel is drawn at twice the panel height at most.
+  MapStyle map;
   /// Success radius drawn around the goal, metres (VLN-CE: 3 m).
   float success_distance = 3.0f;
 };
 
-/// Colours of the drawings (RGB).
-inline constexpr sim::Rgb8 kReferenceColor = {30, 100, 220};
-inline constexpr sim::Rgb8 kAgentColor = {245, 130, 20};
-inline constexpr sim::Rgb8 kStartColor = {20, 170, 40};
-inline constexpr sim::Rgb8 kGoalColor = {220, 30, 30};
-
-/// A top-down map of `scene` on the floor of the record's start with the
-/// reference path, the agent path, start, goal and success circle (goal
-/// and circle only when `hasGoal`) and the agent's final pose.
-sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
-                               const rollout::EpisodeRecord& record,
-                               bool hasGoal, float successDistance,
-                               float metersPerPixel = 0.05f);
-
-/// File name of episode `episodeId`'s map: "<prefix>episode_<id>_map.png".
-std::string mapFileName(const std::string& prefix, const std::string& episodeId);
 /// File name of its video: "<prefix>episode_<id>.<format>".
-std::string videoFileName(const std::string& prefix, const std::string& episodeId,
+std::string videoFileName(const std::string& prefix,
+                          const std::string& episodeId,
                           const std::string& format);
 
 /// One episode's video being written.
@@ -93,8 +81,9 @@ class EpisodeVideo {
   /// extended to it, and a caption ("step k: ACTION", distance to goal when
   /// `distanceToGoal` >= 0). `action` is the action just taken (none on the
   /// first frame).
-  void addFrame(const sim::Observation& observation, const sim::AgentState& pose,
-                int step, const sim::Action* action, float distanceToGoal);
+  void addFrame(const sim::Observation& observation,
+                const sim::AgentState& pose, int step,
+                const sim::Action* action, float distanceToGoal);
   /// Finishes the file (renamed into place). Further frames are an error.
   void close();
   /// Frames written so far.

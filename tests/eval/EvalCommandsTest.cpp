@@ -16,7 +16,6 @@
 #include "common/Json.h"
 #include "data/NavGraph.h"
 #include "eval/BaselineAgents.h"
-#include "viz/EpisodePictures.h"
 #include "eval/Tables.h"
 #include "models/Export.h"
 #include "models/StateDict.h"
@@ -24,7 +23,9 @@
 #include "rollout/PolicyAgent.h"
 #include "rollout/RolloutTestPolicy.h"
 #include "rollout/RolloutTestWorld.h"
+#include "support/TestUtil.h"
 #include "train/Checkpoint.h"
+#include "viz/EpisodePictures.h"
 
 namespace vln::eval {
 namespace {
@@ -292,6 +293,49 @@ TEST_F(EvalCommandsTest, NavGraphComparisonAndPictures) {
   EXPECT_EQ(viz::summarizeVideo(pictures / viz::videoFileName("ckpt_5_val_seen_", episodes[0].record.episode_id, "avi"))
                 .frames,
             episodes[0].record.steps_taken + 1);
+}
+
+TEST_F(EvalCommandsTest, HtmlReportPerCheckpointAndSplit) {
+  const fs::path ckpts = dir_ / "checkpoints";
+  for (int i : {1, 2}) writeCheckpoint(ckpts / checkpointName(i), 1.0);
+  EvalCommandOptions options;
+  options.checkpoint = ckpts;
+  options.out = dir_ / "out";
+  options.report = dir_ / "report";
+  options.report_episodes = 2;
+  std::string printed;
+  const EvalCommandResult r = run(options, &printed);
+  ASSERT_EQ(r.reports.size(), 4u);
+  // a page per checkpoint and split, and the index of them
+  for (int i : {1, 2})
+    for (const std::string split : {"val_seen", "val_unseen"}) {
+      SCOPED_TRACE(std::to_string(i) + " " + split);
+      const fs::path page =
+          options.report / ("ckpt_" + std::to_string(i) + "_" + split) / "index.html";
+      ASSERT_TRUE(fs::exists(page));
+      const std::string html = vln::test::readText(page);
+      const size_t at = html.find("const REPORT = ");
+      const size_t end = html.find(";\n", at);
+      const nlohmann::json data = nlohmann::json::parse(html.substr(at + 15, end - at - 15));
+      EXPECT_EQ(data["episodes"].size(), 5u);
+      ASSERT_EQ(data["details"].size(), 2u);
+      // the CMA's attention over the split vocabulary's words, every step
+      for (const auto& [id, detail] : data["details"].items()) {
+        ASSERT_TRUE(detail["attention"].is_array()) << id;
+        EXPECT_EQ(detail["attention"].size(), detail["actions"].size());
+        EXPECT_EQ(detail["attention"][0].size(), detail["words"].size());
+        EXPECT_NE(detail["words"][0].get<std::string>().front(), '#');
+      }
+      EXPECT_NEAR(data["summary"]["spl"].get<double>(),
+                  rollout::readStatsFile(options.out / rollout::statsFileName(i, split)).mean.spl,
+                  1e-9);
+    }
+  const std::string index = vln::test::readText(options.report / "index.html");
+  EXPECT_THAT(index, HasSubstr("ckpt_2_val_unseen/index.html"));
+  EXPECT_THAT(printed, HasSubstr("report: " + (options.report / "index.html").string()));
+  // a bad count is named
+  options.report_episodes = -1;
+  EXPECT_THAT(vln::test::errorOf([&] { run(options); }), HasSubstr("--report-episodes"));
 }
 
 // Connectivity files hold viewpoints at camera height; matching happens on

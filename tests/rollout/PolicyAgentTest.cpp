@@ -189,3 +189,74 @@ TEST(PolicyAgentTest, MisuseIsReported) {
 
 }  // namespace
 }  // namespace vln::rollout
+
+namespace vln::rollout {
+namespace {
+
+// the agent's attention after every step of every episode, by input position
+class AttentionRecorder : public EpisodeObserver {
+ public:
+  explicit AttentionRecorder(const Agent& agent) : agent_(agent) {}
+  bool wantsFrames(int) const override { return false; }
+  void episodeStarted(int, VectorEnv&, int) override {}
+  void episodeStepped(int index, VectorEnv&, int env, sim::Action) override {
+    rows[index].push_back(agent_.instructionAttention(env));
+  }
+  void episodeFinished(int, VectorEnv&, int, const EpisodeResult&,
+                       bool) override {}
+  std::map<int, std::vector<std::vector<float>>> rows;
+
+ private:
+  const Agent& agent_;
+};
+
+std::map<int, std::vector<std::vector<float>>> attentionOf(
+    const test::TinyAgentModel& model,
+    const std::vector<data::Episode>& episodes, int numEnvs, bool keep) {
+  const auto& w = rolloutTestWorld();
+  PolicyAgent agent(model.policy, model.encoder, numEnvs, false, 0, 200);
+  agent.keepInstructionAttention(keep);
+  VectorEnv envs(numEnvs, w.sim, w.task, std::make_shared<SceneCache>(w.sim),
+                 2);
+  AttentionRecorder recorder(agent);
+  evaluateEpisodes(agent, envs, episodes, nullptr, EvalConfig{}, {}, &recorder);
+  return recorder.rows;
+}
+
+TEST(PolicyAgentTest, CmaAttentionOverTheInstructionPerEnvironment) {
+  const auto cma = test::tinyAgentModel(models::PolicyType::kCma, 13);
+  const auto episodes = firstEpisodes(4);
+  const auto batched = attentionOf(cma, episodes, /*numEnvs=*/3, /*keep=*/true);
+  ASSERT_EQ(batched.size(), episodes.size());
+  for (const auto& [index, rows] : batched) {
+    const int words = data::unpaddedLength(
+        episodes[static_cast<size_t>(index)].instruction.instruction_tokens);
+    for (const auto& row : rows) {
+      // one weight per token the policy read, a distribution over them
+      ASSERT_EQ(row.size(), static_cast<size_t>(words));
+      double sum = 0.0;
+      for (float w : row) {
+        EXPECT_GE(w, 0.0f);
+        sum += w;
+      }
+      EXPECT_NEAR(sum, 1.0, 1e-5);
+    }
+  }
+  // the same rows whatever shares the batch
+  const auto alone = attentionOf(cma, {episodes[2]}, 1, true);
+  const auto& a = alone.at(0);
+  const auto& b = batched.at(2);
+  ASSERT_EQ(a.size(), b.size());
+  for (size_t s = 0; s < a.size(); ++s)
+    for (size_t k = 0; k < a[s].size(); ++k)
+      EXPECT_NEAR(a[s][k], b[s][k], 1e-5);
+  // not asked for, or a policy without attention: none
+  for (const auto& [index, rows] : attentionOf(cma, episodes, 3, false))
+    for (const auto& row : rows) EXPECT_TRUE(row.empty());
+  const auto seq2seq = test::tinyAgentModel(models::PolicyType::kSeq2Seq, 25);
+  for (const auto& [index, rows] : attentionOf(seq2seq, episodes, 3, true))
+    for (const auto& row : rows) EXPECT_TRUE(row.empty());
+}
+
+}  // namespace
+}  // namespace vln::rollout

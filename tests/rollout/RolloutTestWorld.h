@@ -39,6 +39,13 @@ struct RolloutTestWorld {
   std::vector<std::vector<Vec3f>> followerPositions;
 };
 
+/// The vocabulary of those tokens: "<pad>", "<unk>", then "word<i>".
+inline data::Vocabulary testVocabulary() {
+  std::vector<std::string> words = {"<pad>", "<unk>"};
+  for (int i = 2; i < kTestVocab; ++i) words.push_back("word" + std::to_string(i));
+  return data::Vocabulary(words);
+}
+
 inline std::vector<int> randomTokens(std::mt19937_64& rng) {
   std::vector<int> tokens(12, 0);
   const int length = 3 + static_cast<int>(rng() % 8);
@@ -152,6 +159,7 @@ inline void writeDataset(const RolloutTestWorld& w,
                          const std::filesystem::path& root) {
   auto subset = [&](size_t from, size_t to, bool withGoals) {
     data::EpisodeDataset d;
+    d.instruction_vocab = testVocabulary();
     for (size_t i = from; i < to; ++i) {
       data::Episode e = w.episodes[i];
       if (!withGoals) {

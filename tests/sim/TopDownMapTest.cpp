@@ -17,9 +17,9 @@
 namespace vln::sim {
 namespace {
 
-using ::testing::HasSubstr;
 using test::addQuad;
 using test::addWalls;
+using ::testing::HasSubstr;
 
 // A 6 m x 6 m walled room at y = 0 with a red 1 m cube (object 4, "table")
 // centred at (2, 0.5, 0).
@@ -44,7 +44,8 @@ TEST_F(TopDownMapTest, CanvasCoversNavigableAreaWithMargin) {
   // navigable x, z in about [-2.9, 2.9] plus 0.5 m margins at 0.05 m/pixel
   EXPECT_NEAR(map.width(), 136, 6);
   EXPECT_NEAR(map.height(), 136, 6);
-  EXPECT_EQ(map.rgb().size(), static_cast<size_t>(map.width()) * map.height() * 3);
+  EXPECT_EQ(map.rgb().size(),
+            static_cast<size_t>(map.width()) * map.height() * 3);
   // one metre is twenty pixels, x to columns and z to rows
   const Eigen::Vector2i a = map.toPixel({0, 0, 0});
   EXPECT_EQ(map.toPixel({1, 0, 0}) - a, Eigen::Vector2i(20, 0));
@@ -80,7 +81,8 @@ TEST_F(TopDownMapTest, MarkersDrawnOnTop) {
   map.drawCircle({0, 0, 1}, 1.0f, magenta, 2);
   EXPECT_EQ(pixelAt(map, {1, 0, 1}), magenta);
   EXPECT_EQ(pixelAt(map, {0, 0, 1}), (Rgb8{232, 232, 232}));
-  EXPECT_THROW(map.drawCircle({0, 0, 0}, -1.0f, magenta), std::invalid_argument);
+  EXPECT_THROW(map.drawCircle({0, 0, 0}, -1.0f, magenta),
+               std::invalid_argument);
 
   // heading 0 looks along -Z: the arrow points towards smaller rows
   const Rgb8 orange{255, 128, 0};
@@ -101,13 +103,62 @@ TEST_F(TopDownMapTest, MarkersDrawnOnTop) {
   EXPECT_GT(dark, 2);
 }
 
+TEST_F(TopDownMapTest, ScaleForALongSide) {
+  for (int longSide : {64, 800, 1024}) {
+    const float mpp =
+        TopDownMap::metersPerPixelForLongSide(*scene_, 0.0f, longSide);
+    TopDownMap map(*scene_, mpp);
+    EXPECT_EQ(std::max(map.width(), map.height()), longSide);
+    EXPECT_FLOAT_EQ(map.metersPerPixel(), mpp);
+  }
+  EXPECT_THAT([&] { TopDownMap::metersPerPixelForLongSide(*scene_, 0.0f, 8); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr(">= 16 pixels")));
+}
+
+TEST_F(TopDownMapTest, LabelsBesideTheirObjectNotOnIt) {
+  TopDownMap map(*scene_, 0.02f);
+  ASSERT_EQ(map.placedLabels().size(), 1u);
+  EXPECT_TRUE(map.droppedLabels().empty());
+  const MapLabel& label = map.placedLabels()[0];
+  EXPECT_EQ(label.text, "table");
+  // the cube spans x, z in [1.5, 2.5] x [-0.5, 0.5]
+  const Eigen::Vector2i lo = map.toPixel({1.5f, 0, -0.5f});
+  const Eigen::Vector2i hi = map.toPixel({2.5f, 0, 0.5f});
+  const bool apart = label.x + label.width <= lo.x() || label.x >= hi.x() ||
+                     label.y + label.height <= lo.y() || label.y >= hi.y();
+  EXPECT_TRUE(apart) << "label at " << label.x << "," << label.y << " size "
+                     << label.width << "x" << label.height;
+  EXPECT_GE(label.x, 0);
+  EXPECT_LE(label.x + label.width, map.width());
+  // dark text on a light halo: both inside the label's box
+  int dark = 0, light = 0;
+  for (int y = label.y; y < label.y + label.height; ++y)
+    for (int x = label.x; x < label.x + label.width; ++x) {
+      const uint8_t v =
+          map.rgb()[(static_cast<size_t>(y) * map.width() + x) * 3];
+      dark += v < 60;
+      light += v > 240;
+    }
+  EXPECT_GT(dark, 10);
+  EXPECT_GT(light, 10);
+  // too small a map for the label anywhere: left out, not drawn over
+  TopDownMap tiny(*scene_,
+                  TopDownMap::metersPerPixelForLongSide(*scene_, 0.0f, 16));
+  EXPECT_TRUE(tiny.placedLabels().empty());
+  EXPECT_EQ(tiny.droppedLabels(), std::vector<std::string>{"table"});
+}
+
 TEST(TopDownMapFloorTest, DrawsTheFloorNearestToFloorY) {
   // a 4 m x 4 m room at y = 0 and a 2 m x 3 m platform at y = 3 beside it
   TriangleMesh mesh;
-  addQuad(mesh, {Vec3f(0, 0, 4), {4, 0, 4}, {4, 0, 0}, {0, 0, 0}}, Rgb8{200, 200, 200}, -1);
+  addQuad(mesh, {Vec3f(0, 0, 4), {4, 0, 4}, {4, 0, 0}, {0, 0, 0}},
+          Rgb8{200, 200, 200}, -1);
   addWalls(mesh, 0, 4, 0, 4, 0, 2.5f);
-  addQuad(mesh, {Vec3f(10, 3, 3), {12, 3, 3}, {12, 3, 0}, {10, 3, 0}}, Rgb8{200, 200, 200}, -1);
-  auto scene = Scene::fromMesh("two-floors", std::move(mesh), {}, NavMeshConfig{});
+  addQuad(mesh, {Vec3f(10, 3, 3), {12, 3, 3}, {12, 3, 0}, {10, 3, 0}},
+          Rgb8{200, 200, 200}, -1);
+  auto scene =
+      Scene::fromMesh("two-floors", std::move(mesh), {}, NavMeshConfig{});
   TopDownMap ground(*scene, 0.05f, 0.0f);
   TopDownMap upper(*scene, 0.05f, 3.2f);
   // widths: navigable extent (minus the agent radius at walls) + 1 m margin
@@ -152,9 +203,12 @@ TEST_F(TopDownMapTest, RefusesPointsFarOutsideTheScene) {
     EXPECT_THROW(map.drawText(bad, "x", red), std::invalid_argument);
     EXPECT_THROW(map.toPixel(bad), std::invalid_argument);
   }
-  EXPECT_THAT([&] { map.drawPath({Vec3f(1, 0, 1), far}, red); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("TopDownMap::drawPath(): point 1 (1e+30")));
+  EXPECT_THAT(
+      [&] {
+        map.drawPath({Vec3f(1, 0, 1), far}, red);
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("TopDownMap::drawPath(): point 1 (1e+30")));
   EXPECT_THAT([&] { map.drawAgent(Vec3f(1, 0, 1), NAN, red); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("TopDownMap::drawAgent(): heading")));
