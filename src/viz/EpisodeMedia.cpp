@@ -11,9 +11,9 @@
 #include "sim/Scene.h"
 #include "sim/Simulator.h"
 #include "sim/TopDownMap.h"
-#include "viz/EpisodePictures.h"
+#include "viz/EpisodeMap.h"
 #include "viz/Gif.h"
-#include "viz/Png.h"
+#include "viz/Image.h"
 
 namespace vln::viz {
 namespace {
@@ -24,9 +24,6 @@ constexpr double kFontScale = 0.33;
 // the map panel is at most this many panel heights wide (a long house is
 // scaled to fit and padded above and below)
 constexpr int kMaxMapAspect = 3;
-// the video's map is rasterised at about this many times the panel's size
-// and scaled down (INTER_AREA), so walls stay visible
-constexpr double kMapOversampling = 2.0;
 
 // colours of our Mats, which hold RGB
 cv::Scalar rgb(const sim::Rgb8& c) { return cv::Scalar(c[0], c[1], c[2]); }
@@ -84,14 +81,11 @@ class EpisodeMedia::Video {
         static_cast<int>(std::lround(static_cast<double>(panelHeight_) *
                                      first.depth_width / first.depth_height)));
 
-    // the map at a resolution of about twice the panel (its canvas covers
-    // the navmesh bounds plus a margin), never finer than the PNG maps'
-    const Eigen::Vector3f extent = scene.navmesh().bounds().sizes();
-    const double metersPerPixel = std::max<double>(
-        config.meters_per_pixel,
-        std::max((extent.x() + 1.0) /
-                     (kMapOversampling * kMaxMapAspect * panelHeight_),
-                 (extent.z() + 1.0) / (kMapOversampling * panelHeight_)));
+    // the map at twice the panel height at most on its long side: finer
+    // maps would only be averaged away when scaled into the frame
+    MapStyle style = config.map;
+    if (style.meters_per_pixel <= 0.0f)
+      style.long_side = std::min(style.long_side, 2 * panelHeight_);
     rollout::EpisodeRecord record;
     record.episode_id = episodeId_;
     record.positions = {start.position};
@@ -99,8 +93,7 @@ class EpisodeMedia::Video {
     record.reference_path = episode.reference_path;
     if (!episode.goals.empty()) record.goal = episode.goals.front().position;
     map_ = std::make_unique<sim::TopDownMap>(drawEpisodeMap(
-        scene, record, !episode.goals.empty(), config.success_distance,
-        static_cast<float>(metersPerPixel)));
+        scene, record, !episode.goals.empty(), config.success_distance, style));
 
     // the map panel: the map scaled to the panel height (or to the widest
     // panel allowed), centred vertically on white
@@ -284,16 +277,17 @@ void EpisodeMedia::episodeFinished(int index, rollout::VectorEnv& envs, int env,
     videos_.erase(it);
   }
   if (index >= config_.maps) return;
-  const sim::TopDownMap map =
+  const Image picture = mapPicture(
       drawEpisodeMap(envs.simulator(env).scene(), result.record, scored,
-                     config_.success_distance, config_.meters_per_pixel);
+                     config_.success_distance, config_.map),
+      MapLegend{scored, config_.success_distance, /*agent_path=*/true});
   EpisodeMediaItem item;
   item.kind = EpisodeMediaItem::Kind::kMap;
   item.index = index;
   item.episode_id = result.record.episode_id;
-  item.width = map.width();
-  item.height = map.height();
-  item.encoded = encodePng(map.rgb(), map.width(), map.height());
+  item.width = picture.width;
+  item.height = picture.height;
+  item.encoded = encodePng(picture);
   items_.push_back(std::move(item));
 }
 

@@ -2,14 +2,18 @@
 // Pictures of evaluated episodes kept in memory, encoded, for TensorBoard
 // (the trainer's periodic evaluation writes them as image summaries, as
 // VLN-CE's VIDEO_OPTION: [tensorboard] does):
-//  - the top-down map of the first `maps` episodes (drawEpisodeMap(): the
-//    reference and agent paths, start, goal, success circle) as PNG;
+//  - the top-down map of the first `maps` episodes as PNG: the picture of
+//    viz/EpisodeMap.h (reference and agent paths, start, goal, success
+//    circle, final pose, legend and scale bar), as `eval --maps` writes;
 //  - a video of the first `videos` episodes as an animated GIF (Gif.h), one
 //    frame after reset and one per action: egocentric RGB | depth | the map
 //    with the agent's path so far, over a one-line caption (step, action,
 //    geodesic distance to the goal), downscaled to `video_height` pixels so
-//    that a 120-step episode stays a few hundred kilobytes. The last frame
-//    is held for `hold_last_seconds` before the GIF loops.
+//    that a 120-step episode stays a few hundred kilobytes. The map panel
+//    is drawEpisodeMap() of the start (whose heading stays as an arrow) at
+//    twice the panel height at most, scaled into the panel; the agent's
+//    path and pose are drawn on the panel. The last frame is held for
+//    `hold_last_seconds` before the GIF loops.
 // Frames are compressed as they arrive, so memory holds at most one GIF in
 // progress per environment plus the finished media. With maps = videos = 0
 // the observer asks for no frames and draws nothing.
@@ -20,6 +24,7 @@
 #include <vector>
 
 #include "rollout/Evaluator.h"
+#include "viz/EpisodeMap.h"
 
 namespace vln::viz {
 
@@ -36,9 +41,9 @@ struct MediaConfig {
   double fps = 4.0;
   /// How long the last frame stays before the GIF loops, seconds.
   double hold_last_seconds = 1.5;
-  /// Map resolution of the PNG maps, metres per pixel (the video's map is
-  /// drawn coarser, about twice the panel's size, then scaled down).
-  float meters_per_pixel = 0.05f;
+  /// Map size (1,024 pixels on the long side unless a scale is set); the
+  /// video's map is drawn at twice the panel height at most.
+  MapStyle map;
   /// Success radius drawn around the goal, metres (VLN-CE: 3 m).
   float success_distance = 3.0f;
 };
@@ -52,6 +57,7 @@ struct EpisodeMediaItem {
   std::string episode_id;
   /// PNG (map) or GIF (video) bytes.
   std::string encoded;
+  /// Size in pixels (a map's includes its legend footer).
   int width = 0;
   int height = 0;
   int channels = 3;  ///< RGB

@@ -15,7 +15,7 @@
 #include "support/TestPaths.h"
 #include "train/Crc32c.h"
 #include "viz/Gif.h"
-#include "viz/Png.h"
+#include "viz/Image.h"
 
 namespace vln::train {
 namespace {
@@ -115,7 +115,7 @@ TEST(TensorBoardWriterTest, ImagesAndVideosDecodeWithValidCrcs) {
   std::vector<uint8_t> picture(5 * 4 * 3);
   for (size_t i = 0; i < picture.size(); ++i)
     picture[i] = static_cast<uint8_t>(i * 13);
-  const std::string png = viz::encodePng(picture, 5, 4);
+  const std::string png = viz::encodePng(viz::Image{5, 4, picture});
   viz::GifEncoder gif(6, 2);
   std::vector<std::vector<uint8_t>> frames;
   for (int f = 0; f < 3; ++f) {
@@ -152,11 +152,10 @@ TEST(TensorBoardWriterTest, ImagesAndVideosDecodeWithValidCrcs) {
   EXPECT_EQ(map.width, 5);
   EXPECT_EQ(map.height, 4);
   EXPECT_EQ(map.colorspace, 3);
-  const viz::DecodedImage image = viz::decodePng(map.encoded);
+  const viz::Image image = viz::decodePng(map.encoded);
   EXPECT_EQ(image.width, 5);
   EXPECT_EQ(image.height, 4);
-  EXPECT_EQ(image.channels, 3);
-  EXPECT_EQ(image.pixels, picture);  // PNG is lossless
+  EXPECT_EQ(image.rgb, picture);  // PNG is lossless
 
   const TensorBoardImage& clip = decoded.images[1];
   EXPECT_EQ(clip.tag, "eval/val_seen/video/episode_7");

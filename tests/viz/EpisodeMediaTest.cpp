@@ -1,8 +1,8 @@
 // Tests of src/viz/EpisodeMedia.cpp on the rollout test house: maps (PNG,
-// exactly drawEpisodeMap()'s pixels) and videos (GIF: one frame per
-// position, the egocentric RGB panel equal to the observation the agent
-// saw, the usual delay and a held last frame) for the first episodes only;
-// no frames asked for when no video is; bad settings; and the sizes of a
+// exactly the pixels of mapPicture(drawEpisodeMap())) and videos (GIF: one
+// frame per position, the egocentric RGB panel equal to the observation the
+// agent saw, the usual delay and a held last frame) for the first episodes
+// only; no frames asked for when no video is; bad settings; and the sizes of a
 // 120-step video and of a map (printed, for docs/paper_scale.md).
 
 #include "viz/EpisodeMedia.h"
@@ -16,9 +16,9 @@
 #include "rollout/Evaluator.h"
 #include "rollout/RolloutTestWorld.h"
 #include "support/GifDecoder.h"
-#include "viz/EpisodePictures.h"
+#include "viz/EpisodeMap.h"
 #include "viz/Gif.h"
-#include "viz/Png.h"
+#include "viz/Image.h"
 
 namespace vln::viz {
 namespace {
@@ -75,6 +75,13 @@ class WanderAgent : public rollout::Agent {
   std::map<int, int> steps_;
 };
 
+MediaConfig counts(int maps, int videos) {
+  MediaConfig config;
+  config.maps = maps;
+  config.videos = videos;
+  return config;
+}
+
 rollout::EvaluationResult evaluate(rollout::Agent& agent, EpisodeMedia& media,
                                    int numEnvs) {
   const auto& w = rolloutTestWorld();
@@ -116,18 +123,22 @@ TEST(EpisodeMediaTest, MapsAndVideosOfTheFirstEpisodes) {
   EXPECT_STREQ(mediaKindName(items[0].kind), "map");
   EXPECT_STREQ(mediaKindName(items[3].kind), "video");
 
-  // a map is drawEpisodeMap()'s image, losslessly
+  // a map is the map picture (legend and scale bar included), losslessly
   for (int i = 0; i < 3; ++i) {
     const EpisodeMediaItem& item = items[static_cast<size_t>(i)];
-    const sim::TopDownMap expected = drawEpisodeMap(
-        *w.scene, result.episodes[static_cast<size_t>(i)].record,
-        /*hasGoal=*/true, config.success_distance, config.meters_per_pixel);
-    const DecodedImage png = decodePng(item.encoded);
-    EXPECT_EQ(png.width, expected.width());
-    EXPECT_EQ(png.height, expected.height());
-    EXPECT_EQ(item.width, expected.width());
+    const sim::TopDownMap map =
+        drawEpisodeMap(*w.scene, result.episodes[static_cast<size_t>(i)].record,
+                       /*hasGoal=*/true, config.success_distance, config.map);
+    EXPECT_EQ(std::max(map.width(), map.height()), 1024);
+    const Image expected =
+        mapPicture(map, MapLegend{true, config.success_distance, true});
+    const Image png = decodePng(item.encoded);
+    EXPECT_EQ(png.width, expected.width);
+    EXPECT_EQ(png.height, expected.height);
+    EXPECT_EQ(item.width, expected.width);
+    EXPECT_EQ(item.height, expected.height);
     EXPECT_EQ(item.frames, 1);
-    EXPECT_EQ(png.pixels, expected.rgb());
+    EXPECT_EQ(png.rgb, expected.rgb);
   }
 
   for (int i = 0; i < 2; ++i) {
@@ -200,7 +211,7 @@ TEST(EpisodeMediaTest, OnlyMapsAskForNoFrames) {
   EXPECT_EQ(items[0].kind, EpisodeMediaItem::Kind::kMap);
   EXPECT_EQ(items[1].index, 1);
 
-  EpisodeMedia none(MediaConfig{.maps = 0, .videos = 0});
+  EpisodeMedia none(counts(/*maps=*/0, /*videos=*/0));
   ObservingReplayAgent blind(/*observes=*/false);
   evaluate(blind, none, 2);
   EXPECT_FALSE(blind.rendered);
@@ -209,13 +220,22 @@ TEST(EpisodeMediaTest, OnlyMapsAskForNoFrames) {
 
 TEST(EpisodeMediaTest, BadSettingsAreErrors) {
   EXPECT_THAT(
-      [] { EpisodeMedia(MediaConfig{.maps = -1}); },
+      [] { EpisodeMedia(counts(/*maps=*/-1, /*videos=*/0)); },
       ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("maps -1")));
-  EXPECT_THAT([] { EpisodeMedia(MediaConfig{.videos = 1, .video_height = 8}); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("video height")));
   EXPECT_THAT(
-      [] { EpisodeMedia(MediaConfig{.fps = 0.0}); },
+      [] {
+        MediaConfig config = counts(0, 1);
+        config.video_height = 8;
+        EpisodeMedia{config};
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("video height")));
+  EXPECT_THAT(
+      [] {
+        MediaConfig config;
+        config.fps = 0.0;
+        EpisodeMedia{config};
+      },
       ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("fps")));
 }
 
@@ -228,7 +248,7 @@ TEST(EpisodeMediaTest, SizeOfA120StepVideoAndAMap) {
   sim.depth.camera.width = sim.depth.camera.height = 64;
   sim::TaskConfig task = w.task;
   task.max_episode_steps = 120;
-  EpisodeMedia media(MediaConfig{.maps = 1, .videos = 1});
+  EpisodeMedia media(counts(/*maps=*/1, /*videos=*/1));
   WanderAgent agent;
   rollout::VectorEnv envs(1, sim, task,
                           std::make_shared<rollout::SceneCache>(sim), 1);
