@@ -198,13 +198,18 @@ void emitModule(ScriptWriter& w, nn::Module& module, const std::string& prefix,
 void emitRgbEncoder(ScriptWriter& w, RgbEncoderImpl& rgb) {
   w.line(0, "def encode_rgb(self, rgb: Tensor) -> Tensor:");
   w.line(1, "x = rgb.permute(0, 3, 1, 2).to({f32})");
-  w.line(1,
-         "mean = torch.tensor([0.485, 0.456, 0.406], dtype={f32}, "
-         "device=x.device).view(1, 3, 1, 1)");
-  w.line(1,
-         "std = torch.tensor([0.229, 0.224, 0.225], dtype={f32}, "
-         "device=x.device).view(1, 3, 1, 1)");
-  w.line(1, "x = x * (1.0 / 255.0 / std) - mean / std");
+  if (rgb.normalizesWithImageNet()) {
+    w.line(1,
+           "mean = torch.tensor([0.485, 0.456, 0.406], dtype={f32}, "
+           "device=x.device).view(1, 3, 1, 1)");
+    w.line(1,
+           "std = torch.tensor([0.229, 0.224, 0.225], dtype={f32}, "
+           "device=x.device).view(1, 3, 1, 1)");
+    w.line(1, "x = x * (1.0 / 255.0 / std) - mean / std");
+  } else {
+    // model.normalize_rgb: false (VLN-CE's encoder)
+    w.line(1, "x = x / 255.0");
+  }
   emitModule(w, rgb.cnnModule(), "encoder.rgb.cnn", "x", 1);
   if (rgb.resnet) w.line(1, "x = torch.adaptive_avg_pool2d(x, [4, 4])");
   w.line(1, "return x");

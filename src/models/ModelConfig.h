@@ -47,6 +47,7 @@ struct ModelConfig {
   std::string depth_weights;
   bool rgb_trainable = false;
   bool rgb_batch_statistics = false;
+  bool normalize_rgb = true;
   bool depth_trainable = false;
   bool no_rgb = false;
   bool no_depth = false;
@@ -94,6 +95,12 @@ struct ModelConfig {
             "exact_resume). The running (ImageNet) statistics are not updated "
             "and evaluation always uses them (docs/models.md). No effect on "
             "small_cnn, which has no BatchNorm");
+    v.field("normalize_rgb", normalize_rgb,
+            "Normalise RGB pixels with the ImageNet mean and std after "
+            "scaling them to [0, 1], as torchvision's weights expect (false: "
+            "only divide by 255, as VLN-CE's TorchVisionResNet50 does with "
+            "its default MODEL.normalize_rgb: False; "
+            "scripts/convert_vlnce_checkpoint.py writes false)");
     v.field("depth_trainable", depth_trainable,
             "Train the depth CNN (its features cannot then be cached)");
     v.field("no_rgb", no_rgb,

@@ -37,7 +37,8 @@ void freeze(torch::nn::Module& module) {
 // RGB
 // ===========================================================================
 
-RgbEncoderImpl::RgbEncoderImpl(const ModelConfig& config) {
+RgbEncoderImpl::RgbEncoderImpl(const ModelConfig& config)
+    : normalize_(config.normalize_rgb) {
   if (config.rgb_encoder == EncoderType::kSmallCnn) {
     small = register_module("cnn", SmallCnn(3, rgbFeatureShape(config)[0]));
   } else {
@@ -51,15 +52,21 @@ torch::Tensor RgbEncoderImpl::forward(const torch::Tensor& rgb) {
               "RgbEncoder::forward(): expected uint8 pixels, got ",
               rgb.scalar_type());
   const torch::Tensor images = flattenImages(rgb, 3, "RgbEncoder::forward()");
-  // ImageNet statistics (torchvision's documented normalisation), folded
-  // into one multiply-add per pixel
-  const auto opts = torch::TensorOptions().device(rgb.device());
-  const torch::Tensor mean =
-      torch::tensor({0.485f, 0.456f, 0.406f}, opts).view({1, 3, 1, 1});
-  const torch::Tensor stdev =
-      torch::tensor({0.229f, 0.224f, 0.225f}, opts).view({1, 3, 1, 1});
   const torch::Tensor x = images.permute({0, 3, 1, 2}).to(torch::kFloat32);
-  const torch::Tensor normalised = x * (1.0f / 255.0f / stdev) - mean / stdev;
+  torch::Tensor normalised;
+  if (normalize_) {
+    // ImageNet statistics (torchvision's documented normalisation), folded
+    // into one multiply-add per pixel
+    const auto opts = torch::TensorOptions().device(rgb.device());
+    const torch::Tensor mean =
+        torch::tensor({0.485f, 0.456f, 0.406f}, opts).view({1, 3, 1, 1});
+    const torch::Tensor stdev =
+        torch::tensor({0.229f, 0.224f, 0.225f}, opts).view({1, 3, 1, 1});
+    normalised = x * (1.0f / 255.0f / stdev) - mean / stdev;
+  } else {
+    // VLN-CE's TorchVisionResNet: pixels / 255 only
+    normalised = x / 255.0f;
+  }
   torch::Tensor features;
   if (resnet) {
     features = torch::adaptive_avg_pool2d(resnet->forward(normalised), {4, 4});

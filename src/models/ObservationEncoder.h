@@ -12,10 +12,11 @@
 namespace vln::models {
 
 /// RGB CNN: uint8 images [..., H, W, 3] -> float features [..., C, 4, 4]
-/// (rgbFeatureShape()). Pixels are scaled to [0, 1] and normalised with the
-/// ImageNet mean/std inside (VLN-CE only divides by 255; torchvision's
-/// weights expect the normalisation). ResNet outputs are adaptive-average-
-/// pooled to 4x4 as in VLN-CE.
+/// (rgbFeatureShape()). Pixels are scaled to [0, 1] and, with
+/// model.normalize_rgb (the default), normalised with the ImageNet mean/std
+/// inside (torchvision's weights expect it; VLN-CE's encoder only divides by
+/// 255, which model.normalize_rgb: false reproduces). ResNet outputs are
+/// adaptive-average-pooled to 4x4 as in VLN-CE.
 class RgbEncoderImpl : public torch::nn::Module {
  public:
   explicit RgbEncoderImpl(const ModelConfig& config);
@@ -23,9 +24,15 @@ class RgbEncoderImpl : public torch::nn::Module {
   /// The module whose tensors a weight file holds (torchvision names for
   /// the ResNets).
   torch::nn::Module& cnnModule();
+  /// True when pixels are normalised with the ImageNet statistics
+  /// (model.normalize_rgb), false when they are only divided by 255.
+  bool normalizesWithImageNet() const { return normalize_; }
 
   TorchVisionResNet resnet{nullptr};  ///< set for resnet18/resnet50
   SmallCnn small{nullptr};            ///< set for small_cnn
+
+ private:
+  bool normalize_ = true;
 };
 TORCH_MODULE(RgbEncoder);
 

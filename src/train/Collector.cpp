@@ -496,6 +496,13 @@ std::string storeConfigHash(const ExperimentConfig& config) {
   for (const auto& [key, value] : flattenConfig(config)) {
     if (key == "sim.scenes_dir")
       continue;  // where scenes live, not what they are
+    // model.normalize_rgb changes the stored RGB features; it enters the
+    // hash only when off, so that stores written before the key existed
+    // (all normalised with ImageNet statistics) keep their hash
+    if (key == "model.normalize_rgb") {
+      if (!config.model.normalize_rgb) text += key + "=" + value + "\n";
+      continue;
+    }
     for (const auto& prefix : prefixes)
       if (key.rfind(prefix, 0) == 0) {
         text += key + "=" + value + "\n";

@@ -122,6 +122,9 @@ std::vector<Variant> variants() {
   r.rgb_height = r.rgb_width = 64;
   r.depth_height = r.depth_width = 64;
   out.push_back({"cma_resnet18", r});
+  // VLN-CE's RGB input: pixels / 255 without the ImageNet normalisation
+  r.normalize_rgb = false;
+  out.push_back({"cma_resnet18_pixels_over_255", r});
   return out;
 }
 

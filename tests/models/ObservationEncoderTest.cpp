@@ -131,6 +131,30 @@ TEST(ObservationEncoderTest, RgbNormalisationUsesImageNetStatistics) {
   EXPECT_LT(expectedInput.abs().max().item<float>(), 0.01f);
 }
 
+TEST(ObservationEncoderTest, WithoutNormalizeRgbPixelsAreDividedBy255) {
+  // model.normalize_rgb: false is VLN-CE's TorchVisionResNet input
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  c.rgb_encoder = EncoderType::kResNet18;
+  c.normalize_rgb = false;
+  torch::manual_seed(31);
+  RgbEncoder plain(c);
+  c.normalize_rgb = true;
+  RgbEncoder imageNet(c);
+  loadStateStrict(*imageNet, namedState(*plain));
+  plain->eval();
+  imageNet->eval();
+  torch::NoGradGuard g;
+  const torch::Tensor img =
+      torch::randint(0, 256, {2, 32, 32, 3}, torch::kUInt8);
+  const torch::Tensor x = img.permute({0, 3, 1, 2}).to(torch::kFloat32) / 255;
+  const torch::Tensor expected =
+      torch::adaptive_avg_pool2d(plain->resnet->forward(x), {4, 4});
+  EXPECT_TRUE(torch::allclose(plain->forward(img), expected, 1e-5, 1e-6));
+  EXPECT_FALSE(plain->normalizesWithImageNet());
+  EXPECT_TRUE(imageNet->normalizesWithImageNet());
+  EXPECT_FALSE(torch::allclose(imageNet->forward(img), expected, 1e-3, 1e-3));
+}
+
 TEST(ObservationEncoderTest, AblatedModalitiesHaveNoEncoder) {
   ModelConfig c = tinyConfig(PolicyType::kSeq2Seq);
   c.no_rgb = true;

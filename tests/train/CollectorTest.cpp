@@ -47,6 +47,21 @@ struct Fixture {
       data::readGroundTruth(data::splitGroundTruthPath(world.data, "train"));
 };
 
+// model.normalize_rgb changes the stored RGB features, so a store written
+// with it off must not be reused with it on; stores written before the key
+// existed (with ImageNet normalisation) keep their hash
+TEST(StoreConfigHashTest, NormalizeRgbEntersOnlyWhenOff) {
+  ExperimentConfig c;
+  const std::string defaults = storeConfigHash(c);
+  // the default config's hash before model.normalize_rgb existed (computed
+  // with Collector.cpp of dd5dc7a)
+  EXPECT_EQ(defaults, "703427e46e4b299c");
+  c.model.normalize_rgb = false;
+  EXPECT_NE(storeConfigHash(c), defaults);
+  c.model.normalize_rgb = true;
+  EXPECT_EQ(storeConfigHash(c), defaults);
+}
+
 // VLN-CE's progress target (habitat_extensions/sensors.py,
 // VLNOracleProgressSensor): (d0 - d) / d0, not clipped; 0 when d is inf
 TEST(ProgressTargetTest, FollowsVlnCeUnclippedOrClipsOnRequest) {
