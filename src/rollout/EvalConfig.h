@@ -22,6 +22,8 @@ struct EvalConfig {
   bool save_episodes = true;
   int map_episodes = 3;
   int video_episodes = 0;
+  int tensorboard_maps = 2;
+  int tensorboard_videos = 0;
 
   void visit(common::ConfigVisitor& v) {
     v.field("splits", splits, "Splits evaluated by default");
@@ -57,6 +59,17 @@ struct EvalConfig {
     v.field("video_episodes", video_episodes,
             "Videos (RGB, depth, growing map) for the first N episodes of each "
             "split",
+            common::atLeast(0));
+    v.field("tensorboard_maps", tensorboard_maps,
+            "Training: top-down maps (PNG) of the first N episodes of each "
+            "split in TensorBoard at every periodic evaluation, tag "
+            "eval/<split>/map/episode_<id> (needs output.tensorboard)",
+            common::atLeast(0));
+    v.field("tensorboard_videos", tensorboard_videos,
+            "Training: videos (animated GIF: RGB, depth, growing map) of the "
+            "first N episodes of each split in TensorBoard at every periodic "
+            "evaluation, tag eval/<split>/video/episode_<id> (needs "
+            "output.tensorboard)",
             common::atLeast(0));
   }
   bool operator==(const EvalConfig&) const = default;

@@ -41,4 +41,11 @@ void MetricsLog::write(
   if (tensorboard_) tensorboard_->addScalars(step, scalars);
 }
 
+void MetricsLog::writeImage(const std::string& tag, int64_t step,
+                            const std::string& encoded, int width, int height,
+                            int channels) {
+  if (tensorboard_)
+    tensorboard_->addImage(tag, step, encoded, width, height, channels);
+}
+
 }  // namespace vln::train

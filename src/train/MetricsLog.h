@@ -1,8 +1,8 @@
 #pragma once
 // Training metrics, written two ways: JSON lines (<run>/metrics.jsonl, one
 // object per record with "type", appended and flushed at once so a kill
-// loses nothing already logged) and, when enabled, TensorBoard scalars
-// (<run>/tb/events.out.tfevents.*).
+// loses nothing already logged) and, when enabled, TensorBoard scalars and
+// images (<run>/tb/events.out.tfevents.*).
 
 #include <cstdint>
 #include <cstdio>
@@ -33,6 +33,15 @@ class MetricsLog {
   void write(const std::string& type, nlohmann::json record,
              const std::vector<std::pair<std::string, double>>& scalars,
              int64_t step);
+
+  /// True when TensorBoard events are written.
+  bool tensorboard() const { return tensorboard_ != nullptr; }
+  /// Writes an encoded image (PNG picture or GIF video, see
+  /// TensorBoardWriter::addImage()) to TensorBoard at `step`; nothing
+  /// without TensorBoard.
+  void writeImage(const std::string& tag, int64_t step,
+                  const std::string& encoded, int width, int height,
+                  int channels);
 
  private:
   std::filesystem::path jsonl_;

@@ -6,9 +6,39 @@
 #include "rollout/PolicyAgent.h"
 #include "rollout/SplitEvaluation.h"
 #include "train/Distributed.h"
+#include "viz/EpisodeMedia.h"
 
 namespace vln::train {
 namespace fs = std::filesystem;
+
+namespace {
+
+// writes the media of one split's evaluation as TensorBoard images and
+// lists them in an "eval_media" record
+void writeMedia(std::vector<viz::EpisodeMediaItem> items,
+                const std::string& split, int index, MetricsLog& metrics) {
+  if (items.empty()) return;
+  nlohmann::json media = nlohmann::json::array();
+  for (const viz::EpisodeMediaItem& item : items) {
+    const std::string tag = "eval/" + split + "/" +
+                            viz::mediaKindName(item.kind) + "/episode_" +
+                            item.episode_id;
+    metrics.writeImage(tag, index, item.encoded, item.width, item.height,
+                       item.channels);
+    media.push_back({{"tag", tag},
+                     {"kind", viz::mediaKindName(item.kind)},
+                     {"episode_id", item.episode_id},
+                     {"width", item.width},
+                     {"height", item.height},
+                     {"frames", item.frames},
+                     {"bytes", item.encoded.size()}});
+  }
+  metrics.write("eval_media",
+                {{"checkpoint", index}, {"split", split}, {"media", media}}, {},
+                index);
+}
+
+}  // namespace
 
 PeriodicEvaluator::PeriodicEvaluator(
     const ExperimentConfig& config, std::shared_ptr<rollout::SceneCache> scenes,
@@ -35,13 +65,25 @@ double PeriodicEvaluator::evaluate(
     const models::ObservationEncoder& encoder, MetricsLog* metrics) {
   const rollout::EvalConfig& ec = config_.eval;
   const bool writes = !dist_ || dist_->isMaster();
+  // media only where TensorBoard is written (rank 0) and asked for
+  const bool media = metrics != nullptr && metrics->tensorboard() &&
+                     (ec.tensorboard_maps > 0 || ec.tensorboard_videos > 0);
   double selectionSpl = -1.0;
   for (const data::Split& split : splits_) {
+    std::unique_ptr<viz::EpisodeMedia> observer;
+    if (media) {
+      viz::MediaConfig mc;
+      mc.maps = ec.tensorboard_maps;
+      mc.videos = ec.tensorboard_videos;
+      mc.success_distance = config_.task.success_distance;
+      observer = std::make_unique<viz::EpisodeMedia>(mc);
+    }
     rollout::PolicyAgent agent(policy, encoder, ec.num_envs, ec.sample_actions,
                                static_cast<uint64_t>(ec.seed),
                                config_.dataset.max_instruction_length);
     rollout::SplitEvaluationOptions options;
     options.checkpoint = index;
+    options.observer = observer.get();
     if (writes) options.out_dir = dir_;
     if (dist_) {
       options.shard = dist_->rank();
@@ -68,6 +110,7 @@ double PeriodicEvaluator::evaluate(
                              value.get<double>());
       metrics->write("eval", record, scalars, index);
     }
+    if (observer) writeMedia(observer->take(), split.name, index, *metrics);
     if (split.name == ec.selection_split) selectionSpl = result.stats.mean.spl;
   }
   policy->train();

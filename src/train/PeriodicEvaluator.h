@@ -5,9 +5,18 @@
 // <output.dir>/eval/stats_ckpt_<i>_<split>.json as the eval binary does, a
 // summary line per split in the log and an "eval" record in the metrics.
 //
+// TensorBoard media (output.tensorboard, docs/paper_scale.md): the top-down
+// maps of the first eval.tensorboard_maps episodes of each split and videos
+// (animated GIFs) of the first eval.tensorboard_videos, drawn by
+// viz::EpisodeMedia while the episodes run, as image summaries
+// eval/<split>/map/episode_<id> and eval/<split>/video/episode_<id> at
+// step = the checkpoint index, and an "eval_media" record listing them in
+// the metrics. With both counts 0 (or TensorBoard off) no observer runs.
+//
 // In a multi-process run rank r evaluates episodes r, r + N, ... of each
 // split and the metric sums are all-reduced, so every rank gets the whole
-// split's stats; rank 0 writes the files.
+// split's stats; rank 0 writes the files and the media, which show the
+// first episodes of its own share (episodes 0, N, 2N, ... of the split).
 
 #include <filesystem>
 #include <memory>

@@ -124,6 +124,8 @@ const std::vector<std::string>& resumeSafeKeys() {
       "eval.save_episodes",
       "eval.map_episodes",
       "eval.video_episodes",
+      "eval.tensorboard_maps",
+      "eval.tensorboard_videos",
       "model.device",
       "trainer.distributed_timeout_s",
       "trainer.distributed_wait_s",

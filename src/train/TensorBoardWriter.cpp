@@ -5,6 +5,8 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <optional>
+#include <string_view>
 
 #include "common/Check.h"
 #include "train/Crc32c.h"
@@ -101,6 +103,26 @@ struct Reader {
   }
 };
 
+// Summary.Image: height, width, colorspace, encoded_image_string
+TensorBoardImage readImage(std::string_view bytes) {
+  Reader image{bytes};
+  TensorBoardImage out;
+  while (!image.done()) {
+    const uint64_t key = image.varint();
+    const auto field = static_cast<uint32_t>(key >> 3);
+    const auto wire = static_cast<uint32_t>(key & 7);
+    if (field >= 1 && field <= 3 && wire == kVarint) {
+      const auto v = static_cast<int>(image.varint());
+      (field == 1 ? out.height : field == 2 ? out.width : out.colorspace) = v;
+    } else if (field == 4 && wire == kLengthDelimited) {
+      out.encoded = std::string(image.bytes(image.varint()));
+    } else {
+      image.skip(wire);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 std::string encodeScalarEvent(
@@ -114,6 +136,27 @@ std::string encodeScalarEvent(
     putFixed<float>(v, static_cast<float>(value));
     putBytes(summary, 1, v);
   }
+  std::string event = eventHeader(wallTime, step);
+  putBytes(event, 5, summary);
+  return event;
+}
+
+std::string encodeImageEvent(double wallTime, int64_t step,
+                             const std::string& tag, const std::string& encoded,
+                             int width, int height, int channels) {
+  std::string image;
+  putTag(image, 1, kVarint);
+  putVarint(image, static_cast<uint64_t>(height));
+  putTag(image, 2, kVarint);
+  putVarint(image, static_cast<uint64_t>(width));
+  putTag(image, 3, kVarint);
+  putVarint(image, static_cast<uint64_t>(channels));
+  putBytes(image, 4, encoded);
+  std::string value;
+  putBytes(value, 1, tag);
+  putBytes(value, 4, image);
+  std::string summary;
+  putBytes(summary, 1, value);
   std::string event = eventHeader(wallTime, step);
   putBytes(event, 5, summary);
   return event;
@@ -151,6 +194,20 @@ void TensorBoardWriter::addScalars(
   if (values.empty()) return;
   writeRecord(
       encodeScalarEvent(wallTime >= 0 ? wallTime : nowSeconds(), step, values));
+}
+
+void TensorBoardWriter::addImage(const std::string& tag, int64_t step,
+                                 const std::string& encoded, int width,
+                                 int height, int channels, double wallTime) {
+  VLN_CHECK_ARG(width > 0 && height > 0 &&
+                    (channels == 1 || channels == 3 || channels == 4) &&
+                    !encoded.empty(),
+                "TensorBoardWriter::addImage(): '", tag,
+                "': expected a non-empty encoded image with positive size and "
+                "1, 3 or 4 channels, got ",
+                encoded.size(), " bytes, ", width, "x", height, "x", channels);
+  writeRecord(encodeImageEvent(wallTime >= 0 ? wallTime : nowSeconds(), step,
+                               tag, encoded, width, height, channels));
 }
 
 void TensorBoardWriter::writeRecord(const std::string& data) {
@@ -206,6 +263,7 @@ TensorBoardFile readTensorBoardFile(const std::filesystem::path& file) {
       double wallTime = 0.0;
       int64_t step = 0;
       std::vector<std::pair<std::string, float>> values;
+      std::vector<TensorBoardImage> images;
       while (!event.done()) {
         const uint64_t key = event.varint();
         const auto field = static_cast<uint32_t>(key >> 3);
@@ -227,17 +285,25 @@ TensorBoardFile readTensorBoardFile(const std::filesystem::path& file) {
             Reader value{summary.bytes(summary.varint())};
             std::string tag;
             float simple = 0.0f;
+            std::optional<TensorBoardImage> image;
             while (!value.done()) {
               const uint64_t vkey = value.varint();
               if (vkey == ((1u << 3) | kLengthDelimited)) {
                 tag = std::string(value.bytes(value.varint()));
               } else if (vkey == ((2u << 3) | kFixed32)) {
                 std::memcpy(&simple, value.bytes(4).data(), 4);
+              } else if (vkey == ((4u << 3) | kLengthDelimited)) {
+                image = readImage(value.bytes(value.varint()));
               } else {
                 value.skip(static_cast<uint32_t>(vkey & 7));
               }
             }
-            values.emplace_back(tag, simple);
+            if (image) {
+              image->tag = tag;
+              images.push_back(std::move(*image));
+            } else {
+              values.emplace_back(tag, simple);
+            }
           }
         } else {
           event.skip(wire);
@@ -245,6 +311,11 @@ TensorBoardFile readTensorBoardFile(const std::filesystem::path& file) {
       }
       for (auto& [tag, value] : values)
         result.scalars.push_back({wallTime, step, tag, value});
+      for (TensorBoardImage& image : images) {
+        image.wall_time = wallTime;
+        image.step = step;
+        result.images.push_back(std::move(image));
+      }
     } catch (const std::runtime_error& error) {
       throw std::runtime_error(where + ": malformed Event: " + error.what());
     }

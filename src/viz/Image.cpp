@@ -43,6 +43,21 @@ std::string encodePng(const Image& image) {
   return encode(image, ".png", {}, "encodePng()");
 }
 
+Image decodePng(std::string_view bytes) {
+  VLN_CHECK_IO(bytes.size() >= 8 && bytes.substr(0, 8) == "\x89PNG\r\n\x1a\n",
+               "decodePng(): not a PNG signature (", bytes.size(), " bytes)");
+  const cv::Mat raw(1, static_cast<int>(bytes.size()), CV_8UC1,
+                    const_cast<char*>(bytes.data()));
+  const cv::Mat bgr = cv::imdecode(raw, cv::IMREAD_COLOR);
+  VLN_CHECK_IO(!bgr.empty(), "decodePng(): OpenCV cannot decode the ",
+               bytes.size(), " bytes as PNG");
+  Image out{bgr.cols, bgr.rows,
+            std::vector<uint8_t>(static_cast<size_t>(bgr.cols) * bgr.rows * 3)};
+  cv::Mat target(bgr.rows, bgr.cols, CV_8UC3, out.rgb.data());
+  cv::cvtColor(bgr, target, cv::COLOR_BGR2RGB);
+  return out;
+}
+
 std::string encodeJpeg(const Image& image, int quality) {
   VLN_CHECK_ARG(quality >= 1 && quality <= 100,
                 "encodeJpeg(): quality must be in [1, 100], got ", quality);

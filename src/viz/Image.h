@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace vln::viz {
@@ -19,6 +20,9 @@ struct Image {
 /// PNG bytes of `image`. Throws std::invalid_argument when the pixel buffer
 /// does not match the size.
 std::string encodePng(const Image& image);
+/// The image in PNG `bytes` as RGB (grey and alpha converted), for checks
+/// and tools. Throws std::runtime_error when they are not a decodable PNG.
+Image decodePng(std::string_view bytes);
 /// JPEG bytes at `quality` (1-100).
 std::string encodeJpeg(const Image& image, int quality = 85);
 /// Writes the PNG atomically; std::runtime_error names the file on failure.

@@ -34,6 +34,7 @@
 #include "support/TestUtil.h"
 #include "train/Checkpoint.h"
 #include "train/FeatureStore.h"
+#include "train/TensorBoardWriter.h"
 
 extern char** environ;
 
@@ -184,8 +185,11 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
   const std::string trainer = "  epochs: 2\n  inflection_weight: 3.2\n";
   const fs::path singleConfig = writeConfig("single", trainer);
   const fs::path distConfig = writeConfig("dist", trainer);
-  const std::vector<std::string> common = {"--set",
-                                           "trainer.log_every_updates=1"};
+  // TensorBoard media too (maps of 2 episodes by default, a video of 1):
+  // rank 0 draws its own share's, which must not disturb the ranks' lockstep
+  const std::vector<std::string> common = {
+      "--set", "trainer.log_every_updates=1", "--set",
+      "eval.tensorboard_videos=1"};
   auto args = [&](const fs::path& config, int batch) {
     std::vector<std::string> a = {
         "--config", config.string(), "--set",
@@ -293,6 +297,20 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
     if (record["type"] == "collect") {
       EXPECT_EQ(record["episodes"], 10);
     }
+  // media: rank 0 ran episode 0 of each 2-episode split, so per evaluation
+  // and split one map and one video, in rank 0's one event file
+  EXPECT_EQ(types["eval_media"], 4);
+  std::vector<fs::path> events;
+  for (const auto& e : fs::directory_iterator(run / "tb")) events.push_back(e);
+  ASSERT_EQ(events.size(), 1u);
+  std::map<std::string, int> mediaTags;
+  for (const TensorBoardImage& image : readTensorBoardFile(events[0]).images)
+    ++mediaTags[image.tag.substr(0, image.tag.find("/episode_"))];
+  EXPECT_EQ(mediaTags,
+            (std::map<std::string, int>{{"eval/val_seen/map", 2},
+                                        {"eval/val_seen/video", 2},
+                                        {"eval/val_unseen/map", 2},
+                                        {"eval/val_unseen/video", 2}}));
 
   // sharded evaluation (one episode per rank) = the eval binary on the
   // same checkpoint in one process

@@ -1,6 +1,7 @@
 // End-to-end runs of the `train` and `vlnce-export` binaries on the tiny
 // procedural world: teacher forcing, DAgger, kill -9 during collection and
-// --resume, and the run-directory rules.
+// --resume, the run-directory rules, and the TensorBoard media of the
+// periodic evaluation (maps and videos read back from the event file).
 
 #include <fcntl.h>
 #include <gmock/gmock.h>
@@ -11,6 +12,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <set>
 #include <thread>
@@ -21,11 +23,14 @@
 #include "TrainTestWorld.h"
 #include "common/Json.h"
 #include "data/Episode.h"
+#include "data/Split.h"
 #include "rollout/Metrics.h"
+#include "support/GifDecoder.h"
 #include "support/TestUtil.h"
 #include "train/Checkpoint.h"
 #include "train/FeatureStore.h"
 #include "train/TensorBoardWriter.h"
+#include "viz/Image.h"
 
 namespace vln::train {
 namespace {
@@ -206,6 +211,80 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
       betas.push_back(record["beta"].get<double>());
   EXPECT_EQ(betas, (std::vector<double>{1.0, 0.75}));
   EXPECT_FALSE(fs::exists(run / "eval"));
+}
+
+// eval.tensorboard_maps = 2 and eval.tensorboard_videos = 1: after the one
+// epoch's evaluation, the event file holds, per split, the maps of its
+// first two episodes (PNG) and the video of its first (GIF, a frame per
+// position) at step 0, the checkpoint, and metrics.jsonl lists them.
+// Prints the sizes of the maps and videos.
+TEST_F(TrainEndToEndTest, TensorBoardMapsAndVideosOfThePeriodicEvaluation) {
+  const fs::path config = writeConfig("  epochs: 1\n", "seq2seq");
+  std::string output;
+  ASSERT_EQ(
+      vln::test::runCommand(trainCommand(config,
+                                         "--set eval.tensorboard_maps=2 --set "
+                                         "eval.tensorboard_videos=1"),
+                            &output),
+      0)
+      << output;
+  const fs::path run = dir_ / "run";
+  const auto events = eventFiles(run / "tb");
+  ASSERT_EQ(events.size(), 1u);
+  const TensorBoardFile tb = readTensorBoardFile(events[0]);  // checks CRCs
+  std::map<std::string, const TensorBoardImage*> images;
+  for (const TensorBoardImage& image : tb.images) images[image.tag] = &image;
+  EXPECT_EQ(tb.images.size(), 6u);  // 2 maps + 1 video, two splits
+
+  std::map<std::string, nlohmann::json> listed;  // eval_media, by tag
+  for (const auto& record : readJsonLines(run / "metrics.jsonl"))
+    if (record["type"] == "eval_media") {
+      EXPECT_EQ(record["checkpoint"], 0);
+      for (const auto& item : record["media"])
+        listed[item["tag"].get<std::string>()] = item;
+    }
+  EXPECT_EQ(listed.size(), 6u);
+
+  for (const std::string split : {"val_seen", "val_unseen"}) {
+    SCOPED_TRACE(split);
+    // the periodic evaluation's episodes: two, spread over the split
+    const data::Split episodes = data::loadSplit(world_->data, split, 2);
+    ASSERT_EQ(episodes.episodes.size(), 2u);
+    for (int i = 0; i < 2; ++i) {
+      const std::string id =
+          std::to_string(episodes.episodes[static_cast<size_t>(i)].episode_id);
+      const std::string mapTag = "eval/" + split + "/map/episode_" + id;
+      ASSERT_TRUE(images.count(mapTag)) << mapTag;
+      const TensorBoardImage& map = *images[mapTag];
+      EXPECT_EQ(map.step, 0);
+      EXPECT_EQ(map.colorspace, 3);
+      const viz::Image png = viz::decodePng(map.encoded);
+      EXPECT_EQ(png.width, map.width);
+      EXPECT_EQ(png.height, map.height);
+      EXPECT_EQ(listed[mapTag]["bytes"].get<size_t>(), map.encoded.size());
+      const std::string videoTag = "eval/" + split + "/video/episode_" + id;
+      if (i == 1) {
+        EXPECT_FALSE(images.count(videoTag)) << videoTag;
+        continue;
+      }
+      ASSERT_TRUE(images.count(videoTag)) << videoTag;
+      const TensorBoardImage& video = *images[videoTag];
+      EXPECT_EQ(video.step, 0);
+      EXPECT_EQ(video.colorspace, 3);
+      const vln::test::DecodedGif gif = vln::test::decodeGif(video.encoded);
+      EXPECT_EQ(gif.width, video.width);
+      EXPECT_EQ(gif.height, video.height);
+      // a frame after reset and after each action, up to the 120-step limit
+      EXPECT_GE(gif.frames.size(), 2u);
+      EXPECT_LE(gif.frames.size(), 121u);
+      EXPECT_EQ(listed[videoTag]["frames"].get<size_t>(), gif.frames.size());
+      std::cout << split << ": map PNG " << map.width << "x" << map.height
+                << " " << map.encoded.size() << " bytes; video GIF "
+                << video.width << "x" << video.height << ", "
+                << gif.frames.size() << " frames, " << video.encoded.size()
+                << " bytes\n";
+    }
+  }
 }
 
 // SIGKILL while round 1 is being collected, then --resume: the store ends
