@@ -3,9 +3,11 @@
 // (val_seen, val_unseen, test) and held-out houses' scenes (.glb,
 // .glb.navmesh, .glb.semantics.json of the 12 val_unseen and test houses),
 // checked against tests/data_files/world/default_v1.sha256 with the SHA-256
-// of support/Sha256.h (no sha256sum needed). One generation of the 40 houses
-// through bin/vlnce-data took 8.8 s of wall time on the 2-core machine with
-// a load average of 6 (issue 16), so the test is in the default set.
+// of support/Sha256.h (no sha256sum needed), and so must the test split's
+// hidden goals and ground truth (default_v1_hidden.sha256). One generation of
+// the 40 houses through bin/vlnce-data took 8.8 s of wall time on the 2-core
+// machine with a load average of 6 (issue 16), so the test is in the default
+// set.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -17,6 +19,7 @@
 #include <sstream>
 
 #include "common/Json.h"
+#include "data/Split.h"
 #include "support/Sha256.h"
 #include "support/TestPaths.h"
 #include "support/TestUtil.h"
@@ -135,6 +138,21 @@ TEST(FrozenWorldTest, DefaultWorldEvaluationFilesMatchVersion1) {
     }
   }
   EXPECT_EQ(heldOut, 12);
+
+  // the test split's hidden goals and ground truth: frozen too, and they
+  // cover every test episode
+  int hidden = 0;
+  for (const auto& [path, hash] : readHashList(
+           vln::test::testDataPath() / "world" / "default_v1_hidden.sha256")) {
+    ++hidden;
+    EXPECT_EQ(vln::test::sha256File(out / path), hash) << path << " changed";
+  }
+  EXPECT_EQ(hidden, 2);
+  data::Split test = data::loadSplit(out, "test", /*cap=*/-1);
+  EXPECT_FALSE(test.hasGoals);
+  data::attachHiddenGoals(test, data::findHiddenFiles(out, "test"));
+  EXPECT_EQ(test.episodes.size(), 270u);
+  EXPECT_EQ(test.groundTruth->size(), 270u);
 }
 
 }  // namespace

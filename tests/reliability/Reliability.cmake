@@ -2,7 +2,7 @@
 # strictness, resource limits, determinism and kill -9/resume tests. Each
 # tests/reliability/<Name>Test.cpp is one executable linked against the
 # whole stack (vln::train), except FrozenWorldTest (the default world's
-# frozen evaluation files; vlnce-data only). Label "reliability", except
+# frozen evaluation files; vlnce-data and vln::data only). Label "reliability", except
 # the multi-minute end-to-end ones (they drive the train, eval and
 # vlnce-data binaries), labelled "slow" with a longer timeout so that CI can
 # pick them by label.
@@ -23,7 +23,7 @@ foreach(source IN LISTS reliability_sources)
   elseif(test_name STREQUAL "FrozenWorldTest")
     # drives bin/vlnce-data only: no LibTorch; one generation of the default
     # world, about 9 s on 2 cores, so not labelled slow
-    vln_add_test(${test_name} SOURCES ${source} LIBS vln::common
+    vln_add_test(${test_name} SOURCES ${source} LIBS vln::data
       LABEL reliability)
     add_dependencies(${test_name} vlnce-data)
   else()
