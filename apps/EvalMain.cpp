@@ -51,6 +51,11 @@ int main(int argc, char** argv) {
     app.add_option("--report-episodes", options.report_episodes,
                    "Episodes per report page with a map, frames and attention "
                    "(default 5)");
+    app.add_option("--test-ground-truth", options.test_ground_truth,
+                   "Score the test split from its hidden goals and ground "
+                   "truth (<data>/hidden, written by vlnce-data generate; "
+                   "either file or a folder holding them); its leaderboard "
+                   "predictions are still written");
     auto* indexOption = app.add_option(
         "--index", index,
         "Checkpoint index in file names for an export or a baseline");

@@ -50,6 +50,25 @@ data::Split loadSplit(const train::ExperimentConfig& config,
   return split;
 }
 
+// the hidden goals and ground truth of the test split (eval
+// --test-ground-truth); errors keep their type and name the option
+void attachTestGroundTruth(data::Split& split, const fs::path& given,
+                           std::ostream& out) {
+  const std::string option = "eval --test-ground-truth: ";
+  try {
+    const data::HiddenSplitFiles files =
+        data::findHiddenFiles(given, split.name);
+    data::attachHiddenGoals(split, files);
+    out << split.name << ": scored from the hidden goals "
+        << files.goals.string() << " and ground truth "
+        << files.ground_truth.string() << "\n";
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(option + e.what());
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(option + e.what());
+  }
+}
+
 // one thing to evaluate: a checkpoint, an export or a baseline
 struct Candidate {
   int index = 0;
@@ -174,6 +193,7 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   options.label = candidate.label;
   options.out_dir = ctx.outDir;
   options.save_episodes = c.eval.save_episodes;
+  options.predictions_of_scored = split.hiddenGoals;
   options.observer = observers.empty() ? nullptr : &observers;
   SplitReport report;
   static_cast<rollout::SplitEvaluation&>(report) = rollout::evaluateSplit(
@@ -250,6 +270,13 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   VLN_CHECK_ARG(options.report_episodes >= 0,
                 "eval: --report-episodes must be >= 0, got ",
                 options.report_episodes);
+  VLN_CHECK_ARG(options.test_ground_truth.empty() ||
+                    std::find(splitNames.begin(), splitNames.end(), "test") !=
+                        splitNames.end(),
+                "eval: --test-ground-truth '",
+                options.test_ground_truth.string(),
+                "' scores the split 'test', which is not evaluated (add "
+                "--split test)");
   const int cap = options.episodes.value_or(settings.eval.episodes);
   VLN_CHECK_ARG(cap == -1 || cap >= 1,
                 "eval: --episodes must be >= 1 (or -1 "
@@ -316,10 +343,17 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     }
   }
 
-  // the splits, loaded once
+  // the splits, loaded once; the test split with its hidden goals when given
   std::vector<data::Split> splits;
   for (const auto& name : splitNames)
     splits.push_back(loadSplit(settings, name, cap));
+  if (!options.test_ground_truth.empty()) {
+    const auto test =
+        std::find_if(splits.begin(), splits.end(),
+                     [](const data::Split& s) { return s.name == "test"; });
+    VLN_ASSERT(test != splits.end());  // checked with the options
+    attachTestGroundTruth(*test, options.test_ground_truth, out);
+  }
 
   std::unique_ptr<NavGraphs> navgraphs;
   if (!options.navgraph.empty()) {

@@ -9,6 +9,9 @@
 //                                                     the best (best.json)
 //   eval --config C --checkpoint policy.pt           a TorchScript export
 //   eval --config C --agent random|handcrafted       a no-learning baseline
+//   eval ... --split test --test-ground-truth H      scores the test split
+//                                                     from its hidden goals
+//                                                     (<data>/hidden)
 //   eval tables --runs results/ --out docs/results.md [--claimed-only]
 //   eval compare --runs results/ --out findings.md   the paper's findings
 //                                                     judged by paired
@@ -68,6 +71,11 @@ struct EvalCommandOptions {
   /// Index used in file names for an export or a baseline; unset: parsed
   /// from the file name (ckpt.<i>.*), else 0.
   std::optional<int> index;
+  /// The test split's hidden goals and ground truth (data/Split.h: either
+  /// file, hidden/test/, hidden/ or the dataset root): the split "test" is
+  /// then scored (stats file) and still gets its leaderboard predictions.
+  /// Empty: the test split is run without goals, predictions only.
+  std::filesystem::path test_ground_truth;
 };
 
 /// What one (checkpoint, split) evaluation produced.

@@ -1,6 +1,7 @@
 // End-to-end runs of the `train` and `vlnce-export` binaries on the tiny
 // procedural world: teacher forcing, DAgger, kill -9 during collection and
-// --resume, and the run-directory rules.
+// --resume, the run-directory rules, and that training never reads the
+// test split's hidden goals.
 
 #include <fcntl.h>
 #include <gmock/gmock.h>
@@ -206,6 +207,48 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
       betas.push_back(record["beta"].get<double>());
   EXPECT_EQ(betas, (std::vector<double>{1.0, 0.75}));
   EXPECT_FALSE(fs::exists(run / "eval"));
+}
+
+// The test split's hidden goals (<data>/hidden/, the local leaderboard of
+// the eval binary) are never read by the trainer: a teacher-forcing run
+// with validation on a dataset that has them, traced with strace (every
+// file system call of every thread), touches no path under hidden/; the
+// folder is also made unreadable, which stops a reader that is not root.
+// Skipped as root without strace (permissions do not stop root).
+TEST_F(TrainEndToEndTest, NeverReadsTheHiddenTestGoals) {
+  const bool haveStrace = vln::test::runCommand("strace -V") == 0;
+  if (!haveStrace && ::geteuid() == 0)
+    GTEST_SKIP() << "root ignores permissions and strace is absent";
+  // the tiny world with a hidden folder holding val_unseen as test goals
+  const fs::path data = dir_ / "data";
+  fs::create_directories(data);
+  for (const auto& entry : fs::directory_iterator(world_->data))
+    fs::create_symlink(entry.path(), data / entry.path().filename());
+  const fs::path hidden = data / "hidden";
+  fs::create_directories(hidden / "test");
+  fs::copy_file(data::splitEpisodesPath(world_->data, "val_unseen"),
+                hidden / "test" / "test_goals.json.gz");
+  fs::copy_file(data::splitGroundTruthPath(world_->data, "val_unseen"),
+                hidden / "test" / "test_gt.json.gz");
+  fs::permissions(hidden, fs::perms::none);
+
+  const fs::path config = writeConfig("  epochs: 1\n");
+  const fs::path trace = dir_ / "strace.txt";
+  const std::string command =
+      (haveStrace ? "strace -f -qq -e trace=%file -o " + trace.string() + " "
+                  : std::string()) +
+      trainCommand(config, "--set dataset.data_path=" + data.string());
+  std::string output;
+  const int status = vln::test::runCommand(command, &output);
+  fs::permissions(hidden, fs::perms::owner_all);  // so TempDir can remove it
+  ASSERT_EQ(status, 0) << output;
+  EXPECT_TRUE(fs::exists(dir_ / "run" / "eval" /
+                         rollout::statsFileName(0, "val_unseen")));
+  if (!haveStrace) return;
+  const std::string calls = vln::test::readText(trace);
+  EXPECT_THAT(calls,
+              HasSubstr(data::splitEpisodesPath(data, "train").string()));
+  EXPECT_THAT(calls, ::testing::Not(HasSubstr(hidden.string())));
 }
 
 // SIGKILL while round 1 is being collected, then --resume: the store ends
