@@ -93,6 +93,20 @@ int main(int argc, char** argv) {
         "over seeds on "
         "val_unseen SR and SPL: holds, does not hold or cannot tell",
         compare.runs, compare.out, "Markdown file");
+    vln::eval::CurveCommandOptions curve;
+    CLI::App* curveCommand = app.add_subcommand(
+        "curve",
+        "Draw a training run's learning curve as a PNG: SR and SPL of its "
+        "periodic validations (metrics.jsonl) against wall time and updates");
+    curveCommand
+        ->add_option("--run", curve.run,
+                     "Training run directory (output.dir, with metrics.jsonl)")
+        ->required();
+    curveCommand->add_option("--out", curve.out, "PNG file")->required();
+    curveCommand->add_option("--split", curve.split,
+                             "Validated split to draw (default val_unseen)");
+    curveCommand->add_option("--title", curve.title,
+                             "Title (default: the split and the run folder)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& error) {
@@ -103,6 +117,8 @@ int main(int argc, char** argv) {
       return vln::eval::runTablesCommand(tables, std::cout);
     if (compareCommand->parsed())
       return vln::eval::runCompareCommand(compare, std::cout);
+    if (curveCommand->parsed())
+      return vln::eval::runCurveCommand(curve, std::cout);
 
     if (config.empty())
       throw std::invalid_argument("eval: --config is required");

@@ -31,6 +31,7 @@
 #include "train/Checkpoint.h"
 #include "viz/EpisodePictures.h"
 #include "viz/EpisodeReport.h"
+#include "viz/LearningCurve.h"
 
 namespace vln::eval {
 namespace fs = std::filesystem;
@@ -467,6 +468,42 @@ int runTablesCommand(const TablesCommandOptions& options, std::ostream& out) {
       if (row.ours) ++ours;
   out << "wrote " << markdown.string() << " and " << latex.string() << " ("
       << tables.size() << " tables, " << ours << " rows of ours)\n";
+  return 0;
+}
+
+int runCurveCommand(const CurveCommandOptions& options, std::ostream& out) {
+  VLN_CHECK_ARG(!options.run.empty(), "eval curve: --run is required");
+  VLN_CHECK_ARG(!options.out.empty(), "eval curve: --out is required");
+  const fs::path metrics = options.run / "metrics.jsonl";
+  VLN_CHECK_IO(fs::exists(metrics), "eval curve: '", metrics.string(),
+               "' does not exist (is --run '", options.run.string(),
+               "' a training run's output.dir?)");
+  viz::CurveStyle style;
+  style.title = options.title;
+  if (style.title.empty()) {
+    // the run's folder name, with its parent's for runs/<name>/seed<S>
+    fs::path run = options.run.lexically_normal();
+    if (run.filename().empty()) run = run.parent_path();  // a trailing '/'
+    std::string name = run.filename().string();
+    if (name.starts_with("seed"))
+      name = run.parent_path().filename().string() + "/" + name;
+    style.title = options.split + " learning curve: " + name;
+  }
+  const viz::LearningCurve curve =
+      viz::saveLearningCurve(metrics, options.out, options.split, style);
+  const auto best =
+      std::max_element(curve.points.begin(), curve.points.end(),
+                       [](const viz::CurvePoint& a, const viz::CurvePoint& b) {
+                         return a.spl < b.spl;
+                       });
+  char line[160];
+  std::snprintf(line, sizeof(line),
+                "best SPL %.3f (SR %.3f) at ckpt %d, %lld updates, %.1f min",
+                best->spl, best->success, best->checkpoint,
+                static_cast<long long>(best->updates), best->seconds / 60.0);
+  out << "wrote " << options.out.string() << " (" << curve.points.size()
+      << (curve.points.size() == 1 ? " validation" : " validations") << " of "
+      << options.split << "; " << line << ")\n";
   return 0;
 }
 

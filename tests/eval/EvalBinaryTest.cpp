@@ -4,7 +4,8 @@
 // baselines, the nav-graph comparison, pictures, the tables subcommand,
 // the test split scored from its hidden goals and error reports; and, when
 // the train binary is built, that re-evaluating a trained run's checkpoint
-// reproduces the trainer's own validation numbers.
+// reproduces the trainer's own validation numbers, and the run's learning
+// curve (eval curve).
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -346,6 +347,26 @@ TEST_F(EvalBinaryTest, ReproducesTheTrainersValidation) {
   EXPECT_EQ(rollout::readStatsFile(dir_ / "again" /
                                    rollout::statsFileName(index, "val_unseen")),
             rollout::readStatsFile(trainerStats));
+
+  // the run's records: where the process started, the updates behind each
+  // validation; and its learning curve drawn by eval curve
+  const auto records = vln::test::readJsonLines(run / "metrics.jsonl");
+  ASSERT_FALSE(records.empty());
+  EXPECT_EQ(records.front()["type"], "start");
+  EXPECT_EQ(records.front()["resumed"], false);
+  const int64_t updates =
+      common::readJsonFile(run / "finished.json")["updates"].get<int64_t>();
+  EXPECT_GT(updates, 0);
+  for (const auto& record : records)
+    if (record["type"] == "eval") EXPECT_EQ(record["updates"], updates);
+  ASSERT_EQ(eval("curve --run " + run.string() + " --out " +
+                     (dir_ / "curve.png").string(),
+                 &output),
+            0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("(1 validation of val_unseen; best SPL"));
+  EXPECT_THAT(output, HasSubstr(std::to_string(updates) + " updates"));
+  EXPECT_TRUE(fs::exists(dir_ / "curve.png"));
 }
 
 }  // namespace

@@ -550,5 +550,36 @@ TEST(EvalCompareCommandTest, WritesTheFindingsWithVerdicts) {
   EXPECT_THROW(runCompareCommand(options, out), std::runtime_error);
 }
 
+// eval curve on a run folder holding a metrics.jsonl of two validations
+TEST(EvalCurveCommandTest, DrawsTheRunsLearningCurve) {
+  vln::test::TempDir dir;
+  const fs::path run = dir / "runs" / "cma" / "seed1";
+  vln::test::writeText(
+      run / "metrics.jsonl",
+      R"({"type":"start","time":100.0,"resumed":false,"checkpoint":-1,"updates":0,"setup_seconds":0.0}
+{"type":"eval","time":160.0,"split":"val_unseen","checkpoint":0,"updates":40,"success":0.1,"spl":0.05}
+{"type":"eval","time":220.0,"split":"val_unseen","checkpoint":1,"updates":80,"success":0.2,"spl":0.15}
+)");
+  CurveCommandOptions options;
+  options.run = run.string() + "/";
+  options.out = dir / "out" / "learning_curve.png";
+  std::ostringstream out;
+  EXPECT_EQ(runCurveCommand(options, out), 0);
+  EXPECT_EQ(out.str(), "wrote " + options.out.string() +
+                           " (2 validations of val_unseen; best SPL 0.150 (SR "
+                           "0.200) at ckpt 1, 80 updates, 2.0 min)\n");
+  EXPECT_EQ(common::readFile(options.out).substr(0, 4), "\x89PNG");
+
+  // another split, a run without metrics
+  options.split = "val_seen";
+  EXPECT_THAT(vln::test::errorOf([&] { runCurveCommand(options, out); }),
+              HasSubstr("no \"eval\" record of split 'val_seen'"));
+  options.run = dir / "nowhere";
+  EXPECT_THAT(
+      vln::test::errorOf([&] { runCurveCommand(options, out); }),
+      HasSubstr("eval curve: '" + (dir / "nowhere" / "metrics.jsonl").string() +
+                "' does not exist"));
+}
+
 }  // namespace
 }  // namespace vln::eval
