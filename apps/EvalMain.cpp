@@ -52,6 +52,11 @@ int main(int argc, char** argv) {
     app.add_option("--report-episodes", options.report_episodes,
                    "Episodes per report page with a map, frames and attention "
                    "(default 5)");
+    app.add_option("--test-ground-truth", options.test_ground_truth,
+                   "Score the test split from its hidden goals and ground "
+                   "truth (<data>/hidden, written by vlnce-data generate; "
+                   "either file or a folder holding them); its leaderboard "
+                   "predictions are still written");
     auto* indexOption = app.add_option(
         "--index", index,
         "Checkpoint index in file names for an export or a baseline");
@@ -101,6 +106,20 @@ int main(int argc, char** argv) {
         "over seeds on "
         "val_unseen SR and SPL: holds, does not hold or cannot tell",
         compare.runs, compare.out, "Markdown file");
+    vln::eval::CurveCommandOptions curve;
+    CLI::App* curveCommand = app.add_subcommand(
+        "curve",
+        "Draw a training run's learning curve as a PNG: SR and SPL of its "
+        "periodic validations (metrics.jsonl) against wall time and updates");
+    curveCommand
+        ->add_option("--run", curve.run,
+                     "Training run directory (output.dir, with metrics.jsonl)")
+        ->required();
+    curveCommand->add_option("--out", curve.out, "PNG file")->required();
+    curveCommand->add_option("--split", curve.split,
+                             "Validated split to draw (default val_unseen)");
+    curveCommand->add_option("--title", curve.title,
+                             "Title (default: the split and the run folder)");
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& error) {
@@ -111,6 +130,8 @@ int main(int argc, char** argv) {
       return vln::eval::runTablesCommand(tables, std::cout);
     if (compareCommand->parsed())
       return vln::eval::runCompareCommand(compare, std::cout);
+    if (curveCommand->parsed())
+      return vln::eval::runCurveCommand(curve, std::cout);
 
     if (config.empty())
       throw std::invalid_argument("eval: --config is required");

@@ -7,8 +7,9 @@
 #   4. the default Cross-Modal Attention policy (configs/main.yaml);
 #   5. evaluation of its best checkpoint and of the random and hand-crafted
 #      baselines on all of val_seen and val_unseen: metrics JSON,
-#      per-episode files and top-down maps under results/main/<agent>/, and
-#      an HTML report of the CMA's episodes (results/main/cma/report);
+#      per-episode files and top-down maps under results/main/<agent>/, an
+#      HTML report of the CMA's episodes (results/main/cma/report) and the
+#      training run's learning curve (results/main/cma/learning_curve.png);
 #   6. the results table (results/main/table.md, .tex), printed at the end:
 #      the paper rows this job claims, its numbers beside the paper's (the
 #      whole reproduction is scripts/reproduce_paper.sh).
@@ -44,6 +45,11 @@ vln_evaluate $results/cma $config \
     \"pm\": false, \"da\": \"dagger\", \"aug\": true,
     \"notes\": \"one DAgger run from scratch whose iteration 0 is teacher forcing on train + train_aug; the paper's row 12 fine-tunes an Aug run with DA*\"}" \
   --checkpoint $run/checkpoints/ckpt.$best.pth --report $results/cma/report
+# the learning curve of the training run (val_unseen SR and SPL of every
+# validation against wall time and updates), next to the maps
+vln_stamp "learning curve"
+"$vln_bin/eval" curve --run $run --out $results/cma/learning_curve.png \
+  --title "val_unseen learning curve: main job (configs/main.yaml, seed $seed)"
 vln_evaluate $results/random $config \
   '{"model": "Random", "rows": [{"table": 1, "row": "Random"}], "checkpoint": 0,
     "vision": "-", "instruction": false, "history": false}' --agent random --maps 0
@@ -54,4 +60,4 @@ vln_evaluate $results/handcrafted $config \
 vln_stamp "tables"
 "$vln_bin/eval" tables --runs $results --out $results/table.md --claimed-only
 cat $results/table.md
-vln_stamp "done: maps in $results/cma/pictures, report in $results/cma/report/index.html, metrics in $results/*/stats_ckpt_*.json"
+vln_stamp "done: maps in $results/cma/pictures, learning curve $results/cma/learning_curve.png, report in $results/cma/report/index.html, metrics in $results/*/stats_ckpt_*.json"

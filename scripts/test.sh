@@ -4,7 +4,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 # the HTML report's test opens the page in a real headless browser
 source scripts/packages.sh
-vln_install_missing test chromium
+vln_install_missing test chromium strace
 scripts/setup.sh
 build_dir=${VLN_BUILD_DIR:-build}
 cd "$build_dir"

@@ -1,6 +1,35 @@
 #include "data/Split.h"
 
+#include <map>
+#include <stdexcept>
+
+#include "common/Check.h"
+
 namespace vln::data {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// how a hidden episode differs from the split's episode of the same id
+// ("its scene_id ... differs ..."), "" when it does not
+std::string difference(const Episode& hidden, const Episode& published) {
+  if (hidden.scene_id != published.scene_id)
+    return strCat("its scene_id '", hidden.scene_id,
+                  "' differs from the split's '", published.scene_id, "'");
+  for (const auto& [differs, field] :
+       {std::pair{hidden.start_position != published.start_position,
+                  "start_position"},
+        std::pair{hidden.start_rotation != published.start_rotation,
+                  "start_rotation"},
+        std::pair{hidden.instruction.instruction_text !=
+                      published.instruction.instruction_text,
+                  "instruction.instruction_text"}})
+    if (differs) return strCat("its ", field, " differs from the split's");
+  return "";
+}
+
+}  // namespace
 
 Split loadSplit(const std::filesystem::path& root, const std::string& name,
                 int cap) {
@@ -16,6 +45,97 @@ Split loadSplit(const std::filesystem::path& root, const std::string& name,
   if (split.hasGoals && std::filesystem::exists(gt))
     split.groundTruth = std::make_unique<GroundTruth>(readGroundTruth(gt));
   return split;
+}
+
+std::filesystem::path hiddenGoalsPath(const std::filesystem::path& root,
+                                      std::string_view split) {
+  return root / "hidden" / split / (std::string(split) + "_goals.json.gz");
+}
+
+std::filesystem::path hiddenGroundTruthPath(const std::filesystem::path& root,
+                                            std::string_view split) {
+  return root / "hidden" / split / (std::string(split) + "_gt.json.gz");
+}
+
+HiddenSplitFiles findHiddenFiles(const std::filesystem::path& given,
+                                 std::string_view split) {
+  const std::string goalsName = std::string(split) + "_goals.json.gz";
+  const std::string truthName = std::string(split) + "_gt.json.gz";
+  VLN_CHECK_IO(fs::exists(given), "findHiddenFiles(): '", given.string(),
+               "' does not exist");
+
+  // a file names its folder; a folder is hidden/<split>, hidden/ or the
+  // dataset root
+  std::vector<fs::path> folders;
+  if (fs::is_directory(given)) {
+    folders = {given, given / split, given / "hidden" / split};
+  } else {
+    const std::string name = given.filename().string();
+    VLN_CHECK_ARG(name == goalsName || name == truthName,
+                  "findHiddenFiles(): '", given.string(),
+                  "' is not a hidden file of split '", split, "' (expected ",
+                  goalsName, " or ", truthName, ", or a folder holding them)");
+    folders = {given.parent_path()};
+  }
+  std::string looked;
+  for (const fs::path& folder : folders) {
+    const fs::path goals = folder / goalsName;
+    const fs::path truth = folder / truthName;
+    const bool hasGoals = fs::exists(goals);
+    const bool hasTruth = fs::exists(truth);
+    if (hasGoals && hasTruth) return {goals, truth};
+    VLN_CHECK_IO(!hasTruth, "findHiddenFiles(): '", goals.string(),
+                 "' does not exist (the goals of split '", split,
+                 "' beside its ground truth '", truth.string(), "')");
+    VLN_CHECK_IO(!hasGoals, "findHiddenFiles(): '", truth.string(),
+                 "' does not exist (the ground truth of split '", split,
+                 "' beside its goals '", goals.string(), "')");
+    looked += (looked.empty() ? "'" : ", '") + folder.string() + "'";
+  }
+  throw std::runtime_error(strCat("findHiddenFiles(): '", given.string(),
+                                  "' holds no hidden files of split '", split,
+                                  "' (looked for ", goalsName, " and ",
+                                  truthName, " in ", looked, ")"));
+}
+
+void attachHiddenGoals(Split& split, const HiddenSplitFiles& files) {
+  VLN_CHECK_ARG(!split.hasGoals, "attachHiddenGoals(): split '", split.name,
+                "' already has goals; hidden goals ('", files.goals.string(),
+                "') are for a split published without them");
+  const EpisodeDataset hidden = readEpisodes(files.goals);
+  const GroundTruth truth = readGroundTruth(files.ground_truth);
+  std::map<int, const Episode*> byId;
+  for (const Episode& e : hidden.episodes) byId[e.episode_id] = &e;
+
+  // every episode of the split, checked before any is changed
+  std::vector<Episode> episodes = split.episodes;
+  auto groundTruth = std::make_unique<GroundTruth>();
+  for (Episode& e : episodes) {
+    const std::string where =
+        strCat("attachHiddenGoals(): '", files.goals.string(), "': episode ",
+               e.episode_id, " of split '", split.name, "'");
+    const auto it = byId.find(e.episode_id);
+    VLN_CHECK_ARG(it != byId.end(), where,
+                  " is missing: the file does not cover the split");
+    const Episode& h = *it->second;
+    const std::string differs = difference(h, e);
+    VLN_CHECK_ARG(differs.empty(), where, " is another episode: ", differs,
+                  " (hidden files of another dataset?)");
+    VLN_CHECK_ARG(!h.goals.empty(), where, " has no goals");
+    const auto gt = truth.find(e.episode_id);
+    VLN_CHECK_ARG(gt != truth.end(), "attachHiddenGoals(): '",
+                  files.ground_truth.string(), "': episode ", e.episode_id,
+                  " of split '", split.name,
+                  "' is missing: the file does not cover the split");
+    e.goals = h.goals;
+    e.geodesic_distance = h.geodesic_distance;
+    e.reference_path = h.reference_path;
+    groundTruth->emplace(e.episode_id, gt->second);
+  }
+  split.episodes = std::move(episodes);
+  split.groundTruth = std::move(groundTruth);
+  split.hasGoals = !split.episodes.empty();
+  split.hiddenGoals = true;
 }
 
 }  // namespace vln::data

@@ -1,11 +1,21 @@
 #pragma once
 // One split of an R2R_VLNCE dataset as the trainer and the evaluator load
-// it: its episodes, capped, and its ground truth.
+// it: its episodes, capped, and its ground truth; and the hidden goals of a
+// split published without them (the local leaderboard of the test split).
+//
+// Hidden files (written by world::generateWorld() for the test split, read
+// only by the eval binary's --test-ground-truth, never by the trainer):
+//   <root>/hidden/<split>/<split>_goals.json.gz  the split's episodes as an
+//       episode file (Episode.h) with goals, info and reference_path, as
+//       val_unseen's file has them
+//   <root>/hidden/<split>/<split>_gt.json.gz     its ground truth
+//       (GroundTruth.h)
 
 #include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "data/Episode.h"
@@ -22,6 +32,15 @@ struct Split {
   bool hasGoals = false;
   /// The file's instruction_vocab, when it has one (what the tokens mean).
   std::optional<Vocabulary> vocabulary;
+  /// The goals and the ground truth came from hidden files
+  /// (attachHiddenGoals()), e.g. a test split scored locally.
+  bool hiddenGoals = false;
+};
+
+/// The two hidden files of one split.
+struct HiddenSplitFiles {
+  std::filesystem::path goals;         ///< <split>_goals.json.gz
+  std::filesystem::path ground_truth;  ///< <split>_gt.json.gz
 };
 
 /// Reads split `name` under `root` (splitEpisodesPath()), keeps `cap`
@@ -31,5 +50,32 @@ struct Split {
 /// Throws what readEpisodes() and readGroundTruth() throw.
 Split loadSplit(const std::filesystem::path& root, const std::string& name,
                 int cap);
+
+/// `root / "hidden" / split / (split + "_goals.json.gz")`.
+std::filesystem::path hiddenGoalsPath(const std::filesystem::path& root,
+                                      std::string_view split);
+
+/// `root / "hidden" / split / (split + "_gt.json.gz")`.
+std::filesystem::path hiddenGroundTruthPath(const std::filesystem::path& root,
+                                            std::string_view split);
+
+/// The hidden files of `split` from what a user names: either file, the
+/// folder holding them (hidden/<split>), the hidden/ folder or the dataset
+/// root. Throws std::runtime_error naming `given` and the paths looked at
+/// when it does not exist or holds neither file, and naming the missing file
+/// when only one of the two is there.
+HiddenSplitFiles findHiddenFiles(const std::filesystem::path& given,
+                                 std::string_view split);
+
+/// Gives every episode of `split` (loaded without goals) its goals,
+/// info.geodesic_distance and reference_path from `files.goals`, and the
+/// split its ground truth from `files.ground_truth` (only its episodes');
+/// sets hasGoals and hiddenGoals. Throws what readEpisodes() and
+/// readGroundTruth() throw for a missing or malformed file, and
+/// std::invalid_argument naming the file, the split and the episode when the
+/// split already has goals, when an episode is missing from either file or
+/// has no goal there, or when the goals file's episode is another one (its
+/// scene, start or instruction differ: a file of another world).
+void attachHiddenGoals(Split& split, const HiddenSplitFiles& files);
 
 }  // namespace vln::data

@@ -31,6 +31,7 @@
 #include "train/Checkpoint.h"
 #include "viz/EpisodePictures.h"
 #include "viz/EpisodeReport.h"
+#include "viz/LearningCurve.h"
 
 namespace vln::eval {
 namespace fs = std::filesystem;
@@ -48,6 +49,25 @@ data::Split loadSplit(const train::ExperimentConfig& config,
   VLN_CHECK_ARG(!split.episodes.empty(), "eval: split '", name, "' under '",
                 root.string(), "' has no episodes");
   return split;
+}
+
+// the hidden goals and ground truth of the test split (eval
+// --test-ground-truth); errors keep their type and name the option
+void attachTestGroundTruth(data::Split& split, const fs::path& given,
+                           std::ostream& out) {
+  const std::string option = "eval --test-ground-truth: ";
+  try {
+    const data::HiddenSplitFiles files =
+        data::findHiddenFiles(given, split.name);
+    data::attachHiddenGoals(split, files);
+    out << split.name << ": scored from the hidden goals "
+        << files.goals.string() << " and ground truth "
+        << files.ground_truth.string() << "\n";
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(option + e.what());
+  } catch (const std::runtime_error& e) {
+    throw std::runtime_error(option + e.what());
+  }
 }
 
 // one thing to evaluate: a checkpoint, an export or a baseline
@@ -181,6 +201,7 @@ SplitReport evaluateSplit(rollout::Agent& agent, const Candidate& candidate,
   options.label = candidate.label;
   options.out_dir = ctx.outDir;
   options.save_episodes = c.eval.save_episodes;
+  options.predictions_of_scored = split.hiddenGoals;
   options.observer = observers.empty() ? nullptr : &observers;
   SplitReport report;
   static_cast<rollout::SplitEvaluation&>(report) = rollout::evaluateSplit(
@@ -259,6 +280,13 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   VLN_CHECK_ARG(options.report_episodes >= 0,
                 "eval: --report-episodes must be >= 0, got ",
                 options.report_episodes);
+  VLN_CHECK_ARG(options.test_ground_truth.empty() ||
+                    std::find(splitNames.begin(), splitNames.end(), "test") !=
+                        splitNames.end(),
+                "eval: --test-ground-truth '",
+                options.test_ground_truth.string(),
+                "' scores the split 'test', which is not evaluated (add "
+                "--split test)");
   const int cap = options.episodes.value_or(settings.eval.episodes);
   VLN_CHECK_ARG(cap == -1 || cap >= 1,
                 "eval: --episodes must be >= 1 (or -1 "
@@ -331,10 +359,18 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     }
   }
 
-  // the splits, loaded once
+  // the splits, loaded once; the test split with its hidden goals when given
   std::vector<data::Split> splits;
   for (const auto& name : splitNames)
     splits.push_back(loadSplit(settings, name, cap));
+  if (!options.test_ground_truth.empty()) {
+    const auto test =
+        std::find_if(splits.begin(), splits.end(),
+                     [](const data::Split& s) { return s.name == "test"; });
+    VLN_ASSERT(test != splits.end());  // checked with the options
+    attachTestGroundTruth(*test, options.test_ground_truth, out);
+  }
+  // after the hidden goals: the oracle can walk a test split that has them
   if (options.agent == "oracle") checkOracleSplits(splits);
   checkDumpOptions(options.dump, splits, candidates.size(), settings);
 
@@ -450,6 +486,42 @@ int runTablesCommand(const TablesCommandOptions& options, std::ostream& out) {
       if (row.ours) ++ours;
   out << "wrote " << markdown.string() << " and " << latex.string() << " ("
       << tables.size() << " tables, " << ours << " rows of ours)\n";
+  return 0;
+}
+
+int runCurveCommand(const CurveCommandOptions& options, std::ostream& out) {
+  VLN_CHECK_ARG(!options.run.empty(), "eval curve: --run is required");
+  VLN_CHECK_ARG(!options.out.empty(), "eval curve: --out is required");
+  const fs::path metrics = options.run / "metrics.jsonl";
+  VLN_CHECK_IO(fs::exists(metrics), "eval curve: '", metrics.string(),
+               "' does not exist (is --run '", options.run.string(),
+               "' a training run's output.dir?)");
+  viz::CurveStyle style;
+  style.title = options.title;
+  if (style.title.empty()) {
+    // the run's folder name, with its parent's for runs/<name>/seed<S>
+    fs::path run = options.run.lexically_normal();
+    if (run.filename().empty()) run = run.parent_path();  // a trailing '/'
+    std::string name = run.filename().string();
+    if (name.starts_with("seed"))
+      name = run.parent_path().filename().string() + "/" + name;
+    style.title = options.split + " learning curve: " + name;
+  }
+  const viz::LearningCurve curve =
+      viz::saveLearningCurve(metrics, options.out, options.split, style);
+  const auto best =
+      std::max_element(curve.points.begin(), curve.points.end(),
+                       [](const viz::CurvePoint& a, const viz::CurvePoint& b) {
+                         return a.spl < b.spl;
+                       });
+  char line[160];
+  std::snprintf(line, sizeof(line),
+                "best SPL %.3f (SR %.3f) at ckpt %d, %lld updates, %.1f min",
+                best->spl, best->success, best->checkpoint,
+                static_cast<long long>(best->updates), best->seconds / 60.0);
+  out << "wrote " << options.out.string() << " (" << curve.points.size()
+      << (curve.points.size() == 1 ? " validation" : " validations") << " of "
+      << options.split << "; " << line << ")\n";
   return 0;
 }
 

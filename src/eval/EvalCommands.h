@@ -14,7 +14,13 @@
 //   eval ... --dump DIR [--dump-episodes N | --dump-ids a,b]
 //            [--dump-format png|jpg]                 observation dumps
 //                                                     (DumpOptions.h)
+//   eval ... --split test --test-ground-truth H      scores the test split
+//                                                     from its hidden goals
+//                                                     (<data>/hidden)
 //   eval tables --runs results/ --out docs/results.md [--claimed-only]
+//   eval curve --run runs/main/cma --out curve.png   the run's learning
+//                                                     curve (validations in
+//                                                     metrics.jsonl)
 //   eval compare --runs results/ --out findings.md   the paper's findings
 //                                                     judged by paired
 //                                                     differences over seeds
@@ -78,6 +84,11 @@ struct EvalCommandOptions {
   std::optional<int> index;
   /// Observation dumps of the evaluated episodes (--dump ...).
   DumpOptions dump;
+  /// The test split's hidden goals and ground truth (data/Split.h: either
+  /// file, hidden/test/, hidden/ or the dataset root): the split "test" is
+  /// then scored (stats file) and still gets its leaderboard predictions.
+  /// Empty: the test split is run without goals, predictions only.
+  std::filesystem::path test_ground_truth;
 };
 
 /// What one (checkpoint, split) evaluation produced.
@@ -133,6 +144,19 @@ struct CompareCommandOptions {
   std::filesystem::path runs;  ///< results directory (Tables.h layout)
   std::filesystem::path out;   ///< Markdown file
 };
+
+/// Options of `eval curve`.
+struct CurveCommandOptions {
+  std::filesystem::path run;  ///< a training run's output.dir (metrics.jsonl)
+  std::filesystem::path out;  ///< PNG file
+  std::string split = "val_unseen";  ///< the validated split drawn
+  std::string title;  ///< empty: "<split> learning curve: <run folder>"
+};
+
+/// Draws the learning curve of the run (viz/LearningCurve.h: SR and SPL of
+/// `split` against wall time and updates) into `out`; prints the path, the
+/// number of validations and the best by SPL. Returns the exit code.
+int runCurveCommand(const CurveCommandOptions& options, std::ostream& out);
 
 /// Judges the paper's findings (eval::paperFindings()) by paired
 /// differences over the seeds of the runs under `runs`, on kFindingSplit

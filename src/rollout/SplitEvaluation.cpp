@@ -52,7 +52,7 @@ SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
   if (options.out_dir.empty()) return out;
 
   // stats over the scored episodes, the per-episode file, the leaderboard
-  // predictions of the unscored ones
+  // predictions of the unscored ones (of all, when asked)
   if (out.scored)
     out.files.push_back(
         writeStatsFile(options.out_dir, out.checkpoint, split.name, out.stats));
@@ -64,7 +64,7 @@ SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
   }
   std::vector<EpisodeRecord> unscored;
   for (size_t i = 0; i < out.result.episodes.size(); ++i)
-    if (!out.result.scored[i])
+    if (!out.result.scored[i] || options.predictions_of_scored)
       unscored.push_back(out.result.episodes[i].record);
   if (!unscored.empty()) {
     const fs::path file =

@@ -9,7 +9,9 @@
 //   episodes_ckpt_<i>_<split>.json.gz    per-episode paths and metrics
 //                                        (save_episodes)
 //   predictions_ckpt_<i>_<split>.json    R2R leaderboard trajectories of
-//                                        the episodes without goals
+//                                        the episodes without goals (all
+//                                        episodes with
+//                                        predictions_of_scored)
 
 #include <cstdint>
 #include <filesystem>
@@ -44,6 +46,9 @@ struct SplitEvaluationOptions {
   std::filesystem::path out_dir;
   /// Also write the per-episode file.
   bool save_episodes = false;
+  /// Also write the leaderboard predictions of scored episodes (a test
+  /// split scored from its hidden goals keeps the file it had without them).
+  bool predictions_of_scored = false;
   /// Watches the episodes (maps, videos); may be null.
   EpisodeObserver* observer = nullptr;
   /// Multi-process evaluation: this process runs episodes shard,

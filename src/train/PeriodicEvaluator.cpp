@@ -61,7 +61,8 @@ PeriodicEvaluator::PeriodicEvaluator(
 }
 
 double PeriodicEvaluator::evaluate(
-    int index, const std::shared_ptr<models::PolicyImpl>& policy,
+    int index, int64_t updates,
+    const std::shared_ptr<models::PolicyImpl>& policy,
     const models::ObservationEncoder& encoder, MetricsLog* metrics) {
   const rollout::EvalConfig& ec = config_.eval;
   const bool writes = !dist_ || dist_->isMaster();
@@ -102,6 +103,7 @@ double PeriodicEvaluator::evaluate(
       const nlohmann::json values = rollout::metricsToJson(result.stats.mean);
       nlohmann::json record = values;
       record["checkpoint"] = index;
+      record["updates"] = updates;
       record["split"] = split.name;
       record["num_episodes"] = result.stats.num_episodes;
       std::vector<std::pair<std::string, double>> scalars;

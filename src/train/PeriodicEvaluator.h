@@ -18,6 +18,7 @@
 // split's stats; rank 0 writes the files and the media, which show the
 // first episodes of its own share (episodes 0, N, 2N, ... of the split).
 
+#include <cstdint>
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -43,9 +44,12 @@ class PeriodicEvaluator {
                     Distributed* dist);
 
   /// Evaluates `policy` (left in train mode afterwards) with `encoder` as
-  /// checkpoint `index`; `metrics` (may be null) receives the records.
+  /// checkpoint `index`, saved after `updates` optimizer updates; `metrics`
+  /// (may be null) receives the records ("eval": the split's means,
+  /// "checkpoint", "updates", "split", "num_episodes").
   /// Returns eval.selection_split's SPL (-1 when it is not evaluated).
-  double evaluate(int index, const std::shared_ptr<models::PolicyImpl>& policy,
+  double evaluate(int index, int64_t updates,
+                  const std::shared_ptr<models::PolicyImpl>& policy,
                   const models::ObservationEncoder& encoder,
                   MetricsLog* metrics);
 

@@ -7,6 +7,7 @@
 #include "common/Check.h"
 #include "common/FileIo.h"
 #include "common/Json.h"
+#include "common/Progress.h"
 #include "common/Random.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
@@ -60,6 +61,7 @@ struct VlnTrainer::Impl {
   // --- setup ---------------------------------------------------------------
 
   void setup(bool resume) {
+    const common::Stopwatch setupClock;
     const fs::path runDir = config.output.dir;
     const torch::Device device = models::modelDevice(config.model);
     torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
@@ -130,10 +132,19 @@ struct VlnTrainer::Impl {
     store = openFeatureStore(
         config, dist ? storeShardDir(runDir, dist->rank()) : runDir / "store");
     storeTotals = totalsOverRanks(*store, dist);
-    if (master())
+    if (master()) {
       metrics = std::make_unique<MetricsLog>(
           runDir / "metrics.jsonl",
           config.output.tensorboard ? runDir / "tb" : fs::path());
+      // where this process's records begin (a learning curve's wall time
+      // adds up the processes of a resumed run: viz/LearningCurve.h)
+      metrics->write("start",
+                     {{"resumed", resumed},
+                      {"checkpoint", progress.checkpoint_index},
+                      {"updates", progress.updates},
+                      {"setup_seconds", setupClock.seconds()}},
+                     {}, progress.updates);
+    }
     if (dist) {
       // every rank starts from rank 0's weights and Adam state
       dist->broadcastModule(*policy);
@@ -234,7 +245,8 @@ struct VlnTrainer::Impl {
   // evaluates the latest checkpoint's policy; true when training should stop
   bool evaluate() {
     const int index = progress.checkpoint_index;
-    const double spl = evaluator->evaluate(index, policy, encoder, metrics.get());
+    const double spl = evaluator->evaluate(index, learner->updates(), policy,
+                                           encoder, metrics.get());
     return checkpoints->recordEvaluation(progress, index, spl);
   }
 

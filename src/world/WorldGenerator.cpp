@@ -24,6 +24,7 @@
 #include "data/Episode.h"
 #include "data/GloveFit.h"
 #include "data/GroundTruth.h"
+#include "data/Split.h"
 #include "data/Vocabulary.h"
 #include "sim/MeshIo.h"
 #include "sim/RayTracer.h"
@@ -170,8 +171,9 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
        sampler.shuffledOrder(common::deriveSeed(seed, kOrderStream))) {
     if (wanted == 0) break;
     const GraphPath& path = sampler.candidate(candidate);
-    std::mt19937_64 headingRng(common::deriveSeed(common::deriveSeed(seed, kHeadingStream),
-                                          static_cast<uint64_t>(candidate)));
+    std::mt19937_64 headingRng(
+        common::deriveSeed(common::deriveSeed(seed, kHeadingStream),
+                           static_cast<uint64_t>(candidate)));
     const float heading = common::uniformRange(headingRng, -kPi, kPi);
     data::NavigabilityResult checked = data::checkNavigability(
         navmesh, config.agent, config.transfer, transferred, path, heading);
@@ -205,7 +207,7 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
         aug ? config.instructions.aug_per_trajectory
             : config.instructions.per_trajectory,
         common::deriveSeed(common::deriveSeed(seed, kInstructionStream),
-                   static_cast<uint64_t>(candidate)));
+                           static_cast<uint64_t>(candidate)));
     for (const auto& g : generated) t.instructions.push_back(g.text);
     result.trajectories.push_back(std::move(t));
   }
@@ -291,7 +293,8 @@ const std::vector<std::string>& worldSplitNames() {
 
 std::string worldHouseName(const WorldConfig& config, int index) {
   const uint64_t hash = common::mixBits(
-      houseSeed(config, index) ^ common::fnv1a(common::configToYaml(config.house)) ^
+      houseSeed(config, index) ^
+      common::fnv1a(common::configToYaml(config.house)) ^
       common::mixBits(common::fnv1a(common::configToYaml(config.navmesh))));
   char buffer[64];
   std::snprintf(buffer, sizeof(buffer), "house_%03d_%08llx", index,
@@ -349,6 +352,10 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   // episodes of every split, merged in house order
   std::map<std::string, data::EpisodeDataset> datasets;
   std::map<std::string, data::GroundTruth> truths;
+  // the test split is published without goals; they and its ground truth
+  // go to hidden/test/ (data/Split.h), for the eval binary only
+  data::EpisodeDataset hiddenTest;
+  data::GroundTruth hiddenTruth;
   std::map<std::string, int> trajectoryCount;
   std::map<std::string, double> pathLength, geodesic, actions, tokens;
   std::vector<std::string> trainCorpus;
@@ -371,11 +378,16 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
           e.start_position = t.waypoints.front();
           e.start_rotation = headingToQuaternion(t.start_heading);
           e.instruction.instruction_text = text;
-          if (split != kTest) {
-            e.geodesic_distance = t.geodesic;
-            e.goals = {
-                data::Goal{t.waypoints.back(), data::kDefaultGoalRadius}};
-            e.reference_path = t.waypoints;
+          data::Episode withGoals = e;
+          withGoals.geodesic_distance = t.geodesic;
+          withGoals.goals = {
+              data::Goal{t.waypoints.back(), data::kDefaultGoalRadius}};
+          withGoals.reference_path = t.waypoints;
+          if (split == kTest) {
+            hiddenTest.episodes.push_back(std::move(withGoals));
+            hiddenTruth[e.episode_id] = t.ground_truth;
+          } else {
+            e = std::move(withGoals);
             truths[split][e.episode_id] = t.ground_truth;
           }
           if (split == kTrain || split == kTrainAug)
@@ -408,6 +420,10 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
     }
     dataset.instruction_vocab = vocabulary;
   }
+  for (data::Episode& e : hiddenTest.episodes)
+    e.instruction.instruction_tokens =
+        vocabulary.encode(e.instruction.instruction_text);
+  hiddenTest.instruction_vocab = vocabulary;
   std::vector<std::vector<std::string>> sentences;
   sentences.reserve(trainCorpus.size());
   for (const std::string& text : trainCorpus)
@@ -520,6 +536,9 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
         data::writeGroundTruth(data::splitGroundTruthPath(staging, split),
                                truths[split]);
     }
+    data::writeEpisodes(data::hiddenGoalsPath(staging, kTest), hiddenTest);
+    data::writeGroundTruth(data::hiddenGroundTruthPath(staging, kTest),
+                           hiddenTruth);
     data::writeEmbeddingsJson(staging / "embeddings.json.gz", embeddings);
     for (const auto& house : houses)
       data::writeNavGraph(

@@ -24,6 +24,14 @@
 //   for test, as in the real release), <out>/embeddings.json.gz,
 //   <out>/connectivity/<house>_connectivity.json, <out>/generation_stats.json
 //
+// The test split's goals and ground truth go to a separate hidden folder
+// (data/Split.h), the local leaderboard that only `eval
+// --test-ground-truth` reads and the trainer never does:
+//
+//   <out>/hidden/test/test_goals.json.gz  test's episodes with goals, info
+//                                         and reference_path
+//   <out>/hidden/test/test_gt.json.gz     test's ground truth
+//
 // Output is byte-identical for equal configs whatever the thread count.
 // Every output is staged in a temporary directory and renamed into place,
 // one whole split directory at a time, only after everything succeeded: a

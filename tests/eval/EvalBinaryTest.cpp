@@ -1,9 +1,11 @@
 // The `eval` binary end to end on the tiny procedural world (the world
 // generator's output, shared with the trainer tests): a training checkpoint,
 // a directory of them with skipping and best.json, a TorchScript export, the
-// baselines, the nav-graph comparison, pictures, the tables subcommand and
-// error reports; and, when the train binary is built, that re-evaluating a
-// trained run's checkpoint reproduces the trainer's own validation numbers.
+// baselines, the nav-graph comparison, pictures, the tables subcommand,
+// the test split scored from its hidden goals and error reports; and, when
+// the train binary is built, that re-evaluating a trained run's checkpoint
+// reproduces the trainer's own validation numbers, and the run's learning
+// curve (eval curve).
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -11,6 +13,7 @@
 #include <torch/torch.h>
 
 #include "common/Json.h"
+#include "data/Split.h"
 #include "eval/EvalCommands.h"
 #include "eval/NavGraphEval.h"
 #include "models/Export.h"
@@ -109,6 +112,78 @@ TEST_F(EvalBinaryTest, CheckpointDirectoryWithSkippingAndBest) {
   EXPECT_EQ(best["index"], spl1 > spl0 ? 1 : 0);
   EXPECT_DOUBLE_EQ(best["spl"].get<double>(), std::max(spl0, spl1));
   EXPECT_THAT(output, HasSubstr("best checkpoint: ckpt."));
+}
+
+// The test split as a local leaderboard: a dataset whose test split is the
+// tiny world's val_unseen without goals and whose hidden/test/ holds their
+// goals and ground truth; --test-ground-truth scores the test split as
+// val_unseen scores, and the leaderboard file is still written.
+TEST_F(EvalBinaryTest, TestGroundTruthScoresTheTestSplit) {
+  const fs::path data = dir_ / "data";
+  fs::create_directories(data);
+  for (const char* entry : {"train", "val_seen", "val_unseen", "train_aug",
+                            "embeddings.json.gz", "connectivity"})
+    fs::create_symlink(world_->data / entry, data / entry);
+  data::EpisodeDataset unseen =
+      data::readEpisodes(data::splitEpisodesPath(world_->data, "val_unseen"));
+  ASSERT_FALSE(unseen.episodes.empty());
+  data::writeEpisodes(data::hiddenGoalsPath(data, "test"), unseen);
+  fs::copy_file(data::splitGroundTruthPath(world_->data, "val_unseen"),
+                data::hiddenGroundTruthPath(data, "test"));
+  for (data::Episode& e : unseen.episodes) {
+    e.goals.clear();
+    e.reference_path.clear();
+    e.geodesic_distance.reset();
+  }
+  data::writeEpisodes(data::splitEpisodesPath(data, "test"), unseen);
+
+  const fs::path ckpt = writeCheckpoint(dir_.path(), 0, 1.0);
+  const fs::path out = dir_ / "out";
+  const std::string command = "--config " + configFile_.string() +
+                              " --set dataset.data_path=" + data.string() +
+                              " --checkpoint " + ckpt.string() + " --out " +
+                              out.string();
+  std::string output;
+  ASSERT_EQ(eval(command +
+                     " --split val_unseen --split test "
+                     "--test-ground-truth " +
+                     (data / "hidden").string(),
+                 &output),
+            0)
+      << output;
+  const rollout::SplitStats test =
+      rollout::readStatsFile(out / rollout::statsFileName(0, "test"));
+  const rollout::SplitStats reference =
+      rollout::readStatsFile(out / rollout::statsFileName(0, "val_unseen"));
+  EXPECT_EQ(test.num_episodes, reference.num_episodes);
+  EXPECT_EQ(rollout::metricsToJson(test.mean),
+            rollout::metricsToJson(reference.mean));
+  EXPECT_EQ(rollout::readLeaderboardFile(
+                out / rollout::predictionsFileName(0, "test"))
+                .size(),
+            static_cast<size_t>(test.num_episodes));
+  EXPECT_THAT(output, HasSubstr("test: scored from the hidden goals"));
+
+  // without it, leaderboard predictions only, as before
+  fs::remove_all(out);
+  ASSERT_EQ(eval(command + " --split test", &output), 0) << output;
+  EXPECT_FALSE(fs::exists(out / rollout::statsFileName(0, "test")));
+  EXPECT_TRUE(fs::exists(out / rollout::predictionsFileName(0, "test")));
+
+  // errors name the option and the file
+  EXPECT_EQ(eval(command + " --split test --test-ground-truth " +
+                     (dir_ / "missing").string(),
+                 &output),
+            1);
+  EXPECT_THAT(output,
+              HasSubstr("eval: error: eval --test-ground-truth: "
+                        "findHiddenFiles(): '" +
+                        (dir_ / "missing").string() + "' does not exist"));
+  EXPECT_EQ(eval(command + " --split val_unseen --test-ground-truth " +
+                     (data / "hidden").string(),
+                 &output),
+            1);
+  EXPECT_THAT(output, HasSubstr("(add --split test)"));
 }
 
 TEST_F(EvalBinaryTest, TorchScriptExportMatchesItsCheckpoint) {
@@ -322,6 +397,26 @@ TEST_F(EvalBinaryTest, ReproducesTheTrainersValidation) {
   EXPECT_EQ(rollout::readStatsFile(dir_ / "again" /
                                    rollout::statsFileName(index, "val_unseen")),
             rollout::readStatsFile(trainerStats));
+
+  // the run's records: where the process started, the updates behind each
+  // validation; and its learning curve drawn by eval curve
+  const auto records = vln::test::readJsonLines(run / "metrics.jsonl");
+  ASSERT_FALSE(records.empty());
+  EXPECT_EQ(records.front()["type"], "start");
+  EXPECT_EQ(records.front()["resumed"], false);
+  const int64_t updates =
+      common::readJsonFile(run / "finished.json")["updates"].get<int64_t>();
+  EXPECT_GT(updates, 0);
+  for (const auto& record : records)
+    if (record["type"] == "eval") EXPECT_EQ(record["updates"], updates);
+  ASSERT_EQ(eval("curve --run " + run.string() + " --out " +
+                     (dir_ / "curve.png").string(),
+                 &output),
+            0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("(1 validation of val_unseen; best SPL"));
+  EXPECT_THAT(output, HasSubstr(std::to_string(updates) + " updates"));
+  EXPECT_TRUE(fs::exists(dir_ / "curve.png"));
 }
 
 }  // namespace

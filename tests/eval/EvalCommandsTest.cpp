@@ -1,7 +1,8 @@
 // The eval command's functions on a dataset written from the test house:
 // a checkpoint, a directory of checkpoints (skipping and best selection), a
-// TorchScript export, the baselines, the test split's leaderboard file, the
-// nav-graph comparison, error reports, and the tables subcommand, on
+// TorchScript export, the baselines, the test split's leaderboard file and
+// its scoring from hidden goals, the nav-graph comparison, error reports,
+// and the tables subcommand, on
 // checkpoints in the trainer's format; the binary itself is exercised in
 // EvalBinaryTest.cpp.
 
@@ -15,6 +16,7 @@
 #include "common/FileIo.h"
 #include "common/Json.h"
 #include "data/NavGraph.h"
+#include "data/Split.h"
 #include "eval/BaselineAgents.h"
 #include "eval/Tables.h"
 #include "models/Export.h"
@@ -257,6 +259,72 @@ TEST_F(EvalCommandsTest, TestSplitWritesLeaderboardPredictions) {
   }
   EXPECT_THAT(printed, HasSubstr("ckpt 2 test: 3 episodes"));
   EXPECT_THAT(printed, HasSubstr("no goals (leaderboard predictions written)"));
+}
+
+// the test split holds val_unseen's episodes without goals, hidden/test/
+// their goals and ground truth (RolloutTestWorld.h): scored from them, it
+// scores as val_unseen does
+TEST_F(EvalCommandsTest, TestSplitScoredFromHiddenGoalsKeepsItsPredictions) {
+  const fs::path ckpt = writeCheckpoint(dir_ / "ckpt.2.pth", 1.0);
+  EvalCommandOptions options;
+  options.checkpoint = ckpt;
+  options.out = dir_ / "out";
+  options.splits = {"val_unseen", "test"};
+  options.test_ground_truth = dir_ / "data" / "hidden";
+  std::string printed;
+  const EvalCommandResult r = run(options, &printed);
+  ASSERT_EQ(r.reports.size(), 2u);
+  EXPECT_TRUE(r.reports[1].scored);
+  const rollout::SplitStats test =
+      rollout::readStatsFile(dir_ / "out" / rollout::statsFileName(2, "test"));
+  const rollout::SplitStats unseen = rollout::readStatsFile(
+      dir_ / "out" / rollout::statsFileName(2, "val_unseen"));
+  EXPECT_EQ(test.num_episodes, 5);
+  EXPECT_EQ(rollout::metricsToJson(test.mean),
+            rollout::metricsToJson(unseen.mean));
+  // the leaderboard file as without the goals: every episode
+  const auto predictions = rollout::readLeaderboardFile(
+      dir_ / "out" / rollout::predictionsFileName(2, "test"));
+  EXPECT_EQ(predictions.size(), 5u);
+  EXPECT_FALSE(
+      fs::exists(dir_ / "out" / rollout::predictionsFileName(2, "val_unseen")));
+  EXPECT_THAT(printed,
+              HasSubstr("test: scored from the hidden goals " +
+                        data::hiddenGoalsPath(dir_ / "data", "test").string()));
+  EXPECT_THAT(printed, HasSubstr("ckpt 2 test: 5 episodes"));
+  EXPECT_THAT(printed, ::testing::Not(HasSubstr("no goals")));
+}
+
+TEST_F(EvalCommandsTest, HiddenGroundTruthErrorsNameTheFileAndEpisode) {
+  EvalCommandOptions options;
+  options.checkpoint = writeCheckpoint(dir_ / "ckpt.1.pth", 1.0);
+  options.out = dir_ / "out";
+  options.splits = {"val_unseen"};
+  options.test_ground_truth = dir_ / "data" / "hidden";
+  EXPECT_THAT(vln::test::errorOf([&] { run(options); }),
+              HasSubstr("scores the split 'test', which is not evaluated "
+                        "(add --split test)"));
+  options.splits = {"test"};
+  options.test_ground_truth = dir_ / "nowhere";
+  EXPECT_THAT(vln::test::errorOf([&] { run(options); }),
+              HasSubstr("eval --test-ground-truth: findHiddenFiles(): '" +
+                        (dir_ / "nowhere").string() + "' does not exist"));
+  // a ground truth that misses an episode of the split
+  const fs::path gt = data::hiddenGroundTruthPath(dir_ / "data", "test");
+  data::GroundTruth truth = data::readGroundTruth(gt);
+  const int dropped = truth.rbegin()->first;
+  truth.erase(dropped);
+  data::writeGroundTruth(gt, truth);
+  options.test_ground_truth = gt;
+  const std::string error = vln::test::errorOf([&] { run(options); });
+  EXPECT_THAT(error, HasSubstr("eval --test-ground-truth: "));
+  EXPECT_THAT(error, HasSubstr(gt.string()));
+  EXPECT_THAT(error, HasSubstr("episode " + std::to_string(dropped) +
+                               " of split 'test' is missing"));
+  // a malformed goals file
+  vln::test::writeText(data::hiddenGoalsPath(dir_ / "data", "test"), "{");
+  EXPECT_THAT(vln::test::errorOf([&] { run(options); }),
+              HasSubstr("test_goals.json.gz"));
 }
 
 TEST_F(EvalCommandsTest, NavGraphComparisonAndPictures) {
@@ -609,6 +677,37 @@ TEST(EvalCompareCommandTest, WritesTheFindingsWithVerdicts) {
   EXPECT_THAT(md, HasSubstr("| holds |"));
   options.runs = dir / "nowhere";
   EXPECT_THROW(runCompareCommand(options, out), std::runtime_error);
+}
+
+// eval curve on a run folder holding a metrics.jsonl of two validations
+TEST(EvalCurveCommandTest, DrawsTheRunsLearningCurve) {
+  vln::test::TempDir dir;
+  const fs::path run = dir / "runs" / "cma" / "seed1";
+  vln::test::writeText(
+      run / "metrics.jsonl",
+      R"({"type":"start","time":100.0,"resumed":false,"checkpoint":-1,"updates":0,"setup_seconds":0.0}
+{"type":"eval","time":160.0,"split":"val_unseen","checkpoint":0,"updates":40,"success":0.1,"spl":0.05}
+{"type":"eval","time":220.0,"split":"val_unseen","checkpoint":1,"updates":80,"success":0.2,"spl":0.15}
+)");
+  CurveCommandOptions options;
+  options.run = run.string() + "/";
+  options.out = dir / "out" / "learning_curve.png";
+  std::ostringstream out;
+  EXPECT_EQ(runCurveCommand(options, out), 0);
+  EXPECT_EQ(out.str(), "wrote " + options.out.string() +
+                           " (2 validations of val_unseen; best SPL 0.150 (SR "
+                           "0.200) at ckpt 1, 80 updates, 2.0 min)\n");
+  EXPECT_EQ(common::readFile(options.out).substr(0, 4), "\x89PNG");
+
+  // another split, a run without metrics
+  options.split = "val_seen";
+  EXPECT_THAT(vln::test::errorOf([&] { runCurveCommand(options, out); }),
+              HasSubstr("no \"eval\" record of split 'val_seen'"));
+  options.run = dir / "nowhere";
+  EXPECT_THAT(
+      vln::test::errorOf([&] { runCurveCommand(options, out); }),
+      HasSubstr("eval curve: '" + (dir / "nowhere" / "metrics.jsonl").string() +
+                "' does not exist"));
 }
 
 }  // namespace

@@ -1,9 +1,11 @@
 # tests/reliability (docs/reliability.md): fuzz crasher replays, config
 # strictness, resource limits, determinism and kill -9/resume tests. Each
 # tests/reliability/<Name>Test.cpp is one executable linked against the
-# whole stack (vln::train). Label "reliability", except the multi-minute
-# end-to-end ones (they drive the train, eval and vlnce-data binaries),
-# labelled "slow" with a longer timeout so that CI can pick them by label.
+# whole stack (vln::train), except FrozenWorldTest (the default world's
+# frozen evaluation files; vlnce-data and vln::data only). Label "reliability", except
+# the multi-minute end-to-end ones (they drive the train, eval and
+# vlnce-data binaries), labelled "slow" with a longer timeout so that CI can
+# pick them by label.
 file(GLOB reliability_sources CONFIGURE_DEPENDS
   ${CMAKE_CURRENT_LIST_DIR}/*Test.cpp)
 foreach(source IN LISTS reliability_sources)
@@ -18,6 +20,12 @@ foreach(source IN LISTS reliability_sources)
     vln_use_torch_pch(${test_name})
     gtest_discover_tests(${test_name} DISCOVERY_MODE PRE_TEST
       DISCOVERY_TIMEOUT 120 PROPERTIES LABELS slow TIMEOUT 3600)
+  elseif(test_name STREQUAL "FrozenWorldTest")
+    # drives bin/vlnce-data only: no LibTorch; one generation of the default
+    # world, about 9 s on 2 cores, so not labelled slow
+    vln_add_test(${test_name} SOURCES ${source} LIBS vln::data
+      LABEL reliability)
+    add_dependencies(${test_name} vlnce-data)
   else()
     vln_add_test(${test_name} SOURCES ${source} LIBS vln::train
       LABEL reliability TORCH)

@@ -3,7 +3,8 @@
 // test executable): a scene file, episodes between random navigable points
 // 4-9 m apart (geodesic) with reference paths, and their ground truth
 // from the shortest-path follower run in the simulator. Cameras are 32x32.
-// writeDataset() lays the episodes out as an R2R_VLNCE dataset on disk.
+// writeDataset() lays the episodes out as an R2R_VLNCE dataset on disk,
+// with the test split's goals in hidden/ as the world generator writes them.
 
 #include <filesystem>
 #include <memory>
@@ -14,6 +15,7 @@
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
+#include "data/Split.h"
 #include "sim/Follower.h"
 #include "sim/MeshIo.h"
 #include "sim/Scene.h"
@@ -42,7 +44,8 @@ struct RolloutTestWorld {
 /// The vocabulary of those tokens: "<pad>", "<unk>", then "word<i>".
 inline data::Vocabulary testVocabulary() {
   std::vector<std::string> words = {"<pad>", "<unk>"};
-  for (int i = 2; i < kTestVocab; ++i) words.push_back("word" + std::to_string(i));
+  for (int i = 2; i < kTestVocab; ++i)
+    words.push_back("word" + std::to_string(i));
   return data::Vocabulary(words);
 }
 
@@ -187,6 +190,11 @@ inline void writeDataset(const RolloutTestWorld& w,
                          truthOf(5, 10));
   data::writeEpisodes(data::splitEpisodesPath(root, "test"),
                       subset(5, 10, false));
+  // the test split's goals and ground truth, hidden as the world generator
+  // hides them (data/Split.h)
+  data::writeEpisodes(data::hiddenGoalsPath(root, "test"), subset(5, 10, true));
+  data::writeGroundTruth(data::hiddenGroundTruthPath(root, "test"),
+                         truthOf(5, 10));
   data::writeEpisodes(data::splitEpisodesPath(root, "train"),
                       subset(0, 10, true));
   data::writeGroundTruth(data::splitGroundTruthPath(root, "train"),

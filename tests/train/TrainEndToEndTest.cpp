@@ -1,7 +1,8 @@
 // End-to-end runs of the `train` and `vlnce-export` binaries on the tiny
 // procedural world: teacher forcing, DAgger, kill -9 during collection and
-// --resume, the run-directory rules, and the TensorBoard media of the
-// periodic evaluation (maps and videos read back from the event file).
+// --resume, the run-directory rules, the TensorBoard media of the
+// periodic evaluation (maps and videos read back from the event file), and
+// that training never reads the test split's hidden goals.
 
 #include <fcntl.h>
 #include <gmock/gmock.h>
@@ -285,6 +286,49 @@ TEST_F(TrainEndToEndTest, TensorBoardMapsAndVideosOfThePeriodicEvaluation) {
                 << " bytes\n";
     }
   }
+}
+
+// The test split's hidden goals (<data>/hidden/, the local leaderboard of
+// the eval binary) are never read by the trainer: a teacher-forcing run
+// with validation on a dataset that has them, traced with strace (every
+// file system call of every thread), touches no path under hidden/; the
+// folder is also made unreadable, which stops a reader that is not root.
+// Skipped as root without strace (permissions do not stop root).
+TEST_F(TrainEndToEndTest, NeverReadsTheHiddenTestGoals) {
+  const bool haveStrace = vln::test::runCommand("strace -V") == 0;
+  if (!haveStrace && ::geteuid() == 0)
+    GTEST_SKIP() << "root ignores permissions and strace is absent";
+  // the tiny world with a hidden folder holding val_unseen as test goals
+  const fs::path data = dir_ / "data";
+  fs::create_directories(data);
+  const fs::path hidden = data / "hidden";
+  for (const auto& entry : fs::directory_iterator(world_->data))
+    if (entry.path().filename() != "hidden")  // shared: ours is below
+      fs::create_symlink(entry.path(), data / entry.path().filename());
+  fs::create_directories(hidden / "test");
+  fs::copy_file(data::splitEpisodesPath(world_->data, "val_unseen"),
+                hidden / "test" / "test_goals.json.gz");
+  fs::copy_file(data::splitGroundTruthPath(world_->data, "val_unseen"),
+                hidden / "test" / "test_gt.json.gz");
+  fs::permissions(hidden, fs::perms::none);
+
+  const fs::path config = writeConfig("  epochs: 1\n");
+  const fs::path trace = dir_ / "strace.txt";
+  const std::string command =
+      (haveStrace ? "strace -f -qq -e trace=%file -o " + trace.string() + " "
+                  : std::string()) +
+      trainCommand(config, "--set dataset.data_path=" + data.string());
+  std::string output;
+  const int status = vln::test::runCommand(command, &output);
+  fs::permissions(hidden, fs::perms::owner_all);  // so TempDir can remove it
+  ASSERT_EQ(status, 0) << output;
+  EXPECT_TRUE(fs::exists(dir_ / "run" / "eval" /
+                         rollout::statsFileName(0, "val_unseen")));
+  if (!haveStrace) return;
+  const std::string calls = vln::test::readText(trace);
+  EXPECT_THAT(calls,
+              HasSubstr(data::splitEpisodesPath(data, "train").string()));
+  EXPECT_THAT(calls, ::testing::Not(HasSubstr(hidden.string())));
 }
 
 // SIGKILL while round 1 is being collected, then --resume: the store ends

@@ -18,6 +18,7 @@
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
+#include "data/Split.h"
 #include "data/Vocabulary.h"
 #include "sim/Agent.h"
 #include "sim/Scene.h"
@@ -142,6 +143,44 @@ TEST_F(WorldGeneratorTest, WritesEverySplitInThePublicLayout) {
   for (const auto& entry : fs::directory_iterator(datasetRoot()))
     EXPECT_THAT(entry.path().filename().string(),
                 ::testing::Not(HasSubstr(".generate-")));
+}
+
+TEST_F(WorldGeneratorTest, TestGoalsAndGroundTruthGoToTheHiddenFolderOnly) {
+  // hidden/test/ holds the test episodes as the public file has them, plus
+  // the goals, geodesic distances and reference paths it lacks
+  const data::EpisodeDataset published =
+      data::readEpisodes(data::splitEpisodesPath(datasetRoot(), "test"));
+  const data::EpisodeDataset hidden =
+      data::readEpisodes(data::hiddenGoalsPath(datasetRoot(), "test"));
+  const data::GroundTruth truth =
+      data::readGroundTruth(data::hiddenGroundTruthPath(datasetRoot(), "test"));
+  EXPECT_EQ(hidden.instruction_vocab, published.instruction_vocab);
+  ASSERT_EQ(hidden.episodes.size(), published.episodes.size());
+  ASSERT_FALSE(hidden.episodes.empty());
+  EXPECT_EQ(truth.size(), hidden.episodes.size());
+  for (size_t i = 0; i < hidden.episodes.size(); ++i) {
+    const data::Episode& h = hidden.episodes[i];
+    data::Episode stripped = h;
+    stripped.goals.clear();
+    stripped.reference_path.clear();
+    stripped.geodesic_distance.reset();
+    EXPECT_EQ(stripped, published.episodes[i]) << "episode " << h.episode_id;
+    ASSERT_EQ(h.goals.size(), 1u);
+    EXPECT_EQ(h.goals.front().position, h.reference_path.back());
+    EXPECT_EQ(h.start_position, h.reference_path.front());
+    EXPECT_GT(h.geodesic_distance.value_or(0.0f), 0.0f);
+    ASSERT_TRUE(truth.contains(h.episode_id));
+    EXPECT_EQ(truth.at(h.episode_id).locations.front(), h.start_position);
+    EXPECT_EQ(truth.at(h.episode_id).actions.back(), sim::Action::kStop);
+  }
+
+  // attached, they make the test split a scored one
+  data::Split test = data::loadSplit(datasetRoot(), "test", /*cap=*/-1);
+  data::attachHiddenGoals(test, data::findHiddenFiles(datasetRoot(), "test"));
+  EXPECT_TRUE(test.hasGoals);
+  EXPECT_TRUE(test.hiddenGoals);
+  EXPECT_EQ(test.episodes, hidden.episodes);
+  EXPECT_EQ(*test.groundTruth, truth);
 }
 
 TEST_F(WorldGeneratorTest, SplitsUseTheRightHouses) {
