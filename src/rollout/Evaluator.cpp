@@ -94,10 +94,11 @@ class EvaluationJob : public EpisodeJob {
       const data::Episode& episode =
           episodes_[static_cast<size_t>(batch.episodes[k])];
       const sim::AgentState& pose = envs_.state(env).agent;
-      records_[static_cast<size_t>(env)] =
-          EpisodeRecord{.episode_id = std::to_string(episode.episode_id),
-                        .positions = {pose.position},
-                        .headings = {pose.heading}};
+      EpisodeRecord& record = records_[static_cast<size_t>(env)];
+      record = EpisodeRecord{};
+      record.episode_id = std::to_string(episode.episode_id);
+      record.positions = {pose.position};
+      record.headings = {pose.heading};
       agent_.reset(env, episode);
       if (observer_) observer_->episodeStarted(batch.episodes[k], envs_, env);
     }

@@ -14,6 +14,7 @@
 #include "viz/EpisodeMap.h"
 #include "viz/Gif.h"
 #include "viz/Image.h"
+#include "viz/ObservationImages.h"
 
 namespace vln::viz {
 namespace {
@@ -35,14 +36,6 @@ cv::Mat scaled(const cv::Mat& source, int width, int height) {
   cv::resize(source, out, cv::Size(width, height), 0, 0,
              width >= source.cols ? cv::INTER_NEAREST : cv::INTER_AREA);
   return out;
-}
-
-// geodesic distance to the episode's goal, -1 when it has none
-float distanceToGoal(const sim::Simulator& simulator,
-                     const data::Episode& episode, const Vec3f& position) {
-  if (episode.goals.empty()) return -1.0f;
-  return simulator.scene().navmesh().geodesicDistance(
-      position, episode.goals.front().position);
 }
 
 }  // namespace
@@ -139,10 +132,9 @@ class EpisodeMedia::Video {
                         const_cast<uint8_t*>(observation.rgb.data()));
     scaled(color, rgbWidth_, panelHeight_)
         .copyTo(frame(cv::Rect(0, 0, rgbWidth_, panelHeight_)));
-    cv::Mat grey(observation.depth_height, observation.depth_width, CV_8UC1);
-    for (size_t i = 0; i < observation.depth.size(); ++i)
-      grey.data[i] = static_cast<uint8_t>(std::lround(
-          255.0f * std::clamp(observation.depth[i] / depthScale_, 0.0f, 1.0f)));
+    std::vector<uint8_t> levels = depthGreyLevels(observation, depthScale_);
+    const cv::Mat grey(observation.depth_height, observation.depth_width,
+                       CV_8UC1, levels.data());
     cv::Mat depthRgb;
     cv::cvtColor(scaled(grey, depthWidth_, panelHeight_), depthRgb,
                  cv::COLOR_GRAY2RGB);
@@ -248,8 +240,7 @@ void EpisodeMedia::episodeStarted(int index, rollout::VectorEnv& envs,
   const sim::Simulator& simulator = envs.simulator(env);
   const data::Episode& episode = envs.episode(env);
   const sim::Observation& observation = envs.observation(env);
-  const auto& depth = simulator.config().depth;
-  const float depthScale = depth.normalize_depth ? 1.0f : depth.max_depth;
+  const float depthScale = depthDisplayScale(simulator);
   const sim::AgentState& pose = simulator.episode().agent;
   auto video = std::make_unique<Video>(config_, simulator.scene(), episode,
                                        pose, observation, depthScale);

@@ -9,6 +9,7 @@
 #include <cstdio>
 
 #include "common/Check.h"
+#include "viz/ObservationImages.h"
 
 namespace vln::viz {
 namespace fs = std::filesystem;
@@ -42,13 +43,11 @@ cv::Mat rgbPanel(const uint8_t* rgb, int w, int h, int width, int height) {
 }
 
 // a depth image as grey levels value / scale, clipped to [0, 1]
-cv::Mat depthPanel(const float* depth, int w, int h, float scale, int width,
+cv::Mat depthPanel(const sim::Observation& observation, float scale, int width,
                    int height) {
-  cv::Mat grey(h, w, CV_8UC1);
-  for (int i = 0; i < w * h; ++i) {
-    const float v = std::clamp(depth[i] / scale, 0.0f, 1.0f);
-    grey.data[i] = static_cast<uint8_t>(std::lround(v * 255.0f));
-  }
+  const int w = observation.depth_width;
+  std::vector<uint8_t> levels = depthGreyLevels(observation, scale);
+  cv::Mat grey(observation.depth_height, w, CV_8UC1, levels.data());
   cv::Mat scaled, out;
   cv::resize(grey, scaled, cv::Size(width, height), 0, 0,
              width >= w ? cv::INTER_NEAREST : cv::INTER_AREA);
@@ -246,8 +245,7 @@ void EpisodeVideo::addFrame(const sim::Observation& observation,
   rgbPanel(observation.rgb.data(), m.obsRgbWidth, m.obsRgbHeight, m.rgbWidth,
            m.panelHeight)
       .copyTo(frame(cv::Rect(0, 0, m.rgbWidth, m.panelHeight)));
-  depthPanel(observation.depth.data(), m.obsDepthWidth, m.obsDepthHeight,
-             m.depthScale, m.depthWidth, m.panelHeight)
+  depthPanel(observation, m.depthScale, m.depthWidth, m.panelHeight)
       .copyTo(frame(cv::Rect(m.rgbWidth, 0, m.depthWidth, m.panelHeight)));
   mapPanel.copyTo(
       frame(cv::Rect(m.rgbWidth + m.depthWidth, 0, m.mapWidth, m.panelHeight)));
@@ -326,26 +324,13 @@ bool EpisodePictures::wantsFrames(int index) const {
   return index < config_.video_episodes;
 }
 
-namespace {
-
-// geodesic distance to the episode's goal, -1 when it has none
-float distanceToGoal(const sim::Simulator& simulator,
-                     const data::Episode& episode, const Vec3f& position) {
-  if (episode.goals.empty()) return -1.0f;
-  return simulator.scene().navmesh().geodesicDistance(
-      position, episode.goals.front().position);
-}
-
-}  // namespace
-
 void EpisodePictures::episodeStarted(int index, rollout::VectorEnv& envs,
                                      int env) {
   if (!wantsFrames(index)) return;
   const sim::Simulator& simulator = envs.simulator(env);
   const data::Episode& episode = envs.episode(env);
   const sim::Observation& obs = envs.observation(env);
-  const auto& depth = simulator.config().depth;
-  const float scale = depth.normalize_depth ? 1.0f : depth.max_depth;
+  const float scale = depthDisplayScale(simulator);
   const fs::path file =
       config_.dir / videoFileName(config_.prefix,
                                   std::to_string(episode.episode_id),

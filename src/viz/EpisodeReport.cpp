@@ -11,6 +11,7 @@
 #include "common/FileIo.h"
 #include "data/Episode.h"
 #include "viz/Image.h"
+#include "viz/ObservationImages.h"
 #include "viz/ReportPage.h"
 
 namespace vln::viz {
@@ -57,12 +58,10 @@ Image framePicture(const sim::Observation& obs, float depthScale) {
   const int height = std::max(obs.rgb_height, obs.depth_height);
   Image rgb{obs.rgb_width, obs.rgb_height, obs.rgb};
   Image depth{obs.depth_width, obs.depth_height, {}};
-  depth.rgb.resize(static_cast<size_t>(obs.depth_width) * obs.depth_height * 3);
-  for (size_t i = 0; i < obs.depth.size(); ++i) {
-    const float v = std::clamp(obs.depth[i] / depthScale, 0.0f, 1.0f);
-    const auto grey = static_cast<uint8_t>(std::lround(v * 255.0f));
-    depth.rgb[3 * i] = depth.rgb[3 * i + 1] = depth.rgb[3 * i + 2] = grey;
-  }
+  const std::vector<uint8_t> levels = depthGreyLevels(obs, depthScale);
+  depth.rgb.resize(levels.size() * 3);
+  for (size_t i = 0; i < levels.size(); ++i)
+    depth.rgb[3 * i] = depth.rgb[3 * i + 1] = depth.rgb[3 * i + 2] = levels[i];
   auto toHeight = [&](const Image& image) {
     if (image.height == height) return image;
     const int width = std::max(
@@ -113,18 +112,6 @@ std::vector<std::string> instructionWords(const data::Episode& episode,
   return words;
 }
 
-float depthScaleOf(const sim::Simulator& simulator) {
-  const auto& depth = simulator.config().depth;
-  return depth.normalize_depth ? 1.0f : depth.max_depth;
-}
-
-double distanceToGoal(const sim::Simulator& simulator,
-                      const data::Episode& episode, const Vec3f& position) {
-  if (episode.goals.empty()) return -1.0;
-  return simulator.scene().navmesh().geodesicDistance(
-      position, episode.goals.front().position);
-}
-
 // a JSON number that stays valid JSON (NaN and infinities become null)
 json finite(double value) {
   return std::isfinite(value) ? json(value) : json(nullptr);
@@ -165,8 +152,9 @@ void EpisodeReport::episodeStarted(int index, rollout::VectorEnv& envs,
     const sim::Simulator& simulator = envs.simulator(env);
     common::writeFileAtomic(
         config_.dir / frameName(episode->id, 0),
-        encodeJpeg(framePicture(envs.observation(env), depthScaleOf(simulator)),
-                   config_.frame_quality));
+        encodeJpeg(
+            framePicture(envs.observation(env), depthDisplayScale(simulator)),
+            config_.frame_quality));
     episode->frames = 1;
     episode->distance.push_back(
         distanceToGoal(simulator, source, simulator.episode().agent.position));
@@ -183,10 +171,10 @@ void EpisodeReport::episodeStepped(int /*index*/, rollout::VectorEnv& envs,
   if (agent_ != nullptr)
     e.attention.push_back(agent_->instructionAttention(env));
   const sim::Simulator& simulator = envs.simulator(env);
-  common::writeFileAtomic(
-      config_.dir / frameName(e.id, e.frames),
-      encodeJpeg(framePicture(envs.observation(env), depthScaleOf(simulator)),
-                 config_.frame_quality));
+  common::writeFileAtomic(config_.dir / frameName(e.id, e.frames),
+                          encodeJpeg(framePicture(envs.observation(env),
+                                                  depthDisplayScale(simulator)),
+                                     config_.frame_quality));
   ++e.frames;
   e.distance.push_back(distanceToGoal(simulator, envs.episode(env),
                                       simulator.episode().agent.position));
@@ -257,7 +245,7 @@ fs::path EpisodeReport::write() const {
       }
     }
     json distance = json::array();
-    for (double d : e->distance)
+    for (float d : e->distance)
       distance.push_back(d >= 0.0 ? finite(d) : json(nullptr));
     details[e->id] = {{"words", e->words},
                       {"frame_dir", frameDir(e->id)},

@@ -407,8 +407,11 @@ TEST_F(EvalBinaryTest, ReproducesTheTrainersValidation) {
   const int64_t updates =
       common::readJsonFile(run / "finished.json")["updates"].get<int64_t>();
   EXPECT_GT(updates, 0);
-  for (const auto& record : records)
-    if (record["type"] == "eval") EXPECT_EQ(record["updates"], updates);
+  for (const auto& record : records) {
+    if (record["type"] == "eval") {
+      EXPECT_EQ(record["updates"], updates);
+    }
+  }
   ASSERT_EQ(eval("curve --run " + run.string() + " --out " +
                      (dir_ / "curve.png").string(),
                  &output),

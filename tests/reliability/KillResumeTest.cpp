@@ -240,7 +240,9 @@ TEST_F(KillResumeTest, RandomKillsLoseAndDuplicateNothing) {
     int status = 0;
     const pid_t pid = spawn(trainArgs(config, true), log);
     ASSERT_EQ(::waitpid(pid, &status, 0), pid);
-    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "final resume failed, see " << log;
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0)
+        << "final resume failed (status " << status << "); its log:\n"
+        << vln::test::readText(log);
   }
   // kills during checkpoint writes leave temporaries; resuming removes them
   const auto leftover = tempFiles(run / "checkpoints");
