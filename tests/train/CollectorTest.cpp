@@ -13,8 +13,6 @@
 #include "TrainTestWorld.h"
 #include "common/Config.h"
 #include "common/Math.h"
-#include "sim/SimTestScenes.h"
-#include "sim/SimTestSuites.h"
 
 namespace vln::train {
 namespace {
@@ -103,63 +101,9 @@ TEST(SampleFromLogitsTest, InvertsTheSoftmaxCdf) {
                 std::exp(static_cast<double>(four[a])) / total, 1e-4);
 }
 
-// A 12 m x 2 m corridor along +X.
-sim::TriangleMesh corridor() {
-  sim::TriangleMesh m;
-  vln::test::addWalledFloor(m, 12, 2);
-  return m;
-}
-
-class ExpertTest : public vln::test::NavMeshSuite<corridor> {
- protected:
-  // an episode from (1, 1) whose reference path turns back at x = 6 only
-  // in name: waypoints (1, 1), (6, 1), (9, 1), goal (9, 1)
-  data::Episode episode() const {
-    data::Episode e;
-    e.episode_id = 7;
-    for (float x : {1.0f, 6.0f, 9.0f})
-      e.reference_path.push_back(standing(x, 1.0f, 0.0f).position);
-    e.start_position = e.reference_path.front();
-    e.goals.push_back({e.reference_path.back(), 3.0f});
-    return e;
-  }
-  // the expert's actions from `state` until it STOPs (at most 40 steps)
-  std::vector<sim::Action> rollout(const std::string& expert,
-                                   sim::AgentState state) const {
-    const sim::AgentConfig agent;
-    WaypointOracle oracle(navmesh(), agent, 0.5f,
-                          expertWaypoints(episode(), expert));
-    std::vector<sim::Action> actions;
-    while (actions.size() < 40) {
-      actions.push_back(oracle.next(state));
-      if (actions.back() == sim::Action::kStop) break;
-      (void)sim::applyAction(navmesh(), agent, state, actions.back());
-    }
-    return actions;
-  }
-};
-
-// An agent that drifted past waypoint (6, 1) to x = 7.9, facing the goal
-// (heading -pi/2 faces +X): VLN-CE's goal expert goes on to the goal, 1.1 m
-// ahead, in 0.25 m steps and STOPs within 0.5 m (at x = 8.65, 0.35 m
-// away); the reference-path expert first turns back to the waypoint.
-TEST_F(ExpertTest, GoalExpertGoesStraightOnWhereTheReferencePathTurnsBack) {
-  const sim::AgentState drifted = standing(7.9f, 1.0f, -kPi / 2);
-  using sim::Action;
-  EXPECT_EQ(rollout("goal", drifted),
-            (std::vector<Action>{Action::kMoveForward, Action::kMoveForward,
-                                 Action::kMoveForward, Action::kStop}));
-  const std::vector<Action> back = rollout("reference_path", drifted);
-  ASSERT_FALSE(back.empty());
-  EXPECT_TRUE(back.front() == Action::kTurnLeft ||
-              back.front() == Action::kTurnRight);
-  // it does arrive, later
-  EXPECT_EQ(back.back(), Action::kStop);
-  EXPECT_GT(back.size(), 4u);
-  EXPECT_THAT([&] { (void)expertWaypoints(episode(), "nearest"); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  ::testing::HasSubstr("trainer.expert")));
-}
+// The expert itself (goal vs reference path on a corridor, VLN-CE's golden
+// actions) is rollout::WaypointOracle's, tested in
+// tests/rollout/WaypointOracleTest.cpp.
 
 TEST(CollectorTest, TeacherForcingReproducesTheGroundTruthActions) {
   Fixture f;
