@@ -105,6 +105,22 @@ TEST(SampleFromLogitsTest, InvertsTheSoftmaxCdf) {
 // actions) is rollout::WaypointOracle's, tested in
 // tests/rollout/WaypointOracleTest.cpp.
 
+// trainer.expert names the oracle's waypoints; a wrong value says which key.
+TEST(ExpertWaypointsTest, NamesTheKeyOfAnUnknownExpert) {
+  data::Episode e;
+  e.episode_id = 7;
+  for (float x : {1.0f, 6.0f, 9.0f})
+    e.reference_path.push_back(Vec3f(x, 0.0f, 1.0f));
+  e.start_position = e.reference_path.front();
+  e.goals.push_back({e.reference_path.back(), 3.0f});
+  EXPECT_EQ(expertWaypoints(e, "goal"),
+            std::vector<Vec3f>{e.reference_path.back()});
+  EXPECT_EQ(expertWaypoints(e, "reference_path").size(), 3u);
+  EXPECT_THAT([&] { (void)expertWaypoints(e, "nearest"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  ::testing::HasSubstr("trainer.expert")));
+}
+
 TEST(CollectorTest, TeacherForcingReproducesTheGroundTruthActions) {
   Fixture f;
   ExperimentConfig c = worldConfig(f.world, 3);
@@ -180,8 +196,7 @@ TwoCollections collectTwice(bool exactResume) {
   FeatureStore b(dir / "b", layoutOf(c3), 0.25);
   {
     FeatureStore scratch(dir / "scratch", layoutOf(c3), 0.25);
-    Collector(c3, scenes, encoder)
-        .collect(round, scratch, policy, nullptr);
+    Collector(c3, scenes, encoder).collect(round, scratch, policy, nullptr);
     for (int64_t i = 0; i < scratch.size(); ++i) {
       const StoredEpisode e = scratch.read(i);
       if (e.key.slot == 1 || e.key.slot == 4) b.append(e);
