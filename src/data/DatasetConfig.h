@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "common/Config.h"
 
@@ -15,6 +16,7 @@ struct DatasetConfig {
   std::string embeddings;
   std::string train_split = "train";
   std::string aug_split = "train_aug";
+  std::vector<std::string> extra_train_splits;
   int max_train_episodes = -1;
   int max_aug_episodes = -1;
   int max_instruction_length = 200;
@@ -30,6 +32,10 @@ struct DatasetConfig {
     v.field("aug_split", aug_split,
             "Augmentation split name, mixed into training when "
             "trainer.use_aug");
+    v.field("extra_train_splits", extra_train_splits,
+            "More splits trained on exactly like train_split (e.g. "
+            "train_extra, written by the world's splits.extra_train_houses); "
+            "they share its vocabulary and are not capped");
     v.field("max_train_episodes", max_train_episodes,
             "Cap on training episodes, for small runs (-1: all)",
             common::atLeast(-1));

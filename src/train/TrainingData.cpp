@@ -34,12 +34,32 @@ TrainingData TrainingData::load(const ExperimentConfig& config) {
       data.pool.push_back(&e);
       data.sources.push_back(1);
     }
+  const auto& extraNames = config.dataset.extra_train_splits;
+  VLN_CHECK_ARG(extraNames.size() <= 253,
+                "train: dataset.extra_train_splits "
+                "has ",
+                extraNames.size(), " splits, at most 253 are allowed");
+  for (size_t k = 0; k < extraNames.size(); ++k) {
+    data.extra.push_back(std::make_unique<data::Split>(
+        data::loadSplit(root, extraNames[k], /*cap=*/-1)));
+    const data::Split& split = *data.extra.back();
+    VLN_CHECK_ARG(!split.episodes.empty(), "train: dataset.extra_train_splits[",
+                  k, "] '", extraNames[k], "' under '", root.string(),
+                  "' has no episodes");
+    spdlog::info("extra training split '{}': {} episodes", split.name,
+                 split.episodes.size());
+    for (const data::Episode& e : split.episodes) {
+      data.pool.push_back(&e);
+      data.sources.push_back(static_cast<uint8_t>(2 + k));
+    }
+  }
   return data;
 }
 
 std::vector<const data::GroundTruth*> TrainingData::groundTruths() const {
   std::vector<const data::GroundTruth*> out = {train.groundTruth.get()};
   if (aug) out.push_back(aug->groundTruth.get());
+  for (const auto& split : extra) out.push_back(split->groundTruth.get());
   return out;
 }
 

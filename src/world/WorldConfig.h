@@ -200,6 +200,7 @@ struct SplitConfig {
   int val_unseen_per_house = 15;
   int test_per_house = 15;
   int aug_per_house = 60;
+  int extra_train_houses = 0;
 
   void visit(common::ConfigVisitor& v) {
     v.field("val_unseen_fraction", val_unseen_fraction,
@@ -219,6 +220,14 @@ struct SplitConfig {
             common::inRange(0, 100000));
     v.field("aug_per_house", aug_per_house,
             "train_aug trajectories per train house",
+            common::inRange(0, 100000));
+    v.field("extra_train_houses", extra_train_houses,
+            "More training data without touching the other splits: houses "
+            "generated after the first `houses`, every one a train house "
+            "whose train_per_house trajectories form the train_extra split "
+            "(human-style instructions). The other splits, the vocabulary "
+            "and GloVe stay those of the first `houses` houses (words outside "
+            "that vocabulary become <unk>)",
             common::inRange(0, 100000));
   }
   void validate() const {

@@ -58,6 +58,7 @@ constexpr const char* kValSeen = "val_seen";
 constexpr const char* kValUnseen = "val_unseen";
 constexpr const char* kTest = "test";
 constexpr const char* kTrainAug = "train_aug";
+constexpr const char* kTrainExtra = "train_extra";
 
 // ---------------------------------------------------------------------------
 // per house
@@ -106,6 +107,7 @@ std::vector<std::pair<std::string, int>> quotas(const WorldConfig& config,
             {kValSeen, s.val_seen_per_house},
             {kTrainAug, s.aug_per_house}};
   if (role == kValUnseen) return {{kValUnseen, s.val_unseen_per_house}};
+  if (role == kTrainExtra) return {{kTrainExtra, s.train_per_house}};
   return {{kTest, s.test_per_house}};
 }
 
@@ -242,6 +244,9 @@ std::vector<std::string> assignRoles(const WorldConfig& config) {
   for (int k = 0; k < valUnseen + test; ++k)
     roles[static_cast<size_t>(order[static_cast<size_t>(k)])] =
         k < valUnseen ? kValUnseen : kTest;
+  // the extra houses come after, so the first `houses` keep their roles
+  roles.resize(static_cast<size_t>(n + config.splits.extra_train_houses),
+               kTrainExtra);
   return roles;
 }
 
@@ -314,8 +319,13 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
                 "generateWorld(): the output directory is empty");
   const std::vector<std::string> roles = assignRoles(config);
 
+  // the splits written: train_extra only when there are extra houses, and
+  // last, so that the trajectory ids of the others do not depend on it
+  std::vector<std::string> splitNames = worldSplitNames();
+  if (config.splits.extra_train_houses > 0) splitNames.push_back(kTrainExtra);
+
   // houses on a pool of threads; results land in house order
-  const int n = config.houses;
+  const int n = config.houses + config.splits.extra_train_houses;
   std::vector<std::optional<HouseResult>> houses(static_cast<size_t>(n));
   std::vector<std::exception_ptr> errors(static_cast<size_t>(n));
   std::atomic<int> next{0};
@@ -357,10 +367,11 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   data::EpisodeDataset hiddenTest;
   data::GroundTruth hiddenTruth;
   std::map<std::string, int> trajectoryCount;
-  std::map<std::string, double> pathLength, geodesic, actions, tokens;
+  std::map<std::string, double> pathLength, geodesic, actions, tokens,
+      unknownTokens;
   std::vector<std::string> trainCorpus;
   int trajectoryId = 0;
-  for (const std::string& split : worldSplitNames()) {
+  for (const std::string& split : splitNames) {
     int episodeId = 0;
     for (const auto& house : houses) {
       for (const Trajectory& t : house->trajectories) {
@@ -397,7 +408,7 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
       }
     }
   }
-  for (const std::string& split : worldSplitNames()) {
+  for (const std::string& split : splitNames) {
     int wanted = 0;
     for (size_t i = 0; i < roles.size(); ++i)
       for (const auto& [name, quota] : quotas(config, roles[i]))
@@ -417,6 +428,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
           vocabulary.encode(e.instruction.instruction_text);
       tokens[split] += data::unpaddedLength(e.instruction.instruction_tokens,
                                             vocabulary.padIndex());
+      for (const int token : e.instruction.instruction_tokens)
+        if (token == vocabulary.unkIndex()) unknownTokens[split] += 1.0;
     }
     dataset.instruction_vocab = vocabulary;
   }
@@ -468,7 +481,7 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
                              {"transfer", house->transfer.toJson()}};
   }
   nlohmann::json splitStats = nlohmann::json::object();
-  for (const std::string& split : worldSplitNames()) {
+  for (const std::string& split : splitNames) {
     const int trajectories = trajectoryCount[split];
     const int episodes = static_cast<int>(datasets[split].episodes.size());
     summary.episodes[split] = episodes;
@@ -477,6 +490,7 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
         {"episodes", episodes},
         {"trajectories", trajectories},
         {"mean_instruction_tokens", mean(tokens[split], episodes)},
+        {"unknown_tokens", static_cast<int64_t>(unknownTokens[split])},
         {"mean_graph_path_length", mean(pathLength[split], trajectories)},
         {"mean_geodesic_distance", mean(geodesic[split], trajectories)},
         {"mean_actions", mean(actions[split], trajectories)},
@@ -529,7 +543,7 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   const fs::path trash = output.out / (tag + ".old");
   fs::remove_all(staging, ec);
   try {
-    for (const std::string& split : worldSplitNames()) {
+    for (const std::string& split : splitNames) {
       data::writeEpisodes(data::splitEpisodesPath(staging, split),
                           datasets[split]);
       if (split != kTest)
@@ -554,9 +568,13 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   if (log != nullptr) {
     *log << "generated " << n << " houses (" << summary.houses["train"].size()
          << " train, " << summary.houses["val_unseen"].size() << " val_unseen, "
-         << summary.houses["test"].size() << " test) into "
-         << output.out.string() << "\n";
-    for (const std::string& split : worldSplitNames())
+         << summary.houses["test"].size() << " test"
+         << (summary.houses.count(kTrainExtra) != 0
+                 ? strCat(", ", summary.houses[kTrainExtra].size(),
+                          " extra train")
+                 : std::string())
+         << ") into " << output.out.string() << "\n";
+    for (const std::string& split : splitNames)
       *log << "  " << split << ": " << summary.episodes[split] << " episodes, "
            << summary.trajectories[split] << " trajectories\n";
     *log << "  vocabulary: " << vocabulary.size() << " words\n"

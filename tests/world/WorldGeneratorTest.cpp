@@ -314,6 +314,70 @@ TEST_F(WorldGeneratorTest, SameSeedGivesByteIdenticalFilesWhateverTheThreads) {
                 data::splitEpisodesPath(other.path() / "data", "train")));
 }
 
+TEST_F(WorldGeneratorTest, ExtraTrainHousesAddTrainExtraAndChangeNothingElse) {
+  test::TempDir more;
+  WorldConfig config = tinyConfig();
+  config.splits.extra_train_houses = 2;
+  std::ostringstream log;
+  const WorldSummary summary = generateWorld(
+      config, {more.path() / "data", more.path() / "scenes", 2}, &log);
+  EXPECT_THAT(log.str(), HasSubstr("2 extra train"));
+  EXPECT_THAT(log.str(), HasSubstr("train_extra: "));
+
+  // every file of the world without extra houses is byte-identical, except
+  // the statistics that count the new houses
+  auto before = readTree(datasetRoot());
+  auto after = readTree(more.path() / "data");
+  before.erase("generation_stats.json");
+  after.erase("generation_stats.json");
+  for (const auto& [name, bytes] : before) {
+    ASSERT_TRUE(after.count(name)) << name;
+    EXPECT_TRUE(after.at(name) == bytes) << name << " changed";
+  }
+  for (const auto& [name, bytes] : readTree(scenes()))
+    EXPECT_TRUE(readTree(more.path() / "scenes").at(name) == bytes) << name;
+
+  // the new split: train_per_house trajectories in each extra house, their
+  // own scenes, tokens of the unchanged vocabulary
+  const fs::path root = more.path() / "data";
+  const data::EpisodeDataset extra =
+      data::readEpisodes(data::splitEpisodesPath(root, "train_extra"));
+  const data::GroundTruth truth =
+      data::readGroundTruth(data::splitGroundTruthPath(root, "train_extra"));
+  ASSERT_EQ(summary.houses.at("train_extra").size(), 2u);
+  EXPECT_EQ(summary.trajectories.at("train_extra"),
+            2 * config.splits.train_per_house);
+  EXPECT_EQ(
+      static_cast<int>(extra.episodes.size()),
+      2 * config.splits.train_per_house * config.instructions.per_trajectory);
+  const data::EpisodeDataset train =
+      data::readEpisodes(data::splitEpisodesPath(root, "train"));
+  ASSERT_TRUE(extra.instruction_vocab && train.instruction_vocab);
+  EXPECT_EQ(*extra.instruction_vocab, *train.instruction_vocab);
+  std::set<std::string> trainScenes, extraScenes;
+  for (const data::Episode& e : train.episodes) trainScenes.insert(e.scene_id);
+  for (const data::Episode& e : extra.episodes) {
+    extraScenes.insert(e.scene_id);
+    EXPECT_TRUE(truth.count(e.episode_id)) << e.episode_id;
+    EXPECT_FALSE(e.goals.empty());
+    EXPECT_EQ(e.instruction.instruction_tokens,
+              train.instruction_vocab->encode(e.instruction.instruction_text));
+    EXPECT_TRUE(fs::exists(more.path() / "scenes" / e.scene_id)) << e.scene_id;
+  }
+  EXPECT_EQ(extraScenes.size(), 2u);
+  for (const std::string& scene : extraScenes)
+    EXPECT_FALSE(trainScenes.count(scene)) << scene;
+  const nlohmann::json stats =
+      common::readJsonFile(root / "generation_stats.json");
+  EXPECT_GE(
+      stats.at("splits").at("train_extra").at("unknown_tokens").get<int>(), 0);
+}
+
+TEST_F(WorldGeneratorTest, NoExtraHousesNoTrainExtraSplit) {
+  EXPECT_FALSE(fs::exists(datasetRoot() / "train_extra"));
+  EXPECT_FALSE(summary_->houses.count("train_extra"));
+}
+
 TEST_F(WorldGeneratorTest, GeneratedWordsAreRoomToRoomWords) {
   const auto file = test::realR2rSample("val_seen_sample.json.gz");
   if (!fs::exists(file)) GTEST_SKIP() << "no fixture " << file;
