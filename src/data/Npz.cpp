@@ -386,4 +386,9 @@ void writeNpz(const std::filesystem::path& file, const NpzArrays& arrays) {
   common::writeFileAtomic(file, storedZip(entries, where));
 }
 
+std::string storedZipBytes(
+    const std::vector<std::pair<std::string, std::string>>& entries) {
+  return storedZip(entries, "storedZipBytes()");
+}
+
 }  // namespace vln::data

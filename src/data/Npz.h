@@ -20,6 +20,7 @@
 #include <map>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace vln::data {
@@ -56,6 +57,11 @@ NpyArray parseNpy(std::string_view bytes, std::string_view context);
 
 /// One .npy file (version 1.0, '<f4', C order) holding `array`.
 std::string npyBytes(const NpyArray& array);
+
+/// A stored (uncompressed) zip archive of (entry name, bytes) in order, as
+/// np.savez lays it out; for tools and tests writing raw .npy entries.
+std::string storedZipBytes(
+    const std::vector<std::pair<std::string, std::string>>& entries);
 
 /// Atomically writes `arrays` as an uncompressed .npz (as np.savez does).
 /// Throws std::invalid_argument when an array's values do not match its
