@@ -6,6 +6,7 @@
 #include <cstring>
 #include <limits>
 #include <optional>
+#include <set>
 
 #include "common/Check.h"
 #include "common/FileIo.h"
@@ -308,36 +309,69 @@ NpyArray parseNpy(std::string_view bytes, std::string_view context) {
   return array;
 }
 
-NpzArrays parseNpz(std::string_view bytes, std::string_view source,
-                   const NpzLimits& limits) {
+namespace {
+
+// the arrays of a .npz; only the one named `only` when given (then other
+// entries are not parsed and may be anything)
+NpzArrays parseArrays(std::string_view bytes, std::string_view source,
+                      const NpzLimits& limits, const std::string* only) {
   const std::vector<common::ZipEntry> entries =
       common::readZipEntries(bytes, source,
                              {.max_entries = limits.max_arrays,
                               .max_total_bytes = limits.max_total_bytes});
   NpzArrays arrays;
+  std::set<std::string> names;
   for (const common::ZipEntry& entry : entries) {
     const std::string& name = entry.name;
+    VLN_CHECK_ARG(!names.contains(name), "'", source, "': entry '", name,
+                  "': the archive holds it twice");
+    names.insert(name);
+    if (only != nullptr && name != *only + ".npy") continue;
     VLN_CHECK_ARG(name.size() > 4 && name.ends_with(".npy"), "'", source,
                   "': entry '", name, "' is not a .npy array");
     const std::string array = name.substr(0, name.size() - 4);
     const std::string context = strCat("'", source, "': array '", array, "'");
-    VLN_CHECK_ARG(!arrays.contains(array), context,
-                  ": the archive holds it twice");
     arrays.emplace(array, parseNpy(entry.data, context));
   }
+  if (only != nullptr)
+    VLN_CHECK_ARG(!arrays.empty(), "'", source, "': has no array '", *only,
+                  "' (entries: ", entries.size(), ")");
   return arrays;
 }
 
-NpzArrays readNpz(const std::filesystem::path& file, const NpzLimits& limits) {
-  // common::readFile would gunzip a gzip stream; a .npz is never one
-  const std::string bytes = common::readFile(file);
+// runs `read`, prefixing its errors with "readNpz(): "
+template <class Read>
+auto prefixed(Read&& read) {
   try {
-    return parseNpz(bytes, file.string(), limits);
+    return read();
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(strCat("readNpz(): ", e.what()));
   } catch (const std::runtime_error& e) {
     throw std::runtime_error(strCat("readNpz(): ", e.what()));
   }
+}
+
+}  // namespace
+
+NpzArrays parseNpz(std::string_view bytes, std::string_view source,
+                   const NpzLimits& limits) {
+  return parseArrays(bytes, source, limits, nullptr);
+}
+
+NpzArrays readNpz(const std::filesystem::path& file, const NpzLimits& limits) {
+  // common::readFile would gunzip a gzip stream; a .npz is never one
+  const std::string bytes = common::readFile(file);
+  return prefixed([&] { return parseNpz(bytes, file.string(), limits); });
+}
+
+NpyArray readNpzArray(const std::filesystem::path& file, std::string_view name,
+                      const NpzLimits& limits) {
+  const std::string bytes = common::readFile(file);
+  const std::string wanted(name);
+  return prefixed([&] {
+    return std::move(
+        parseArrays(bytes, file.string(), limits, &wanted).begin()->second);
+  });
 }
 
 // =========================================================================

@@ -48,6 +48,12 @@ struct NpzLimits {
 NpzArrays readNpz(const std::filesystem::path& file,
                   const NpzLimits& limits = {});
 
+/// Reads one array of a .npz: every entry passes the zip checks, only
+/// `name` is parsed (other entries may hold any dtype). Throws
+/// std::invalid_argument naming the file when there is no such array.
+NpyArray readNpzArray(const std::filesystem::path& file, std::string_view name,
+                      const NpzLimits& limits = {});
+
 /// Parses the bytes of a .npz; `source` names it in errors.
 NpzArrays parseNpz(std::string_view bytes, std::string_view source,
                    const NpzLimits& limits = {});

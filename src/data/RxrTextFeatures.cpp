@@ -32,11 +32,8 @@ RxrTextFeatures loadRxrTextFeatures(const std::filesystem::path& file,
   VLN_ASSERT(tokens > 0 && dim > 0);
   const std::string where =
       strCat("loadRxrTextFeatures(): '", file.string(), "'");
-  NpzArrays arrays = readNpz(file);
-  auto it = arrays.find("features");
-  VLN_CHECK_ARG(it != arrays.end(), where, ": has no array 'features' (",
-                arrays.size(), " other arrays)");
-  const NpyArray& array = it->second;
+  // other arrays of the file, whatever their dtype, are not parsed
+  const NpyArray array = readNpzArray(file, "features");
   VLN_CHECK_ARG(array.shape.size() == 2 && array.shape[1] == dim, where,
                 ": array 'features' must be [tokens, ", dim, "], got ",
                 array.shape.size(), " dimensions",

@@ -9,6 +9,7 @@
 
 #include <cmath>
 
+#include "common/FileIo.h"
 #include "support/TestPaths.h"
 #include "support/TestUtil.h"
 
@@ -76,6 +77,21 @@ TEST(RxrTextFeaturesTest, RefusesBadFeatureFilesNamingThem) {
   writeNpz(dir / "other.npz", {{"tokens", {{2}, {1.0f, 2.0f}}}});
   EXPECT_THAT(errorOf([&] { loadRxrTextFeatures(dir / "other.npz"); }),
               AllOf(HasSubstr("other.npz"), HasSubstr("no array 'features'")));
+  // other arrays are not parsed: an int array beside the features is fine
+  const std::string ints =
+      "{'descr': '<i4', 'fortran_order': False, "
+      "'shape': (1,), }";
+  std::string npy("\x93NUMPY\x01\x00", 8);
+  npy += static_cast<char>(ints.size() + 1);
+  npy += '\0';
+  npy += ints + "\n" + std::string(4, '\0');
+  common::writeFileAtomic(
+      dir / "mixed.npz",
+      storedZipBytes({{"tokens.npy", npy},
+                      {"features.npy", npyBytes({{1, 768}, rows(1, 768)})}}));
+  EXPECT_EQ(loadRxrTextFeatures(dir / "mixed.npz").valid_tokens, 1);
+  EXPECT_THAT(errorOf([&] { readNpz(dir / "mixed.npz"); }),
+              HasSubstr("array 'tokens': unsupported dtype '<i4'"));
   std::vector<float> nan = rows(2, 768);
   nan[768 + 5] = std::nanf("");
   writeRxrTextFeatures(dir / "nan.npz", nan, 768);
