@@ -70,10 +70,10 @@ Subcommand addGlove(CLI::App& app) {
   data::GloveFitConfig defaults;
   const auto hyper = [&](const char* flag, auto& value, const char* key) {
     command
-        ->add_option(
-            flag, value,
-            common::configDoc(
-                [&](common::ConfigVisitor& v) { defaults.visit(v); }, key))
+        ->add_option(flag, value,
+                     common::configDoc(
+                         [&](common::ConfigVisitor& v) { defaults.visit(v); },
+                         key))
         ->capture_default_str();
   };
   hyper("--dim", fit.dim, "dim");
@@ -144,9 +144,8 @@ Subcommand addGenerate(CLI::App& app) {
       ->required();
   command->add_option("--config", options->config, "World config YAML")
       ->check(CLI::ExistingFile);
-  command
-      ->add_option("--scenes-dir", options->scenes_dir,
-                   "Root of the scene ids (houses go to <dir>/procedural)")
+  command->add_option("--scenes-dir", options->scenes_dir,
+                      "Root of the scene ids (houses go to <dir>/procedural)")
       ->capture_default_str();
   command->add_option("--houses", options->houses, "Number of houses");
   command->add_option("--seed", options->seed, "Master seed");
@@ -172,18 +171,16 @@ Subcommand addTransfer(CLI::App& app) {
       ->check(CLI::ExistingFile);
   command->add_option("--out", options->out,
                       "Write the transferred graph and statistics here");
-  command
-      ->add_option("--config", options->config,
-                   "World config YAML (navmesh, agent, trajectories, "
-                   "transfer sections)")
+  command->add_option("--config", options->config,
+                      "World config YAML (navmesh, agent, trajectories, "
+                      "transfer sections)")
       ->check(CLI::ExistingFile);
   command->add_option("--set", options->overrides,
                       "Config override section.key=value (repeatable)");
   command->add_option("--up-axis", options->up_axis, "Scene up axis: y or z")
       ->capture_default_str();
-  command
-      ->add_option("--trajectories", options->trajectories,
-                   "R2R-like trajectories to check")
+  command->add_option("--trajectories", options->trajectories,
+                      "R2R-like trajectories to check")
       ->capture_default_str();
   command->add_option("--seed", options->seed, "Sampling seed")
       ->capture_default_str();
@@ -204,8 +201,12 @@ int main(int argc, char** argv) {
         ->capture_default_str();
 
     const std::vector<Subcommand> subcommands = {
-        addStats(app),    addGlove(app),    addEmbeddings(app),
-        addRxrMerge(app), addGenerate(app), addTransfer(app),
+        addStats(app),
+        addGlove(app),
+        addEmbeddings(app),
+        addRxrMerge(app),
+        addGenerate(app),
+        addTransfer(app),
     };
     try {
       app.parse(argc, argv);
