@@ -119,6 +119,21 @@ Subcommand addEmbeddings(CLI::App& app) {
           }};
 }
 
+Subcommand addRxrMerge(CLI::App& app) {
+  auto options = std::make_shared<data::RxrMergeCommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "rxr-merge",
+      "Merge RxR inference outputs (.jsonl, e.g. one per language) into one "
+      "file sorted by instruction_id, refusing duplicates");
+  command->add_option("inputs", options->inputs, "The .jsonl files to merge")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", options->out, "Merged .jsonl to write")
+      ->required();
+  return {command,
+          [options] { return data::runRxrMergeCommand(*options, std::cout); }};
+}
+
 Subcommand addGenerate(CLI::App& app) {
   auto options = std::make_shared<world::GenerateCommandOptions>();
   CLI::App* command = app.add_subcommand(
@@ -189,6 +204,7 @@ int main(int argc, char** argv) {
         addStats(app),
         addGlove(app),
         addEmbeddings(app),
+        addRxrMerge(app),
         addGenerate(app),
         addTransfer(app),
     };

@@ -36,7 +36,8 @@ out=$root/fuzz-out
 
 all_targets=(fuzz_experiment_config fuzz_episodes fuzz_ground_truth
   fuzz_glove_text fuzz_embeddings_json fuzz_mesh_obj fuzz_mesh_ply
-  fuzz_navgraph fuzz_navmesh fuzz_geometry fuzz_checkpoint fuzz_zip)
+  fuzz_navgraph fuzz_navmesh fuzz_geometry fuzz_checkpoint fuzz_zip
+  fuzz_rxr_episodes fuzz_npz)
 if (($#)); then targets=("$@"); else targets=("${all_targets[@]}"); fi
 
 # the targets that include LibTorch run under AFL++, the others libFuzzer
@@ -51,7 +52,7 @@ done
 max_len() {
   case $1 in
     fuzz_navmesh) echo 262144 ;;
-    fuzz_episodes | fuzz_ground_truth | fuzz_embeddings_json | fuzz_checkpoint | fuzz_zip) echo 65536 ;;
+    fuzz_episodes | fuzz_ground_truth | fuzz_embeddings_json | fuzz_checkpoint | fuzz_zip | fuzz_rxr_episodes | fuzz_npz) echo 65536 ;;
     fuzz_navgraph | fuzz_experiment_config) echo 32768 ;;
     fuzz_geometry) echo 4096 ;;
     *) echo 16384 ;;

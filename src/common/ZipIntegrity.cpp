@@ -25,6 +25,8 @@ constexpr size_t kZip64LocatorSize = 20;
 constexpr uint16_t kZip64ExtraId = 0x0001;
 constexpr uint32_t kMax32 = 0xFFFFFFFFu;
 constexpr uint16_t kMax16 = 0xFFFFu;
+// caps one recorded size when summing them, so the sum cannot overflow
+constexpr uint64_t kMax64Half = uint64_t{1} << 62;
 
 // little-endian reads at checked offsets
 class Reader {
@@ -110,7 +112,8 @@ struct Content {
   uint64_t size = 0;
 };
 
-Content storedContent(std::string_view data) {
+Content storedContent(std::string_view data, std::string* keep) {
+  if (keep != nullptr) keep->assign(data);
   Content c;
   c.crc = static_cast<uint32_t>(
       crc32_z(0L, reinterpret_cast<const Bytef*>(data.data()), data.size()));
@@ -119,7 +122,8 @@ Content storedContent(std::string_view data) {
 }
 
 Content inflatedContent(std::string_view data, uint64_t expected,
-                        const Reader& in, const std::string& entry) {
+                        const Reader& in, const std::string& entry,
+                        std::string* keep) {
   z_stream z{};
   VLN_CHECK_IO(inflateInit2(&z, -MAX_WBITS) == Z_OK,
                "verifyZipIntegrity(): zlib cannot start inflating");
@@ -143,6 +147,8 @@ Content inflatedContent(std::string_view data, uint64_t expected,
     if (rc != Z_OK && rc != Z_STREAM_END) break;
     const size_t produced = out.size() - z.avail_out;
     c.crc = static_cast<uint32_t>(crc32_z(c.crc, out.data(), produced));
+    if (keep != nullptr && c.size + produced <= expected)
+      keep->append(reinterpret_cast<const char*>(out.data()), produced);
     c.size += produced;
     if (rc == Z_STREAM_END) break;
   }
@@ -179,11 +185,18 @@ void readZip64Extra(const Reader& in, uint64_t extra, uint64_t extraSize,
     in.fail(strCat("entry '", entry, "' needs a zip64 extra field"));
 }
 
-}  // namespace
-
-ZipSummary verifyZipIntegrity(std::string_view bytes, std::string_view source) {
+// walks the archive, checking every entry; appends the entries to `keep`
+// when given, after checking the recorded sizes against `limits`
+ZipSummary walkArchive(std::string_view bytes, std::string_view source,
+                       std::vector<ZipEntry>* keep,
+                       const ZipReadLimits* limits) {
   const Reader in(bytes, source);
   const Directory dir = findDirectory(in);
+  if (limits != nullptr &&
+      dir.entries > static_cast<uint64_t>(limits->max_entries))
+    in.fail(strCat("it records ", dir.entries, " entries, more than the ",
+                   limits->max_entries, " allowed"));
+  uint64_t recordedTotal = 0;
   ZipSummary summary;
   uint64_t at = dir.offset;
   const uint64_t directoryEnd = dir.offset + dir.size;
@@ -226,6 +239,19 @@ ZipSummary verifyZipIntegrity(std::string_view bytes, std::string_view source) {
         in.view(local + kLocalHeaderSize + localName + localExtra, compressed,
                 strCat("entry '", name, "'"));
 
+    // a zip bomb records sizes beyond the limits: refused before inflating
+    std::string* kept = nullptr;
+    if (keep != nullptr) {
+      recordedTotal += std::min<uint64_t>(uncompressed, kMax64Half);
+      if (recordedTotal > static_cast<uint64_t>(limits->max_total_bytes))
+        in.fail(strCat("entry '", name, "' takes its entries to ",
+                       recordedTotal, " uncompressed bytes, more than the ",
+                       limits->max_total_bytes, " allowed"));
+      keep->push_back({name, {}});
+      kept = &keep->back().data;
+      kept->reserve(uncompressed);
+    }
+
     // its data: the recorded size and CRC-32
     Content content;
     if (method == 0) {
@@ -233,9 +259,9 @@ ZipSummary verifyZipIntegrity(std::string_view bytes, std::string_view source) {
         in.fail(strCat("stored entry '", name, "' records ", compressed,
                        " compressed and ", uncompressed,
                        " uncompressed bytes"));
-      content = storedContent(data);
+      content = storedContent(data, kept);
     } else if (method == 8) {
-      content = inflatedContent(data, uncompressed, in, name);
+      content = inflatedContent(data, uncompressed, in, name, kept);
     } else {
       in.fail(strCat("entry '", name, "' uses compression method ", method,
                      " (only stored and deflate are read)"));
@@ -250,6 +276,20 @@ ZipSummary verifyZipIntegrity(std::string_view bytes, std::string_view source) {
     summary.uncompressed_bytes += static_cast<int64_t>(uncompressed);
   }
   return summary;
+}
+
+}  // namespace
+
+ZipSummary verifyZipIntegrity(std::string_view bytes, std::string_view source) {
+  return walkArchive(bytes, source, nullptr, nullptr);
+}
+
+std::vector<ZipEntry> readZipEntries(std::string_view bytes,
+                                     std::string_view source,
+                                     const ZipReadLimits& limits) {
+  std::vector<ZipEntry> entries;
+  walkArchive(bytes, source, &entries, &limits);
+  return entries;
 }
 
 }  // namespace vln::common

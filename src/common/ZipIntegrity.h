@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace vln::common {
 
@@ -25,5 +26,26 @@ struct ZipSummary {
 /// deflated, has the recorded size and CRC-32. Throws std::runtime_error
 /// naming `source` and the entry on the first problem.
 ZipSummary verifyZipIntegrity(std::string_view bytes, std::string_view source);
+
+/// One entry of an archive, its data uncompressed.
+struct ZipEntry {
+  std::string name;
+  std::string data;
+};
+
+/// Bounds readZipEntries() puts on an archive before inflating anything, so
+/// that a zip bomb (a small archive recording huge entries) is refused
+/// instead of exhausting memory.
+struct ZipReadLimits {
+  int64_t max_entries = 4096;
+  int64_t max_total_bytes = int64_t{1} << 30;  ///< uncompressed, all entries
+};
+
+/// Checks `bytes` as verifyZipIntegrity() does and returns its entries in
+/// central-directory order. Throws std::runtime_error naming `source` (and
+/// the entry) on damage or when the archive exceeds `limits`.
+std::vector<ZipEntry> readZipEntries(std::string_view bytes,
+                                     std::string_view source,
+                                     const ZipReadLimits& limits = {});
 
 }  // namespace vln::common

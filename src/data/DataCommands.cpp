@@ -12,6 +12,7 @@
 #include "data/Episode.h"
 #include "data/GloveFit.h"
 #include "data/GroundTruth.h"
+#include "data/RxrPredictions.h"
 
 namespace vln::data {
 
@@ -138,6 +139,20 @@ int runEmbeddingsCommand(const EmbeddingsCommandOptions& options,
   if (shown < report.missing.size())
     out << "  ... " << report.missing.size() - shown << " more\n";
   out << "wrote " << options.out.string() << '\n';
+  return 0;
+}
+
+// =========================================================================
+// rxr-merge
+// =========================================================================
+
+int runRxrMergeCommand(const RxrMergeCommandOptions& options,
+                       std::ostream& out) {
+  VLN_CHECK_ARG(!options.out.empty(),
+                "runRxrMergeCommand(): --out is required");
+  const size_t lines = mergeRxrPredictionFiles(options.out, options.inputs);
+  out << "merged " << options.inputs.size() << " files, " << lines
+      << " instructions; wrote " << options.out.string() << '\n';
   return 0;
 }
 

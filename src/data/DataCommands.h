@@ -54,6 +54,17 @@ struct EmbeddingsCommandOptions {
 int runEmbeddingsCommand(const EmbeddingsCommandOptions& options,
                          std::ostream& out);
 
+/// `vlnce-data rxr-merge`.
+struct RxrMergeCommandOptions {
+  /// RxR inference outputs (.jsonl), e.g. one per language.
+  std::vector<std::filesystem::path> inputs;
+  std::filesystem::path out;  ///< merged .jsonl to write
+};
+
+/// Merges RxR inference outputs into one file (see RxrPredictions.h).
+int runRxrMergeCommand(const RxrMergeCommandOptions& options,
+                       std::ostream& out);
+
 /// True for names ending in .json or .json.gz (episode files).
 bool isJsonPath(const std::filesystem::path& path);
 

@@ -1,5 +1,6 @@
 #include "data/Episode.h"
 
+#include <charconv>
 #include <cmath>
 #include <limits>
 #include <unordered_set>
@@ -23,6 +24,34 @@ const nlohmann::json& member(const nlohmann::json& object, const char* key,
   auto it = object.find(key);
   VLN_CHECK_ARG(it != object.end(), context, ": field '", key, "' is missing");
   return *it;
+}
+
+// an id: a JSON integer or a string holding a decimal integer (VLN-CE casts
+// ids with str() and int(), so both spellings occur)
+int64_t idValue(const nlohmann::json& value, std::string_view context) {
+  if (value.is_string()) {
+    const auto& text = value.get_ref<const std::string&>();
+    int64_t id = 0;
+    auto [end, error] =
+        std::from_chars(text.data(), text.data() + text.size(), id);
+    VLN_CHECK_ARG(!text.empty() && error == std::errc() &&
+                      end == text.data() + text.size(),
+                  context,
+                  " must be an integer or a decimal string, got string \"",
+                  text.substr(0, 40), "\"");
+    return id;
+  }
+  VLN_CHECK_ARG(value.is_number_integer(), context, " must be an integer, got ",
+                value.type_name(), " ", value.dump());
+  return value.get<int64_t>();
+}
+
+int intId(const nlohmann::json& value, std::string_view context) {
+  const int64_t v = idValue(value, context);
+  VLN_CHECK_ARG(v >= std::numeric_limits<int>::min() &&
+                    v <= std::numeric_limits<int>::max(),
+                context, " is out of the int range, got ", v);
+  return static_cast<int>(v);
 }
 
 int intValue(const nlohmann::json& value, std::string_view context) {
@@ -81,6 +110,96 @@ nlohmann::json floatArray(const float* values, size_t count) {
   return array;
 }
 
+// a timestamp of timed_instruction: absent, null (NaN in the Python file)
+// or a finite number of seconds
+std::optional<double> timeValue(const nlohmann::json& word, const char* key,
+                                std::string_view context) {
+  auto it = word.find(key);
+  if (it == word.end() || it->is_null()) return std::nullopt;
+  VLN_CHECK_ARG(it->is_number(), context, ": field '", key,
+                "' must be a number of seconds, got ", it->type_name(), " ",
+                it->dump().substr(0, 40));
+  return it->get<double>();
+}
+
+// the RxR_VLNCE_v0 fields of `instruction`, each optional
+void readRxrInstruction(const nlohmann::json& instruction,
+                        const std::string& where, Instruction& out) {
+  if (auto id = instruction.find("instruction_id");
+      id != instruction.end() && !id->is_null())
+    out.instruction_id =
+        idValue(*id, fieldName(where, "instruction.instruction_id"));
+  if (auto language = instruction.find("language");
+      language != instruction.end() && !language->is_null()) {
+    out.language =
+        stringValue(*language, fieldName(where, "instruction.language"));
+    VLN_CHECK_ARG(!out.language.empty(), where,
+                  ": field 'instruction.language' is empty");
+  }
+  if (auto annotator = instruction.find("annotator_id");
+      annotator != instruction.end() && !annotator->is_null()) {
+    if (annotator->is_number_integer())
+      out.annotator_id = std::to_string(annotator->get<int64_t>());
+    else
+      out.annotator_id =
+          stringValue(*annotator, fieldName(where, "instruction.annotator_id"));
+  }
+  if (auto distance = instruction.find("edit_distance");
+      distance != instruction.end() && !distance->is_null()) {
+    std::string context = fieldName(where, "instruction.edit_distance");
+    VLN_CHECK_ARG(distance->is_number(), context, " must be a number, got ",
+                  distance->type_name(), " ", distance->dump().substr(0, 40));
+    out.edit_distance = distance->get<double>();
+  }
+  if (auto timed = instruction.find("timed_instruction");
+      timed != instruction.end() && !timed->is_null()) {
+    std::string context = fieldName(where, "instruction.timed_instruction");
+    const auto& list = arrayValue(*timed, context);
+    out.timed_instruction.reserve(list.size());
+    for (size_t w = 0; w < list.size(); ++w) {
+      std::string wordContext = strCat(context, " entry ", w);
+      TimedWord word;
+      word.word = stringValue(member(list[w], "word", wordContext),
+                              strCat(wordContext, ": field 'word'"));
+      word.start_time = timeValue(list[w], "start_time", wordContext);
+      word.end_time = timeValue(list[w], "end_time", wordContext);
+      out.timed_instruction.push_back(std::move(word));
+    }
+  }
+}
+
+// Python's json module writes NaN and +-Infinity as bare tokens, which are
+// not JSON; outside strings they become null (RxR's timed_instruction has
+// NaN times)
+std::string nullNonFiniteTokens(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  bool inString = false;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (inString) {
+      out += c;
+      if (c == '\\' && i + 1 < text.size())
+        out += text[++i];
+      else if (c == '"')
+        inString = false;
+      continue;
+    }
+    if (c == '"') inString = true;
+    bool replaced = false;
+    for (std::string_view token : {"NaN", "Infinity", "-Infinity"}) {
+      if (text.compare(i, token.size(), token) == 0) {
+        out += "null";
+        i += token.size() - 1;
+        replaced = true;
+        break;
+      }
+    }
+    if (!replaced) out += c;
+  }
+  return out;
+}
+
 // the parser shared by readEpisodes() and parseEpisodes(); `where` names
 // the function and the source in every message
 EpisodeDataset parseRoot(const nlohmann::json& root, const std::string& where) {
@@ -129,13 +248,13 @@ Episode episodeFromJson(const nlohmann::json& value, std::string_view source,
                         size_t index) {
   Episode episode;
   std::string indexed = strCat(source, ": episode index ", index);
-  episode.episode_id = intValue(member(value, "episode_id", indexed),
-                                fieldName(indexed, "episode_id"));
+  episode.episode_id = intId(member(value, "episode_id", indexed),
+                             fieldName(indexed, "episode_id"));
   // from here on the episode is named by its id, which users can grep for
   std::string where = strCat(source, ": episode ", episode.episode_id);
 
-  episode.trajectory_id = intValue(member(value, "trajectory_id", where),
-                                   fieldName(where, "trajectory_id"));
+  episode.trajectory_id = intId(member(value, "trajectory_id", where),
+                                fieldName(where, "trajectory_id"));
   episode.scene_id = stringValue(member(value, "scene_id", where),
                                  fieldName(where, "scene_id"));
   episode.start_position = vec3FromJson(member(value, "start_position", where),
@@ -185,6 +304,7 @@ Episode episodeFromJson(const nlohmann::json& value, std::string_view source,
       episode.instruction.instruction_tokens.push_back(
           intValue(list[t], strCat(tokenContext, " entry ", t)));
   }
+  readRxrInstruction(instruction, where, episode.instruction);
   return episode;
 }
 
@@ -226,6 +346,23 @@ void validateEpisode(const Episode& episode, const Vocabulary* vocabulary,
     VLN_CHECK_ARG(isFinite(episode.reference_path[p]), context,
                   ": field 'reference_path' entry ", p, " is not finite");
 
+  // the RxR fields
+  const Instruction& in = episode.instruction;
+  if (in.instruction_id)
+    VLN_CHECK_ARG(*in.instruction_id >= 0, context,
+                  ": field 'instruction.instruction_id' must be >= 0, got ",
+                  *in.instruction_id);
+  if (in.edit_distance)
+    VLN_CHECK_ARG(std::isfinite(*in.edit_distance), context,
+                  ": field 'instruction.edit_distance' is not finite");
+  for (size_t w = 0; w < in.timed_instruction.size(); ++w) {
+    const TimedWord& word = in.timed_instruction[w];
+    VLN_CHECK_ARG((!word.start_time || std::isfinite(*word.start_time)) &&
+                      (!word.end_time || std::isfinite(*word.end_time)),
+                  context, ": field 'instruction.timed_instruction' entry ", w,
+                  " has a non-finite time");
+  }
+
   const auto& tokens = episode.instruction.instruction_tokens;
   int limit = vocabulary ? vocabulary->size() : std::numeric_limits<int>::max();
   for (size_t t = 0; t < tokens.size(); ++t)
@@ -241,8 +378,10 @@ EpisodeDataset parseEpisodes(const nlohmann::json& root,
 }
 
 EpisodeDataset readEpisodes(const std::filesystem::path& file) {
-  return parseRoot(common::readJsonFile(file),
-                   strCat("readEpisodes(): '", file.string(), "'"));
+  return parseRoot(
+      common::parseJson(nullNonFiniteTokens(common::readFile(file)),
+                        file.string()),
+      strCat("readEpisodes(): '", file.string(), "'"));
 }
 
 // =========================================================================
@@ -267,10 +406,26 @@ nlohmann::json episodeToJson(const Episode& episode) {
                        {"radius", static_cast<double>(goal.radius)}});
     value["goals"] = std::move(goals);
   }
-  nlohmann::json instruction = {
-      {"instruction_text", episode.instruction.instruction_text}};
-  if (!episode.instruction.instruction_tokens.empty())
-    instruction["instruction_tokens"] = episode.instruction.instruction_tokens;
+  const Instruction& in = episode.instruction;
+  nlohmann::json instruction = {{"instruction_text", in.instruction_text}};
+  if (!in.instruction_tokens.empty())
+    instruction["instruction_tokens"] = in.instruction_tokens;
+  // the RxR fields, when present
+  if (in.instruction_id)
+    instruction["instruction_id"] = std::to_string(*in.instruction_id);
+  if (!in.language.empty()) instruction["language"] = in.language;
+  if (in.annotator_id) instruction["annotator_id"] = *in.annotator_id;
+  if (in.edit_distance) instruction["edit_distance"] = *in.edit_distance;
+  if (!in.timed_instruction.empty()) {
+    nlohmann::json words = nlohmann::json::array();
+    for (const TimedWord& w : in.timed_instruction) {
+      nlohmann::json word = {{"word", w.word}};
+      if (w.start_time) word["start_time"] = *w.start_time;
+      if (w.end_time) word["end_time"] = *w.end_time;
+      words.push_back(std::move(word));
+    }
+    instruction["timed_instruction"] = std::move(words);
+  }
   value["instruction"] = std::move(instruction);
   if (!episode.reference_path.empty()) {
     nlohmann::json path = nlohmann::json::array();

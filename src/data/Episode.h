@@ -10,8 +10,14 @@
 // The test split has no info, goals or reference_path; the non-preprocessed
 // release has no instruction_tokens and no instruction_vocab. All positions
 // are in Habitat's world frame (metres, +Y up; see common/Math.h).
+//
+// RxR_VLNCE_v0 episodes (data/RxrEpisodes.h) share this layout and add, in
+// `instruction`, instruction_id, language, annotator_id, edit_distance and
+// timed_instruction; they have no instruction_tokens. Those fields are
+// optional here: absent in R2R files and then not written.
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -35,16 +41,42 @@ struct Goal {
   bool operator==(const Goal&) const = default;
 };
 
+/// One word of an RxR instruction with when the annotator spoke it, in
+/// seconds from the start of the recording. Times are absent (nullopt) when
+/// the file has no value, null or NaN for them.
+struct TimedWord {
+  std::string word;
+  std::optional<double> start_time;  ///< seconds
+  std::optional<double> end_time;    ///< seconds
+  bool operator==(const TimedWord&) const = default;
+};
+
 /// The natural-language instruction of an episode.
 struct Instruction {
   std::string instruction_text;
   /// Vocabulary indices right-padded with PAD_INDEX (0) to 200 entries in
   /// the public files; empty when the file stores no tokens.
   std::vector<int> instruction_tokens;
+
+  // RxR_VLNCE_v0 only; absent in R2R files.
+  /// RxR's instruction id (an integer, or a decimal string, in the file;
+  /// written as a string, the type VLN-CE declares); it names the text
+  /// feature file and the lines of the inference output.
+  std::optional<int64_t> instruction_id;
+  /// "en-US", "en-IN", "hi-IN" or "te-IN"; empty when absent.
+  std::string language;
+  /// The annotator (an integer or string in the file; written as a string).
+  std::optional<std::string> annotator_id;
+  /// RxR's edit distance of the annotation (a number in the file).
+  std::optional<double> edit_distance;
+  /// The instruction word by word with timestamps; empty when absent.
+  std::vector<TimedWord> timed_instruction;
+
   bool operator==(const Instruction&) const = default;
 };
 
-/// One R2R_VLNCE episode. Field names equal the JSON keys.
+/// One R2R_VLNCE (or RxR_VLNCE_v0) episode. Field names equal the JSON
+/// keys. The ids are JSON integers, or strings holding decimal integers.
 struct Episode {
   int episode_id = 0;
   int trajectory_id = 0;
@@ -109,6 +141,8 @@ nlohmann::json episodesToJson(const EpisodeDataset& dataset);
 nlohmann::json episodeToJson(const Episode& episode);
 
 /// Parses one episode object (entry `index` of the file's "episodes").
+/// Timestamps of timed_instruction may be null (NaN in the Python files:
+/// readEpisodes() turns bare NaN / Infinity tokens into null first).
 /// Errors start with `source` (e.g. "readEpisodes(): 'val_seen.json.gz'")
 /// and name "episode <id>" and the field, or "episode index <index>" while
 /// the id itself is missing or malformed.

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "common/FileIo.h"
 #include "support/TestPaths.h"
@@ -107,6 +108,47 @@ TEST(ZipIntegrityTest, EncryptedAndUnknownMethodsAreRefused) {
   bzip2[central + 10] = 12;
   bzip2[8] = 12;
   EXPECT_THAT(failure(bzip2), HasSubstr("compression method 12"));
+}
+
+TEST(ZipIntegrityTest, ReadZipEntriesReturnsStoredAndDeflatedData) {
+  const std::vector<ZipEntry> entries =
+      readZipEntries(fixture("mixed.zip"), "mixed.zip");
+  ASSERT_EQ(entries.size(), 3u);
+  EXPECT_EQ(entries[0].name, "archive/data.pkl");
+  EXPECT_EQ(entries[0].data.size(), 260u);
+  EXPECT_EQ(entries[0].data.substr(0, 13), "stored bytes ");
+  EXPECT_EQ(entries[1].name, "archive/code/__torch__.py");
+  EXPECT_EQ(entries[1].data.size(), 960u);  // inflated
+  EXPECT_EQ(entries[2].data, "3\n");
+  const auto zip64 = readZipEntries(fixture("zip64.zip"), "zip64.zip");
+  ASSERT_EQ(zip64.size(), 2u);
+  EXPECT_EQ(zip64[0].data.size() + zip64[1].data.size(), 1024u + 5u);
+}
+
+TEST(ZipIntegrityTest, ReadZipEntriesRefusesArchivesBeyondItsLimits) {
+  const std::string bytes = fixture("mixed.zip");
+  const auto refused = [&](const ZipReadLimits& limits) {
+    try {
+      readZipEntries(bytes, "bomb.zip", limits);
+    } catch (const std::runtime_error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_THAT(refused({.max_entries = 2}),
+              AllOf(HasSubstr("'bomb.zip'"),
+                    HasSubstr("3 entries, more than the 2 allowed")));
+  // checked on the recorded sizes, before the deflated entry is inflated
+  EXPECT_THAT(refused({.max_total_bytes = 1000}),
+              AllOf(HasSubstr("entry 'archive/code/__torch__.py'"),
+                    HasSubstr("1220 uncompressed bytes, more than the 1000")));
+  EXPECT_EQ(refused({.max_total_bytes = 1222}), "");
+  // damage is still caught while reading
+  std::string flipped = bytes;
+  flipped[at(flipped, "stored bytes") + 3] ^= 0x20;
+  EXPECT_THAT(
+      [&] { readZipEntries(flipped, "x.zip"); },
+      ::testing::ThrowsMessage<std::runtime_error>(HasSubstr("CRC-32")));
 }
 
 TEST(ZipIntegrityTest, NotAZipIsRefused) {

@@ -24,6 +24,8 @@
 #include "data/Glove.h"
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
+#include "data/Npz.h"
+#include "data/RxrEpisodes.h"
 #include "fuzz/GeometryFuzzing.h"
 #include "sim/MeshIo.h"
 #include "sim/NavMesh.h"
@@ -154,6 +156,23 @@ const std::map<std::string, Reader>& readers() {
       {"fuzz_zip",
        [](std::string_view in, const fs::path&) {
          (void)common::verifyZipIntegrity(in, "replay");
+       }},
+      {"fuzz_rxr_episodes",
+       [](std::string_view in, const fs::path& dir) {
+         for (const auto& e : data::readRxrEpisodeFile(
+                  writeBytes(dir / "train_guide.json.gz", in)))
+           if (!e.instruction.instruction_id || e.instruction.language.empty())
+             throw std::logic_error("an RxR episode without id or language");
+       }},
+      {"fuzz_npz",
+       [](std::string_view in, const fs::path&) {
+         for (const auto& [name, array] : data::parseNpz(
+                  in, "replay", {.max_arrays = 64, .max_total_bytes = 1 << 24})) {
+           uint64_t count = 1;
+           for (int64_t dim : array.shape) count *= static_cast<uint64_t>(dim);
+           if (count != array.values.size())
+             throw std::logic_error("array '" + name + "' does not match its shape");
+         }
        }},
   };
   return table;
