@@ -9,9 +9,11 @@
 
 #include <cmath>
 
+#include "common/Config.h"
 #include "sim/Mesh.h"
 #include "sim/SimTestScenes.h"
 #include "sim/SimTestSuites.h"
+#include "support/TestPaths.h"
 
 namespace vln::sim {
 namespace {
@@ -401,6 +403,64 @@ TEST_F(SimulatorTest, R2rEpisodesAreUnchangedByTheLookActions) {
   EXPECT_THAT([&] { a.step(Action::kLookUp); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("look_actions")));
+}
+
+TEST(RxrTaskConfigTest, HoldsRxrHabitatsSettingsAndRuns) {
+  // configs/rxr/task.yaml: VLN-CE's rxr_vlnce_english_task.yaml settings
+  SimConfig sim;
+  TaskConfig task;
+  const auto file = test::sourcePath() / "configs" / "rxr" / "task.yaml";
+  common::readConfigFileSection(file, "sim", {}, [&](common::ConfigVisitor& v) {
+    v.section("sim", sim, "Simulator");
+  });
+  common::readConfigFileSection(
+      file, "task", {},
+      [&](common::ConfigVisitor& v) { v.section("task", task, "Task"); });
+  EXPECT_EQ(sim.agent.forward_step_size, 0.25f);
+  EXPECT_EQ(sim.agent.turn_angle, 30.0f);
+  EXPECT_FALSE(sim.agent.allow_sliding);
+  EXPECT_TRUE(sim.agent.look_actions);
+  EXPECT_EQ(sim.agent.tilt_angle, 30.0f);
+  EXPECT_EQ(numActions(sim.agent), 6);
+  EXPECT_EQ(sim.navmesh.agent_radius, 0.18f);
+  EXPECT_EQ(sim.navmesh.agent_height, 0.88f);
+  for (const CameraConfig& camera : {sim.rgb, sim.depth.camera})
+    EXPECT_EQ(camera, (CameraConfig{640, 480, 79.0f, 0.88f}));
+  EXPECT_EQ(sim.depth.min_depth, 0.5f);
+  EXPECT_EQ(sim.depth.max_depth, 5.0f);
+  EXPECT_TRUE(sim.depth.normalize_depth);
+  EXPECT_EQ(task.max_episode_steps, 500);
+  EXPECT_EQ(task.success_distance, 3.0f);
+  // the rest stays R2R's
+  const SimConfig r2r;
+  SimConfig rest = sim;
+  rest.agent = r2r.agent;
+  rest.navmesh = r2r.navmesh;
+  rest.rgb = r2r.rgb;
+  rest.depth = r2r.depth;
+  EXPECT_EQ(rest, r2r);
+
+  // an episode on a room whose navmesh is built for RxR's agent: the six
+  // actions, 640x480 images, in one rendering pass
+  const auto scene =
+      Scene::fromMesh("rxr-room", test::roomWithCube("rxr-room", true)->mesh(),
+                      {}, sim.navmesh);
+  Simulator simulator(scene, sim, task);
+  simulator.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+  Observation obs;
+  for (Action a : {Action::kLookDown, Action::kMoveForward, Action::kTurnLeft,
+                   Action::kLookUp, Action::kTurnRight, Action::kStop}) {
+    simulator.step(a);
+    simulator.observe(obs);
+  }
+  EXPECT_TRUE(simulator.episode().called_stop);
+  EXPECT_EQ(simulator.episode().steps, 6);
+  EXPECT_EQ(simulator.episode().agent.pitch, 0.0f);
+  EXPECT_EQ(obs.rgb.size(), 640u * 480u * 3u);
+  EXPECT_EQ(obs.depth.size(), 640u * 480u);
+  // level again and facing the wall at z = -3 from z = 0.75 (one 0.25 m
+  // step): z-depth 3.75 m everywhere on it, normalised from [0.5, 5] m
+  EXPECT_NEAR(obs.depth[240 * 640 + 320], (3.75f - 0.5f) / 4.5f, 0.01f);
 }
 
 }  // namespace
