@@ -99,6 +99,7 @@ class EvaluationJob : public EpisodeJob {
       record.episode_id = std::to_string(episode.episode_id);
       record.positions = {pose.position};
       record.headings = {pose.heading};
+      if (recordPitches(env)) record.pitches = {pose.pitch};
       agent_.reset(env, episode);
       if (observer_) observer_->episodeStarted(batch.episodes[k], envs_, env);
     }
@@ -124,6 +125,7 @@ class EvaluationJob : public EpisodeJob {
       record.actions.push_back(static_cast<int>(actions[k]));
       record.positions.push_back(pose.position);
       record.headings.push_back(pose.heading);
+      if (recordPitches(env)) record.pitches.push_back(pose.pitch);
       if (observer_)
         observer_->episodeStepped(running.episodes[k], envs_, env, actions[k]);
     }
@@ -153,6 +155,12 @@ class EvaluationJob : public EpisodeJob {
   }
 
  private:
+  // pitches are part of the record in RxR's action space only, so R2R
+  // records and their files stay as they were
+  bool recordPitches(int env) {
+    return envs_.simulator(env).config().agent.look_actions;
+  }
+
   // observations the observer wants although the agent does not read them
   void renderForObserver(const EnvBatch& batch) {
     if (agent_.needsObservations() || observer_ == nullptr) return;

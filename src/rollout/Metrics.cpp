@@ -384,6 +384,10 @@ EpisodeMetrics computeEpisodeMetrics(const EpisodeRecord& record,
                     record.headings.size() == record.positions.size(),
                 where, ": field 'headings' must be empty or match positions (",
                 record.positions.size(), "), got ", record.headings.size());
+  VLN_CHECK_ARG(record.pitches.empty() ||
+                    record.pitches.size() == record.positions.size(),
+                where, ": field 'pitches' must be empty or match positions (",
+                record.positions.size(), "), got ", record.pitches.size());
   VLN_CHECK_ARG(
       record.actions.empty() ||
           record.actions.size() == static_cast<size_t>(record.steps_taken),

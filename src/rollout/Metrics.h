@@ -72,8 +72,13 @@ struct EpisodeRecord {
   /// Headings (radians, Math.h convention) matching `positions`, or empty
   /// when not recorded (then no leaderboard entry can be written).
   std::vector<float> headings;
+  /// Camera pitches (radians, positive up; sim::AgentState) matching
+  /// `positions`, recorded only in the RxR action space
+  /// (sim.agent.look_actions); empty otherwise.
+  std::vector<float> pitches;
   /// Action codes taken (sim::Action values: 0 STOP, 1 MOVE_FORWARD,
-  /// 2 TURN_LEFT, 3 TURN_RIGHT), or empty when not recorded; when present
+  /// 2 TURN_LEFT, 3 TURN_RIGHT, and in RxR's action space 4 LOOK_UP,
+  /// 5 LOOK_DOWN), or empty when not recorded; when present
   /// size() == steps_taken.
   std::vector<int> actions;
   /// True when the episode ended by STOP (false when it hit the step limit).
@@ -283,8 +288,8 @@ SplitStats readStatsFile(const std::filesystem::path& file);
 
 /// Per-episode file content: {"episodes": [{"episode_id", "metrics": {...},
 /// "called_stop", "steps_taken", "goal", "start_distance", "path":
-/// {"positions": [[x,y,z]...], "headings": [...]}, "actions": [...],
-/// "reference_path": [[x,y,z]...]}, ...]}.
+/// {"positions": [[x,y,z]...], "headings": [...]} (plus "pitches": [...]
+/// when recorded), "actions": [...], "reference_path": [[x,y,z]...]}, ...]}.
 nlohmann::json episodesToJson(std::span<const EpisodeResult> episodes);
 /// Inverse of episodesToJson(); errors name `source`, the episode and field.
 std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,

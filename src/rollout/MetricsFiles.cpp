@@ -8,6 +8,7 @@
 
 #include "common/Check.h"
 #include "common/Json.h"
+#include "sim/Agent.h"
 
 namespace vln::rollout {
 namespace {
@@ -70,7 +71,6 @@ EpisodeMetrics metricsFromJson(const nlohmann::json& j,
 
 }  // namespace
 
-
 nlohmann::json metricsToJson(const EpisodeMetrics& m) {
   nlohmann::json out = nlohmann::json::object();
   for (const auto& [key, member] : kMetricFields) out[key] = m.*member;
@@ -127,17 +127,19 @@ SplitStats readStatsFile(const std::filesystem::path& file) {
 nlohmann::json episodesToJson(std::span<const EpisodeResult> episodes) {
   nlohmann::json list = nlohmann::json::array();
   for (const auto& [r, m] : episodes) {
-    list.push_back(
-        {{"episode_id", r.episode_id},
-         {"metrics", metricsToJson(m)},
-         {"called_stop", r.called_stop},
-         {"steps_taken", r.steps_taken},
-         {"goal", vecToJson(r.goal)},
-         {"start_distance", r.start_distance},
-         {"path",
-          {{"positions", pointsToJson(r.positions)}, {"headings", r.headings}}},
-         {"actions", r.actions},
-         {"reference_path", pointsToJson(r.reference_path)}});
+    nlohmann::json path = {{"positions", pointsToJson(r.positions)},
+                           {"headings", r.headings}};
+    // R2R records have no pitches, and their files stay as they were
+    if (!r.pitches.empty()) path["pitches"] = r.pitches;
+    list.push_back({{"episode_id", r.episode_id},
+                    {"metrics", metricsToJson(m)},
+                    {"called_stop", r.called_stop},
+                    {"steps_taken", r.steps_taken},
+                    {"goal", vecToJson(r.goal)},
+                    {"start_distance", r.start_distance},
+                    {"path", std::move(path)},
+                    {"actions", r.actions},
+                    {"reference_path", pointsToJson(r.reference_path)}});
   }
   return {{"episodes", std::move(list)}};
 }
@@ -172,6 +174,9 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
         ctx + ": field 'path.positions'");
     r.headings =
         common::requireField<std::vector<float>>(path, "headings", ctx);
+    if (path.contains("pitches"))
+      r.pitches =
+          common::requireField<std::vector<float>>(path, "pitches", ctx);
     r.actions = common::requireField<std::vector<int>>(e, "actions", ctx);
     r.reference_path = pointsFromJson(
         common::requireField<nlohmann::json>(e, "reference_path", ctx),
@@ -180,9 +185,15 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
                   ctx, ": field 'path.positions' must hold steps_taken + 1 = ",
                   r.steps_taken + 1, " entries, got ", r.positions.size());
     for (size_t k = 0; k < r.actions.size(); ++k)
-      VLN_CHECK_ARG(r.actions[k] >= 0 && r.actions[k] <= 3, ctx,
-                    ": field 'actions[", k,
-                    "]' must be an action code 0..3, got ", r.actions[k]);
+      VLN_CHECK_ARG(r.actions[k] >= 0 && r.actions[k] < sim::kNumLookActions,
+                    ctx, ": field 'actions[", k,
+                    "]' must be an action code 0..", sim::kNumLookActions - 1,
+                    ", got ", r.actions[k]);
+    VLN_CHECK_ARG(r.pitches.empty() || r.pitches.size() == r.positions.size(),
+                  ctx,
+                  ": field 'path.pitches' must hold one pitch per "
+                  "position (",
+                  r.positions.size(), "), got ", r.pitches.size());
     out.push_back(std::move(result));
   }
   return out;

@@ -18,6 +18,10 @@ constexpr float kCollisionEpsilon = 1e-5f;
 
 }  // namespace
 
+int numActions(const AgentConfig& config) {
+  return config.look_actions ? kNumLookActions : kNumActions;
+}
+
 std::string_view actionName(Action action) {
   switch (action) {
     case Action::kStop:
@@ -28,15 +32,21 @@ std::string_view actionName(Action action) {
       return "TURN_LEFT";
     case Action::kTurnRight:
       return "TURN_RIGHT";
+    case Action::kLookUp:
+      return "LOOK_UP";
+    case Action::kLookDown:
+      return "LOOK_DOWN";
   }
   // only a cast from an unchecked integer gets here
   VLN_ASSERT(false);
   return {};
 }
 
-Action actionFromInt(int code) {
-  VLN_CHECK_ARG(code >= 0 && code < kNumActions,
-                "actionFromInt(): action code must be in 0..", kNumActions - 1,
+Action actionFromInt(int code, int numActions) {
+  // the size is the caller's action space, not input
+  VLN_ASSERT(numActions == kNumActions || numActions == kNumLookActions);
+  VLN_CHECK_ARG(code >= 0 && code < numActions,
+                "actionFromInt(): action code must be in 0..", numActions - 1,
                 ", got ", code);
   return static_cast<Action>(code);
 }
@@ -50,6 +60,9 @@ StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
   VLN_CHECK_ARG(std::isfinite(state.heading),
                 "applyAction(): agent heading must be finite, got ",
                 state.heading);
+  VLN_CHECK_ARG(std::isfinite(state.pitch),
+                "applyAction(): camera pitch must be finite, got ",
+                state.pitch);
   StepResult result;
   switch (action) {
     case Action::kStop:
@@ -60,6 +73,18 @@ StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
     case Action::kTurnRight:
       state.heading = wrapAngle(state.heading - degToRad(config.turn_angle));
       return result;
+    case Action::kLookUp:
+    case Action::kLookDown: {
+      // Habitat's v1 look actions rotate the sensors about their local X
+      // axis with no constraint, so repeated looks keep turning; the wrap
+      // keeps the same rotation
+      VLN_CHECK_ARG(config.look_actions, "applyAction(): ", actionName(action),
+                    " needs sim.agent.look_actions (the RxR action space)");
+      const float tilt = degToRad(config.tilt_angle);
+      state.pitch =
+          wrapAngle(state.pitch + (action == Action::kLookUp ? tilt : -tilt));
+      return result;
+    }
     case Action::kMoveForward:
       break;
   }

@@ -11,25 +11,45 @@ namespace vln::sim {
 
 class NavMesh;
 
-/// VLN-CE's action space; the integer values are those of the dataset files.
+/// VLN-CE's actions; the integer values are those of the dataset files and
+/// of Habitat's HabitatSimActions. Codes 0..3 are R2R_VLNCE's action space
+/// (Habitat's "v0"); RxR_VLNCE adds LOOK_UP and LOOK_DOWN (Habitat's "v1",
+/// enabled by AgentConfig::look_actions).
 enum class Action : int {
   kStop = 0,
   kMoveForward = 1,
   kTurnLeft = 2,
   kTurnRight = 3,
+  kLookUp = 4,
+  kLookDown = 5,
 };
+/// Size of the R2R_VLNCE action space (codes 0..3).
 inline constexpr int kNumActions = 4;
+/// Size of the RxR_VLNCE action space, LOOK_UP and LOOK_DOWN included
+/// (codes 0..5).
+inline constexpr int kNumLookActions = 6;
 
-/// "STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT".
+/// The number of actions `config` allows: kNumLookActions when
+/// look_actions, else kNumActions.
+int numActions(const AgentConfig& config);
+
+/// "STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT", "LOOK_UP",
+/// "LOOK_DOWN".
 std::string_view actionName(Action action);
-/// Action from its integer code; throws std::invalid_argument outside 0..3.
-Action actionFromInt(int code);
+/// Action from its integer code in an action space of `numActions` actions
+/// (kNumActions or kNumLookActions); throws std::invalid_argument outside
+/// 0..numActions-1.
+Action actionFromInt(int code, int numActions = kNumActions);
 
-/// Where the agent stands: feet position on the navmesh and heading (radians,
-/// 0 = looking along -Z, positive = counter-clockwise from above).
+/// Where the agent stands: feet position on the navmesh, heading (radians,
+/// 0 = looking along -Z, positive = counter-clockwise from above) and the
+/// camera's pitch (radians about the camera's local +X axis, positive looks
+/// up, wrapped to (-pi, pi]; 0 = level). The body only yaws: the pitch
+/// turns the cameras alone, as Habitat's look actions turn the sensors.
 struct AgentState {
   Vec3f position = Vec3f::Zero();
   float heading = 0.0f;
+  float pitch = 0.0f;
   bool operator==(const AgentState&) const = default;
 };
 
@@ -45,18 +65,21 @@ struct StepResult {
 
 /// Applies `action` to `state` (STOP leaves it unchanged). MOVE_FORWARD
 /// moves forward_step_size along the heading over the navmesh, sliding along
-/// walls when allow_sliding; turns change the heading by turn_angle. Throws
-/// std::invalid_argument when the heading is not finite or the position is
-/// not finite or outside navmesh.queryBounds().
+/// walls when allow_sliding; turns change the heading by turn_angle;
+/// LOOK_UP / LOOK_DOWN add / subtract tilt_angle to the pitch, unclamped
+/// like Habitat's v1 look actions (no actuation constraint), wrapped to
+/// (-pi, pi]. Throws std::invalid_argument when the heading or pitch is not
+/// finite, the position is not finite or outside navmesh.queryBounds(), or
+/// a look action is taken without config.look_actions.
 StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
                        AgentState& state, Action action);
 
 /// Per-episode bookkeeping on top of the agent state.
 struct EpisodeState {
   AgentState agent;
-  int steps = 0;          ///< actions taken so far
+  int steps = 0;  ///< actions taken so far
   bool called_stop = false;
-  bool done = false;      ///< STOP called or max_episode_steps reached
+  bool done = false;  ///< STOP called or max_episode_steps reached
   bool last_collided = false;
 };
 

@@ -28,12 +28,27 @@ ShortestPathFollower::ShortestPathFollower(const NavMesh& navmesh,
 
 Action ShortestPathFollower::nextAction(const AgentState& state,
                                         const Vec3f& goal) const {
-  // the navmesh checks both positions; the heading only steers the choice
-  // below, where NaN would pick a turn silently
-  VLN_CHECK_ARG(std::isfinite(state.heading),
-                "ShortestPathFollower::nextAction(): agent heading must be "
-                "finite, got ",
-                state.heading);
+  // the navmesh checks both positions; heading and pitch only steer the
+  // choice below, where NaN would pick a turn silently
+  VLN_CHECK_ARG(std::isfinite(state.heading) && std::isfinite(state.pitch),
+                "ShortestPathFollower::nextAction(): agent heading and pitch "
+                "must be finite, got ",
+                state.heading, ", ", state.pitch);
+  const Action action = pathAction(state, goal);
+  if (action == Action::kStop) return action;
+
+  // a pitched camera is levelled before the agent moves on: the look that
+  // brings the pitch closer to 0, while one does; a pitch within half a tilt
+  // of level is as level as looks can make it
+  if (!agent_.look_actions) return action;
+  const float pitch = wrapAngle(state.pitch);
+  if (std::abs(pitch) <= degToRad(agent_.tilt_angle) / 2.0f + kAngleEpsilon)
+    return action;
+  return pitch > 0.0f ? Action::kLookDown : Action::kLookUp;
+}
+
+Action ShortestPathFollower::pathAction(const AgentState& state,
+                                        const Vec3f& goal) const {
   // close enough, or no way there
   const std::vector<Vec3f> path = navmesh_.shortestPath(state.position, goal);
   if (path.empty()) return Action::kStop;

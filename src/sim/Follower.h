@@ -18,12 +18,18 @@ class ShortestPathFollower {
   /// otherwise MOVE_FORWARD when the direction to the next corner of the
   /// shortest path is within turn_angle of the heading, else the turn that
   /// brings the heading closer to it. Returns STOP when the goal is
-  /// unreachable. Throws std::invalid_argument when the heading is not
-  /// finite, or a position is not finite or outside the navmesh's
-  /// queryBounds().
+  /// unreachable. With look_actions, an action other than STOP is preceded
+  /// by the looks that level the camera: LOOK_DOWN while the pitch is above
+  /// tilt_angle / 2, LOOK_UP while it is below -tilt_angle / 2 (the follower
+  /// never pitches the camera itself). Throws std::invalid_argument when the
+  /// heading or pitch is not finite, or a position is not finite or outside
+  /// the navmesh's queryBounds().
   Action nextAction(const AgentState& state, const Vec3f& goal) const;
 
  private:
+  // nextAction() for a level camera
+  Action pathAction(const AgentState& state, const Vec3f& goal) const;
+
   const NavMesh& navmesh_;
   AgentConfig agent_;
   float goalRadius_;

@@ -44,33 +44,41 @@ bool builtForMesh(const Eigen::AlignedBox3f& navmesh,
          high.z() <= tolerance;
 }
 
-// The cached navmesh beside `sceneFile` when it is present, at least as new
-// as the scene, readable and built for this agent; nullptr otherwise (with a
-// warning when a present file is unusable, since it will be overwritten).
-std::unique_ptr<NavMesh> loadCachedNavMesh(const fs::path& sceneFile,
-                                           const fs::path& cacheFile,
-                                           const NavMeshConfig& config,
-                                           const TriangleMesh& mesh) {
+// What a navmesh cache file held: a navmesh usable for this agent and mesh,
+// or none, and whether the file is a sound one built for another agent
+// (which is then kept, and this agent's navmesh cached beside it).
+struct CachedNavMesh {
+  std::unique_ptr<NavMesh> navmesh;
+  bool otherAgent = false;
+};
+
+// The cached navmesh in `cacheFile` when it is present, at least as new as
+// the scene, readable and built for this agent and mesh; none otherwise (with
+// a log line when a present file is unusable).
+CachedNavMesh loadCachedNavMesh(const fs::path& sceneFile,
+                                const fs::path& cacheFile,
+                                const NavMeshConfig& config,
+                                const TriangleMesh& mesh) {
   std::error_code ec;
-  if (!fs::exists(cacheFile, ec)) return nullptr;
+  if (!fs::exists(cacheFile, ec)) return {};
   const auto cacheTime = fs::last_write_time(cacheFile, ec);
-  if (ec) return nullptr;
+  if (ec) return {};
   const auto sceneTime = fs::last_write_time(sceneFile, ec);
   if (ec || cacheTime < sceneTime) {
     spdlog::info("Scene: {} is older than the scene, rebuilding it",
                  cacheFile.string());
-    return nullptr;
+    return {};
   }
   try {
     auto navmesh = NavMesh::load(cacheFile);
     if (!sameAgent(navmesh->config(), config)) {
-      spdlog::warn(
+      spdlog::info(
           "Scene: {} was built for agent height {} radius {} climb {}, the "
-          "config asks for {} {} {}; rebuilding it",
+          "config asks for {} {} {}; using the variant for this agent",
           cacheFile.string(), navmesh->config().agent_height,
           navmesh->config().agent_radius, navmesh->config().agent_max_climb,
           config.agent_height, config.agent_radius, config.agent_max_climb);
-      return nullptr;
+      return {nullptr, /*otherAgent=*/true};
     }
     if (!builtForMesh(navmesh->bounds(), mesh.bounds())) {
       spdlog::warn(
@@ -83,16 +91,27 @@ std::unique_ptr<NavMesh> loadCachedNavMesh(const fs::path& sceneFile,
           mesh.bounds().min().y(), mesh.bounds().min().z(),
           mesh.bounds().max().x(), mesh.bounds().max().y(),
           mesh.bounds().max().z());
-      return nullptr;
+      return {};
     }
-    return navmesh;
+    return {std::move(navmesh), false};
   } catch (const std::exception& e) {
     spdlog::warn("Scene: ignoring unusable navmesh cache: {}", e.what());
-    return nullptr;
+    return {};
   }
 }
 
 }  // namespace
+
+std::filesystem::path navMeshVariantFile(const std::filesystem::path& sceneFile,
+                                         const NavMeshConfig& config) {
+  // millimetres: the tolerance sameAgent() allows is below one
+  const auto mm = [](float metres) { return std::lround(metres * 1000.0f); };
+  fs::path file = sceneFile;
+  file +=
+      strCat(".agent_r", mm(config.agent_radius), "_h", mm(config.agent_height),
+             "_c", mm(config.agent_max_climb), ".navmesh");
+  return file;
+}
 
 std::shared_ptr<const Scene> Scene::load(const std::filesystem::path& file,
                                          const SimConfig& config) {
@@ -103,13 +122,20 @@ std::shared_ptr<const Scene> Scene::load(const std::filesystem::path& file,
   scene->mesh_ = std::move(loaded.mesh);
   scene->semantics_ = std::move(loaded.semantics);
 
-  // navmesh: the cache when it is valid, else a fresh build (saved when
+  // navmesh: the cache when it is valid, else the variant for this agent
+  // when the cache holds another agent's, else a fresh build (saved when
   // caching; a read-only dataset directory only costs a rebuild next time)
   fs::path cacheFile = file;
   cacheFile += ".navmesh";
-  if (config.cache_navmesh)
-    scene->navmesh_ =
+  if (config.cache_navmesh) {
+    CachedNavMesh cached =
         loadCachedNavMesh(file, cacheFile, config.navmesh, scene->mesh_);
+    if (cached.otherAgent) {
+      cacheFile = navMeshVariantFile(file, config.navmesh);
+      cached = loadCachedNavMesh(file, cacheFile, config.navmesh, scene->mesh_);
+    }
+    scene->navmesh_ = std::move(cached.navmesh);
+  }
   if (scene->navmesh_ == nullptr) {
     try {
       scene->navmesh_ = NavMesh::build(scene->mesh_, config.navmesh);

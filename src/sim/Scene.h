@@ -15,18 +15,27 @@
 
 namespace vln::sim {
 
+/// The navmesh cache of `sceneFile` for an agent that the "<file>.navmesh"
+/// cache was not built for: "<file>.agent_r<radius>_h<height>_c<climb>
+/// .navmesh", dimensions in whole millimetres (e.g. RxR's
+/// "x.glb.agent_r180_h880_c200.navmesh").
+std::filesystem::path navMeshVariantFile(const std::filesystem::path& sceneFile,
+                                         const NavMeshConfig& config);
+
 class Scene {
  public:
   /// Loads a scene file (.glb/.gltf/.obj/.ply through assimp, see
   /// MeshIo.h) with its semantics sidecar if present, and its navmesh from
   /// "<file>.navmesh" when cache_navmesh and the file exists (building and
-  /// saving it otherwise). A cache older than the scene file, unreadable,
-  /// built for other agent dimensions or spanning other bounds than the
-  /// mesh (the file read with another up axis or scale) is rebuilt and
-  /// overwritten; failing to write the cache (read-only dataset) only logs
-  /// a warning. Throws naming the file on any other failure; a navmesh
-  /// build error carries upAxisHint() (GeometryCheck.h) when the mesh looks
-  /// read with the wrong up axis.
+  /// saving it otherwise). A cache older than the scene file, unreadable or
+  /// spanning other bounds than the mesh (the file read with another up
+  /// axis or scale) is rebuilt and overwritten. A sound cache built for
+  /// other agent dimensions (e.g. R2R's 0.1 m radius when RxR asks for
+  /// 0.18 m) is kept: the navmesh comes from navMeshVariantFile() instead,
+  /// under the same rules. Failing to write a cache (read-only dataset)
+  /// only logs a warning. Throws naming the file on any other failure; a
+  /// navmesh build error carries upAxisHint() (GeometryCheck.h) when the mesh
+  /// looks read with the wrong up axis.
   static std::shared_ptr<const Scene> load(const std::filesystem::path& file,
                                            const SimConfig& config);
   /// Wraps an in-memory mesh (e.g. a generated house); builds its navmesh.

@@ -74,11 +74,16 @@ struct NavMeshConfig {
   bool operator==(const NavMeshConfig&) const = default;
 };
 
-/// The agent's body and action space (LoCoBot-like, as in VLN-CE).
+/// The agent's body and action space (LoCoBot-like, as in VLN-CE). The
+/// defaults are R2R_VLNCE's; configs/rxr/task.yaml holds RxR_VLNCE's.
 struct AgentConfig {
   float forward_step_size = 0.25f;
   float turn_angle = 15.0f;
   bool allow_sliding = true;
+  /// RxR_VLNCE's action space: LOOK_UP (4) and LOOK_DOWN (5) after the four
+  /// R2R actions (Habitat's action space "v1").
+  bool look_actions = false;
+  float tilt_angle = 30.0f;
 
   void visit(common::ConfigVisitor& v) {
     v.field("forward_step_size", forward_step_size, "MOVE_FORWARD distance (m)", common::inRange(0.01, 5.0));
@@ -86,6 +91,12 @@ struct AgentConfig {
     v.field("allow_sliding", allow_sliding,
             "Slide along obstacles instead of stopping (Habitat "
             "allow_sliding)");
+    v.field("look_actions", look_actions,
+            "Add LOOK_UP (4) and LOOK_DOWN (5), which pitch the cameras "
+            "(RxR-Habitat's action space)");
+    v.field("tilt_angle", tilt_angle,
+            "LOOK_UP/LOOK_DOWN angle (degrees; Habitat TILT_ANGLE)",
+            common::inRange(0.1, 180.0));
   }
   bool operator==(const AgentConfig&) const = default;
 };

@@ -22,12 +22,14 @@ CameraIntrinsics intrinsics(const CameraConfig& camera) {
 }
 
 // The sensor sits position_y above the agent's feet and looks along its
-// heading (VLN-CE's cameras are level).
+// heading, tilted by the agent's pitch (level unless look actions moved it);
+// the pitch turns the camera about its own centre, as Habitat's sensors
+// turn about their node, so the eye does not move.
 CameraPose cameraPose(const AgentState& agent, const CameraConfig& camera) {
   CameraPose pose;
   pose.eye = agent.position + Vec3f(0.0f, camera.position_y, 0.0f);
   pose.heading = agent.heading;
-  pose.pitch = 0.0f;
+  pose.pitch = agent.pitch;
   return pose;
 }
 
@@ -55,31 +57,35 @@ void Simulator::setScene(std::shared_ptr<const Scene> scene) {
   // the renderer holds references into the scene, so it goes first
   renderer_.reset();
   scene_ = std::move(scene);
-  renderer_ = createRenderer(scene_->mesh(), scene_->rayTracer(), sim_.renderer);
+  renderer_ =
+      createRenderer(scene_->mesh(), scene_->rayTracer(), sim_.renderer);
   episode_ = EpisodeState{};
   hasEpisode_ = false;
 }
 
 void Simulator::reset(const AgentState& start) {
-  VLN_CHECK_ARG(start.position.allFinite() && std::isfinite(start.heading),
+  VLN_CHECK_ARG(start.position.allFinite() && std::isfinite(start.heading) &&
+                    std::isfinite(start.pitch),
                 "Simulator::reset(): scene '", scene_->name(),
                 "': start must be finite, got position (",
-                start.position.transpose(), "), heading ", start.heading);
+                start.position.transpose(), "), heading ", start.heading,
+                ", pitch ", start.pitch);
   checkPosition(strCat("Simulator::reset(): scene '", scene_->name(), "'"),
                 "start position", start.position,
                 scene_->navmesh().queryBounds());
   const auto snapped = scene_->navmesh().snapPoint(start.position);
   const float gap = snapped ? (*snapped - start.position).norm()
                             : std::numeric_limits<float>::infinity();
-  VLN_CHECK_ARG(snapped && gap <= kMaxSnapDistance, "Simulator::reset(): scene '",
-                scene_->name(), "': start position (", start.position.transpose(),
-                ") is not within ", kMaxSnapDistance,
-                " m of navigable space (nearest navmesh point ",
-                snapped ? strCat("at ", gap, " m") : std::string("not found"),
-                ")");
+  VLN_CHECK_ARG(
+      snapped && gap <= kMaxSnapDistance, "Simulator::reset(): scene '",
+      scene_->name(), "': start position (", start.position.transpose(),
+      ") is not within ", kMaxSnapDistance,
+      " m of navigable space (nearest navmesh point ",
+      snapped ? strCat("at ", gap, " m") : std::string("not found"), ")");
   episode_ = EpisodeState{};
   episode_.agent.position = *snapped;
   episode_.agent.heading = start.heading;
+  episode_.agent.pitch = wrapAngle(start.pitch);
   hasEpisode_ = true;
 }
 

@@ -17,10 +17,11 @@ namespace vln::sim {
 struct Observation {
   int rgb_width = 0;
   int rgb_height = 0;
-  std::vector<uint8_t> rgb;   ///< [rgb_height, rgb_width, 3]
+  std::vector<uint8_t> rgb;  ///< [rgb_height, rgb_width, 3]
   int depth_width = 0;
   int depth_height = 0;
-  std::vector<float> depth;   ///< [depth_height, depth_width], post-processed per DepthCameraConfig
+  std::vector<float> depth;  ///< [depth_height, depth_width], post-processed
+                             ///< per DepthCameraConfig
 };
 
 class Simulator {
@@ -29,15 +30,18 @@ class Simulator {
             const TaskConfig& task);
   ~Simulator();
 
-  /// Starts an episode at `start`; the position is snapped to the navmesh.
+  /// Starts an episode at `start`; the position is snapped to the navmesh,
+  /// heading and pitch are kept (dataset episodes start level, pitch 0, as
+  /// Habitat resets its sensors; a restored state keeps its pitch).
   /// Throws std::invalid_argument when `start` is not finite, outside the
   /// navmesh's queryBounds() or not near navigable space.
   void reset(const AgentState& start);
   /// Takes one action (see stepEpisode()). Calling it before reset() or
   /// after the episode is done is a bug (aborts).
   StepResult step(Action action);
-  /// Renders RGB and depth at the current pose into `out` (resized as
-  /// needed). RGB and depth share one pass when their cameras are equal.
+  /// Renders RGB and depth at the current pose (the agent's heading and the
+  /// cameras' pitch) into `out` (resized as needed). RGB and depth share one
+  /// pass when their cameras are equal.
   void observe(Observation& out);
   /// Renders the semantic object ids seen by the RGB camera.
   void observeSemantic(std::vector<int32_t>& objectIds);

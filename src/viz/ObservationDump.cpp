@@ -268,6 +268,10 @@ void ObservationDump::writeFrame(InProgress& e, rollout::VectorEnv& envs,
   const std::array<float, 4> q = headingToQuaternion(pose.heading);
   step["position"] = vec3(pose.position);
   step["heading"] = pose.heading;
+  // the cameras' pitch exists in RxR's action space only; R2R dumps stay
+  // as they were
+  if (envs.simulator(env).config().agent.look_actions)
+    step["pitch"] = pose.pitch;
   step["rotation"] = {q[0], q[1], q[2], q[3]};
   step["action"] = nullptr;
   step["action_name"] = nullptr;

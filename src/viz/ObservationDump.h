@@ -27,7 +27,9 @@
 // sim.rgb.position_y / sim.depth.position_y above it), `heading` radians
 // about +Y (0 looks along -Z, counter-clockwise positive: common/Math.h),
 // `rotation` the same yaw as Habitat's quaternion in the R2R_VLNCE file
-// order [x, y, z, w].
+// order [x, y, z, w] (the body's; Habitat keeps the sensors' tilt apart).
+// In RxR's action space (sim.agent.look_actions) a frame also has `pitch`,
+// the cameras' tilt in radians about their +X axis, positive up.
 //
 // Depth: the simulator clips depth to [min_depth, max_depth]
 // (sim.depth.min_depth / max_depth, metres; misses read as max_depth) and

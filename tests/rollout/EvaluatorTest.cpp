@@ -9,9 +9,11 @@
 #include <gtest/gtest.h>
 
 #include <map>
+#include <vector>
 
 #include "common/Random.h"
 #include "rollout/RolloutTestWorld.h"
+#include "rollout/WaypointOracle.h"
 
 namespace vln::rollout {
 namespace {
@@ -301,6 +303,77 @@ TEST(EvaluatorTest, NoEpisodesGiveAnEmptyResult) {
   const EvaluationResult r = run(agent, {}, nullptr, 2, 1);
   EXPECT_TRUE(r.episodes.empty());
   EXPECT_EQ(r.stats.num_episodes, 0);
+}
+
+// ---------------------------------------------------------------------------
+// RxR's action space
+// ---------------------------------------------------------------------------
+
+// Looks up once in every episode, then hands over to the oracle.
+class LookUpThenOracle : public Agent {
+ public:
+  LookUpThenOracle(const sim::AgentConfig& agent, int numEnvs)
+      : oracle_(agent, /*goalRadius=*/0.5f, OracleMode::kGoal, numEnvs),
+        looked_(static_cast<size_t>(numEnvs), false) {}
+  void reset(int env, const data::Episode& episode) override {
+    oracle_.reset(env, episode);
+    looked_[static_cast<size_t>(env)] = false;
+  }
+  std::vector<sim::Action> act(VectorEnv& envs,
+                               std::span<const int> active) override {
+    std::vector<sim::Action> actions = oracle_.act(envs, active);
+    for (size_t k = 0; k < active.size(); ++k) {
+      const auto env = static_cast<size_t>(active[k]);
+      if (!looked_[env]) actions[k] = sim::Action::kLookUp;
+      looked_[env] = true;
+    }
+    return actions;
+  }
+  bool needsObservations() const override { return false; }
+
+ private:
+  OracleAgent oracle_;
+  std::vector<bool> looked_;
+};
+
+TEST(EvaluatorTest, RxrRecordsThePitchAndTheOracleLevelsTheCamera) {
+  const auto& w = rolloutTestWorld();
+  sim::SimConfig rxr = w.sim;
+  rxr.agent.look_actions = true;
+  auto cache = std::make_shared<SceneCache>(rxr);
+  VectorEnv envs(/*numEnvs=*/2, rxr, w.task, cache, /*threads=*/2);
+  LookUpThenOracle agent(rxr.agent, /*numEnvs=*/2);
+  const EvaluationResult looked = evaluateEpisodes(
+      agent, envs, w.episodes, &w.groundTruth, evalConfig(2, 2), {});
+  // the plain oracle in the R2R action space, for comparison
+  OracleAgent oracle(w.sim.agent, 0.5f, OracleMode::kGoal, 2);
+  const EvaluationResult plain =
+      run(oracle, w.episodes, &w.groundTruth, /*numEnvs=*/2, /*threads=*/2);
+  const float tilt = degToRad(rxr.agent.tilt_angle);
+  for (size_t i = 0; i < w.episodes.size(); ++i) {
+    SCOPED_TRACE("episode " + std::to_string(w.episodes[i].episode_id));
+    const EpisodeRecord& rec = looked.episodes[i].record;
+    const EpisodeRecord& r2r = plain.episodes[i].record;
+    EXPECT_TRUE(r2r.pitches.empty());
+    // LOOK_UP, the oracle's LOOK_DOWN back to level, then the R2R route
+    ASSERT_EQ(rec.actions.size(), r2r.actions.size() + 2);
+    EXPECT_EQ(rec.actions[0], 4);
+    EXPECT_EQ(rec.actions[1], 5);
+    EXPECT_EQ(std::vector<int>(rec.actions.begin() + 2, rec.actions.end()),
+              r2r.actions);
+    ASSERT_EQ(rec.pitches.size(), rec.positions.size());
+    EXPECT_EQ(rec.pitches[0], 0.0f);
+    EXPECT_NEAR(rec.pitches[1], tilt, 1e-6f);
+    for (size_t k = 2; k < rec.pitches.size(); ++k)
+      EXPECT_NEAR(rec.pitches[k], 0.0f, 1e-6f);
+    // the looks moved nothing: same path, same metrics but the step count
+    EXPECT_EQ(
+        std::vector<Vec3f>(rec.positions.begin() + 2, rec.positions.end()),
+        r2r.positions);
+    EXPECT_EQ(looked.episodes[i].metrics.spl, plain.episodes[i].metrics.spl);
+    EXPECT_EQ(looked.episodes[i].metrics.steps_taken,
+              plain.episodes[i].metrics.steps_taken + 2);
+  }
 }
 
 }  // namespace

@@ -440,6 +440,48 @@ TEST(MetricsTest, StatsFileHasVlnceKeysAndRoundTrips) {
                   HasSubstr("bad.json"), HasSubstr("'distance_to_goal'"))));
 }
 
+TEST(MetricsTest, EpisodesFileKeepsRxrPitchesAndLookActions) {
+  // RxR's action space: LOOK_DOWN (5) then LOOK_UP (4) before walking,
+  // with the cameras' pitch recorded per position
+  EpisodeRecord rxr = straightEpisode(2, /*stop=*/true);
+  rxr.positions.insert(rxr.positions.begin(), 2, rxr.positions.front());
+  rxr.headings.insert(rxr.headings.begin(), 2, 0.0f);
+  rxr.actions.insert(rxr.actions.begin(), {5, 4});
+  rxr.steps_taken = static_cast<int>(rxr.actions.size());
+  rxr.pitches.assign(rxr.positions.size(), 0.0f);
+  rxr.pitches[1] = -0.5235988f;
+  const std::vector<EpisodeResult> results = {
+      {rxr, computeEpisodeMetrics(rxr, euclid)}};
+  const nlohmann::json json = episodesToJson(results);
+  const auto back = episodesFromJson(json, "rxr.json");
+  ASSERT_EQ(back.size(), 1u);
+  EXPECT_EQ(back[0].record.pitches, rxr.pitches);
+  EXPECT_EQ(back[0].record.actions, rxr.actions);
+  // looks move nothing: the metrics are the R2R walk's
+  const EpisodeRecord r2r = straightEpisode(2, /*stop=*/true);
+  EXPECT_EQ(back[0].metrics.path_length,
+            computeEpisodeMetrics(r2r, euclid).path_length);
+
+  // R2R records have no pitches, and their files no "pitches" key
+  const nlohmann::json plain =
+      episodesToJson(std::vector<EpisodeResult>{{r2r, {}}});
+  EXPECT_FALSE(plain["episodes"][0]["path"].contains("pitches"));
+  EXPECT_TRUE(episodesFromJson(plain, "r2r.json")[0].record.pitches.empty());
+
+  // a pitch list of the wrong length and an action code beyond LOOK_DOWN
+  // are named
+  nlohmann::json bad = json;
+  bad["episodes"][0]["path"]["pitches"].erase(0);
+  EXPECT_THAT([&] { episodesFromJson(bad, "rxr.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("'path.pitches'")));
+  bad = json;
+  bad["episodes"][0]["actions"][0] = 6;
+  EXPECT_THAT([&] { episodesFromJson(bad, "rxr.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("must be an action code 0..5, got 6")));
+}
+
 TEST(MetricsTest, EpisodesFileRoundTrips) {
   test::TempDir dir;
   std::vector<EpisodeResult> results;

@@ -5,6 +5,8 @@
 
 #include <cmath>
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "sim/NavMesh.h"
 #include "sim/SimTestScenes.h"
@@ -13,11 +15,11 @@
 namespace vln::sim {
 namespace {
 
-using ::testing::HasSubstr;
 using test::addBox;
 using test::kSlab;
 using test::kWall;
 using test::kWallTop;
+using ::testing::HasSubstr;
 
 // A walled 6 x 6 m room (x, z in [0, 6]) whose east half continues, past
 // x = 6, into a 4 m ramp rising 1 m (14 degrees) to a landing.
@@ -57,6 +59,24 @@ TEST(ActionTest, NamesAndCodesFollowTheDataset) {
     EXPECT_THAT(e.what(), HasSubstr("got 4"));
   }
   EXPECT_THROW(actionFromInt(-1), std::invalid_argument);
+}
+
+TEST(ActionTest, LookActionsFollowTheR2RActions) {
+  // Habitat's HabitatSimActions order: LOOK_UP = 4, LOOK_DOWN = 5
+  EXPECT_EQ(static_cast<int>(Action::kLookUp), 4);
+  EXPECT_EQ(static_cast<int>(Action::kLookDown), 5);
+  EXPECT_EQ(actionName(Action::kLookUp), "LOOK_UP");
+  EXPECT_EQ(actionName(Action::kLookDown), "LOOK_DOWN");
+  for (int code = 0; code < kNumLookActions; ++code)
+    EXPECT_EQ(static_cast<int>(actionFromInt(code, kNumLookActions)), code);
+  EXPECT_THAT([] { actionFromInt(6, kNumLookActions); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("must be in 0..5, got 6")));
+  // the R2R action space is the default and the smaller one
+  AgentConfig config;
+  EXPECT_EQ(numActions(config), kNumActions);
+  config.look_actions = true;
+  EXPECT_EQ(numActions(config), kNumLookActions);
 }
 
 // ---------------------------------------------------------------------------
@@ -254,6 +274,140 @@ TEST_F(AgentTest, SteppingAFinishedEpisodeIsABug) {
   EXPECT_DEATH(stepEpisode(navmesh(), AgentConfig{}, TaskConfig{}, episode,
                            Action::kMoveForward),
                "episode.done");
+}
+
+// ---------------------------------------------------------------------------
+// looking up and down (RxR's action space)
+// ---------------------------------------------------------------------------
+
+AgentConfig lookConfig() {
+  AgentConfig config;
+  config.look_actions = true;
+  config.tilt_angle = 30.0f;
+  return config;
+}
+
+TEST_F(AgentTest, LookActionsChangeOnlyThePitch) {
+  const AgentConfig config = lookConfig();
+  AgentState state = standing(3.0f, 3.0f, 0.7f);
+  const AgentState start = state;
+
+  StepResult r = applyAction(navmesh(), config, state, Action::kLookUp);
+  EXPECT_NEAR(state.pitch, degToRad(30.0f), 1e-6f);  // up is +
+  EXPECT_FALSE(r.collided);
+  EXPECT_EQ(r.distance, 0.0f);
+  EXPECT_EQ(state.position, start.position);
+  EXPECT_EQ(state.heading, start.heading);
+
+  applyAction(navmesh(), config, state, Action::kLookDown);
+  r = applyAction(navmesh(), config, state, Action::kLookDown);
+  EXPECT_NEAR(state.pitch, degToRad(-30.0f), 1e-6f);
+  EXPECT_FALSE(r.collided);
+  EXPECT_EQ(state.position, start.position);
+  EXPECT_EQ(state.heading, start.heading);
+
+  // the tilt is its own setting, not the turn angle
+  AgentConfig fine = config;
+  fine.tilt_angle = 10.0f;
+  AgentState level = start;
+  applyAction(navmesh(), fine, level, Action::kLookUp);
+  EXPECT_NEAR(level.pitch, degToRad(10.0f), 1e-6f);
+}
+
+TEST_F(AgentTest, LookActionsAreUnclampedAsHabitatsV1) {
+  // Habitat's v1 LOOK_UP has no actuation constraint: six looks up turn the
+  // camera upside down (180 degrees), a seventh to -150 degrees
+  const AgentConfig config = lookConfig();
+  AgentState state = standing(3.0f, 3.0f, 0.0f);
+  for (int i = 0; i < 6; ++i)
+    applyAction(navmesh(), config, state, Action::kLookUp);
+  EXPECT_NEAR(std::abs(state.pitch), kPi, 1e-5f);
+  applyAction(navmesh(), config, state, Action::kLookUp);
+  EXPECT_NEAR(state.pitch, degToRad(-150.0f), 1e-5f);
+  // seven looks down undo them: the pitch stays wrapped to (-pi, pi]
+  for (int i = 0; i < 7; ++i)
+    applyAction(navmesh(), config, state, Action::kLookDown);
+  EXPECT_NEAR(state.pitch, 0.0f, 1e-5f);
+  EXPECT_GT(state.pitch, -kPi);
+  EXPECT_LE(state.pitch, kPi);
+}
+
+TEST_F(AgentTest, LookActionsNeedTheRxrActionSpace) {
+  AgentState state = standing(3.0f, 3.0f, 0.0f);
+  for (Action action : {Action::kLookUp, Action::kLookDown})
+    EXPECT_THAT([&] { applyAction(navmesh(), AgentConfig{}, state, action); },
+                ::testing::ThrowsMessage<std::invalid_argument>(
+                    ::testing::AllOf(HasSubstr(std::string(actionName(action))),
+                                     HasSubstr("sim.agent.look_actions"))));
+  EXPECT_EQ(state.pitch, 0.0f);
+}
+
+TEST_F(AgentTest, APitchThatIsNotFiniteIsRefused) {
+  for (float pitch : {NAN, INFINITY}) {
+    AgentState state = standing(3.0f, 3.0f, 0.0f);
+    state.pitch = pitch;
+    EXPECT_THAT(
+        [&] { applyAction(navmesh(), lookConfig(), state, Action::kStop); },
+        ::testing::ThrowsMessage<std::invalid_argument>(
+            HasSubstr("camera pitch must be finite")));
+  }
+}
+
+TEST_F(AgentTest, ThePitchDoesNotSteerTheBody) {
+  // MOVE_FORWARD and the turns act on the body alone: a pitched camera
+  // moves and turns exactly as a level one and keeps its pitch
+  const AgentConfig config = lookConfig();
+  for (Action action :
+       {Action::kMoveForward, Action::kTurnLeft, Action::kTurnRight}) {
+    AgentState level = standing(3.0f, 3.0f, 0.3f);
+    AgentState pitched = level;
+    pitched.pitch = degToRad(-60.0f);
+    const StepResult a = applyAction(navmesh(), config, level, action);
+    const StepResult b = applyAction(navmesh(), config, pitched, action);
+    EXPECT_EQ(pitched.position, level.position);
+    EXPECT_EQ(pitched.heading, level.heading);
+    EXPECT_EQ(pitched.pitch, degToRad(-60.0f));
+    EXPECT_EQ(b.distance, a.distance);
+    EXPECT_EQ(b.collided, a.collided);
+  }
+}
+
+TEST_F(AgentTest, R2rActionsAreUnchangedByTheLookActions) {
+  // the same R2R action sequence, with and without the RxR action space,
+  // visits exactly the same states and never pitches the camera
+  const std::vector<Action> actions = {
+      Action::kMoveForward, Action::kTurnLeft,  Action::kMoveForward,
+      Action::kTurnRight,   Action::kTurnRight, Action::kMoveForward,
+      Action::kMoveForward, Action::kTurnLeft,  Action::kStop};
+  AgentState r2r = standing(1.0f, 1.0f, 0.0f);
+  AgentState rxr = r2r;
+  AgentConfig withLooks;
+  withLooks.look_actions = true;
+  for (Action action : actions) {
+    const StepResult a = applyAction(navmesh(), AgentConfig{}, r2r, action);
+    const StepResult b = applyAction(navmesh(), withLooks, rxr, action);
+    EXPECT_EQ(rxr, r2r);
+    EXPECT_EQ(r2r.pitch, 0.0f);
+    EXPECT_EQ(b.distance, a.distance);
+    EXPECT_EQ(b.collided, a.collided);
+  }
+}
+
+TEST_F(AgentTest, EpisodesCountLookActionsAsSteps) {
+  // a look is an action like any other: it counts toward
+  // max_episode_steps (VLN-CE's steps_taken) and never ends the episode
+  TaskConfig task;
+  task.max_episode_steps = 3;
+  EpisodeState episode;
+  episode.agent = standing(3.0f, 3.0f, 0.0f);
+  stepEpisode(navmesh(), lookConfig(), task, episode, Action::kLookDown);
+  stepEpisode(navmesh(), lookConfig(), task, episode, Action::kLookUp);
+  EXPECT_EQ(episode.steps, 2);
+  EXPECT_FALSE(episode.done);
+  EXPECT_FALSE(episode.called_stop);
+  stepEpisode(navmesh(), lookConfig(), task, episode, Action::kLookUp);
+  EXPECT_TRUE(episode.done);
+  EXPECT_FALSE(episode.called_stop);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <vector>
 
 #include "sim/SimTestScenes.h"
 #include "sim/SimTestSuites.h"
@@ -182,6 +183,102 @@ TEST(FollowerConfig, RejectsANonPositiveGoalRadius) {
   const auto nav = NavMesh::build(slab, NavMeshConfig{});
   EXPECT_THROW(ShortestPathFollower(*nav, AgentConfig{}, 0.0f),
                std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------
+// a pitched camera (RxR's action space)
+// ---------------------------------------------------------------------------
+
+AgentConfig lookConfig() {
+  AgentConfig config;
+  config.look_actions = true;
+  config.turn_angle = 30.0f;
+  config.tilt_angle = 30.0f;
+  return config;
+}
+
+TEST_F(FollowerTest, LevelsAPitchedCameraBeforeMoving) {
+  // goal 2 m ahead in open floor: forward once the camera is level
+  const ShortestPathFollower follower(navmesh(), lookConfig(), 0.5f);
+  const Vec3f goal = standing(1.0f, 1.0f, 0.0f).position;
+  auto actionAt = [&](float pitchDegrees) {
+    AgentState state = standing(1.0f, 3.0f, 0.0f);
+    state.pitch = degToRad(pitchDegrees);
+    return follower.nextAction(state, goal);
+  };
+  EXPECT_EQ(actionAt(0.0f), Action::kMoveForward);
+  EXPECT_EQ(actionAt(30.0f), Action::kLookDown);
+  EXPECT_EQ(actionAt(60.0f), Action::kLookDown);
+  EXPECT_EQ(actionAt(-30.0f), Action::kLookUp);
+  EXPECT_EQ(actionAt(-90.0f), Action::kLookUp);
+  // upside down (six looks up) either way round
+  EXPECT_EQ(actionAt(180.0f), Action::kLookDown);
+  // within half a tilt of level no look gets closer: it moves on
+  EXPECT_EQ(actionAt(14.0f), Action::kMoveForward);
+  EXPECT_EQ(actionAt(-14.0f), Action::kMoveForward);
+  // a turn waits for the level camera too
+  AgentState turned = standing(1.0f, 3.0f, degToRad(90.0f));
+  turned.pitch = degToRad(-30.0f);
+  EXPECT_EQ(follower.nextAction(turned, goal), Action::kLookUp);
+  turned.pitch = 0.0f;
+  EXPECT_EQ(follower.nextAction(turned, goal), Action::kTurnRight);
+}
+
+TEST_F(FollowerTest, StopsWithoutLevelling) {
+  // STOP needs no view: a pitched agent at the goal stops at once
+  const ShortestPathFollower follower(navmesh(), lookConfig(), 0.5f);
+  AgentState state = standing(1.0f, 1.0f, 0.0f);
+  state.pitch = degToRad(-60.0f);
+  EXPECT_EQ(follower.nextAction(state, state.position), Action::kStop);
+}
+
+TEST_F(FollowerTest, DrivesAPitchedAgentToTheGoal) {
+  // following the follower from a camera looking 60 degrees down: two
+  // LOOK_UPs first, then the level R2R route, never another look
+  const AgentConfig config = lookConfig();
+  const ShortestPathFollower follower(navmesh(), config, 0.5f);
+  const Vec3f goal = standing(10.0f, 2.0f, 0.0f).position;
+  AgentState level = standing(1.0f, 1.0f, 0.0f);
+  AgentState pitched = level;
+  pitched.pitch = degToRad(-60.0f);
+  std::vector<Action> levelActions;
+  std::vector<Action> pitchedActions;
+  for (int i = 0; i < 200; ++i) {
+    const Action a = follower.nextAction(level, goal);
+    levelActions.push_back(a);
+    if (a == Action::kStop) break;
+    applyAction(navmesh(), config, level, a);
+  }
+  for (int i = 0; i < 200; ++i) {
+    const Action a = follower.nextAction(pitched, goal);
+    pitchedActions.push_back(a);
+    if (a == Action::kStop) break;
+    applyAction(navmesh(), config, pitched, a);
+  }
+  ASSERT_EQ(levelActions.back(), Action::kStop);
+  ASSERT_GE(pitchedActions.size(), 2u);
+  EXPECT_EQ(pitchedActions[0], Action::kLookUp);
+  EXPECT_EQ(pitchedActions[1], Action::kLookUp);
+  EXPECT_EQ(
+      std::vector<Action>(pitchedActions.begin() + 2, pitchedActions.end()),
+      levelActions);
+  EXPECT_NEAR(pitched.pitch, 0.0f, 1e-5f);
+  EXPECT_EQ(pitched.position, level.position);
+}
+
+TEST_F(FollowerTest, WithoutLookActionsThePitchIsIgnored) {
+  // the R2R action space cannot level a camera, so it does not try
+  AgentConfig r2r = lookConfig();
+  r2r.look_actions = false;
+  const ShortestPathFollower follower(navmesh(), r2r, 0.5f);
+  AgentState state = standing(1.0f, 3.0f, 0.0f);
+  state.pitch = degToRad(-30.0f);
+  EXPECT_EQ(follower.nextAction(state, standing(1.0f, 1.0f, 0.0f).position),
+            Action::kMoveForward);
+  state.pitch = NAN;
+  EXPECT_THAT(
+      [&] { follower.nextAction(state, state.position); },
+      ThrowsMessage<std::invalid_argument>(HasSubstr("must be finite")));
 }
 
 }  // namespace

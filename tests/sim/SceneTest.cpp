@@ -15,14 +15,15 @@
 #include "sim/SceneFileFixtures.h"
 #include "sim/SimTestScenes.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 
 namespace vln::sim {
 namespace {
 
 namespace fs = std::filesystem;
-using ::testing::HasSubstr;
 using test::addBox;
 using test::roomWithTable;
+using ::testing::HasSubstr;
 
 // A bare 3 x 3 m slab: one island, clearly smaller than the room.
 TriangleMesh smallSlab() {
@@ -171,6 +172,37 @@ TEST_F(SceneLoadTest, RebuildsACacheBuiltForAnotherAgent) {
   EXPECT_EQ(scene->navmesh().config().agent_radius,
             NavMeshConfig{}.agent_radius);
   EXPECT_TRUE(isRoomNavmesh(scene->navmesh()));
+}
+
+TEST_F(SceneLoadTest, AnotherAgentsNavmeshGoesBesideTheCache) {
+  // RxR's 0.18 m agent on a scene cached for R2R's 0.1 m one: the cache is
+  // kept for R2R and RxR's navmesh built into its own file, so the two
+  // tasks do not rebuild each other's navmeshes
+  const auto r2r = Scene::load(sceneFile_, SimConfig{});
+  const std::string r2rBytes = test::readText(cacheFile_);
+  SimConfig rxr;
+  rxr.navmesh.agent_radius = 0.18f;
+  rxr.navmesh.agent_height = 0.88f;
+  const fs::path variant = navMeshVariantFile(sceneFile_, rxr.navmesh);
+  EXPECT_EQ(variant.filename(), "kitchen.glb.agent_r180_h880_c200.navmesh");
+  const auto first = Scene::load(sceneFile_, rxr);
+  EXPECT_EQ(first->navmesh().config().agent_radius, 0.18f);
+  EXPECT_EQ(test::readText(cacheFile_), r2rBytes);
+  ASSERT_TRUE(fs::exists(variant));
+  EXPECT_EQ(NavMesh::load(variant)->config().agent_radius, 0.18f);
+
+  // both are read back, not rebuilt: a variant holding another navmesh of
+  // the room for this agent (coarser voxels) proves it was read
+  NavMeshConfig coarse = rxr.navmesh;
+  coarse.cell_size = 0.1f;
+  const auto other = NavMesh::build(roomWithTable(), coarse);
+  ASSERT_NE(other->navigableArea(), first->navmesh().navigableArea());
+  other->save(variant);
+  setMtimeRelativeTo(variant, sceneFile_, std::chrono::seconds(10));
+  setMtimeRelativeTo(cacheFile_, sceneFile_, std::chrono::seconds(10));
+  EXPECT_EQ(Scene::load(sceneFile_, rxr)->navmesh().navigableArea(),
+            other->navigableArea());
+  EXPECT_TRUE(isRoomNavmesh(Scene::load(sceneFile_, SimConfig{})->navmesh()));
 }
 
 TEST_F(SceneLoadTest, RebuildsACorruptCache) {

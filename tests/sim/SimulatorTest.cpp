@@ -9,9 +9,11 @@
 
 #include <cmath>
 
+#include "common/Config.h"
 #include "sim/Mesh.h"
 #include "sim/SimTestScenes.h"
 #include "sim/SimTestSuites.h"
+#include "support/TestPaths.h"
 
 namespace vln::sim {
 namespace {
@@ -63,9 +65,12 @@ TEST_F(SimulatorTest, ResetRejectsStartsAwayFromNavigableSpace) {
   EXPECT_THROW(sim.reset({Vec3f(NAN, 0, 0), 0.0f}), std::invalid_argument);
   // a heading that is not finite, at an otherwise good start
   for (float heading : {NAN, -INFINITY})
-    EXPECT_THAT([&] { sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), heading}); },
-                ::testing::ThrowsMessage<std::invalid_argument>(
-                    HasSubstr("start must be finite")));
+    EXPECT_THAT(
+        [&] {
+          sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), heading});
+        },
+        ::testing::ThrowsMessage<std::invalid_argument>(
+            HasSubstr("start must be finite")));
   // far outside the scene: refused before the navmesh is asked
   EXPECT_THAT(
       [&] {
@@ -138,11 +143,13 @@ TEST_F(SimulatorTest, SeparateRgbAndDepthCameras) {
   auto renderer = createRenderer(scene_->mesh(), scene_->rayTracer(),
                                  RendererBackend::kEmbree);
   std::vector<float> depth(16 * 12);
-  renderer->renderDepth({feet + Vec3f(0, 1.5f, 0), 0.0f, 0.0f}, {16, 12, 60.0f}, depth);
+  renderer->renderDepth({feet + Vec3f(0, 1.5f, 0), 0.0f, 0.0f}, {16, 12, 60.0f},
+                        depth);
   postprocessDepth(config.depth, depth);
   EXPECT_EQ(obs.depth, depth);
   std::vector<uint8_t> rgb(40 * 30 * 3);
-  renderer->renderRgb({feet + Vec3f(0, 1.0f, 0), 0.0f, 0.0f}, {40, 30, 90.0f}, rgb);
+  renderer->renderRgb({feet + Vec3f(0, 1.0f, 0), 0.0f, 0.0f}, {40, 30, 90.0f},
+                      rgb);
   EXPECT_EQ(obs.rgb, rgb);
 }
 
@@ -245,7 +252,215 @@ TEST_F(SimulatorTest, RejectsBadConfig) {
   config.depth.min_depth = 5.0f;
   config.depth.max_depth = 2.0f;
   EXPECT_THROW(Simulator(scene_, config, TaskConfig{}), std::invalid_argument);
-  EXPECT_THROW(Simulator(nullptr, smallConfig(), TaskConfig{}), std::invalid_argument);
+  EXPECT_THROW(Simulator(nullptr, smallConfig(), TaskConfig{}),
+               std::invalid_argument);
+}
+
+// ---------------------------------------------------------------------------
+// a pitched camera (RxR's action space)
+// ---------------------------------------------------------------------------
+
+// RxR-Habitat's camera height and look actions on an odd-sized image, whose
+// middle pixel (16, 16) lies on the optical axis; raw depth in metres.
+SimConfig lookConfig(RendererBackend backend) {
+  SimConfig config;
+  config.rgb = {33, 33, 90.0f, 0.88f};
+  config.depth.camera = config.rgb;
+  config.depth.normalize_depth = false;
+  config.depth.max_depth = 10.0f;
+  config.agent.look_actions = true;
+  config.agent.tilt_angle = 30.0f;
+  config.renderer = backend;
+  return config;
+}
+
+TEST_F(SimulatorTest, PitchedCameraSeesFloorAndCeilingAtHandComputedDepths) {
+  for (RendererBackend backend :
+       {RendererBackend::kEmbree, RendererBackend::kOsMesa}) {
+    SCOPED_TRACE(backend == RendererBackend::kEmbree ? "embree" : "osmesa");
+    const CameraIntrinsics camera{33, 33, 90.0f};
+    Simulator sim(scene_, lookConfig(backend), TaskConfig{});
+    // facing -Z from z = 1: level, the wall at z = -3 is 4 m ahead
+    sim.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+    // the eye is 0.88 m above the navmesh, which may lie up to a voxel
+    // above the floor (y = 0)
+    const float eyeY = sim.episode().agent.position.y() + 0.88f;
+    Observation obs;
+    sim.observe(obs);
+    EXPECT_NEAR(obs.depth[16 * 33 + 16], 4.0f, 0.01f);
+
+    // LOOK_DOWN 30 degrees: the optical axis meets the floor eyeY /
+    // sin(30) = 2 eyeY away (1.52 m ahead, clear of the cube and walls),
+    // and that distance is the z-depth of the middle pixel
+    sim.step(Action::kLookDown);
+    EXPECT_NEAR(sim.episode().agent.pitch, degToRad(-30.0f), 1e-6f);
+    sim.observe(obs);
+    EXPECT_NEAR(obs.depth[16 * 33 + 16], 2.0f * eyeY, 0.01f);
+    // off the axis the depth stays the distance along the optical axis
+    // (Habitat's depth sensor), not the ray's length: the camera-frame ray
+    // (0, y, -1) of row 28 points along (0, cos30 y - sin30, ...) in the
+    // world (Rx(-30 deg)), so it reaches the floor at z-depth eyeY / -that
+    const float y = pixelDirection(camera, 16.0f, 28.0f).y();
+    const float down = std::cos(degToRad(30.0f)) * y - 0.5f;
+    EXPECT_NEAR(obs.depth[28 * 33 + 16], eyeY / -down, 0.01f);
+    // the ray itself is longer by |(0, y, -1)|: not what is reported
+    EXPECT_GT(eyeY / -down * std::sqrt(1.0f + y * y) - obs.depth[28 * 33 + 16],
+              0.05f);
+
+    // LOOK_UP twice: 30 degrees up, the ceiling (y = 2.7) is
+    // (2.7 - eyeY) / sin(30) away along the axis (3.15 m ahead, short of
+    // the wall at 4 m)
+    sim.step(Action::kLookUp);
+    sim.step(Action::kLookUp);
+    EXPECT_NEAR(sim.episode().agent.pitch, degToRad(30.0f), 1e-6f);
+    sim.observe(obs);
+    EXPECT_NEAR(obs.depth[16 * 33 + 16], 2.0f * (2.7f - eyeY), 0.01f);
+    // the looks moved nothing but the camera
+    EXPECT_EQ(sim.episode().agent.heading, 0.0f);
+    EXPECT_EQ(sim.episode().steps, 3);
+  }
+}
+
+TEST_F(SimulatorTest, PitchedObservationIsTheRendererAtThatPitch) {
+  // Simulator hands the agent's pitch to the renderer unchanged
+  SimConfig config = lookConfig(RendererBackend::kEmbree);
+  Simulator sim(scene_, config, TaskConfig{});
+  sim.reset({Vec3f(-1.5f, 0.0f, 1.5f), 0.9f});
+  sim.step(Action::kLookDown);
+  Observation obs;
+  sim.observe(obs);
+  auto renderer = createRenderer(scene_->mesh(), scene_->rayTracer(),
+                                 RendererBackend::kEmbree);
+  const AgentState& agent = sim.episode().agent;
+  const CameraPose pose{agent.position + Vec3f(0, 0.88f, 0), 0.9f,
+                        degToRad(-30.0f)};
+  std::vector<uint8_t> rgb(33 * 33 * 3);
+  std::vector<float> depth(33 * 33);
+  renderer->renderRgbDepth(pose, {33, 33, 90.0f}, rgb, depth);
+  postprocessDepth(config.depth, depth);
+  EXPECT_EQ(obs.rgb, rgb);
+  EXPECT_EQ(obs.depth, depth);
+}
+
+TEST_F(SimulatorTest, ResetRestoresAPitchedStateExactly) {
+  // a state taken mid-episode (resume, dumps) and given to reset() again
+  // gives the same state and the same view
+  const SimConfig config = lookConfig(RendererBackend::kEmbree);
+  Simulator first(scene_, config, TaskConfig{});
+  first.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.3f});
+  for (Action a : {Action::kMoveForward, Action::kLookDown, Action::kTurnLeft,
+                   Action::kLookDown, Action::kMoveForward})
+    first.step(a);
+  const AgentState saved = first.episode().agent;
+  EXPECT_NEAR(saved.pitch, degToRad(-60.0f), 1e-6f);
+
+  Simulator second(scene_, config, TaskConfig{});
+  second.reset(saved);
+  EXPECT_EQ(second.episode().agent, saved);
+  Observation a;
+  Observation b;
+  first.observe(a);
+  second.observe(b);
+  EXPECT_EQ(a.rgb, b.rgb);
+  EXPECT_EQ(a.depth, b.depth);
+
+  // a dataset start (no pitch given) is level; a pitch that is not finite
+  // is refused, and one beyond pi is wrapped
+  second.reset({saved.position, saved.heading});
+  EXPECT_EQ(second.episode().agent.pitch, 0.0f);
+  EXPECT_THAT(
+      [&] {
+        second.reset({saved.position, 0.0f, NAN});
+      },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("pitch nan")));
+  second.reset({saved.position, 0.0f, degToRad(210.0f)});
+  EXPECT_NEAR(second.episode().agent.pitch, degToRad(-150.0f), 1e-5f);
+}
+
+TEST_F(SimulatorTest, R2rEpisodesAreUnchangedByTheLookActions) {
+  // the R2R actions give the same states and images whether or not the
+  // RxR action space is enabled
+  SimConfig r2r = smallConfig();
+  SimConfig rxr = r2r;
+  rxr.agent.look_actions = true;
+  Simulator a(scene_, r2r, TaskConfig{});
+  Simulator b(scene_, rxr, TaskConfig{});
+  a.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.2f});
+  b.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.2f});
+  Observation oa;
+  Observation ob;
+  for (Action action : {Action::kMoveForward, Action::kTurnRight,
+                        Action::kMoveForward, Action::kTurnLeft}) {
+    a.step(action);
+    b.step(action);
+    EXPECT_EQ(a.episode().agent, b.episode().agent);
+    a.observe(oa);
+    b.observe(ob);
+    EXPECT_EQ(oa.rgb, ob.rgb);
+    EXPECT_EQ(oa.depth, ob.depth);
+  }
+  // and the R2R simulator refuses the looks
+  EXPECT_THAT([&] { a.step(Action::kLookUp); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("look_actions")));
+}
+
+TEST(RxrTaskConfigTest, HoldsRxrHabitatsSettingsAndRuns) {
+  // configs/rxr/task.yaml: VLN-CE's rxr_vlnce_english_task.yaml settings
+  SimConfig sim;
+  TaskConfig task;
+  const auto file = test::sourcePath() / "configs" / "rxr" / "task.yaml";
+  common::readConfigFileSection(file, "sim", {}, [&](common::ConfigVisitor& v) {
+    v.section("sim", sim, "Simulator");
+  });
+  common::readConfigFileSection(
+      file, "task", {},
+      [&](common::ConfigVisitor& v) { v.section("task", task, "Task"); });
+  EXPECT_EQ(sim.agent.forward_step_size, 0.25f);
+  EXPECT_EQ(sim.agent.turn_angle, 30.0f);
+  EXPECT_FALSE(sim.agent.allow_sliding);
+  EXPECT_TRUE(sim.agent.look_actions);
+  EXPECT_EQ(sim.agent.tilt_angle, 30.0f);
+  EXPECT_EQ(numActions(sim.agent), 6);
+  EXPECT_EQ(sim.navmesh.agent_radius, 0.18f);
+  EXPECT_EQ(sim.navmesh.agent_height, 0.88f);
+  for (const CameraConfig& camera : {sim.rgb, sim.depth.camera})
+    EXPECT_EQ(camera, (CameraConfig{640, 480, 79.0f, 0.88f}));
+  EXPECT_EQ(sim.depth.min_depth, 0.5f);
+  EXPECT_EQ(sim.depth.max_depth, 5.0f);
+  EXPECT_TRUE(sim.depth.normalize_depth);
+  EXPECT_EQ(task.max_episode_steps, 500);
+  EXPECT_EQ(task.success_distance, 3.0f);
+  // the rest stays R2R's
+  const SimConfig r2r;
+  SimConfig rest = sim;
+  rest.agent = r2r.agent;
+  rest.navmesh = r2r.navmesh;
+  rest.rgb = r2r.rgb;
+  rest.depth = r2r.depth;
+  EXPECT_EQ(rest, r2r);
+
+  // an episode on a room whose navmesh is built for RxR's agent: the six
+  // actions, 640x480 images, in one rendering pass
+  const auto scene =
+      Scene::fromMesh("rxr-room", test::roomWithCube("rxr-room", true)->mesh(),
+                      {}, sim.navmesh);
+  Simulator simulator(scene, sim, task);
+  simulator.reset({Vec3f(-1.0f, 0.0f, 1.0f), 0.0f});
+  Observation obs;
+  for (Action a : {Action::kLookDown, Action::kMoveForward, Action::kTurnLeft,
+                   Action::kLookUp, Action::kTurnRight, Action::kStop}) {
+    simulator.step(a);
+    simulator.observe(obs);
+  }
+  EXPECT_TRUE(simulator.episode().called_stop);
+  EXPECT_EQ(simulator.episode().steps, 6);
+  EXPECT_EQ(simulator.episode().agent.pitch, 0.0f);
+  EXPECT_EQ(obs.rgb.size(), 640u * 480u * 3u);
+  EXPECT_EQ(obs.depth.size(), 640u * 480u);
+  // level again and facing the wall at z = -3 from z = 0.75 (one 0.25 m
+  // step): z-depth 3.75 m everywhere on it, normalised from [0.5, 5] m
+  EXPECT_NEAR(obs.depth[240 * 640 + 320], (3.75f - 0.5f) / 4.5f, 0.01f);
 }
 
 }  // namespace
