@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cmath>
 #include <map>
 #include <utility>
 
@@ -65,7 +66,7 @@ const std::map<std::string, std::string>& indianWords() {
       {"couch", "sofa"},        {"closet", "cupboard"},
       {"hallway", "passage"},   {"corridor", "passage"},
       {"walk", "move"},         {"go", "proceed"},
-      {"wait", "stay"},
+
       {"rug", "carpet"},        {"fridge", "refrigerator"},
   };
   return kWords;
@@ -153,8 +154,10 @@ std::vector<data::TimedWord> timeInstruction(
     const WordSpan& w = words[static_cast<size_t>(k)];
     const double s = start[static_cast<size_t>(k)];
     const double next = start[static_cast<size_t>(k) + 1];
-    timed.push_back({text.substr(w.begin, w.end - w.begin), s,
-                     s + 0.85 * (next - s)});
+    // milliseconds, as RxR's timestamps are; rounding keeps the order
+    const auto ms = [](double t) { return std::round(t * 1000.0) / 1000.0; };
+    timed.push_back({text.substr(w.begin, w.end - w.begin), ms(s),
+                     ms(s + 0.85 * (next - s))});
   }
   return timed;
 }
