@@ -74,8 +74,8 @@ const std::map<std::string, std::string>& indianWords() {
 
 std::string lower(std::string_view s) {
   std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::tolower(
-                          static_cast<unsigned char>(c)));
+  for (char& c : out)
+    c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return out;
 }
 
@@ -120,8 +120,9 @@ std::vector<data::TimedWord> timeInstruction(
       at = text.find(m.phrase, at + 1);
     if (at == std::string::npos) continue;
     used[at] = true;
-    const auto word = std::find_if(words.begin(), words.end(),
-                                   [&](const WordSpan& w) { return w.end > at; });
+    const auto word =
+        std::find_if(words.begin(), words.end(),
+                     [&](const WordSpan& w) { return w.end > at; });
     const int index = static_cast<int>(word - words.begin());
     if (index <= 0 || index >= n) continue;
     anchors.emplace(index, std::clamp(anchorTime(m, times), 0.0, duration));

@@ -39,9 +39,9 @@ WalkTimes walkTimes(const std::vector<Vec3f>& waypoints, double speed,
 
 /// The words of `instruction.text` (split at white space, punctuation around
 /// a word dropped) with start and end times in [0, times.duration()]:
-/// non-decreasing, start <= end <= next start, in whole milliseconds. Landmark phrases of
-/// `instruction.landmarks` found in the text anchor their first word at the
-/// time of the part of the path they describe (file comment).
+/// non-decreasing, start <= end <= next start, in whole milliseconds. Landmark
+/// phrases of `instruction.landmarks` found in the text anchor their first word
+/// at the time of the part of the path they describe (file comment).
 std::vector<data::TimedWord> timeInstruction(
     const GeneratedInstruction& instruction, const WalkTimes& times);
 

@@ -44,9 +44,8 @@ std::optional<GraphPath> sampleRxrWalk(const data::NavGraph& graph,
       options.push_back(next);
     }
     if (options.empty()) return std::nullopt;
-    const int next =
-        options[static_cast<size_t>(common::uniformIndex(
-            rng, static_cast<int>(options.size())))];
+    const int next = options[static_cast<size_t>(
+        common::uniformIndex(rng, static_cast<int>(options.size())))];
     visited[static_cast<size_t>(next)] = true;
     path.push_back(next);
   }

@@ -97,8 +97,8 @@ struct RxrInstructionConfig {
     v.field("node_pause", node_pause,
             "Time spent looking around at each intermediate node (s)",
             common::inRange(0.0, 60.0));
-    v.field("annotators", annotators,
-            "Distinct annotator ids drawn from", common::inRange(1, 1000000));
+    v.field("annotators", annotators, "Distinct annotator ids drawn from",
+            common::inRange(1, 1000000));
   }
   bool operator==(const RxrInstructionConfig&) const = default;
 };

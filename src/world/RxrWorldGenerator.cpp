@@ -131,9 +131,8 @@ std::vector<Annotation> annotate(const RxrWorldConfig& config,
         m.phrase = toIndianEnglish(m.phrase);
     }
     a.annotator = std::to_string(common::uniformIndex(rng, c.annotators));
-    const WalkTimes times =
-        walkTimes(walk.waypoints, guide ? c.guide_speed : c.follower_speed,
-                  c.node_pause);
+    const WalkTimes times = walkTimes(
+        walk.waypoints, guide ? c.guide_speed : c.follower_speed, c.node_pause);
     a.timed = timeInstruction(g, times);
     a.duration = times.duration();
     a.text = std::move(g.text);
@@ -158,9 +157,9 @@ HouseResult processHouse(const RxrWorldConfig& config,
     sim::saveScene(sceneFile, captured.house.mesh, captured.house.semantics);
 
   // the RxR agent's navmesh, where the simulator looks for it
-  const auto scene = sim::Scene::fromMesh(
-      result.name, std::move(captured.house.mesh),
-      std::move(captured.house.semantics), config.navmesh);
+  const auto scene =
+      sim::Scene::fromMesh(result.name, std::move(captured.house.mesh),
+                           std::move(captured.house.semantics), config.navmesh);
   const sim::NavMesh& navmesh = scene->navmesh();
   navmesh.save(sim::navMeshVariantFile(sceneFile, config.navmesh));
   fs::path cacheFile = sceneFile;
@@ -189,9 +188,8 @@ HouseResult processHouse(const RxrWorldConfig& config,
                                        config.world.instructions);
   std::set<GraphPath> seen;
   for (int k = 0; k < attempts && wanted > 0; ++k) {
-    const uint64_t walkSeed =
-        common::deriveSeed(common::deriveSeed(seed, kWalkStream),
-                           static_cast<uint64_t>(k));
+    const uint64_t walkSeed = common::deriveSeed(
+        common::deriveSeed(seed, kWalkStream), static_cast<uint64_t>(k));
     ++result.walks_drawn;
     std::optional<GraphPath> path =
         sampleRxrWalk(graph, config.trajectories, walkSeed);
@@ -447,8 +445,8 @@ RxrWorldSummary generateRxrWorld(const RxrWorldConfig& config,
   // stage every output, then move it into place
   std::error_code ec;
   fs::create_directories(output.out, ec);
-  VLN_CHECK_IO(!ec, "generateRxrWorld(): cannot create '",
-               output.out.string(), "': ", ec.message());
+  VLN_CHECK_IO(!ec, "generateRxrWorld(): cannot create '", output.out.string(),
+               "': ", ec.message());
   const std::string tag = strCat(".generate-rxr-", ::getpid());
   const fs::path staging = output.out / (tag + ".staging");
   const fs::path trash = output.out / (tag + ".old");
@@ -486,11 +484,10 @@ RxrWorldSummary generateRxrWorld(const RxrWorldConfig& config,
       const Sums& s = sums[split];
       *log << "  " << split << ": " << s.walks << " walks, "
            << summary.episodes[split][kGuide] << " guide + "
-           << summary.episodes[split][kFollower]
-           << " follower episodes, mean " << mean(s.length, s.walks)
-           << " m along the graph, " << mean(s.nodes, s.walks) << " nodes, "
-           << mean(s.rooms, s.walks) << " rooms, "
-           << mean(s.words, s.instructions) << " words\n";
+           << summary.episodes[split][kFollower] << " follower episodes, mean "
+           << mean(s.length, s.walks) << " m along the graph, "
+           << mean(s.nodes, s.walks) << " nodes, " << mean(s.rooms, s.walks)
+           << " rooms, " << mean(s.words, s.instructions) << " words\n";
     }
     *log << "  R2R shortest-path candidates in the same houses: mean "
          << r2rMean << " m (RxR walks / R2R = "

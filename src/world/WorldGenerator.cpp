@@ -146,8 +146,7 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
   result.transfer.addNodes(transferred, config.transfer);
   for (size_t i = 0; i < transferred.size(); ++i)
     result.placementTransfer[nodePlacementName(captured.built.placement[i])]
-        .addNodes(
-        {transferred[i]}, config.transfer);
+        .addNodes({transferred[i]}, config.transfer);
 
   // R2R-like trajectories in a seeded order; the navigable ones fill the
   // splits of this house, each taking the next one while it is the least
@@ -254,16 +253,15 @@ WorldHouse buildWorldHouse(const WorldConfig& config, int index) {
   result.house = generateHouse(result.seed, config.house, result.name);
   {
     const sim::RayTracer tracer(result.house.mesh);
-    result.built = buildNavGraph(result.house.semantics, tracer,
-                                 config.nav_graph,
-                                 common::deriveSeed(result.seed, kGraphStream));
+    result.built =
+        buildNavGraph(result.house.semantics, tracer, config.nav_graph,
+                      common::deriveSeed(result.seed, kGraphStream));
   }
 
   // the reconstruction differs a little, and is what agents move in
-  result.differences =
-      applyCaptureDifferences(result.house, result.built, config,
-                              common::deriveSeed(result.seed,
-                                                 kReconstructionStream));
+  result.differences = applyCaptureDifferences(
+      result.house, result.built, config,
+      common::deriveSeed(result.seed, kReconstructionStream));
   return result;
 }
 

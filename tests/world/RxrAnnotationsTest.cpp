@@ -9,8 +9,7 @@ namespace {
 
 TEST(RxrAnnotationsTest, WalkTimesAddLegsAtTheSpeedAndPausesAtNodes) {
   // legs of 2 m and 4 m at 0.5 m/s, 1 s pauses at the start and the middle
-  const std::vector<Vec3f> waypoints = {
-      {0, 0, 0}, {2, 0, 0}, {2, 0, -4}};
+  const std::vector<Vec3f> waypoints = {{0, 0, 0}, {2, 0, 0}, {2, 0, -4}};
   const WalkTimes t = walkTimes(waypoints, /*speed=*/0.5, /*pause=*/1.0);
   ASSERT_EQ(t.arrival.size(), 3u);
   EXPECT_DOUBLE_EQ(t.arrival[1], 1.0 + 4.0);
@@ -52,8 +51,10 @@ TEST(RxrAnnotationsTest, AnchorsOutOfOrderNeverMakeTimeGoBack) {
   const std::vector<Vec3f> waypoints = {{0, 0, 0}, {4, 0, 0}, {8, 0, 0}};
   GeneratedInstruction g;
   g.text = "Stop near the lamp after you pass the table.";
-  g.landmarks.push_back({.role = LandmarkRole::kStop, .phrase = "lamp", .leg = 2});
-  g.landmarks.push_back({.role = LandmarkRole::kPass, .phrase = "table", .leg = 0});
+  g.landmarks.push_back(
+      {.role = LandmarkRole::kStop, .phrase = "lamp", .leg = 2});
+  g.landmarks.push_back(
+      {.role = LandmarkRole::kPass, .phrase = "table", .leg = 0});
   const auto words = timeInstruction(g, walkTimes(waypoints, 1.0, 0.0));
   double previous = 0.0;
   for (const data::TimedWord& w : words) {

@@ -137,15 +137,16 @@ TEST_F(RxrWorldGeneratorTest, WritesTheRxrLayoutThatRoundTrips) {
       const data::GroundTruth truth =
           data::readRxrGroundTruth(rxrRoot(), split, {"guide", "follower"});
       EXPECT_EQ(truth.size(), both.size());
-      for (const data::Episode& e : both) EXPECT_EQ(truth.count(e.episode_id), 1u);
+      for (const data::Episode& e : both)
+        EXPECT_EQ(truth.count(e.episode_id), 1u);
     }
   }
   // test_challenge's goals and ground truth are hidden
   for (const char* role : {"guide", "follower"}) {
     EXPECT_TRUE(fs::exists(
         data::rxrEpisodesPath(rxrRoot() / "hidden", "test_challenge", role)));
-    EXPECT_TRUE(fs::exists(data::rxrGroundTruthPath(
-        rxrRoot() / "hidden", "test_challenge", role)));
+    EXPECT_TRUE(fs::exists(data::rxrGroundTruthPath(rxrRoot() / "hidden",
+                                                    "test_challenge", role)));
   }
   // the language filter sees both languages
   data::RxrFilterConfig enIn = allRoles();
@@ -220,10 +221,10 @@ TEST_F(RxrWorldGeneratorTest, TimingsAreMonotonicAndInsideTheWalk) {
       for (const data::Episode& e :
            data::readRxrEpisodes(rxrRoot(), split, filter)) {
         const double duration =
-            walkTimes(e.reference_path,
-                      std::string(role) == "guide" ? c.guide_speed
-                                                   : c.follower_speed,
-                      c.node_pause)
+            walkTimes(
+                e.reference_path,
+                std::string(role) == "guide" ? c.guide_speed : c.follower_speed,
+                c.node_pause)
                 .duration();
         const auto& words = e.instruction.timed_instruction;
         double previous = 0.0;
@@ -313,9 +314,10 @@ TEST_F(RxrWorldGeneratorTest, SameSeedGivesByteIdenticalFiles) {
   other.splits.val_unseen_per_house = 0;
   other.splits.test_challenge_per_house = 0;
   generateRxrWorld(other, {again.path() / "other", scenes(), 2});
-  EXPECT_NE(common::readFile(data::rxrEpisodesPath(rxrRoot(), "train", "guide")),
-            common::readFile(
-                data::rxrEpisodesPath(again.path() / "other", "train", "guide")));
+  EXPECT_NE(
+      common::readFile(data::rxrEpisodesPath(rxrRoot(), "train", "guide")),
+      common::readFile(
+          data::rxrEpisodesPath(again.path() / "other", "train", "guide")));
 }
 
 TEST_F(RxrWorldGeneratorTest, ReportsTheComparisonWithR2R) {
@@ -343,10 +345,9 @@ TEST(RxrWorldConfigTest, GenerateCommandWritesTheRxrSplit) {
   options.config = kConfigs / "world" / "rxr.yaml";
   options.houses = 3;
   // tiny.yaml's houses and the fixture's quotas
-  options.overrides = {"splits.train_per_house=8",
-                       "splits.val_seen_per_house=2",
-                       "splits.val_unseen_per_house=4",
-                       "splits.test_challenge_per_house=3"};
+  options.overrides = {
+      "splits.train_per_house=8", "splits.val_seen_per_house=2",
+      "splits.val_unseen_per_house=4", "splits.test_challenge_per_house=3"};
   std::ostringstream out;
   ASSERT_EQ(runGenerateCommand(options, out), 0);
   EXPECT_THAT(out.str(), ::testing::HasSubstr("RxR split of 3 houses"));
