@@ -73,6 +73,7 @@ struct Walk {
   float geodesic = 0.0f;
   double graph_length = 0.0;  // along nav-graph edges, metres
   int rooms = 0;              // rooms the ground truth passes through
+  int node_rooms = 0;         // rooms of its waypoints
   data::GroundTruthPath ground_truth;
   std::vector<Annotation> annotations;
 };
@@ -88,7 +89,8 @@ struct HouseResult {
   // length comparison
   int r2r_candidates = 0;
   double r2r_candidate_length = 0.0;
-  std::vector<Walk> walks;  // in acceptance order
+  double r2r_candidate_rooms = 0.0;  // rooms of the valid waypoints
+  std::vector<Walk> walks;           // in acceptance order
 };
 
 std::vector<std::pair<std::string, int>> quotas(const RxrWorldConfig& config,
@@ -173,8 +175,14 @@ HouseResult processHouse(const RxrWorldConfig& config,
   result.transfer.addNodes(transferred, config.world.transfer);
   const TrajectorySampler r2r(graph, config.world.trajectories);
   result.r2r_candidates = r2r.size();
-  for (const GraphPath& path : r2r.candidates())
+  for (const GraphPath& path : r2r.candidates()) {
     result.r2r_candidate_length += pathLength(graph, path);
+    std::vector<Vec3f> points;
+    for (const int node : path)
+      if (transferred[static_cast<size_t>(node)].valid)
+        points.push_back(transferred[static_cast<size_t>(node)].waypoint);
+    result.r2r_candidate_rooms += roomsVisited(scene->semantics(), points);
+  }
 
   // walks fill the splits of this house, each taking the next navigable
   // walk while it is the least filled relative to its quota
@@ -234,6 +242,7 @@ HouseResult processHouse(const RxrWorldConfig& config,
     walk.graph_length = pathLength(graph, *path);
     walk.ground_truth = std::move(checked.ground_truth);
     walk.rooms = roomsVisited(scene->semantics(), walk.ground_truth.locations);
+    walk.node_rooms = roomsVisited(scene->semantics(), walk.waypoints);
     walk.annotations = annotate(config, generator, walk, walkSeed);
     result.walks.push_back(std::move(walk));
   }
@@ -385,12 +394,14 @@ RxrWorldSummary generateRxrWorld(const RxrWorldConfig& config,
   RxrWorldSummary summary;
   data::TransferStats transfer;
   int64_t r2rCandidates = 0, walksDrawn = 0;
-  double r2rLength = 0.0;
+  double r2rLength = 0.0, r2rRooms = 0.0, nodeRooms = 0.0;
   nlohmann::json perHouse = nlohmann::json::object();
   for (const auto& house : houses) {
     transfer.merge(house->transfer);
     r2rCandidates += house->r2r_candidates;
     r2rLength += house->r2r_candidate_length;
+    r2rRooms += house->r2r_candidate_rooms;
+    for (const Walk& w : house->walks) nodeRooms += w.node_rooms;
     walksDrawn += house->walks_drawn;
     nlohmann::json splits = nlohmann::json::object();
     for (const Walk& w : house->walks)
@@ -436,6 +447,8 @@ RxrWorldSummary generateRxrWorld(const RxrWorldConfig& config,
        {{"r2r_candidates", r2rCandidates},
         {"r2r_mean_candidate_graph_length", r2rMean},
         {"rxr_mean_graph_path_length", mean(allLength, allWalks)},
+        {"r2r_mean_candidate_rooms_at_nodes", mean(r2rRooms, r2rCandidates)},
+        {"rxr_mean_rooms_at_nodes", mean(nodeRooms, allWalks)},
         {"length_ratio",
          r2rMean > 0.0 ? mean(allLength, allWalks) / r2rMean : 0.0}}},
       {"per_house", perHouse},
@@ -492,7 +505,8 @@ RxrWorldSummary generateRxrWorld(const RxrWorldConfig& config,
     *log << "  R2R shortest-path candidates in the same houses: mean "
          << r2rMean << " m (RxR walks / R2R = "
          << summary.stats["r2r_comparison"]["length_ratio"].get<double>()
-         << ")\n"
+         << "); rooms at the nodes: R2R " << mean(r2rRooms, r2rCandidates)
+         << ", RxR " << mean(nodeRooms, allWalks) << "\n"
          << transfer.report();
   }
   return summary;

@@ -326,6 +326,9 @@ TEST_F(RxrWorldGeneratorTest, ReportsTheComparisonWithR2R) {
       common::readJsonFile(rxrRoot() / "generation_stats.json");
   EXPECT_GT(stats["r2r_comparison"]["length_ratio"].get<double>(), 1.5);
   EXPECT_GT(stats["splits"]["train"]["mean_rooms_visited"].get<double>(), 1.0);
+  EXPECT_GT(stats["r2r_comparison"]["rxr_mean_rooms_at_nodes"].get<double>(),
+            stats["r2r_comparison"]["r2r_mean_candidate_rooms_at_nodes"]
+                .get<double>());
 }
 
 TEST(RxrWorldConfigTest, RxrYamlMirrorsTheCode) {
