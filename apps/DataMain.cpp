@@ -139,7 +139,8 @@ Subcommand addGenerate(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "generate",
       "Generate the procedural world: houses, nav-graphs, transferred "
-      "trajectories, instructions and R2R splits");
+      "trajectories, instructions and R2R splits; with an RxR config "
+      "(configs/world/rxr.yaml) the RxR_VLNCE_v0 split of its houses");
   command->add_option("--out", options->out, "Dataset root to write")
       ->required();
   command->add_option("--config", options->config, "World config YAML")

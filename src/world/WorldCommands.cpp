@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <random>
 
 #include "common/Check.h"
@@ -13,6 +14,7 @@
 #include "data/NodeTransfer.h"
 #include "sim/Scene.h"
 #include "sim/SimConfig.h"
+#include "world/RxrWorldGenerator.h"
 #include "world/TrajectorySampler.h"
 #include "world/WorldGenerator.h"
 
@@ -41,11 +43,44 @@ WorldConfig loadWorldConfig(const GenerateCommandOptions& options) {
   return config;
 }
 
+bool isRxrWorldConfigFile(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  VLN_CHECK_IO(in.good(), "isRxrWorldConfigFile(): cannot read '",
+               file.string(), "'");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("world:", 0) == 0) return true;
+  return false;
+}
+
+RxrWorldConfig loadRxrWorldConfig(const GenerateCommandOptions& options) {
+  RxrWorldConfig config =
+      common::loadConfigFile<RxrWorldConfig>(options.config, options.overrides);
+  if (options.houses) config.world.houses = *options.houses;
+  if (options.seed) config.seed = config.world.seed = *options.seed;
+  RxrWorldConfig checked = config;
+  common::checkConfig([&](common::ConfigVisitor& v) { checked.visit(v); },
+                      options.config.string());
+  config.validate();
+  return config;
+}
+
 int runGenerateCommand(const GenerateCommandOptions& options,
                        std::ostream& out) {
   VLN_CHECK_ARG(options.threads >= 1,
                 "vlnce-data generate: --threads must be >= 1, got ",
                 options.threads);
+  if (!options.config.empty() && isRxrWorldConfigFile(options.config)) {
+    const RxrWorldConfig config = loadRxrWorldConfig(options);
+    const common::Stopwatch clock;
+    WorldOutput output{options.out, options.scenes_dir, options.threads};
+    generateRxrWorld(config, output, &out);
+    out << "wrote " << options.out.string() << " and the RxR agent's navmeshes "
+        << "beside the scenes under "
+        << (options.scenes_dir / config.world.scene_prefix).string() << " in "
+        << std::lround(clock.seconds()) << " s\n";
+    return 0;
+  }
   const WorldConfig config = loadWorldConfig(options);
   const common::Stopwatch clock;
   WorldOutput output{options.out, options.scenes_dir, options.threads};

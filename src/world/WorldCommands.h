@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "world/RxrWorldConfig.h"
 #include "world/WorldConfig.h"
 
 namespace vln::world {
@@ -31,7 +32,16 @@ struct GenerateCommandOptions {
 /// validated.
 WorldConfig loadWorldConfig(const GenerateCommandOptions& options);
 
-/// Generates the procedural world (see WorldGenerator.h) and prints what it
+/// True when `file` is an RxR split config (RxrWorldConfig.h): a YAML file
+/// with a top-level `world:` key, which a WorldConfig never has.
+bool isRxrWorldConfigFile(const std::filesystem::path& file);
+
+/// Loads the RxR split config of `options` (file, overrides; --houses sets
+/// world.houses, --seed both seed and world.seed), validated.
+RxrWorldConfig loadRxrWorldConfig(const GenerateCommandOptions& options);
+
+/// Generates the procedural world (see WorldGenerator.h), or its RxR split
+/// when the config is an RxR one (RxrWorldGenerator.h), and prints what it
 /// made and the paper's transfer statistics.
 int runGenerateCommand(const GenerateCommandOptions& options,
                        std::ostream& out);

@@ -114,27 +114,17 @@ std::vector<std::pair<std::string, int>> quotas(const WorldConfig& config,
 HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
                          int index, const std::string& role) {
   HouseResult result;
-  result.name = worldHouseName(config, index);
   result.role = role;
-  result.scene_id =
-      strCat(config.scene_prefix, "/", result.name, "/", result.name, ".glb");
-  const uint64_t seed = houseSeed(config, index);
-
-  // the house as the panoramas captured it, and its nav-graph
-  House house = generateHouse(seed, config.house, result.name);
-  BuiltNavGraph built = [&] {
-    const sim::RayTracer tracer(house.mesh);
-    return buildNavGraph(house.semantics, tracer, config.nav_graph,
-                         common::deriveSeed(seed, kGraphStream));
-  }();
-
-  // the reconstruction differs a little, and is what agents move in; it is
-  // saved as a scene with its navmesh beside it (written after the scene so
-  // that the cache is never older than the file it belongs to)
-  const CaptureDifferences differences = applyCaptureDifferences(
-      house, built, config, common::deriveSeed(seed, kReconstructionStream));
-  result.closed_doors = differences.closed_doors;
-  result.moved_objects = differences.moved_objects;
+  // the house as captured, its nav-graph and the reconstruction agents move
+  // in; saved as a scene with its navmesh beside it (written after the scene
+  // so that the cache is never older than the file it belongs to)
+  WorldHouse captured = buildWorldHouse(config, index);
+  House& house = captured.house;
+  const uint64_t seed = captured.seed;
+  result.name = captured.name;
+  result.scene_id = captured.scene_id;
+  result.closed_doors = captured.differences.closed_doors;
+  result.moved_objects = captured.differences.moved_objects;
   const fs::path sceneFile = output.scenes_dir / result.scene_id;
   sim::saveScene(sceneFile, house.mesh, house.semantics);
   const auto scene =
@@ -146,22 +136,22 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
   const sim::NavMesh& navmesh = scene->navmesh();
 
   // the panoramas' transfer to the navmesh
-  for (const NodePlacement p : built.placement)
+  for (const NodePlacement p : captured.built.placement)
     ++result.placements[nodePlacementName(p)];
-  result.holes_found = built.holes_found;
-  const auto components = componentSizes(built.graph);
+  result.holes_found = captured.built.holes_found;
+  const auto components = componentSizes(captured.built.graph);
   result.largest_component = components.empty() ? 0 : components.front();
   const std::vector<data::NodeTransferResult> transferred =
-      data::transferGraph(built.graph, navmesh, config.transfer);
+      data::transferGraph(captured.built.graph, navmesh, config.transfer);
   result.transfer.addNodes(transferred, config.transfer);
   for (size_t i = 0; i < transferred.size(); ++i)
-    result.placementTransfer[nodePlacementName(built.placement[i])].addNodes(
-        {transferred[i]}, config.transfer);
+    result.placementTransfer[nodePlacementName(captured.built.placement[i])]
+        .addNodes({transferred[i]}, config.transfer);
 
   // R2R-like trajectories in a seeded order; the navigable ones fill the
   // splits of this house, each taking the next one while it is the least
   // filled relative to its quota
-  const TrajectorySampler sampler(built.graph, config.trajectories);
+  const TrajectorySampler sampler(captured.built.graph, config.trajectories);
   result.candidates = sampler.size();
   auto splits = quotas(config, role);
   std::vector<int> filled(splits.size(), 0);
@@ -200,7 +190,7 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
       t.waypoints.push_back(transferred[static_cast<size_t>(node)].waypoint);
     t.start_heading = heading;
     t.geodesic = checked.geodesic_distance;
-    t.graph_length = pathLength(built.graph, path);
+    t.graph_length = pathLength(captured.built.graph, path);
     t.ground_truth = std::move(checked.ground_truth);
     const bool aug = t.split == kTrainAug;
     const auto generated = instructions.generate(
@@ -213,7 +203,7 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
     for (const auto& g : generated) t.instructions.push_back(g.text);
     result.trajectories.push_back(std::move(t));
   }
-  result.graph = std::move(built.graph);
+  result.graph = std::move(captured.built.graph);
   return result;
 }
 
@@ -221,7 +211,9 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
 // house roles
 // ---------------------------------------------------------------------------
 
-std::vector<std::string> assignRoles(const WorldConfig& config) {
+}  // namespace
+
+std::vector<std::string> worldHouseRoles(const WorldConfig& config) {
   const int n = config.houses;
   auto count = [&](float fraction) {
     int c = static_cast<int>(std::lround(fraction * static_cast<float>(n)));
@@ -250,14 +242,39 @@ std::vector<std::string> assignRoles(const WorldConfig& config) {
   return roles;
 }
 
+WorldHouse buildWorldHouse(const WorldConfig& config, int index) {
+  WorldHouse result;
+  result.name = worldHouseName(config, index);
+  result.scene_id =
+      strCat(config.scene_prefix, "/", result.name, "/", result.name, ".glb");
+  result.seed = houseSeed(config, index);
+
+  // the house as the panoramas captured it, and its nav-graph
+  result.house = generateHouse(result.seed, config.house, result.name);
+  {
+    const sim::RayTracer tracer(result.house.mesh);
+    result.built =
+        buildNavGraph(result.house.semantics, tracer, config.nav_graph,
+                      common::deriveSeed(result.seed, kGraphStream));
+  }
+
+  // the reconstruction differs a little, and is what agents move in
+  result.differences = applyCaptureDifferences(
+      result.house, result.built, config,
+      common::deriveSeed(result.seed, kReconstructionStream));
+  return result;
+}
+
+namespace {
+
 // ---------------------------------------------------------------------------
 // staging and publishing
 // ---------------------------------------------------------------------------
 
-// Moves every entry of `staging` into `out`, replacing what was there; the
-// replaced entries go to `trash` first and are removed at the end.
-void publish(const fs::path& staging, const fs::path& out,
-             const fs::path& trash) {
+}  // namespace
+
+void publishStaged(const fs::path& staging, const fs::path& out,
+                   const fs::path& trash) {
   std::vector<fs::path> entries;
   for (const auto& entry : fs::directory_iterator(staging))
     entries.push_back(entry.path().filename());
@@ -279,6 +296,8 @@ void publish(const fs::path& staging, const fs::path& out,
   fs::remove_all(trash, ignored);
   fs::remove_all(staging, ignored);
 }
+
+namespace {
 
 double mean(double sum, int64_t count) {
   return count > 0 ? sum / static_cast<double>(count) : 0.0;
@@ -317,7 +336,7 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
                 "generateWorld(): threads must be >= 1, got ", output.threads);
   VLN_CHECK_ARG(!output.out.empty(),
                 "generateWorld(): the output directory is empty");
-  const std::vector<std::string> roles = assignRoles(config);
+  const std::vector<std::string> roles = worldHouseRoles(config);
 
   // the splits written: train_extra only when there are extra houses, and
   // last, so that the trajectory ids of the others do not depend on it
@@ -559,7 +578,7 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
           staging / "connectivity" / (house->name + "_connectivity.json"),
           house->graph);
     common::writeJsonFile(staging / "generation_stats.json", summary.stats, 2);
-    publish(staging, output.out, trash);
+    publishStaged(staging, output.out, trash);
   } catch (...) {
     fs::remove_all(staging, ec);
     throw;

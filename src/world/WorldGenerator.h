@@ -47,6 +47,9 @@
 #include <nlohmann/json.hpp>
 
 #include "data/NodeTransfer.h"
+#include "world/CaptureDifferences.h"
+#include "world/HouseGenerator.h"
+#include "world/NavGraphBuilder.h"
 #include "world/WorldConfig.h"
 
 namespace vln::world {
@@ -79,6 +82,34 @@ struct WorldSummary {
 /// the digits hashing the house seed and the house and navmesh configs, so
 /// different worlds never overwrite each other's scenes.
 std::string worldHouseName(const WorldConfig& config, int index);
+
+/// The role of every house of a world, by house index: "train",
+/// "val_unseen" or "test" for the first `houses`, "train_extra" after them.
+/// Throws std::invalid_argument when no train house is left.
+std::vector<std::string> worldHouseRoles(const WorldConfig& config);
+
+/// House `index` of a world as its scene is saved (steps 1 and 2 of the
+/// file comment, before the navmesh): the reconstructed house, the nav-graph
+/// of the captured one and what the reconstruction changed.
+struct WorldHouse {
+  std::string name;      ///< worldHouseName()
+  std::string scene_id;  ///< <scene_prefix>/<name>/<name>.glb
+  uint64_t seed = 0;     ///< the house's seed, every stage derives from it
+  House house;           ///< as reconstructed (the scene agents move in)
+  BuiltNavGraph built;   ///< placed in the house as captured
+  CaptureDifferences differences;
+};
+
+/// Builds house `index` of the world `config`; deterministic.
+WorldHouse buildWorldHouse(const WorldConfig& config, int index);
+
+/// Moves every entry of `staging` into `out` (created beforehand),
+/// replacing what was there; the replaced entries go to `trash` first and
+/// are removed at the end, as are `staging` and `trash`. Throws
+/// std::runtime_error naming the entry when a rename fails.
+void publishStaged(const std::filesystem::path& staging,
+                   const std::filesystem::path& out,
+                   const std::filesystem::path& trash);
 
 /// Generates the world described by `config` into `output`, logging
 /// progress through spdlog and the paper's statistics to `log` when given.
