@@ -87,12 +87,13 @@ InstructionFeatureSource rxrTextFeatureSource(
                   "rxrTextFeatureSource(): episode ", episode.episode_id,
                   " has no instruction.instruction_id, which names its text "
                   "feature file (not an RxR_VLNCE episode?)");
+    // the loader checks the width (model.text_feature_dim) and names the
+    // file
     const data::RxrTextFeatures features = data::loadRxrTextFeatures(
-        featuresDir, split, *episode.instruction.instruction_id,
-        episode.instruction.language);
-    VLN_CHECK_ARG(features.dim == dim, "rxrTextFeatureSource(): episode ",
-                  episode.episode_id, " has text features of width ",
-                  features.dim, ", model.text_feature_dim is ", dim);
+        data::rxrTextFeaturesPath(featuresDir, split,
+                                  *episode.instruction.instruction_id,
+                                  episode.instruction.language),
+        data::kRxrTextTokens, dim);
     // the file's rows only: the zero rows after them are padding
     const int64_t rows = std::max(features.valid_tokens, 1);
     return torch::from_blob(const_cast<float*>(features.values.data()),

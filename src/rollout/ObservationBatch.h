@@ -44,9 +44,10 @@ using InstructionFeatureSource =
 /// A source reading RxR's text feature files of `split` under
 /// `featuresDir` (data::loadRxrTextFeatures() by the episode's
 /// instruction_id and language) and keeping the file's rows
-/// ([valid_tokens, dim]; dim must equal `dim`, model.text_feature_dim).
-/// The source throws std::invalid_argument naming the episode when it has
-/// no instruction_id, and the loader's errors for bad files.
+/// ([valid_tokens, dim], at most RxR's 512 rows; a file of another width
+/// is the loader's error). The source throws std::invalid_argument
+/// naming the episode when it has no instruction_id, and the loader's
+/// errors for bad files.
 InstructionFeatureSource rxrTextFeatureSource(
     const std::filesystem::path& featuresDir, const std::string& split,
     int dim);

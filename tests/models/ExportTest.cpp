@@ -199,8 +199,8 @@ TEST(ExportTest, RxrTextFeaturesAndSixActionsRoundTrip) {
     in.prev_actions[0] = torch::tensor({4, 5}, torch::kInt64);
     in.not_done[0].fill_(1);
     const torch::Tensor features = test::randomTextFeatures({4, 6}, 6, 8);
-    const torch::Tensor h = torch::randn({2, c.numRecurrentLayers(),
-                                          c.hidden_size});
+    const torch::Tensor h =
+        torch::randn({2, c.numRecurrentLayers(), c.hidden_size});
     torch::NoGradGuard g;
     const auto expected = policy->step(policy->encodeInstruction(features),
                                        test::stepOf(in, 0), h);

@@ -88,10 +88,14 @@ TEST(InstructionEncoderTest, BadTextFeaturesAreRejectedWithTheReason) {
   c.instruction_features = InstructionFeatures::kRxrText;
   c.text_feature_dim = 8;
   InstructionEncoder enc(c);
-  EXPECT_THAT(errorOf([&] { enc->forward(torch::ones({2, 3, 7})); }),
+  EXPECT_THAT(errorOf([&] {
+                enc->forward(torch::ones({2, 3, 7}));
+              }),
               HasSubstr("expected float text features [B, L, 8] "
                         "(model.text_feature_dim), got [2, 3, 7]"));
-  EXPECT_THAT(errorOf([&] { enc->forward(torch::ones({2, 3}, torch::kLong)); }),
+  EXPECT_THAT(errorOf([&] {
+                enc->forward(torch::ones({2, 3}, torch::kLong));
+              }),
               HasSubstr("model.instruction_features is rxr_text"));
   torch::Tensor empty = torch::ones({2, 3, 8});
   empty[1].zero_();

@@ -73,11 +73,11 @@ TEST(ModelConfigTest, RxrKeysRoundTripWithR2rDefaults) {
   EXPECT_EQ(r.model.instructionInputSize(), 768);
   const Root back = common::loadConfigText<Root>(common::configToYaml(r));
   EXPECT_EQ(back.model, r.model);
-  EXPECT_THAT(errorOf([] {
-                common::loadConfigText<Root>(
-                    "model:\n  instruction_features: glove\n");
-              }),
-              HasSubstr("expected one of {tokens, rxr_text}"));
+  EXPECT_THAT(
+      errorOf([] {
+        common::loadConfigText<Root>("model:\n  instruction_features: glove\n");
+      }),
+      HasSubstr("expected one of {tokens, rxr_text}"));
   EXPECT_THAT(errorOf([] {
                 common::loadConfigText<Root>("model:\n  num_actions: 5\n");
               }),

@@ -338,50 +338,53 @@ TEST_P(PolicyTest, TextFeaturePaddingNeverChangesOutputs) {
   EXPECT_TRUE(torch::allclose(outA.hidden, outB.hidden, 1e-6, 1e-7));
 
   // a row alone gives what it gives beside others (packed by length)
-  const auto alone =
-      policy->forwardSequence(policy->encodeInstruction(features.slice(0, 2)),
-                              {in.rgb.slice(1, 2), in.depth.slice(1, 2),
-                               in.prev_actions.slice(1, 2),
-                               in.not_done.slice(1, 2)},
-                              policy->initialHidden(1));
+  const auto alone = policy->forwardSequence(
+      policy->encodeInstruction(features.slice(0, 2)),
+      {in.rgb.slice(1, 2), in.depth.slice(1, 2), in.prev_actions.slice(1, 2),
+       in.not_done.slice(1, 2)},
+      policy->initialHidden(1));
   EXPECT_TRUE(torch::allclose(alone.logits.select(1, 0),
                               outA.logits.select(1, 2), 1e-5, 1e-6));
 
   // what padding hides does matter where it is real
   torch::Tensor changed = features.clone();
   changed[2][0] += 1.0;
-  const auto outC = policy->forwardSequence(
-      policy->encodeInstruction(changed), in, policy->initialHidden(3));
+  const auto outC = policy->forwardSequence(policy->encodeInstruction(changed),
+                                            in, policy->initialHidden(3));
   EXPECT_FALSE(torch::allclose(outA.logits.select(1, 2),
                                outC.logits.select(1, 2), 1e-6, 1e-8));
 }
 
 TEST_P(PolicyTest, TextFeatureTrainingLowersTheLoss) {
-  // a few Adam steps teacher-forced on synthetic RxR-like episodes whose
-  // labels (all six actions) follow from the instruction features
+  // a few Adam steps teacher-forced on synthetic RxR-like episodes (text
+  // features, all six actions as labels)
   const ModelConfig c = test::tinyRxrConfig(GetParam());
   auto policy = makePolicy(c);
   const int64_t steps = 6, batch = 4;
   const torch::Tensor features = test::randomTextFeatures({5, 9, 3, 7}, 9, 8);
   const PolicyInputs in = randomInputs(c, steps, batch);
+  // episode b's action at step t is (t + 2b) mod 6: every action occurs,
+  // and which one depends on the episode
   const torch::Tensor actions =
-      torch::randint(0, c.num_actions, {steps, batch}, torch::kInt64);
+      (torch::arange(steps).unsqueeze(1) + 2 * torch::arange(batch)) %
+      c.num_actions;
   const torch::Tensor valid = torch::ones({steps, batch}, torch::kBool);
   const torch::Tensor weights = inflectionWeights(actions, valid, 1.0);
-  torch::optim::Adam adam(policy->parameters(), torch::optim::AdamOptions(0.02));
+  torch::optim::Adam adam(policy->parameters(),
+                          torch::optim::AdamOptions(0.01));
   auto loss = [&] {
     const auto out = policy->forwardSequence(
         policy->encodeInstruction(features), in, policy->initialHidden(batch));
     return weightedActionLoss(out.logits, actions, weights);
   };
   const double before = loss().item<double>();
-  for (int i = 0; i < 30; ++i) {
+  for (int i = 0; i < 40; ++i) {
     adam.zero_grad();
     loss().backward();
     adam.step();
   }
   const double after = loss().item<double>();
-  EXPECT_LT(after, 0.7 * before) << "before " << before << " after " << after;
+  EXPECT_LT(after, 0.5 * before) << "before " << before << " after " << after;
   // the instruction LSTM learns too
   EXPECT_TRUE(policy->instruction_encoder->lstm->parameters()[0]
                   .grad()
@@ -432,47 +435,45 @@ TEST(PolicyGoldenTest, R2rOutputsUnchangedAtFixedSeed) {
     double hiddenSum;
   };
   const std::vector<Golden> goldens = {
-    {PolicyType::kSeq2Seq,
-     /*prevAction=*/false,
-     {
-      -5.233332049e-04f, 3.639625502e-04f, 1.070608851e-03f, 4.231448984e-04f,
-      1.840883924e-04f, 1.375789638e-03f, 1.394670340e-03f, 2.102537983e-04f,
-      -8.372357115e-04f, 3.947735240e-04f, 1.196096768e-03f, 3.904789628e-04f,
-      7.921495853e-05f, 2.240037313e-03f, 1.998669701e-03f, 8.046798175e-04f,
-      -7.731197402e-04f, 2.119955170e-04f, 1.636771834e-03f, 6.527335499e-04f,
-      -7.267043111e-04f, 1.671644626e-03f, 1.908235834e-03f, -7.805121277e-05f},
-     {
-      -1.571561098e-01f, -2.889718488e-02f, -2.433652133e-01f,
-      -5.094777420e-02f, -2.840751410e-01f, -1.188256443e-01f},
-     -1.419512033e+00},
-    {PolicyType::kSeq2Seq,
-     /*prevAction=*/true,
-     {
-      6.892103702e-04f, 7.058546180e-04f, -1.945937518e-03f, -5.470325123e-04f,
-      5.492357886e-04f, 8.396399789e-04f, -2.861871384e-03f, 1.138944863e-04f,
-      -1.667242730e-03f, -3.472383600e-03f, -1.956142019e-03f,
-      -7.707127952e-04f, 1.276213909e-03f, -3.676089400e-04f,
-      -2.230267273e-03f, -3.462504596e-03f, 2.085901069e-04f,
-      -1.819767640e-03f, -1.826891908e-03f, -3.192406846e-03f,
-      5.898735835e-04f, 1.135579892e-03f, -2.751978114e-03f, 4.022851936e-04f},
-     {
-      1.750028580e-01f, 6.532257795e-02f, 4.541071653e-01f, 1.241822615e-01f,
-      3.931051493e-01f, 1.943007112e-02f},
-     -1.175289512e+00},
-    {PolicyType::kCma,
-     /*prevAction=*/false,
-     {
-      2.278301254e-04f, -1.241717138e-03f, 5.645787460e-04f, -7.799803861e-04f,
-      3.309207095e-04f, -1.238322933e-03f, 4.796522262e-04f, -8.300653426e-04f,
-      -3.180736094e-04f, -1.493447926e-03f, 6.954062846e-04f,
-      -5.906770821e-04f, 4.204729339e-04f, -1.435967977e-03f,
-      -1.355679560e-04f, -6.308374577e-04f, -7.032811118e-05f,
-      -1.632143860e-03f, -1.038832357e-03f, -7.648298633e-04f,
-      2.860568929e-04f, -1.196160913e-03f, 4.686328466e-04f, -7.762577152e-04f},
-     {
-      -1.831374913e-01f, -1.828593165e-01f, -2.574456334e-01f,
-      -7.971960306e-02f, -5.305172130e-02f, -1.854407638e-01f},
-     -1.423878372e-01},
+      {PolicyType::kSeq2Seq,
+       /*prevAction=*/false,
+       {-5.233332049e-04f, 3.639625502e-04f,  1.070608851e-03f,
+        4.231448984e-04f,  1.840883924e-04f,  1.375789638e-03f,
+        1.394670340e-03f,  2.102537983e-04f,  -8.372357115e-04f,
+        3.947735240e-04f,  1.196096768e-03f,  3.904789628e-04f,
+        7.921495853e-05f,  2.240037313e-03f,  1.998669701e-03f,
+        8.046798175e-04f,  -7.731197402e-04f, 2.119955170e-04f,
+        1.636771834e-03f,  6.527335499e-04f,  -7.267043111e-04f,
+        1.671644626e-03f,  1.908235834e-03f,  -7.805121277e-05f},
+       {-1.571561098e-01f, -2.889718488e-02f, -2.433652133e-01f,
+        -5.094777420e-02f, -2.840751410e-01f, -1.188256443e-01f},
+       -1.419512033e+00},
+      {PolicyType::kSeq2Seq,
+       /*prevAction=*/true,
+       {6.892103702e-04f,  7.058546180e-04f,  -1.945937518e-03f,
+        -5.470325123e-04f, 5.492357886e-04f,  8.396399789e-04f,
+        -2.861871384e-03f, 1.138944863e-04f,  -1.667242730e-03f,
+        -3.472383600e-03f, -1.956142019e-03f, -7.707127952e-04f,
+        1.276213909e-03f,  -3.676089400e-04f, -2.230267273e-03f,
+        -3.462504596e-03f, 2.085901069e-04f,  -1.819767640e-03f,
+        -1.826891908e-03f, -3.192406846e-03f, 5.898735835e-04f,
+        1.135579892e-03f,  -2.751978114e-03f, 4.022851936e-04f},
+       {1.750028580e-01f, 6.532257795e-02f, 4.541071653e-01f, 1.241822615e-01f,
+        3.931051493e-01f, 1.943007112e-02f},
+       -1.175289512e+00},
+      {PolicyType::kCma,
+       /*prevAction=*/false,
+       {2.278301254e-04f,  -1.241717138e-03f, 5.645787460e-04f,
+        -7.799803861e-04f, 3.309207095e-04f,  -1.238322933e-03f,
+        4.796522262e-04f,  -8.300653426e-04f, -3.180736094e-04f,
+        -1.493447926e-03f, 6.954062846e-04f,  -5.906770821e-04f,
+        4.204729339e-04f,  -1.435967977e-03f, -1.355679560e-04f,
+        -6.308374577e-04f, -7.032811118e-05f, -1.632143860e-03f,
+        -1.038832357e-03f, -7.648298633e-04f, 2.860568929e-04f,
+        -1.196160913e-03f, 4.686328466e-04f,  -7.762577152e-04f},
+       {-1.831374913e-01f, -1.828593165e-01f, -2.574456334e-01f,
+        -7.971960306e-02f, -5.305172130e-02f, -1.854407638e-01f},
+       -1.423878372e-01},
   };
   for (const Golden& g : goldens) {
     torch::manual_seed(11);
@@ -492,8 +493,7 @@ TEST(PolicyGoldenTest, R2rOutputsUnchangedAtFixedSeed) {
       EXPECT_EQ(logits[static_cast<int64_t>(i)].item<float>(), g.logits[i])
           << policyName(g.policy) << " logit " << i;
     for (size_t i = 0; i < g.progress.size(); ++i)
-      EXPECT_EQ(progress[static_cast<int64_t>(i)].item<float>(),
-                g.progress[i])
+      EXPECT_EQ(progress[static_cast<int64_t>(i)].item<float>(), g.progress[i])
           << policyName(g.policy) << " progress " << i;
     EXPECT_NEAR(out.hidden.sum().item<double>(), g.hiddenSum, 1e-7)
         << policyName(g.policy);

@@ -382,7 +382,7 @@ TEST(PolicyAgentTest, RxrTextFeatureFilesFeedThePolicy) {
   EXPECT_THAT(vln::test::errorOf([&] {
                 rxrTextFeatureSource(dir.path(), "val_seen", 16)(episode);
               }),
-              HasSubstr("model.text_feature_dim is 16"));
+              HasSubstr("must be [tokens, 16]"));
   data::Episode noId = episode;
   noId.instruction.instruction_id.reset();
   EXPECT_THAT(vln::test::errorOf([&] { source(noId); }),
