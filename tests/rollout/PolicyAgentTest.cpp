@@ -328,8 +328,10 @@ TEST(PolicyAgentTest, SixActionPolicyLooksUpAndDown) {
     model.policy->named_parameters()["action_head.bias"].copy_(
         torch::tensor({-9.0f, -9.0f, -9.0f, -9.0f, -9.0f, 9.0f}));
   }
-  for (int a : runRxr(model, firstEpisodes(1), 1)[0].record.actions)
-    EXPECT_EQ(a, 5);
+  const auto down = runRxr(model, firstEpisodes(1), 1);
+  ASSERT_EQ(down.size(), 1u);
+  ASSERT_FALSE(down[0].record.actions.empty());
+  for (int a : down[0].record.actions) EXPECT_EQ(a, 5);
 }
 
 TEST(PolicyAgentTest, TextFeaturePolicyIsIndependentOfBatching) {
