@@ -22,7 +22,8 @@ void ExperimentConfig::validate() const {
   VLN_CHECK_ARG(model.num_actions <= sim::numActions(sim.agent),
                 "config: model.num_actions is ", model.num_actions,
                 " (LOOK_UP, LOOK_DOWN) but sim.agent.look_actions is false; "
-                "the simulator allows ", sim::numActions(sim.agent), " actions");
+                "the simulator allows ",
+                sim::numActions(sim.agent), " actions");
   VLN_CHECK_ARG(sim.depth.min_depth < sim.depth.max_depth,
                 "config: sim.depth.min_depth (", sim.depth.min_depth,
                 ") must be below sim.depth.max_depth (", sim.depth.max_depth, ")");
