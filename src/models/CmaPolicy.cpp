@@ -52,7 +52,7 @@ CmaPolicyImpl::CmaPolicyImpl(const ModelConfig& config)
     compressIn += config_.depth_projection_size;
   }
   prev_action_embedding = register_module(
-      "prev_action_embedding", nn::Embedding(kNumActions + 1, prevDim));
+      "prev_action_embedding", nn::Embedding(config_.num_actions + 1, prevDim));
   state_encoder = register_module("state_encoder", MaskedGru(gru1In, hidden));
 
   if (config_.usesInstruction()) {
@@ -73,7 +73,8 @@ CmaPolicyImpl::CmaPolicyImpl(const ModelConfig& config)
       register_module("second_state_compress", nn::Linear(compressIn, hidden));
   second_state_encoder =
       register_module("second_state_encoder", MaskedGru(hidden, hidden));
-  action_head = register_module("action_head", nn::Linear(hidden, kNumActions));
+  action_head =
+      register_module("action_head", nn::Linear(hidden, config_.num_actions));
   if (config_.progress_monitor)
     progress_monitor =
         register_module("progress_monitor", nn::Linear(hidden, 1));

@@ -228,22 +228,41 @@ void emitDepthEncoder(ScriptWriter& w, DepthEncoderImpl& depth) {
 // policies
 // ===========================================================================
 
-// masked (Bi)LSTM over token ids: identical to the packed LSTM for every
-// real token, since padded steps never update the state
+// masked (Bi)LSTM over token ids or text features: identical to the packed
+// LSTM for every real token, since padded steps never update the state
 void emitInstructionEncoder(ScriptWriter& w, const ModelConfig& config) {
   const std::string p = "policy.instruction_encoder.";
   const std::string hidden = std::to_string(config.instruction_hidden_size);
+  // `tokens` holds text features [B, L, D] with model.instruction_features:
+  // rxr_text
   w.line(0,
          "def encode_instruction(self, tokens: Tensor) -> Tuple[Tensor, "
          "Tensor, Tensor]:");
-  // trailing PAD columns never change the result: drop them (R2R stores
-  // instructions padded to 200 tokens)
-  w.line(1, "length = int((tokens != 0).sum(1).max())");
-  w.line(1, "tokens = tokens[:, :length]");
-  w.line(1, "mask = tokens != 0");
-  w.line(1, "m = mask.to({f32}).unsqueeze(2)");
-  w.line(1,
-         "x = torch.embedding(" + w.ref(p + "embedding.weight") + ", tokens)");
+  if (config.usesTextFeatures()) {
+    // text features [B, L, D]: a row ends at its last non-zero feature row
+    // (InstructionEncoderImpl::featureLengths); the zero rows after it
+    // (RxR pads to 512) are dropped
+    w.line(1, "real = torch.any(tokens != 0, 2).to({i64})");
+    w.line(1,
+           "positions = torch.arange(1, real.size(1) + 1, dtype={i64}, "
+           "device=tokens.device)");
+    w.line(1, "lens = torch.amax(real * positions.unsqueeze(0), [1])");
+    w.line(1, "length = int(lens.max())");
+    w.line(1, "x = tokens[:, :length].to({f32})");
+    w.line(1,
+           "mask = torch.arange(length, dtype={i64}, "
+           "device=tokens.device).unsqueeze(0) < lens.unsqueeze(1)");
+    w.line(1, "m = mask.to({f32}).unsqueeze(2)");
+  } else {
+    // trailing PAD columns never change the result: drop them (R2R stores
+    // instructions padded to 200 tokens)
+    w.line(1, "length = int((tokens != 0).sum(1).max())");
+    w.line(1, "tokens = tokens[:, :length]");
+    w.line(1, "mask = tokens != 0");
+    w.line(1, "m = mask.to({f32}).unsqueeze(2)");
+    w.line(1, "x = torch.embedding(" + w.ref(p + "embedding.weight") +
+                  ", tokens)");
+  }
   auto direction = [&](const std::string& suffix, bool reverse,
                        const std::string& list) {
     w.line(1, "h = torch.zeros([tokens.size(0), " + hidden +

@@ -15,11 +15,14 @@
 //   step_features(rgb_features, depth_features, instruction, prev_action,
 //                 not_done, hidden) -> (logits, progress, hidden)
 //     rgb_features [B, C, h, w], depth_features [B, C', h', w'] float.
-//   Common arguments: instruction int64 [B, L] (tokens then PAD 0; encoded
-//   again at every call), prev_action int64 [B], not_done float [B] (0 at an
-//   episode's first step), hidden float [B, layers, hidden_size] (zeros at
-//   the start). Returns logits [B, 4], progress [B] (zeros without a
-//   progress monitor), hidden [B, layers, hidden_size].
+//   Common arguments: instruction int64 [B, L] (tokens then PAD 0), or with
+//   model.instruction_features: rxr_text float [B, L, text_feature_dim]
+//   (feature rows then zero rows, e.g. RxR's [B, 512, 768]); encoded again
+//   at every call. prev_action int64 [B] in [0, num_actions), not_done
+//   float [B] (0 at an episode's first step), hidden float [B, layers,
+//   hidden_size] (zeros at the start). Returns logits [B, num_actions]
+//   (model.num_actions: 4, or 6 with LOOK_UP / LOOK_DOWN), progress [B]
+//   (zeros without a progress monitor), hidden [B, layers, hidden_size].
 //   Inputs of ablated modalities are ignored (pass any tensor).
 // The attribute `model_config` holds the model's YAML config.
 

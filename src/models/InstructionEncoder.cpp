@@ -6,17 +6,23 @@ namespace vln::models {
 
 InstructionEncoderImpl::InstructionEncoderImpl(const ModelConfig& config)
     : vocabSize_(config.vocab_size),
+      featureDim_(config.text_feature_dim),
+      textFeatures_(config.usesTextFeatures()),
       bidirectional_(config.policy == PolicyType::kCma) {
-  // PAD (0) stays a zero vector: it only ever meets masked positions
-  embedding = register_module(
-      "embedding",
-      torch::nn::Embedding(
-          torch::nn::EmbeddingOptions(config.vocab_size, config.embedding_dim)
-              .padding_idx(0)));
-  embedding->weight.set_requires_grad(config.fine_tune_embeddings);
+  // PAD (0) stays a zero vector: it only ever meets masked positions. Text
+  // features enter the LSTM as they are (VLN-CE's RxR encoder has no
+  // embedding layer)
+  if (!textFeatures_) {
+    embedding = register_module(
+        "embedding",
+        torch::nn::Embedding(
+            torch::nn::EmbeddingOptions(config.vocab_size, config.embedding_dim)
+                .padding_idx(0)));
+    embedding->weight.set_requires_grad(config.fine_tune_embeddings);
+  }
   lstm = register_module(
       "lstm",
-      torch::nn::LSTM(torch::nn::LSTMOptions(config.embedding_dim,
+      torch::nn::LSTM(torch::nn::LSTMOptions(config.instructionInputSize(),
                                              config.instruction_hidden_size)
                           .bidirectional(bidirectional_)));
 }
@@ -49,9 +55,45 @@ torch::Tensor InstructionEncoderImpl::lengths(
   return lens;
 }
 
-InstructionStates InstructionEncoderImpl::forward(const torch::Tensor& tokens) {
-  const torch::Tensor lens = lengths(tokens);
-  const torch::Tensor embedded = embedding(tokens);  // [B, L, E]
+torch::Tensor InstructionEncoderImpl::featureLengths(
+    const torch::Tensor& features) const {
+  VLN_CHECK_ARG(features.defined(),
+                "InstructionEncoder::forward(): model.instruction_features is "
+                "rxr_text, expected text features [B, L, ",
+                featureDim_, "], got an undefined tensor");
+  VLN_CHECK_ARG(features.dim() == 3 && features.size(1) > 0 &&
+                    features.size(2) == featureDim_ &&
+                    features.is_floating_point(),
+                "InstructionEncoder::forward(): model.instruction_features is "
+                "rxr_text, expected float text features [B, L, ",
+                featureDim_, "] (model.text_feature_dim), got ",
+                features.sizes(), " of ", features.scalar_type());
+  // the last non-zero row ends the instruction; zero rows after it pad
+  const torch::Tensor real = (features != 0).any(/*dim=*/2).to(torch::kCPU);
+  const torch::Tensor positions =
+      torch::arange(1, real.size(1) + 1, torch::kInt64).unsqueeze(0);
+  const torch::Tensor lens = (positions * real).amax(/*dim=*/1);
+  VLN_CHECK_ARG(lens.min().item<int64_t>() > 0,
+                "InstructionEncoder::forward(): the text features of row ",
+                lens.argmin().item<int64_t>(),
+                " are all zero (an instruction without tokens)");
+  return lens;
+}
+
+InstructionStates InstructionEncoderImpl::forward(
+    const torch::Tensor& instruction) {
+  if (textFeatures_) {
+    const torch::Tensor lens = featureLengths(instruction);
+    // in the LSTM's dtype (float32, or float64 in gradient checks)
+    return encode(instruction.to(lstm->parameters().front().scalar_type()),
+                  lens);
+  }
+  const torch::Tensor lens = lengths(instruction);
+  return encode(embedding(instruction), lens);
+}
+
+InstructionStates InstructionEncoderImpl::encode(const torch::Tensor& embedded,
+                                                 const torch::Tensor& lens) {
   const auto packed = torch::nn::utils::rnn::pack_padded_sequence(
       embedded, lens, /*batch_first=*/true, /*enforce_sorted=*/false);
   auto [output, state] = lstm->forward_with_packed_input(packed);
@@ -60,12 +102,16 @@ InstructionStates InstructionEncoderImpl::forward(const torch::Tensor& tokens) {
       torch::nn::utils::rnn::pad_packed_sequence(output, /*batch_first=*/true));
   const int64_t maxLen = out.states.size(1);
   out.mask = (torch::arange(maxLen).unsqueeze(0) < lens.unsqueeze(1))
-                 .to(tokens.device());
+                 .to(embedded.device());
   out.last = std::get<0>(state)[0];
   return out;
 }
 
 void InstructionEncoderImpl::setWordEmbeddings(const torch::Tensor& matrix) {
+  VLN_CHECK_ARG(!textFeatures_,
+                "InstructionEncoder::setWordEmbeddings(): "
+                "model.instruction_features is rxr_text, the encoder reads "
+                "text features and has no word embedding");
   VLN_CHECK_ARG(matrix.defined() && matrix.dim() == 2 &&
                     matrix.sizes() == embedding->weight.sizes(),
                 "InstructionEncoder::setWordEmbeddings(): expected a [",

@@ -4,6 +4,12 @@
 // bidirectional LSTM's states at every token. Instructions are token ids
 // [B, L] padded at the end with PAD = 0; sequences are packed by length, so
 // padding never changes any output.
+//
+// With model.instruction_features: rxr_text (RxR_VLNCE, as VLN-CE's
+// InstructionEncoder with sensor_uuid rxr_instruction) the input is instead
+// precomputed per-token features float [B, L, text_feature_dim], padded at
+// the end with all-zero rows (RxR pads to 512), and they enter the same
+// (Bi)LSTM directly: there is no embedding layer.
 
 #include <torch/torch.h>
 
@@ -19,32 +25,49 @@ struct InstructionStates {
   torch::Tensor last;    ///< [B, hidden] final state of the forward direction
 };
 
-/// Embedding + (Bi)LSTM over token ids.
+/// Embedding + (Bi)LSTM over token ids, or (Bi)LSTM over text features.
 class InstructionEncoderImpl : public torch::nn::Module {
  public:
-  /// Sizes come from `config` (vocab_size, embedding_dim,
-  /// instruction_hidden_size); bidirectional for CMA. The embedding is
-  /// frozen unless config.fine_tune_embeddings.
+  /// Sizes come from `config` (vocab_size, embedding_dim or
+  /// text_feature_dim, instruction_hidden_size); bidirectional for CMA. The
+  /// embedding (tokens only) is frozen unless config.fine_tune_embeddings.
   explicit InstructionEncoderImpl(const ModelConfig& config);
 
-  /// tokens int64 [B, L], each row real tokens then PAD (0), at least one
-  /// real token. Throws std::invalid_argument for ids outside
+  /// Tokens: int64 [B, L], each row real tokens then PAD (0), at least one
+  /// real token; throws std::invalid_argument for ids outside
   /// [0, vocab_size), an empty row or a PAD before a real token.
-  InstructionStates forward(const torch::Tensor& tokens);
+  /// Text features: float [B, L, text_feature_dim]; a row's length is the
+  /// index of its last non-zero feature row + 1 (zero rows after it are
+  /// padding and never change any output; VLN-CE counts the non-zero rows,
+  /// the same for RxR's files); throws std::invalid_argument for another
+  /// shape or dtype, or a row that is all zeros.
+  InstructionStates forward(const torch::Tensor& instruction);
 
   /// Copies a [vocab_size, embedding_dim] matrix (GloVe, PAD row zero) into
-  /// the embedding. Throws std::invalid_argument on a shape mismatch.
+  /// the embedding. Throws std::invalid_argument on a shape mismatch, or
+  /// with text features (no embedding).
   void setWordEmbeddings(const torch::Tensor& matrix);
 
   /// Lengths (non-PAD tokens) of each row, int64 [B] on the CPU, after the
   /// checks of forward().
   torch::Tensor lengths(const torch::Tensor& tokens) const;
 
+  /// Lengths (last non-zero row + 1) of text features [B, L, D], int64 [B]
+  /// on the CPU, after the checks of forward().
+  torch::Tensor featureLengths(const torch::Tensor& features) const;
+
+  /// Undefined with text features.
   torch::nn::Embedding embedding{nullptr};
   torch::nn::LSTM lstm{nullptr};
 
  private:
+  // (Bi)LSTM over embedded rows [B, L, E] packed by `lens` (CPU int64 [B])
+  InstructionStates encode(const torch::Tensor& embedded,
+                           const torch::Tensor& lens);
+
   int64_t vocabSize_;
+  int64_t featureDim_;
+  bool textFeatures_;
   bool bidirectional_;
 };
 TORCH_MODULE(InstructionEncoder);

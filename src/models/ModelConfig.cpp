@@ -50,6 +50,10 @@ void ModelConfig::validate() const {
                   "must be even (GroupNorm groups = base / 2), got ",
                   depth_resnet_base_planes);
   }
+  VLN_CHECK_ARG(num_actions == kNumActions || num_actions == kNumLookActions,
+                "ModelConfig::validate(): model.num_actions must be ",
+                kNumActions, " (R2R_VLNCE) or ", kNumLookActions,
+                " (RxR_VLNCE, with LOOK_UP and LOOK_DOWN), got ", num_actions);
   VLN_CHECK_ARG(hidden_size % 2 == 0,
                 "ModelConfig::validate(): model.hidden_size must be even (CMA "
                 "attention keys are hidden_size / 2 wide), got ",

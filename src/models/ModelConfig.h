@@ -16,6 +16,12 @@ namespace vln::models {
 /// The two agents of the paper (Section 4).
 enum class PolicyType { kSeq2Seq, kCma };
 
+/// What the instruction encoder reads: token ids through a word embedding
+/// (R2R_VLNCE, GloVe), or precomputed per-token text features (RxR_VLNCE's
+/// BERT features, VLN-CE's INSTRUCTION_ENCODER.sensor_uuid: rxr_instruction),
+/// fed to the same (Bi)LSTM without an embedding layer.
+enum class InstructionFeatures { kTokens, kRxrText };
+
 /// Visual encoder architectures. For RGB, resnet50/resnet18 are torchvision's
 /// ImageNet networks (BatchNorm); for depth they are DD-PPO's GroupNorm
 /// ResNets (habitat_baselines resnet.py) followed by the compression conv.
@@ -25,14 +31,21 @@ enum class EncoderType { kResNet50, kResNet18, kSmallCnn };
 /// YAML names of the policy types (policyName()).
 inline constexpr common::EnumNames<PolicyType, 2> kPolicyNames = {
     {{"seq2seq", PolicyType::kSeq2Seq}, {"cma", PolicyType::kCma}}};
+/// YAML names of the instruction inputs (instructionFeaturesName()).
+inline constexpr common::EnumNames<InstructionFeatures, 2>
+    kInstructionFeaturesNames = {{{"tokens", InstructionFeatures::kTokens},
+                                  {"rxr_text", InstructionFeatures::kRxrText}}};
 /// YAML names of the encoder types (encoderName()).
 inline constexpr common::EnumNames<EncoderType, 3> kEncoderNames = {
     {{"resnet50", EncoderType::kResNet50},
      {"resnet18", EncoderType::kResNet18},
      {"small_cnn", EncoderType::kSmallCnn}}};
 
-/// Number of actions: STOP, MOVE_FORWARD, TURN_LEFT, TURN_RIGHT (Habitat ids).
+/// Default number of actions (model.num_actions), R2R_VLNCE's: STOP,
+/// MOVE_FORWARD, TURN_LEFT, TURN_RIGHT (Habitat ids 0..3).
 inline constexpr int64_t kNumActions = 4;
+/// RxR_VLNCE's number of actions: those four, LOOK_UP (4) and LOOK_DOWN (5).
+inline constexpr int64_t kNumLookActions = 6;
 
 /// Shape of one observation's feature map, [channels, height, width].
 using FeatureShape = std::array<int64_t, 3>;
@@ -52,6 +65,9 @@ struct ModelConfig {
   bool no_rgb = false;
   bool no_depth = false;
   bool no_instruction = false;
+  int num_actions = static_cast<int>(kNumActions);
+  InstructionFeatures instruction_features = InstructionFeatures::kTokens;
+  int text_feature_dim = 768;
   int vocab_size = 2504;
   int embedding_dim = 50;
   bool fine_tune_embeddings = false;
@@ -111,6 +127,20 @@ struct ModelConfig {
     v.field("no_instruction", no_instruction,
             "Ablation: remove the instruction input from the network, not "
             "zero it");
+    v.field("num_actions", num_actions,
+            "Action logits and previous-action embedding size (plus one "
+            "start entry): 4 for R2R_VLNCE, 6 for RxR_VLNCE (LOOK_UP, "
+            "LOOK_DOWN; needs sim.agent.look_actions)",
+            common::inRange(4, 6));
+    v.enumeration("instruction_features", instruction_features,
+                  kInstructionFeaturesNames,
+                  "Instruction input: tokens (word ids through the "
+                  "embedding) or rxr_text (precomputed [L, "
+                  "text_feature_dim] features, zero rows = padding; RxR)");
+    v.field("text_feature_dim", text_feature_dim,
+            "Width of a text feature row with instruction_features: rxr_text "
+            "(RxR's BERT features: 768)",
+            common::atLeast(1));
     v.field("vocab_size", vocab_size,
             "Instruction vocabulary size, PAD = token 0 (R2R_VLNCE v1-3: 2504)",
             common::atLeast(2));
@@ -171,6 +201,16 @@ struct ModelConfig {
   bool usesDepth() const { return !no_depth; }
   /// True when the network reads the instruction.
   bool usesInstruction() const { return !no_instruction; }
+  /// True when the instruction arrives as float text features [B, L, D]
+  /// (instruction_features: rxr_text) instead of token ids.
+  bool usesTextFeatures() const {
+    return instruction_features == InstructionFeatures::kRxrText;
+  }
+  /// Width of the instruction LSTM's input: embedding_dim for tokens,
+  /// text_feature_dim for text features.
+  int instructionInputSize() const {
+    return usesTextFeatures() ? text_feature_dim : embedding_dim;
+  }
   /// Width of one instruction state: hidden * 2 for CMA (BiLSTM).
   int instructionStateSize() const {
     return policy == PolicyType::kCma ? 2 * instruction_hidden_size
@@ -194,6 +234,10 @@ FeatureShape depthFeatureShape(const ModelConfig& config);
 /// Short name of a policy type as spelled in YAML ("seq2seq", "cma").
 inline const char* policyName(PolicyType type) {
   return common::enumName(kPolicyNames, type);
+}
+/// Short name of an instruction input as spelled in YAML.
+inline const char* instructionFeaturesName(InstructionFeatures type) {
+  return common::enumName(kInstructionFeaturesNames, type);
 }
 /// Short name of an encoder type as spelled in YAML.
 inline const char* encoderName(EncoderType type) {

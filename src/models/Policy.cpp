@@ -24,9 +24,10 @@ PolicyImpl::PolicyImpl(const ModelConfig& config) : config_(config) {
         register_module("instruction_encoder", InstructionEncoder(config_));
 }
 
-EncodedInstruction PolicyImpl::encodeInstruction(const torch::Tensor& tokens) {
+EncodedInstruction PolicyImpl::encodeInstruction(
+    const torch::Tensor& instruction) {
   if (!instruction_encoder) return {};
-  return prepareInstruction(instruction_encoder->forward(tokens));
+  return prepareInstruction(instruction_encoder->forward(instruction));
 }
 
 PolicyOutputs PolicyImpl::step(const EncodedInstruction& instruction,

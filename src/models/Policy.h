@@ -13,8 +13,9 @@
 //    the result is passed to every step.
 //
 // Actions are Habitat's ids: 0 STOP, 1 MOVE_FORWARD, 2 TURN_LEFT,
-// 3 TURN_RIGHT. The previous action enters as VLN-CE encodes it: embedding
-// index (prev_action + 1) * not_done, so index 0 means "episode start".
+// 3 TURN_RIGHT, and with model.num_actions 6 (RxR) 4 LOOK_UP, 5 LOOK_DOWN.
+// The previous action enters as VLN-CE encodes it: embedding index
+// (prev_action + 1) * not_done, so index 0 means "episode start".
 
 #include <torch/torch.h>
 
@@ -45,14 +46,16 @@ struct PolicyInputs {
                         ///< may be undefined when model.no_rgb
   torch::Tensor depth;  ///< [.., C, h, w] float depth features
                         ///< (depthFeatureShape); undefined ok if no_depth
-  torch::Tensor prev_actions;  ///< [..] int64, the action taken before this
-                               ///< step (any value where not_done = 0)
+  torch::Tensor prev_actions;  ///< [..] int64 in [0, num_actions), the action
+                               ///< taken before this step (any value where
+                               ///< not_done = 0)
   torch::Tensor not_done;      ///< [..] float 0/1, 0 at an episode's first step
 };
 
 /// Policy outputs. Sequence mode: [T, B, ...]; step mode: [B, ...].
 struct PolicyOutputs {
-  torch::Tensor logits;    ///< [.., 4] action logits (unnormalised)
+  torch::Tensor logits;    ///< [.., model.num_actions] action logits
+                           ///< (unnormalised)
   torch::Tensor progress;  ///< [..] in (-1, 1); undefined unless
                            ///< model.progress_monitor
   torch::Tensor hidden;    ///< [B, numRecurrentLayers, hidden_size] after the
@@ -69,10 +72,12 @@ class PolicyImpl : public torch::nn::Module {
   explicit PolicyImpl(const ModelConfig& config);
   ~PolicyImpl() override = default;
 
-  /// Encodes token ids int64 [B, L] (real tokens then PAD 0). Returns an
-  /// empty EncodedInstruction when model.no_instruction (tokens may then be
-  /// undefined).
-  EncodedInstruction encodeInstruction(const torch::Tensor& tokens);
+  /// Encodes the instruction: token ids int64 [B, L] (real tokens then
+  /// PAD 0), or with model.instruction_features: rxr_text text features
+  /// float [B, L, text_feature_dim] (real rows then zero rows). Returns an
+  /// empty EncodedInstruction when model.no_instruction (the input may then
+  /// be undefined).
+  EncodedInstruction encodeInstruction(const torch::Tensor& instruction);
 
   /// Sequence mode: inputs [T, B, ...], hidden [B, layers, H] at t = 0
   /// (before the not_done[0] reset) -> outputs [T, B, ...].
@@ -88,7 +93,8 @@ class PolicyImpl : public torch::nn::Module {
   torch::Tensor initialHidden(int64_t batch) const;
 
   /// Copies a [vocab_size, embedding_dim] word-embedding matrix (GloVe) into
-  /// the instruction encoder; no-op when model.no_instruction.
+  /// the instruction encoder; no-op when model.no_instruction. Throws
+  /// std::invalid_argument with text features (no embedding).
   void setWordEmbeddings(const torch::Tensor& matrix);
 
   const ModelConfig& config() const { return config_; }

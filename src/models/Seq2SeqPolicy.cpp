@@ -27,14 +27,15 @@ Seq2SeqPolicyImpl::Seq2SeqPolicyImpl(const ModelConfig& config)
   if (config_.seq2seq_prev_action) {
     prev_action_embedding = register_module(
         "prev_action_embedding",
-        torch::nn::Embedding(kNumActions + 1,
+        torch::nn::Embedding(config_.num_actions + 1,
                              config_.prev_action_embedding_dim));
     inputSize += config_.prev_action_embedding_dim;
   }
   state_encoder = register_module("state_encoder",
                                   MaskedGru(inputSize, config_.hidden_size));
   action_head = register_module(
-      "action_head", torch::nn::Linear(config_.hidden_size, kNumActions));
+      "action_head",
+      torch::nn::Linear(config_.hidden_size, config_.num_actions));
   if (config_.progress_monitor)
     progress_monitor = register_module(
         "progress_monitor", torch::nn::Linear(config_.hidden_size, 1));

@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "common/Check.h"
+#include "data/RxrTextFeatures.h"
 #include "data/Vocabulary.h"
 
 namespace vln::rollout {
@@ -76,6 +77,68 @@ torch::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
     }
   }
   return tokens;
+}
+
+InstructionFeatureSource rxrTextFeatureSource(
+    const std::filesystem::path& featuresDir, const std::string& split,
+    int dim) {
+  return [featuresDir, split, dim](const data::Episode& episode) {
+    VLN_CHECK_ARG(episode.instruction.instruction_id.has_value(),
+                  "rxrTextFeatureSource(): episode ", episode.episode_id,
+                  " has no instruction.instruction_id, which names its text "
+                  "feature file (not an RxR_VLNCE episode?)");
+    // the loader checks the width (model.text_feature_dim) and names the
+    // file
+    const data::RxrTextFeatures features = data::loadRxrTextFeatures(
+        data::rxrTextFeaturesPath(featuresDir, split,
+                                  *episode.instruction.instruction_id,
+                                  episode.instruction.language),
+        data::kRxrTextTokens, dim);
+    // the file's rows only: the zero rows after them are padding
+    const int64_t rows = std::max(features.valid_tokens, 1);
+    return torch::from_blob(const_cast<float*>(features.values.data()),
+                            {rows, features.dim}, torch::kFloat32)
+        .clone();
+  };
+}
+
+torch::Tensor instructionFeatures(const InstructionFeatureSource& source,
+                                  const data::Episode& episode, int dim,
+                                  int maxLength) {
+  VLN_CHECK_ARG(static_cast<bool>(source),
+                "instructionFeatures(): model.instruction_features is "
+                "rxr_text but no text feature source was given (episode ",
+                episode.episode_id, ")");
+  VLN_CHECK_ARG(maxLength >= 1,
+                "instructionFeatures(): maxLength must be >= 1");
+  const torch::Tensor features = source(episode);
+  VLN_CHECK_ARG(
+      features.defined() && features.dim() == 2 && features.size(0) >= 1 &&
+          features.size(1) == dim && features.is_floating_point(),
+      "instructionFeatures(): episode ", episode.episode_id,
+      ": expected text features [L, ", dim, "] (model.text_feature_dim), got ",
+      features.defined() ? features.sizes() : torch::IntArrayRef{});
+  return features.slice(0, 0, maxLength)
+      .to(torch::kCPU, torch::kFloat32)
+      .unsqueeze(0);
+}
+
+torch::Tensor batchInstructionFeatures(std::span<const torch::Tensor> rows) {
+  VLN_CHECK_ARG(!rows.empty(), "batchInstructionFeatures(): no rows");
+  int64_t longest = 1;
+  for (const torch::Tensor& row : rows) {
+    VLN_CHECK_ARG(row.dim() == 3 && row.size(0) == 1 &&
+                      row.size(2) == rows.front().size(2),
+                  "batchInstructionFeatures(): expected rows [1, L, ",
+                  rows.front().size(2), "], got ", row.sizes());
+    longest = std::max(longest, row.size(1));
+  }
+  torch::Tensor out = torch::zeros(
+      {static_cast<int64_t>(rows.size()), longest, rows.front().size(2)},
+      rows.front().options());
+  for (size_t k = 0; k < rows.size(); ++k)
+    out[static_cast<int64_t>(k)].slice(0, 0, rows[k].size(1)).copy_(rows[k][0]);
+  return out;
 }
 
 }  // namespace vln::rollout

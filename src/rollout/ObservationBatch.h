@@ -4,7 +4,10 @@
 
 #include <ATen/core/Tensor.h>
 
+#include <filesystem>
+#include <functional>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "data/Episode.h"
@@ -31,5 +34,33 @@ ObservationBatch batchObservations(const VectorEnv& envs,
 /// unpadded instruction in the batch, capped at `maxLength` (at least 1).
 at::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
                                 int maxLength);
+
+/// The text features of an episode's instruction, float [L, D] on the CPU
+/// holding its real rows (trailing zero rows may remain; they are padding):
+/// what a policy with model.instruction_features: rxr_text reads.
+using InstructionFeatureSource =
+    std::function<at::Tensor(const data::Episode&)>;
+
+/// A source reading RxR's text feature files of `split` under
+/// `featuresDir` (data::loadRxrTextFeatures() by the episode's
+/// instruction_id and language) and keeping the file's rows
+/// ([valid_tokens, dim], at most RxR's 512 rows; a file of another width
+/// is the loader's error). The source throws std::invalid_argument
+/// naming the episode when it has no instruction_id, and the loader's
+/// errors for bad files.
+InstructionFeatureSource rxrTextFeatureSource(
+    const std::filesystem::path& featuresDir, const std::string& split,
+    int dim);
+
+/// One episode's text features from `source`, checked ([L, dim] float with
+/// L >= 1, else std::invalid_argument naming the episode) and cut to its
+/// first `maxLength` rows: [1, L', dim].
+at::Tensor instructionFeatures(const InstructionFeatureSource& source,
+                               const data::Episode& episode, int dim,
+                               int maxLength);
+
+/// Rows of instructionFeatures() ([1, L_i, D] each) stacked into
+/// [N, max L_i, D], zero rows after each (padding for the encoder).
+at::Tensor batchInstructionFeatures(std::span<const at::Tensor> rows);
 
 }  // namespace vln::rollout

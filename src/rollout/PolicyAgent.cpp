@@ -155,14 +155,16 @@ std::vector<sim::Action> PolicyAgent::act(VectorEnv& envs,
                                    .contiguous();
   lastProbabilities_ = torch::softmax(logits, /*dim=*/-1).to(torch::kFloat32);
 
-  // argmax (first maximum) or a draw from the episode's own generator
+  // argmax (first maximum) or a draw from the episode's own generator;
+  // codes 4 and 5 (model.num_actions 6) are LOOK_UP and LOOK_DOWN
+  const int numActions = stepper_.policy().config().num_actions;
   std::vector<sim::Action> actions;
   for (size_t k = 0; k < active.size(); ++k) {
     const int chosen = chooseRow(
         logits, static_cast<int64_t>(k), sample_,
         draws_[static_cast<size_t>(active[k])].rng);
     stepper_.took(active[k], chosen);
-    actions.push_back(sim::actionFromInt(chosen));
+    actions.push_back(sim::actionFromInt(chosen, numActions));
   }
   return actions;
 }

@@ -44,8 +44,15 @@ class PolicyAgent : public Agent {
     return stepper_.instructionAttention(env);
   }
 
-  /// Action probabilities of the last act() call, float [active, 4] on the
-  /// CPU (softmax of the logits), for tests and diagnostics.
+  /// Where an rxr_text policy reads each episode's instruction features
+  /// (PolicyStepper::setInstructionFeatures()); call before reset().
+  void setInstructionFeatures(InstructionFeatureSource source) {
+    stepper_.setInstructionFeatures(std::move(source));
+  }
+
+  /// Action probabilities of the last act() call, float [active,
+  /// model.num_actions] on the CPU (softmax of the logits), for tests and
+  /// diagnostics.
   const at::Tensor& lastProbabilities() const { return lastProbabilities_; }
 
  private:

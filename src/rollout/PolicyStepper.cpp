@@ -26,7 +26,8 @@ struct PolicyStepper::EnvState {
   const data::Episode* episode = nullptr;
   RecurrentState recurrent;
   models::EncodedInstruction instruction;  ///< one row (not kJoint)
-  std::vector<float> attention;            ///< of the last step, when kept
+  at::Tensor textFeatures;       ///< [1, L, D] on the CPU (text features only)
+  std::vector<float> attention;  ///< of the last step, when kept
 };
 
 namespace {
@@ -77,13 +78,18 @@ void PolicyStepper::start(int env, const data::Episode& episode) {
   EnvState& s = *states_[static_cast<size_t>(env)];
   torch::NoGradGuard noGrad;
   s.episode = &episode;
+  // text features are read once per episode and kept for joint batches
+  const models::ModelConfig& config = policy_->config();
+  s.textFeatures = torch::Tensor();
+  if (config.usesInstruction() && config.usesTextFeatures())
+    s.textFeatures =
+        instructionFeatures(featureSource_, episode, config.text_feature_dim,
+                            maxInstructionLength_);
   // alone, so that the encoding never depends on the batch
   s.instruction = {};
-  if (batching_ != InstructionBatching::kJoint &&
-      policy_->config().usesInstruction()) {
-    const data::Episode* one[] = {&episode};
-    s.instruction = policy_->encodeInstruction(
-        batchInstructions(one, maxInstructionLength_).to(device_));
+  if (batching_ != InstructionBatching::kJoint && config.usesInstruction()) {
+    EnvState* one[] = {&s};
+    s.instruction = policy_->encodeInstruction(instructionInput(one));
   }
   s.recurrent.restart(policy_->initialHidden(1)[0]);
   s.attention.clear();
@@ -107,22 +113,37 @@ torch::Tensor PolicyStepper::step(std::span<const int> envs,
   return torch::cat(logits);
 }
 
+torch::Tensor PolicyStepper::instructionInput(
+    std::span<EnvState* const> states) const {
+  if (policy_->config().usesTextFeatures()) {
+    std::vector<torch::Tensor> rows;
+    for (const EnvState* s : states) rows.push_back(s->textFeatures);
+    return batchInstructionFeatures(rows).to(device_);
+  }
+  std::vector<const data::Episode*> episodes;
+  for (const EnvState* s : states) episodes.push_back(s->episode);
+  return batchInstructions(episodes, maxInstructionLength_).to(device_);
+}
+
 torch::Tensor PolicyStepper::stepTogether(
     std::span<const int> envs, const models::VisualFeatures& features) {
   std::vector<RecurrentState*> recurrent;
   std::vector<const models::EncodedInstruction*> rows;
   std::vector<const data::Episode*> episodes;
+  std::vector<EnvState*> states;
   for (int env : envs) {
     EnvState& s = *states_[static_cast<size_t>(env)];
     recurrent.push_back(&s.recurrent);
     rows.push_back(&s.instruction);
     episodes.push_back(s.episode);
+    states.push_back(&s);
   }
   models::EncodedInstruction instruction;
   if (batching_ == InstructionBatching::kJoint) {
     if (episodes != jointFor_) {
-      joint_ = policy_->encodeInstruction(
-          batchInstructions(episodes, maxInstructionLength_).to(device_));
+      joint_ = policy_->encodeInstruction(policy_->config().usesInstruction()
+                                              ? instructionInput(states)
+                                              : torch::Tensor());
       jointFor_ = episodes;
     }
     instruction = joint_;

@@ -26,6 +26,7 @@
 #include "data/Episode.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
+#include "rollout/ObservationBatch.h"
 #include "rollout/RecurrentState.h"
 
 namespace vln::rollout {
@@ -36,18 +37,25 @@ class PolicyStepper {
  public:
   /// `policy` runs under NoGradGuard on the device of its parameters (the
   /// caller sets eval or train mode); `numEnvs` bounds the environment
-  /// indices; `maxInstructionLength` caps the tokens fed to the encoder
-  /// (dataset.max_instruction_length).
+  /// indices; `maxInstructionLength` caps the tokens (or text feature
+  /// rows) fed to the encoder (dataset.max_instruction_length).
   PolicyStepper(std::shared_ptr<models::PolicyImpl> policy, int numEnvs,
                 int maxInstructionLength, InstructionBatching batching);
   ~PolicyStepper();
+
+  /// Where a policy with model.instruction_features: rxr_text gets each
+  /// episode's text features (read once per episode, at start()); without
+  /// one, start() throws std::invalid_argument for such a policy.
+  void setInstructionFeatures(InstructionFeatureSource source) {
+    featureSource_ = std::move(source);
+  }
 
   /// Environment `env` starts `episode` (which must outlive its use): zero
   /// state, no previous action.
   void start(int env, const data::Episode& episode);
   /// One policy step of `envs` (each started) from their visual features
   /// (rows in the order of `envs`, on the policy's device): logits
-  /// [envs.size(), kNumActions] on that device. Each environment's hidden
+  /// [envs.size(), model.num_actions] on that device. Each environment's hidden
   /// state advances; its previous action stays until took().
   at::Tensor step(std::span<const int> envs,
                   const models::VisualFeatures& features);
@@ -71,10 +79,14 @@ class PolicyStepper {
   struct EnvState;
   at::Tensor stepTogether(std::span<const int> envs,
                           const models::VisualFeatures& features);
+  // the encoder's input for `states`: tokens [N, L] or text features
+  // [N, L, D], on the policy's device
+  at::Tensor instructionInput(std::span<EnvState* const> states) const;
 
   std::shared_ptr<models::PolicyImpl> policy_;
   int maxInstructionLength_;
   InstructionBatching batching_;
+  InstructionFeatureSource featureSource_;
   c10::Device device_;
   bool keepAttention_ = false;
   std::vector<std::unique_ptr<EnvState>> states_;

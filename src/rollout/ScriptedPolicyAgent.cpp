@@ -79,6 +79,12 @@ ScriptedPolicyAgent::ScriptedPolicyAgent(const std::filesystem::path& file,
   }
   module_.eval();
   config_ = exportedModelConfig(module_, file);
+  // the agent feeds the archive token ids; text features would need a
+  // feature source (PolicyStepper::setInstructionFeatures) here
+  VLN_CHECK_ARG(!config_.usesInstruction() || !config_.usesTextFeatures(),
+                "ScriptedPolicyAgent: '", file.string(),
+                "' reads text features (model.instruction_features: "
+                "rxr_text); the scripted agent feeds instruction tokens only");
 
   // the archive must encode images itself; an export without encoders
   // takes feature maps in forward and cannot run on observations
@@ -168,10 +174,10 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
                                    .contiguous();
   const torch::Tensor newHidden = tuple->elements()[2].toTensor();
   VLN_CHECK_ARG(logits.dim() == 2 && logits.size(0) == n &&
-                    logits.size(1) == models::kNumActions,
+                    logits.size(1) == config_.num_actions,
                 "ScriptedPolicyAgent: '", file_.string(),
                 "' forward returned logits ", logits.sizes(), ", expected [", n,
-                ", ", models::kNumActions, "]");
+                ", ", config_.num_actions, "] (model.num_actions)");
 
   // the same choice rule as PolicyAgent
   std::vector<sim::Action> actions;
@@ -180,7 +186,7 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
     const int chosen = chooseRow(logits, k, sample_, s.rng);
     s.recurrent.advance(newHidden[k]);
     s.recurrent.prevAction = chosen;
-    actions.push_back(sim::actionFromInt(chosen));
+    actions.push_back(sim::actionFromInt(chosen, config_.num_actions));
   }
   return actions;
 }

@@ -245,7 +245,8 @@ class Collector::Job : public rollout::EpisodeJob {
       s.record(rgb, depth, static_cast<int64_t>(k), oracle[k], targets[k]);
       sim::Action taken = oracle[k];
       if (stepper_ && common::uniform01(s.coins) >= round_.beta)
-        taken = sim::actionFromInt(static_cast<int>(policyAction(logits, k, s)));
+        taken = sim::actionFromInt(static_cast<int>(policyAction(logits, k, s)),
+                                   config_.model.num_actions);
       s.oracleSteps += taken == oracle[k];
       actions[k] = taken;
       s.prevAction = static_cast<int64_t>(taken);

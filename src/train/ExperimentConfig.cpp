@@ -1,5 +1,7 @@
 #include "train/ExperimentConfig.h"
 
+#include "sim/Agent.h"
+
 namespace vln::train {
 
 void ExperimentConfig::validate() const {
@@ -15,6 +17,13 @@ void ExperimentConfig::validate() const {
                 "config: model.depth_width x model.depth_height (", model.depth_width,
                 "x", model.depth_height, ") must equal sim.depth.width x sim.depth.height (",
                 sim.depth.camera.width, "x", sim.depth.camera.height, ")");
+  // a six-action (RxR) policy's looks would be refused mid-episode by an
+  // R2R simulator; a four-action policy on RxR's simulator never looks
+  VLN_CHECK_ARG(model.num_actions <= sim::numActions(sim.agent),
+                "config: model.num_actions is ", model.num_actions,
+                " (LOOK_UP, LOOK_DOWN) but sim.agent.look_actions is false; "
+                "the simulator allows ",
+                sim::numActions(sim.agent), " actions");
   VLN_CHECK_ARG(sim.depth.min_depth < sim.depth.max_depth,
                 "config: sim.depth.min_depth (", sim.depth.min_depth,
                 ") must be below sim.depth.max_depth (", sim.depth.max_depth, ")");

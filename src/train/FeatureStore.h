@@ -97,6 +97,10 @@ struct EpisodeBatch {
   at::Tensor valid;           ///< [T, B] bool, true at real steps
   at::Tensor not_done;        ///< [T, B] float32, 0 at t = 0 else 1
   at::Tensor tokens;          ///< [B, L] int64, PAD 0 on the right (L >= 1)
+  /// [B, L, D] float32, zero rows on the right: the instructions' text
+  /// features for model.instruction_features: rxr_text (filled by the
+  /// caller, not by the store, which keeps tokens); undefined otherwise.
+  at::Tensor text_features;
   std::vector<int64_t> indices;  ///< store indices of the B episodes
   int64_t steps = 0;             ///< real (valid) steps in the batch
 };

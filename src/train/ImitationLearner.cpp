@@ -81,9 +81,20 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   inputs.not_done = to(batch.not_done);
   const int64_t B = actions.size(1);
 
+  // token ids, or the text features of an rxr_text model
+  torch::Tensor instructionInput;
+  if (model.usesInstruction() && model.usesTextFeatures()) {
+    VLN_CHECK_ARG(batch.text_features.defined(),
+                  "ImitationLearner::update(): model.instruction_features is "
+                  "rxr_text but the batch carries no text features");
+    instructionInput = to(batch.text_features);
+  } else if (model.usesInstruction()) {
+    instructionInput = to(batch.tokens);
+  }
+
   optimizer_->zero_grad();
-  const models::EncodedInstruction instruction = policy_->encodeInstruction(
-      model.usesInstruction() ? to(batch.tokens) : torch::Tensor());
+  const models::EncodedInstruction instruction =
+      policy_->encodeInstruction(instructionInput);
   const models::PolicyOutputs out =
       policy_->forwardSequence(instruction, inputs, policy_->initialHidden(B));
   const torch::Tensor weights =

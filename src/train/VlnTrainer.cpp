@@ -72,7 +72,9 @@ struct VlnTrainer::Impl {
 
     // the policy and the frozen encoders, in this order under the seed
     torch::Tensor embeddings;
-    if (config.model.usesInstruction()) embeddings = embeddingTensor(config);
+    // GloVe only for token ids; rxr_text models have no word embedding
+    if (config.model.usesInstruction() && !config.model.usesTextFeatures())
+      embeddings = embeddingTensor(config);
     policy = models::makePolicy(config.model, embeddings);
     encoder = models::ObservationEncoder(config.model);
     encoder->loadPretrained();

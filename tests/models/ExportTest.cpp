@@ -186,6 +186,46 @@ TEST(ExportTest, FeatureEntryPointMatchesPolicy) {
   }
 }
 
+TEST(ExportTest, RxrTextFeaturesAndSixActionsRoundTrip) {
+  // model.num_actions 6 and model.instruction_features: rxr_text export:
+  // six logits, the previous LOOK actions embedded, features padded to
+  // RxR's 512 rows give the C++ policy's outputs
+  for (PolicyType type : {PolicyType::kSeq2Seq, PolicyType::kCma}) {
+    torch::manual_seed(13);
+    const ModelConfig c = test::tinyRxrConfig(type);
+    auto policy = makePolicy(c);
+    torch::jit::Module m = buildExportModule(*policy, nullptr);
+    PolicyInputs in = test::randomInputs(c, 1, 2);
+    in.prev_actions[0] = torch::tensor({4, 5}, torch::kInt64);
+    in.not_done[0].fill_(1);
+    const torch::Tensor features = test::randomTextFeatures({4, 6}, 6, 8);
+    const torch::Tensor h =
+        torch::randn({2, c.numRecurrentLayers(), c.hidden_size});
+    torch::NoGradGuard g;
+    const auto expected = policy->step(policy->encodeInstruction(features),
+                                       test::stepOf(in, 0), h);
+    ASSERT_EQ(expected.logits.sizes(), (std::vector<int64_t>{2, 6}));
+    const torch::Tensor padded =
+        torch::cat({features, torch::zeros({2, 506, 8})}, 1);
+    for (const torch::Tensor& t : {features, padded}) {
+      const auto out =
+          m.get_method("step_features")({in.rgb[0], in.depth[0], t,
+                                         in.prev_actions[0], in.not_done[0], h})
+              .toTuple();
+      EXPECT_TRUE(torch::allclose(out->elements()[0].toTensor(),
+                                  expected.logits, 1e-4, 1e-5))
+          << policyName(type) << " width " << t.size(1);
+      EXPECT_TRUE(torch::allclose(out->elements()[2].toTensor(),
+                                  expected.hidden, 1e-4, 1e-5))
+          << policyName(type) << " width " << t.size(1);
+    }
+    // the archive's config names both options
+    const ModelConfig stored = common::loadConfigText<ModelConfig>(
+        m.attr("model_config").toStringRef());
+    EXPECT_EQ(stored, c);
+  }
+}
+
 TEST(ExportTest, MismatchedEncoderIsRejected) {
   ModelConfig c = tinyConfig(PolicyType::kSeq2Seq);
   auto policy = makePolicy(c);

@@ -52,6 +52,61 @@ TEST(InstructionEncoderTest, PaddingAndBatchCompanionsNeverChangeARow) {
   EXPECT_TRUE(torch::allclose(both.last[0], alone.last[0], 1e-6, 1e-7));
 }
 
+TEST(InstructionEncoderTest, TextFeaturesFeedTheLstmWithoutEmbedding) {
+  // VLN-CE's RxR encoder: the [B, L, 768] features enter the (Bi)LSTM as
+  // they are; zero rows at the end are padding
+  torch::manual_seed(2);
+  ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  c.instruction_features = InstructionFeatures::kRxrText;
+  c.text_feature_dim = 8;
+  InstructionEncoder enc(c);
+  EXPECT_TRUE(enc->embedding.is_empty());
+  EXPECT_EQ(enc->lstm->options.input_size(), 8);
+  EXPECT_TRUE(enc->lstm->options.bidirectional());
+  for (const auto& item : enc->named_parameters())
+    EXPECT_EQ(item.key().rfind("lstm.", 0), 0u) << item.key();
+
+  const torch::Tensor features = test::randomTextFeatures({4, 2, 6}, 8, 8);
+  const auto out = enc->forward(features);
+  EXPECT_EQ(out.states.sizes(), (std::vector<int64_t>{3, 6, 10}));
+  EXPECT_TRUE(torch::equal(enc->featureLengths(features),
+                           torch::tensor({4, 2, 6}, torch::kInt64)));
+  // a row alone, unpadded, gives the same states
+  const auto alone = enc->forward(features.slice(0, 1, 2).slice(1, 0, 2));
+  EXPECT_TRUE(torch::allclose(out.states[1].slice(0, 0, 2), alone.states[0],
+                              1e-6, 1e-7));
+  EXPECT_EQ(out.states[1].slice(0, 2).abs().sum().item<float>(), 0.0f);
+  // an all-zero row inside the text is input, not padding: the length
+  // runs to the last non-zero row
+  torch::Tensor gap = features.clone();
+  gap[2][3].zero_();
+  EXPECT_EQ(enc->featureLengths(gap)[2].item<int64_t>(), 6);
+}
+
+TEST(InstructionEncoderTest, BadTextFeaturesAreRejectedWithTheReason) {
+  ModelConfig c = test::tinyConfig(PolicyType::kSeq2Seq);
+  c.instruction_features = InstructionFeatures::kRxrText;
+  c.text_feature_dim = 8;
+  InstructionEncoder enc(c);
+  EXPECT_THAT(errorOf([&] {
+                enc->forward(torch::ones({2, 3, 7}));
+              }),
+              HasSubstr("expected float text features [B, L, 8] "
+                        "(model.text_feature_dim), got [2, 3, 7]"));
+  EXPECT_THAT(errorOf([&] {
+                enc->forward(torch::ones({2, 3}, torch::kLong));
+              }),
+              HasSubstr("model.instruction_features is rxr_text"));
+  torch::Tensor empty = torch::ones({2, 3, 8});
+  empty[1].zero_();
+  EXPECT_THAT(errorOf([&] { enc->forward(empty); }),
+              HasSubstr("the text features of row 1 are all zero"));
+  EXPECT_THAT(errorOf([&] {
+                enc->setWordEmbeddings(torch::zeros({23, 6}));
+              }),
+              HasSubstr("has no word embedding"));
+}
+
 TEST(InstructionEncoderTest, BadTokensAreRejectedWithTheReason) {
   InstructionEncoder enc(tinyConfig(PolicyType::kCma));
   EXPECT_THAT(errorOf([&] {

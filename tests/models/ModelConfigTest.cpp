@@ -60,6 +60,34 @@ TEST(ModelConfigTest, YamlRoundTripAndStrictEnums) {
               HasSubstr("expected one of {resnet50, resnet18, small_cnn}"));
 }
 
+TEST(ModelConfigTest, RxrKeysRoundTripWithR2rDefaults) {
+  const ModelConfig defaults;
+  EXPECT_EQ(defaults.num_actions, 4);
+  EXPECT_EQ(defaults.instruction_features, InstructionFeatures::kTokens);
+  EXPECT_EQ(defaults.text_feature_dim, 768);
+  EXPECT_EQ(defaults.instructionInputSize(), 50);
+  const Root r = common::loadConfigText<Root>(
+      "model:\n  num_actions: 6\n  instruction_features: rxr_text\n");
+  EXPECT_EQ(r.model.num_actions, 6);
+  EXPECT_TRUE(r.model.usesTextFeatures());
+  EXPECT_EQ(r.model.instructionInputSize(), 768);
+  const Root back = common::loadConfigText<Root>(common::configToYaml(r));
+  EXPECT_EQ(back.model, r.model);
+  EXPECT_THAT(
+      errorOf([] {
+        common::loadConfigText<Root>("model:\n  instruction_features: glove\n");
+      }),
+      HasSubstr("expected one of {tokens, rxr_text}"));
+  EXPECT_THAT(errorOf([] {
+                common::loadConfigText<Root>("model:\n  num_actions: 5\n");
+              }),
+              HasSubstr("model.num_actions must be 4 (R2R_VLNCE) or 6"));
+  EXPECT_THAT(errorOf([] {
+                common::loadConfigText<Root>("model:\n  num_actions: 7\n");
+              }),
+              HasSubstr("num_actions"));
+}
+
 TEST(ModelConfigTest, ValidateNamesFieldAndValue) {
   EXPECT_THAT(errorOf([] {
                 common::loadConfigText<Root>("model:\n  depth_height: 32\n");

@@ -44,6 +44,30 @@ inline torch::Tensor randomTokens(const std::vector<int64_t>& lengths,
   return tokens;
 }
 
+/// `config` reading RxR-style text features ([B, L, 8]) instead of tokens,
+/// with RxR's six actions.
+inline ModelConfig tinyRxrConfig(PolicyType policy) {
+  ModelConfig c = tinyConfig(policy);
+  c.instruction_features = InstructionFeatures::kRxrText;
+  c.text_feature_dim = 8;
+  c.num_actions = static_cast<int>(kNumLookActions);
+  c.seq2seq_prev_action = true;
+  return c;
+}
+
+/// Random text features with the given lengths, zero rows after each,
+/// [B, width, dim] float.
+inline torch::Tensor randomTextFeatures(const std::vector<int64_t>& lengths,
+                                        int64_t width, int64_t dim) {
+  torch::Tensor features = torch::zeros(
+      {static_cast<int64_t>(lengths.size()), width, dim}, torch::kFloat32);
+  for (size_t b = 0; b < lengths.size(); ++b)
+    features[static_cast<int64_t>(b)]
+        .slice(0, 0, lengths[b])
+        .copy_(torch::randn({lengths[b], dim}));
+  return features;
+}
+
 /// Random sequence-mode inputs [T, B, ...] for `config`, with episode
 /// starts at t = 0 and wherever `resets` (pairs t, b) say.
 inline PolicyInputs randomInputs(
@@ -56,7 +80,7 @@ inline PolicyInputs randomInputs(
   in.rgb = torch::rand({steps, batch, r[0], r[1], r[2]}, dtype);
   in.depth = torch::rand({steps, batch, d[0], d[1], d[2]}, dtype);
   in.prev_actions =
-      torch::randint(0, kNumActions, {steps, batch}, torch::kInt64);
+      torch::randint(0, config.num_actions, {steps, batch}, torch::kInt64);
   in.not_done = torch::ones({steps, batch}, dtype);
   in.not_done[0].zero_();
   for (const auto& [t, b] : resets) in.not_done[t][b] = 0;

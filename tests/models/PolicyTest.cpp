@@ -7,8 +7,10 @@
 #include <gtest/gtest.h>
 
 #include "ModelTestUtil.h"
+#include "models/Loss.h"
 #include "models/StateDict.h"
 #include "support/TestPaths.h"
+#include "support/TestUtil.h"
 
 namespace vln::models {
 namespace {
@@ -275,12 +277,228 @@ TEST_P(PolicyTest, BadShapesAreNamed) {
   EXPECT_THROW(makePolicy(c, torch::zeros({3, 3})), std::invalid_argument);
 }
 
+// ---------------------------------------------------------------------------
+// RxR: six actions and text-feature instructions (model.num_actions,
+// model.instruction_features: rxr_text)
+
+TEST_P(PolicyTest, SixActionsWidenHeadAndPreviousActionEmbedding) {
+  ModelConfig c = config();
+  c.seq2seq_prev_action = true;
+  const ModelConfig four = c;
+  c.num_actions = static_cast<int>(kNumLookActions);
+  auto policy = makePolicy(c);
+  const auto instr = policy->encodeInstruction(randomTokens({4, 2}, 4, 23));
+  PolicyInputs in = randomInputs(c, 3, 2);
+  in.prev_actions.fill_(5);  // LOOK_DOWN: the embedding's last entry
+  const auto out = policy->forwardSequence(instr, in, policy->initialHidden(2));
+  EXPECT_EQ(out.logits.sizes(), (std::vector<int64_t>{3, 2, 6}));
+  EXPECT_TRUE(out.logits.isfinite().all().item<bool>());
+  const auto state = namedState(*policy);
+  auto shapeOf = [&](const std::string& name) {
+    for (const auto& [key, tensor] : state)
+      if (key == name) return tensor.sizes().vec();
+    ADD_FAILURE() << "no tensor " << name;
+    return std::vector<int64_t>{};
+  };
+  // the start entry, then one per action
+  EXPECT_EQ(shapeOf("prev_action_embedding.weight"),
+            (std::vector<int64_t>{7, c.prev_action_embedding_dim}));
+  EXPECT_EQ(shapeOf("action_head.weight"),
+            (std::vector<int64_t>{6, c.hidden_size}));
+  EXPECT_EQ(shapeOf("action_head.bias"), (std::vector<int64_t>{6}));
+  // the same tensor names as the four-action model: only shapes differ
+  std::vector<std::string> names, fourNames;
+  for (const auto& item : state) names.push_back(item.first);
+  for (const auto& item : namedState(*makePolicy(four)))
+    fourNames.push_back(item.first);
+  EXPECT_EQ(names, fourNames);
+}
+
+TEST_P(PolicyTest, TextFeaturePaddingNeverChangesOutputs) {
+  const ModelConfig c = test::tinyRxrConfig(GetParam());
+  auto policy = makePolicy(c);
+  policy->eval();
+  EXPECT_TRUE(policy->instruction_encoder->embedding.is_empty());
+  const torch::Tensor features = test::randomTextFeatures({3, 6, 1}, 6, 8);
+  // RxR pads every instruction to 512 rows
+  const torch::Tensor padded =
+      torch::cat({features, torch::zeros({3, 506, 8})}, 1);
+  const PolicyInputs in = randomInputs(c, 4, 3);
+  const EncodedInstruction a = policy->encodeInstruction(features);
+  const EncodedInstruction b = policy->encodeInstruction(padded);
+  if (GetParam() == PolicyType::kCma) {
+    // the mask covers the real rows; the padded encoding is trimmed
+    EXPECT_TRUE(torch::equal(a.mask.sum(1).to(torch::kInt64),
+                             torch::tensor({3, 6, 1}, torch::kInt64)));
+    EXPECT_EQ(b.mask.size(1), 6);
+  }
+  const auto outA = policy->forwardSequence(a, in, policy->initialHidden(3));
+  const auto outB = policy->forwardSequence(b, in, policy->initialHidden(3));
+  EXPECT_TRUE(torch::allclose(outA.logits, outB.logits, 1e-6, 1e-7));
+  EXPECT_TRUE(torch::allclose(outA.hidden, outB.hidden, 1e-6, 1e-7));
+
+  // a row alone gives what it gives beside others (packed by length)
+  const auto alone = policy->forwardSequence(
+      policy->encodeInstruction(features.slice(0, 2)),
+      {in.rgb.slice(1, 2), in.depth.slice(1, 2), in.prev_actions.slice(1, 2),
+       in.not_done.slice(1, 2)},
+      policy->initialHidden(1));
+  EXPECT_TRUE(torch::allclose(alone.logits.select(1, 0),
+                              outA.logits.select(1, 2), 1e-5, 1e-6));
+
+  // what padding hides does matter where it is real
+  torch::Tensor changed = features.clone();
+  changed[2][0] += 1.0;
+  const auto outC = policy->forwardSequence(policy->encodeInstruction(changed),
+                                            in, policy->initialHidden(3));
+  EXPECT_FALSE(torch::allclose(outA.logits.select(1, 2),
+                               outC.logits.select(1, 2), 1e-6, 1e-8));
+}
+
+TEST_P(PolicyTest, TextFeatureTrainingLowersTheLoss) {
+  // a few Adam steps teacher-forced on synthetic RxR-like episodes (text
+  // features, all six actions as labels)
+  const ModelConfig c = test::tinyRxrConfig(GetParam());
+  auto policy = makePolicy(c);
+  const int64_t steps = 6, batch = 4;
+  const torch::Tensor features = test::randomTextFeatures({5, 9, 3, 7}, 9, 8);
+  const PolicyInputs in = randomInputs(c, steps, batch);
+  // episode b's action at step t is (t + 2b) mod 6: every action occurs,
+  // and which one depends on the episode
+  const torch::Tensor actions =
+      (torch::arange(steps).unsqueeze(1) + 2 * torch::arange(batch)) %
+      c.num_actions;
+  const torch::Tensor valid = torch::ones({steps, batch}, torch::kBool);
+  const torch::Tensor weights = inflectionWeights(actions, valid, 1.0);
+  torch::optim::Adam adam(policy->parameters(),
+                          torch::optim::AdamOptions(0.01));
+  auto loss = [&] {
+    const auto out = policy->forwardSequence(
+        policy->encodeInstruction(features), in, policy->initialHidden(batch));
+    return weightedActionLoss(out.logits, actions, weights);
+  };
+  const double before = loss().item<double>();
+  for (int i = 0; i < 40; ++i) {
+    adam.zero_grad();
+    loss().backward();
+    adam.step();
+  }
+  const double after = loss().item<double>();
+  EXPECT_LT(after, 0.5 * before) << "before " << before << " after " << after;
+  // the instruction LSTM learns too
+  EXPECT_TRUE(policy->instruction_encoder->lstm->parameters()[0]
+                  .grad()
+                  .abs()
+                  .sum()
+                  .item<double>() > 0.0);
+}
+
+TEST_P(PolicyTest, TextFeatureModelRefusesTokensAndGlove) {
+  const ModelConfig c = test::tinyRxrConfig(GetParam());
+  auto policy = makePolicy(c);
+  try {
+    policy->encodeInstruction(randomTokens({3}, 3, 23));
+    FAIL() << "expected an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("model.instruction_features is rxr_text"));
+  }
+  EXPECT_THAT(vln::test::errorOf([&] {
+                policy->encodeInstruction(torch::zeros({2, 4, 8}));
+              }),
+              HasSubstr("all zero"));
+  EXPECT_THAT(vln::test::errorOf([&] {
+                policy->encodeInstruction(torch::ones({2, 4, 9}));
+              }),
+              HasSubstr("model.text_feature_dim"));
+  EXPECT_THAT(vln::test::errorOf([&] {
+                makePolicy(c, torch::zeros({c.vocab_size, c.embedding_dim}));
+              }),
+              HasSubstr("no word embedding"));
+}
+
 INSTANTIATE_TEST_SUITE_P(BothPolicies, PolicyTest,
                          ::testing::Values(PolicyType::kSeq2Seq,
                                            PolicyType::kCma),
                          [](const auto& info) {
                            return std::string(policyName(info.param));
                          });
+
+// The R2R models (model.num_actions 4, token instructions) give exactly the
+// outputs they gave before num_actions and instruction_features existed:
+// values printed by this test's body built on main at 7cb4972.
+TEST(PolicyGoldenTest, R2rOutputsUnchangedAtFixedSeed) {
+  struct Golden {
+    PolicyType policy;
+    bool prevAction;
+    std::vector<float> logits;    // [3, 2, 4] flattened
+    std::vector<float> progress;  // [3, 2] flattened
+    double hiddenSum;
+  };
+  const std::vector<Golden> goldens = {
+      {PolicyType::kSeq2Seq,
+       /*prevAction=*/false,
+       {-5.233332049e-04f, 3.639625502e-04f,  1.070608851e-03f,
+        4.231448984e-04f,  1.840883924e-04f,  1.375789638e-03f,
+        1.394670340e-03f,  2.102537983e-04f,  -8.372357115e-04f,
+        3.947735240e-04f,  1.196096768e-03f,  3.904789628e-04f,
+        7.921495853e-05f,  2.240037313e-03f,  1.998669701e-03f,
+        8.046798175e-04f,  -7.731197402e-04f, 2.119955170e-04f,
+        1.636771834e-03f,  6.527335499e-04f,  -7.267043111e-04f,
+        1.671644626e-03f,  1.908235834e-03f,  -7.805121277e-05f},
+       {-1.571561098e-01f, -2.889718488e-02f, -2.433652133e-01f,
+        -5.094777420e-02f, -2.840751410e-01f, -1.188256443e-01f},
+       -1.419512033e+00},
+      {PolicyType::kSeq2Seq,
+       /*prevAction=*/true,
+       {6.892103702e-04f,  7.058546180e-04f,  -1.945937518e-03f,
+        -5.470325123e-04f, 5.492357886e-04f,  8.396399789e-04f,
+        -2.861871384e-03f, 1.138944863e-04f,  -1.667242730e-03f,
+        -3.472383600e-03f, -1.956142019e-03f, -7.707127952e-04f,
+        1.276213909e-03f,  -3.676089400e-04f, -2.230267273e-03f,
+        -3.462504596e-03f, 2.085901069e-04f,  -1.819767640e-03f,
+        -1.826891908e-03f, -3.192406846e-03f, 5.898735835e-04f,
+        1.135579892e-03f,  -2.751978114e-03f, 4.022851936e-04f},
+       {1.750028580e-01f, 6.532257795e-02f, 4.541071653e-01f, 1.241822615e-01f,
+        3.931051493e-01f, 1.943007112e-02f},
+       -1.175289512e+00},
+      {PolicyType::kCma,
+       /*prevAction=*/false,
+       {2.278301254e-04f,  -1.241717138e-03f, 5.645787460e-04f,
+        -7.799803861e-04f, 3.309207095e-04f,  -1.238322933e-03f,
+        4.796522262e-04f,  -8.300653426e-04f, -3.180736094e-04f,
+        -1.493447926e-03f, 6.954062846e-04f,  -5.906770821e-04f,
+        4.204729339e-04f,  -1.435967977e-03f, -1.355679560e-04f,
+        -6.308374577e-04f, -7.032811118e-05f, -1.632143860e-03f,
+        -1.038832357e-03f, -7.648298633e-04f, 2.860568929e-04f,
+        -1.196160913e-03f, 4.686328466e-04f,  -7.762577152e-04f},
+       {-1.831374913e-01f, -1.828593165e-01f, -2.574456334e-01f,
+        -7.971960306e-02f, -5.305172130e-02f, -1.854407638e-01f},
+       -1.423878372e-01},
+  };
+  for (const Golden& g : goldens) {
+    torch::manual_seed(11);
+    ModelConfig c = tinyConfig(g.policy);
+    c.seq2seq_prev_action = g.prevAction;
+    auto policy = makePolicy(c);
+    policy->eval();
+    const auto instr = policy->encodeInstruction(randomTokens({4, 2}, 5, 23));
+    const auto out = policy->forwardSequence(
+        instr, randomInputs(c, 3, 2, {{2, 1}}), policy->initialHidden(2));
+    const torch::Tensor logits = out.logits.flatten().contiguous();
+    const torch::Tensor progress = out.progress.flatten().contiguous();
+    ASSERT_EQ(logits.numel(), static_cast<int64_t>(g.logits.size()));
+    ASSERT_EQ(progress.numel(), static_cast<int64_t>(g.progress.size()));
+    // bit-identical: each value printed with 9 significant digits
+    for (size_t i = 0; i < g.logits.size(); ++i)
+      EXPECT_EQ(logits[static_cast<int64_t>(i)].item<float>(), g.logits[i])
+          << policyName(g.policy) << " logit " << i;
+    for (size_t i = 0; i < g.progress.size(); ++i)
+      EXPECT_EQ(progress[static_cast<int64_t>(i)].item<float>(), g.progress[i])
+          << policyName(g.policy) << " progress " << i;
+    EXPECT_NEAR(out.hidden.sum().item<double>(), g.hiddenSum, 1e-7)
+        << policyName(g.policy);
+  }
+}
 
 TEST(PolicyFactoryTest, PaperSizesGiveVlnCeParameterCounts) {
   // trainable counts of VLN-CE's nets without the visual CNNs and

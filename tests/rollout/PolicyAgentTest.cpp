@@ -9,10 +9,13 @@
 
 #include <set>
 
+#include "data/RxrTextFeatures.h"
 #include "rollout/Evaluator.h"
 #include "rollout/ObservationBatch.h"
 #include "rollout/RolloutTestPolicy.h"
 #include "rollout/RolloutTestWorld.h"
+#include "support/TestPaths.h"
+#include "support/TestUtil.h"
 
 namespace vln::rollout {
 namespace {
@@ -256,6 +259,141 @@ TEST(PolicyAgentTest, CmaAttentionOverTheInstructionPerEnvironment) {
   const auto seq2seq = test::tinyAgentModel(models::PolicyType::kSeq2Seq, 25);
   for (const auto& [index, rows] : attentionOf(seq2seq, episodes, 3, true))
     for (const auto& row : rows) EXPECT_TRUE(row.empty());
+}
+
+}  // namespace
+}  // namespace vln::rollout
+
+// ---------------------------------------------------------------------------
+// RxR policies: six actions (LOOK_UP / LOOK_DOWN) and text-feature
+// instructions from a feature source
+
+namespace vln::rollout {
+namespace {
+
+// deterministic per-episode text features [3 + id % 5, 8]
+torch::Tensor syntheticFeatures(const data::Episode& episode) {
+  torch::Generator gen = at::detail::createCPUGenerator(
+      static_cast<uint64_t>(episode.episode_id) + 1);
+  return torch::randn({3 + episode.episode_id % 5, 8}, gen);
+}
+
+test::TinyAgentModel rxrAgentModel(models::PolicyType type, uint64_t seed) {
+  torch::manual_seed(seed);
+  test::TinyAgentModel m;
+  models::ModelConfig c = models::test::tinyRxrConfig(type);
+  c.vocab_size = test::kTestVocab;
+  m.policy = models::makePolicy(c);
+  m.encoder = models::ObservationEncoder(c);
+  torch::NoGradGuard noGrad;
+  for (auto& p : m.policy->named_parameters()) {
+    if (p.key() == "action_head.weight") p.value().mul_(400.0);
+    if (p.key() == "action_head.bias") p.value()[0].sub_(3.0);
+  }
+  return m;
+}
+
+std::vector<EpisodeResult> runRxr(const test::TinyAgentModel& model,
+                                  const std::vector<data::Episode>& episodes,
+                                  int numEnvs) {
+  const auto& w = rolloutTestWorld();
+  sim::SimConfig simConfig = w.sim;
+  simConfig.agent.look_actions = true;
+  PolicyAgent agent(model.policy, model.encoder, numEnvs, false, 0, 512);
+  agent.setInstructionFeatures(syntheticFeatures);
+  VectorEnv envs(numEnvs, simConfig, w.task,
+                 std::make_shared<SceneCache>(simConfig), 2);
+  return evaluateEpisodes(agent, envs, episodes, nullptr, EvalConfig{})
+      .episodes;
+}
+
+TEST(PolicyAgentTest, SixActionPolicyLooksUpAndDown) {
+  auto model = rxrAgentModel(models::PolicyType::kCma, 13);
+  {
+    // only LOOK_UP (4) can win: the camera pitches, the agent stays put
+    torch::NoGradGuard noGrad;
+    model.policy->named_parameters()["action_head.weight"].zero_();
+    model.policy->named_parameters()["action_head.bias"].copy_(
+        torch::tensor({-9.0f, -9.0f, -9.0f, -9.0f, 9.0f, -9.0f}));
+  }
+  const auto results = runRxr(model, firstEpisodes(1), 1);
+  ASSERT_EQ(results.size(), 1u);
+  const auto& record = results[0].record;
+  ASSERT_FALSE(record.actions.empty());
+  for (int a : record.actions) EXPECT_EQ(a, 4);
+  ASSERT_FALSE(record.pitches.empty());
+  EXPECT_NE(record.pitches.back(), 0.0f);
+  {
+    torch::NoGradGuard noGrad;
+    model.policy->named_parameters()["action_head.bias"].copy_(
+        torch::tensor({-9.0f, -9.0f, -9.0f, -9.0f, -9.0f, 9.0f}));
+  }
+  const auto down = runRxr(model, firstEpisodes(1), 1);
+  ASSERT_EQ(down.size(), 1u);
+  ASSERT_FALSE(down[0].record.actions.empty());
+  for (int a : down[0].record.actions) EXPECT_EQ(a, 5);
+}
+
+TEST(PolicyAgentTest, TextFeaturePolicyIsIndependentOfBatching) {
+  for (auto type : {models::PolicyType::kCma, models::PolicyType::kSeq2Seq}) {
+    SCOPED_TRACE(models::policyName(type));
+    const auto model = rxrAgentModel(type, 21);
+    const auto episodes = firstEpisodes(4);
+    std::vector<std::vector<int>> alone, batched;
+    for (const auto& e : episodes)
+      alone.push_back(runRxr(model, {e}, 1)[0].record.actions);
+    for (const auto& r : runRxr(model, episodes, 3))
+      batched.push_back(r.record.actions);
+    EXPECT_EQ(batched, alone);
+    std::set<int> kinds;
+    for (const auto& a : batched) kinds.insert(a.begin(), a.end());
+    EXPECT_GE(kinds.size(), 2u);
+  }
+}
+
+TEST(PolicyAgentTest, TextFeaturePolicyNeedsASource) {
+  const auto model = rxrAgentModel(models::PolicyType::kCma, 3);
+  PolicyAgent agent(model.policy, model.encoder, 1, false, 0, 512);
+  EXPECT_THAT(
+      [&] { agent.reset(0, rolloutTestWorld().episodes[0]); },
+      ::testing::Throws<std::invalid_argument>(::testing::Property(
+          &std::exception::what,
+          HasSubstr("model.instruction_features is rxr_text but no text "
+                    "feature source"))));
+}
+
+TEST(PolicyAgentTest, RxrTextFeatureFilesFeedThePolicy) {
+  // a features file in RxR's layout, read by rxrTextFeatureSource
+  vln::test::TempDir dir;
+  data::Episode episode = rolloutTestWorld().episodes[0];
+  episode.instruction.instruction_id = 42;
+  episode.instruction.language = "en-IN";
+  const torch::Tensor rows = torch::randn({5, 8});
+  std::vector<float> values(rows.data_ptr<float>(),
+                            rows.data_ptr<float>() + rows.numel());
+  const std::filesystem::path file =
+      data::rxrTextFeaturesPath(dir.path(), "val_seen", 42, "en-IN");
+  std::filesystem::create_directories(file.parent_path());
+  data::writeRxrTextFeatures(file, values, 8);
+  const InstructionFeatureSource source =
+      rxrTextFeatureSource(dir.path(), "val_seen", 8);
+  // the file's rows only, not RxR's 512-row block
+  EXPECT_TRUE(torch::equal(source(episode), rows));
+  EXPECT_EQ(instructionFeatures(source, episode, 8, 3).sizes(),
+            (std::vector<int64_t>{1, 3, 8}));
+  EXPECT_THAT(vln::test::errorOf([&] {
+                rxrTextFeatureSource(dir.path(), "val_seen", 16)(episode);
+              }),
+              HasSubstr("must be [tokens, 16]"));
+  data::Episode noId = episode;
+  noId.instruction.instruction_id.reset();
+  EXPECT_THAT(vln::test::errorOf([&] { source(noId); }),
+              HasSubstr("has no instruction.instruction_id"));
+  // padded rows stack with zeros after each
+  const torch::Tensor a = torch::ones({1, 2, 8}), b = torch::ones({1, 4, 8});
+  const torch::Tensor stacked = batchInstructionFeatures({{a, b}});
+  EXPECT_EQ(stacked.sizes(), (std::vector<int64_t>{2, 4, 8}));
+  EXPECT_EQ(stacked[0].slice(0, 2).abs().sum().item<float>(), 0.0f);
 }
 
 }  // namespace

@@ -153,5 +153,30 @@ TEST(ImitationLearnerTest, LossFallsOnALearnableStore) {
   EXPECT_EQ(learner.updates(), 30 * 3);
 }
 
+TEST(ImitationLearnerTest, TextFeatureModelTrainsOnTheBatchsFeatures) {
+  // model.instruction_features: rxr_text reads EpisodeBatch::text_features
+  // (RxR's [B, L, 768] features, narrow here) instead of the tokens
+  ExperimentConfig c = tinyLearnerConfig(4);
+  c.model.instruction_features = models::InstructionFeatures::kRxrText;
+  c.model.text_feature_dim = 8;
+  c.model.num_actions = static_cast<int>(models::kNumLookActions);
+  vln::test::TempDir dir;
+  FeatureStore store(dir / "store", layoutOf(c), 0.05);
+  fillStore(store, c, 4);
+  torch::manual_seed(3);
+  ImitationLearner learner(models::makePolicy(c.model), c);
+  const std::vector<int64_t> indices = {0, 1, 2, 3};
+  EpisodeBatch batch = store.loadBatch(indices);
+  EXPECT_THAT([&] { learner.update(batch); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("the batch carries no text features")));
+  batch.text_features = torch::randn({4, 6, 8});
+  batch.text_features[1].slice(0, 3).zero_();  // padding
+  const double first = learner.update(batch).action_loss;
+  double last = first;
+  for (int i = 0; i < 40; ++i) last = learner.update(batch).action_loss;
+  EXPECT_LT(last, 0.5 * first) << "first " << first << " last " << last;
+}
+
 }  // namespace
 }  // namespace vln::train
