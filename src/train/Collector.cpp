@@ -477,6 +477,17 @@ std::string storeConfigHash(const ExperimentConfig& config) {
       if (!config.model.normalize_rgb) text += key + "=" + value + "\n";
       continue;
     }
+    // keys added after stores existed enter only away from their defaults,
+    // for the same reason: the look actions (RxR) and more training splits
+    if (key == "sim.agent.look_actions" || key == "sim.agent.tilt_angle") {
+      if (config.sim.agent.look_actions) text += key + "=" + value + "\n";
+      continue;
+    }
+    if (key == "dataset.extra_train_splits") {
+      if (!config.dataset.extra_train_splits.empty())
+        text += key + "=" + value + "\n";
+      continue;
+    }
     for (const auto& prefix : prefixes)
       if (key.rfind(prefix, 0) == 0) {
         text += key + "=" + value + "\n";

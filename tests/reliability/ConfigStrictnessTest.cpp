@@ -24,6 +24,7 @@
 #include "support/TestPaths.h"
 #include "train/Checkpoint.h"
 #include "train/ExperimentConfig.h"
+#include "world/RxrWorldConfig.h"
 #include "world/WorldConfig.h"
 
 namespace vln::reliability {
@@ -39,7 +40,7 @@ std::string readText(const fs::path& file) {
   return s.str();
 }
 
-enum class Kind { kWorld, kExperiment };
+enum class Kind { kWorld, kRxrWorld, kExperiment };
 
 const std::set<std::string>& experimentSections() {
   static const std::set<std::string> sections = {
@@ -50,7 +51,12 @@ const std::set<std::string>& experimentSections() {
 // strict load of `text` as `kind`, includes resolved against `baseDir`
 void load(Kind kind, std::string_view text, const std::string& source,
           const fs::path& baseDir) {
-  if (kind == Kind::kWorld) {
+  if (kind == Kind::kRxrWorld) {
+    world::RxrWorldConfig config;
+    common::readConfig(text, source, baseDir, {},
+                       [&](common::ConfigVisitor& v) { config.visit(v); });
+    config.validate();
+  } else if (kind == Kind::kWorld) {
     world::WorldConfig config;
     common::readConfig(text, source, baseDir, {},
                        [&](common::ConfigVisitor& v) { config.visit(v); });
@@ -120,10 +126,18 @@ Kind classify(const fs::path& file) {
   // only the directories below configs/ count: the checkout itself may sit
   // in a directory named world
   const fs::path configs = vln::test::sourcePath() / "configs";
-  for (const auto& part : file.lexically_relative(configs))
-    if (part == "world") return Kind::kWorld;
-  // top-level keys: unindented block keys
   const std::string text = readText(file);
+  for (const auto& part : file.lexically_relative(configs)) {
+    if (part != "world") continue;
+    // the RxR split's config nests a whole world under `world:` (as
+    // vlnce-data generate tells them apart)
+    for (const auto& token : keyTokens(text))
+      if (token.name == "world" &&
+          (token.offset == 0 || text[token.offset - 1] == '\n'))
+        return Kind::kRxrWorld;
+    return Kind::kWorld;
+  }
+  // top-level keys: unindented block keys
   for (const auto& token : keyTokens(text)) {
     const bool topLevel = token.offset == 0 || text[token.offset - 1] == '\n';
     if (topLevel && !experimentSections().count(token.name))

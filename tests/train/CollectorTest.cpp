@@ -60,6 +60,27 @@ TEST(StoreConfigHashTest, NormalizeRgbEntersOnlyWhenOff) {
   EXPECT_EQ(storeConfigHash(c), defaults);
 }
 
+// the same for the keys added later: look actions and extra training
+// splits change what is collected, so they enter the hash, but only away
+// from their defaults
+TEST(StoreConfigHashTest, LaterKeysEnterOnlyAwayFromTheirDefaults) {
+  ExperimentConfig c;
+  const std::string defaults = storeConfigHash(c);
+  c.sim.agent.tilt_angle = 15.0f;  // unused without look actions
+  EXPECT_EQ(storeConfigHash(c), defaults);
+  c.sim.agent.look_actions = true;
+  const std::string looking = storeConfigHash(c);
+  EXPECT_NE(looking, defaults);
+  c.sim.agent.tilt_angle = 30.0f;
+  EXPECT_NE(storeConfigHash(c), looking);
+  c = ExperimentConfig{};
+  c.dataset.extra_train_splits = {"train_extra"};
+  const std::string extra = storeConfigHash(c);
+  EXPECT_NE(extra, defaults);
+  c.dataset.extra_train_splits = {"train_extra", "more"};
+  EXPECT_NE(storeConfigHash(c), extra);
+}
+
 // VLN-CE's progress target (habitat_extensions/sensors.py,
 // VLNOracleProgressSensor): (d0 - d) / d0, not clipped; 0 when d is inf
 TEST(ProgressTargetTest, FollowsVlnCeUnclippedOrClipsOnRequest) {
