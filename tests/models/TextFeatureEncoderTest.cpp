@@ -146,7 +146,8 @@ TEST(TextFeatureEncoderTest, GradientsReachEveryParameter) {
   const torch::Tensor logits = encoder->mlmLogits(encoder->forward(tokens));
   torch::nn::functional::cross_entropy(
       logits.reshape({-1, kVocab}),
-      torch::tensor({5, 6, 7, 8, 9, 10, kMlmIgnore, kMlmIgnore}),
+      torch::tensor(
+          std::vector<int64_t>{5, 6, 7, 8, 9, 10, kMlmIgnore, kMlmIgnore}),
       torch::nn::functional::CrossEntropyFuncOptions().ignore_index(kMlmIgnore))
       .backward();
   for (const auto& p : encoder->named_parameters()) {

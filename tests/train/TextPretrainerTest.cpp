@@ -126,8 +126,12 @@ TEST(TextPretrainerTest, TinyRunBeatsTheUnigramBaselineAndWritesRxrFiles) {
         data::rxrTextFeaturesPath(dir / "features", split, id, language);
     ASSERT_TRUE(fs::exists(file)) << file;
   }
-  const auto& [split, id, language] = toy.rxr_instructions[1];
-  EXPECT_EQ(language, "hi-IN");
+  // a Hindi instruction: its file is named "hi"
+  const auto& [split, id, language] = toy.rxr_instructions[0];
+  ASSERT_EQ(language, "hi-IN");
+  EXPECT_EQ(data::rxrTextFeaturesPath(dir / "features", split, id, language)
+                .filename(),
+            "001001_hi_text_features.npz");
   const data::RxrTextFeatures loaded =
       data::loadRxrTextFeatures(dir / "features", split, id, language);
   EXPECT_EQ(loaded.valid_tokens, 21);  // the toy sentences' length
@@ -143,8 +147,8 @@ TEST(TextPretrainerTest, TinyRunBeatsTheUnigramBaselineAndWritesRxrFiles) {
   }
 
   // the saved encoder reproduces the file
-  const LoadedTextEncoder encoder = loadTextEncoder(
-      dir / "run" / "text_encoder.pt", config.pretrain.text.encoder);
+  LoadedTextEncoder encoder = loadTextEncoder(dir / "run" / "text_encoder.pt",
+                                              config.pretrain.text.encoder);
   const std::vector<std::string> sentences = test::toySentences();
   const torch::Tensor again = encoder.encoder->encodeOne(textTokenIds(
       encoder.vocabulary, sentences[static_cast<size_t>(id - 1000)], 512));
