@@ -65,11 +65,11 @@ struct TrainerConfig {
   double distributed_bucket_mib = 25.0;
 
   void visit(common::ConfigVisitor& v) {
-    v.choice(
-        "task", task, {"vln", "depth_pointnav", "rgb_semantic", "text_mlm"},
-        "What the run trains: the VLN policy, or one of the encoder "
-        "pretraining tasks that stand in for the downloads the paper uses "
-        "(text_mlm: the text encoder of RxR's instruction features)");
+    v.choice("task", task,
+             {"vln", "depth_pointnav", "rgb_semantic", "text_mlm"},
+             "What the run trains: the VLN policy, or one of the encoder "
+             "pretraining tasks that stand in for the downloads the paper uses "
+             "(text_mlm: the text encoder of RxR's instruction features)");
     v.field("seed", seed,
             "Seed of everything random in the run (episode order, DAgger "
             "coins, initialisation)",
