@@ -114,24 +114,25 @@ TextCorpus readTextCorpus(const ExperimentConfig& config) {
   const fs::path r2r = r2rRoot(config);
   if (!r2r.empty()) {
     for (const std::string& split : t.r2r_train_splits)
-      add("r2r:" + split, *r2rTexts(r2r, split, /*optional=*/false), false);
+      add("r2r:" + split, *r2rTexts(r2r, split, /*optional=*/false),
+          /*heldout=*/false);
   }
   if (!t.rxr_path.empty()) {
     for (const std::string& split : t.rxr_train_splits)
       add("rxr:" + split,
           *rxrTexts(t.rxr_path, split, t.rxr_filter, /*optional=*/false),
-          false);
+          /*heldout=*/false);
   }
   if (!r2r.empty()) {
     for (const std::string& split : t.r2r_heldout_splits)
       if (auto texts = r2rTexts(r2r, split, /*optional=*/true))
-        add("r2r:" + split, std::move(*texts), true);
+        add("r2r:" + split, std::move(*texts), /*heldout=*/true);
   }
   if (!t.rxr_path.empty()) {
     for (const std::string& split : t.rxr_heldout_splits)
       if (auto texts =
               rxrTexts(t.rxr_path, split, t.rxr_filter, /*optional=*/true))
-        add("rxr:" + split, std::move(*texts), true);
+        add("rxr:" + split, std::move(*texts), /*heldout=*/true);
   }
   // held-out texts that are training texts say nothing about unseen ones
   std::erase_if(corpus.heldout, [&](const std::string& text) {
