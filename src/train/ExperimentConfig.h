@@ -14,6 +14,7 @@
 #include "models/ModelConfig.h"
 #include "rollout/EvalConfig.h"
 #include "sim/SimConfig.h"
+#include "train/TextPretrainConfig.h"
 #include "world/HouseConfig.h"
 
 namespace vln::train {
@@ -64,10 +65,11 @@ struct TrainerConfig {
   double distributed_bucket_mib = 25.0;
 
   void visit(common::ConfigVisitor& v) {
-    v.choice(
-        "task", task, {"vln", "depth_pointnav", "rgb_semantic"},
-        "What the run trains: the VLN policy, or one of the encoder "
-        "pretraining tasks that stand in for the downloads the paper uses");
+    v.choice("task", task,
+             {"vln", "depth_pointnav", "rgb_semantic", "text_mlm"},
+             "What the run trains: the VLN policy, or one of the encoder "
+             "pretraining tasks that stand in for the downloads the paper uses "
+             "(text_mlm: the text encoder of RxR's instruction features)");
     v.field("seed", seed,
             "Seed of everything random in the run (episode order, DAgger "
             "coins, initialisation)",
@@ -217,6 +219,7 @@ struct PretrainConfig {
   int hidden_size = 128;
   float min_object_fraction = 0.02f;
   double max_memory_gib = 4.0;
+  TextPretrainConfig text;
 
   void visit(common::ConfigVisitor& v) {
     v.field("train_houses", train_houses,
@@ -270,6 +273,9 @@ struct PretrainConfig {
             "Point-goal task: memory bound of the aggregated DAgger frames, "
             "depth kept as uint16 (GiB)",
             common::inRange(0.001, 1e6));
+    v.section("text", text,
+              "trainer.task text_mlm: the text encoder, its corpus and the "
+              "RxR-layout feature files it writes");
   }
   bool operator==(const PretrainConfig&) const = default;
 };

@@ -16,6 +16,7 @@
 #include "train/PointNavPretrainer.h"
 #include "train/PretrainCommon.h"
 #include "train/SemanticPretrainer.h"
+#include "train/TextPretrainer.h"
 #include "world/HouseGenerator.h"
 
 namespace vln::train {
@@ -58,10 +59,15 @@ PretrainHouses generatePretrainHouses(const ExperimentConfig& config,
 void validatePretrainConfig(const ExperimentConfig& config) {
   const PretrainConfig& p = config.pretrain;
   const std::string& task = config.trainer.task;
-  VLN_CHECK_ARG(task == "depth_pointnav" || task == "rgb_semantic",
-                "pretraining: trainer.task must be depth_pointnav or "
-                "rgb_semantic, got '",
-                task, "'");
+  VLN_CHECK_ARG(
+      task == "depth_pointnav" || task == "rgb_semantic" || task == "text_mlm",
+      "pretraining: trainer.task must be depth_pointnav, rgb_semantic or "
+      "text_mlm, got '",
+      task, "'");
+  if (task == "text_mlm") {
+    validateTextPretrainConfig(config);
+    return;
+  }
   try {
     p.house.validate();
   } catch (const std::invalid_argument& e) {

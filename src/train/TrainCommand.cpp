@@ -17,6 +17,7 @@
 #include "train/DistributedTraining.h"
 #include "train/PretrainTasks.h"
 #include "train/RunDirectory.h"
+#include "train/TextPretrainer.h"
 #include "train/VlnTrainer.h"
 
 namespace vln::train {
@@ -60,10 +61,12 @@ TaskRunner taskRunner(const std::string& task) {
          trainer.run();
        }},
       {"depth_pointnav", pretraining(&runDepthPointNavPretraining)},
-      {"rgb_semantic", pretraining(&runRgbSemanticPretraining)}};
+      {"rgb_semantic", pretraining(&runRgbSemanticPretraining)},
+      {"text_mlm", pretraining(&runTextMlmPretraining)}};
   auto it = runners.find(task);
   VLN_CHECK_ARG(it != runners.end(), "train: trainer.task '", task,
-                "' is unknown (available: vln, depth_pointnav, rgb_semantic)");
+                "' is unknown (available: vln, depth_pointnav, rgb_semantic, "
+                "text_mlm)");
   return it->second;
 }
 

@@ -31,7 +31,8 @@ using TaskRunner = std::function<void(const ExperimentConfig& config,
                                       bool resume, Distributed* dist)>;
 
 /// The runner of `task`: "vln" is VlnTrainer (one process or a rank of
-/// several); the encoder pretraining tasks (depth_pointnav, rgb_semantic)
+/// several); the encoder pretraining tasks (depth_pointnav, rgb_semantic,
+/// text_mlm)
 /// train in one process only. Throws std::invalid_argument naming
 /// trainer.task for a task this build cannot train.
 TaskRunner taskRunner(const std::string& task);
