@@ -2,20 +2,15 @@
 
 #include <unistd.h>
 #include <algorithm>
-#include <atomic>
 #include <cmath>
-#include <exception>
-#include <mutex>
 #include <optional>
 #include <set>
 #include <stdexcept>
-#include <thread>
 
 #include "common/Check.h"
 #include "common/Config.h"
 #include "common/FileIo.h"
 #include "common/Json.h"
-#include "common/Progress.h"
 #include "common/Random.h"
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
@@ -283,36 +278,11 @@ RxrWorldSummary generateRxrWorld(const RxrWorldConfig& config,
 
   // houses on a pool of threads; results land in house order
   std::vector<std::optional<HouseResult>> houses(static_cast<size_t>(n));
-  std::vector<std::exception_ptr> errors(static_cast<size_t>(n));
-  std::atomic<int> next{0};
-  std::mutex progressMutex;
-  common::ProgressLine progress("generate-rxr", n, "houses", 10.0);
-  auto worker = [&] {
-    for (int i = next++; i < n; i = next++) {
-      const std::string where = strCat("generateRxrWorld(): house ", i, " '",
-                                       worldHouseName(config.world, i), "': ");
-      try {
-        houses[static_cast<size_t>(i)] =
-            processHouse(config, output, i, roles[static_cast<size_t>(i)]);
-      } catch (const std::invalid_argument& e) {
-        errors[static_cast<size_t>(i)] =
-            std::make_exception_ptr(std::invalid_argument(where + e.what()));
-      } catch (const std::exception& e) {
-        errors[static_cast<size_t>(i)] =
-            std::make_exception_ptr(std::runtime_error(where + e.what()));
-      }
-      if (errors[static_cast<size_t>(i)]) next = n;
-      std::lock_guard lock(progressMutex);
-      progress.advance();
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < std::min(output.threads, n); ++t)
-    pool.emplace_back(worker);
-  worker();
-  for (auto& thread : pool) thread.join();
-  for (const auto& error : errors)
-    if (error) std::rethrow_exception(error);
+  forEachWorldHouse(config.world, n, output.threads, "generate-rxr",
+                    "generateRxrWorld()", [&](int i) {
+                      houses[static_cast<size_t>(i)] = processHouse(
+                          config, output, i, roles[static_cast<size_t>(i)]);
+                    });
 
   // episodes per split and role, in house order; test_challenge's goals and
   // ground truth only in the hidden copy

@@ -326,6 +326,41 @@ std::string worldHouseName(const WorldConfig& config, int index) {
   return buffer;
 }
 
+void forEachWorldHouse(const WorldConfig& config, int houses, int threads,
+                       const char* label, const char* caller,
+                       const std::function<void(int)>& process) {
+  std::vector<std::exception_ptr> errors(static_cast<size_t>(houses));
+  std::atomic<int> next{0};
+  std::mutex progressMutex;
+  common::ProgressLine progress(label, houses, "houses", 10.0);
+  auto worker = [&] {
+    for (int i = next++; i < houses; i = next++) {
+      // errors name the house; their type (bad input or I/O) is kept
+      const std::string where =
+          strCat(caller, ": house ", i, " '", worldHouseName(config, i), "': ");
+      try {
+        process(i);
+      } catch (const std::invalid_argument& e) {
+        errors[static_cast<size_t>(i)] =
+            std::make_exception_ptr(std::invalid_argument(where + e.what()));
+      } catch (const std::exception& e) {
+        errors[static_cast<size_t>(i)] =
+            std::make_exception_ptr(std::runtime_error(where + e.what()));
+      }
+      if (errors[static_cast<size_t>(i)])
+        next = houses;  // stop handing out work
+      std::lock_guard lock(progressMutex);
+      progress.advance();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::min(threads, houses); ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& thread : pool) thread.join();
+  for (const auto& error : errors)
+    if (error) std::rethrow_exception(error);
+}
+
 WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
                            std::ostream* log) {
   WorldConfig checked = config;  // visit() is non-const
@@ -346,37 +381,11 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   // houses on a pool of threads; results land in house order
   const int n = config.houses + config.splits.extra_train_houses;
   std::vector<std::optional<HouseResult>> houses(static_cast<size_t>(n));
-  std::vector<std::exception_ptr> errors(static_cast<size_t>(n));
-  std::atomic<int> next{0};
-  std::mutex progressMutex;
-  common::ProgressLine progress("generate", n, "houses", 10.0);
-  auto worker = [&] {
-    for (int i = next++; i < n; i = next++) {
-      // errors name the house; their type (bad input or I/O) is kept
-      const std::string where = strCat("generateWorld(): house ", i, " '",
-                                       worldHouseName(config, i), "': ");
-      try {
+  forEachWorldHouse(
+      config, n, output.threads, "generate", "generateWorld()", [&](int i) {
         houses[static_cast<size_t>(i)] =
             processHouse(config, output, i, roles[static_cast<size_t>(i)]);
-      } catch (const std::invalid_argument& e) {
-        errors[static_cast<size_t>(i)] =
-            std::make_exception_ptr(std::invalid_argument(where + e.what()));
-      } catch (const std::exception& e) {
-        errors[static_cast<size_t>(i)] =
-            std::make_exception_ptr(std::runtime_error(where + e.what()));
-      }
-      if (errors[static_cast<size_t>(i)]) next = n;  // stop handing out work
-      std::lock_guard lock(progressMutex);
-      progress.advance();
-    }
-  };
-  const int threads = std::min(output.threads, n);
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& thread : pool) thread.join();
-  for (const auto& error : errors)
-    if (error) std::rethrow_exception(error);
+      });
 
   // episodes of every split, merged in house order
   std::map<std::string, data::EpisodeDataset> datasets;

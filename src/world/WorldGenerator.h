@@ -39,6 +39,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <ostream>
 #include <string>
@@ -102,6 +103,16 @@ struct WorldHouse {
 
 /// Builds house `index` of the world `config`; deterministic.
 WorldHouse buildWorldHouse(const WorldConfig& config, int index);
+
+/// Runs process(i) for every house index i in [0, houses) on `threads`
+/// threads (this one included), with a progress line labelled `label`.
+/// After the first failure no further house starts; the first failure in
+/// house order is rethrown with `caller` and the house's name
+/// (worldHouseName(config, i)) in front of its message, its type (bad
+/// input: std::invalid_argument, else std::runtime_error) kept.
+void forEachWorldHouse(const WorldConfig& config, int houses, int threads,
+                       const char* label, const char* caller,
+                       const std::function<void(int)>& process);
 
 /// Moves every entry of `staging` into `out` (created beforehand),
 /// replacing what was there; the replaced entries go to `trash` first and
