@@ -241,7 +241,7 @@ struct RecollectTrainer::Impl {
                 "recollect epoch {}: replayed {} episodes ({} steps) in {:.1f} "
                 "s ({:.1f} frames/s) of the epoch's {:.1f} s; {} episodes off "
                 "their ground truth's locations (largest error {:.4f} m)",
-                epochIndex, r.episodes, r.steps, r.seconds, fps, epoch.seconds,
+                epochIndex + 1, r.episodes, r.steps, r.seconds, fps, epoch.seconds,
                 r.off_ground_truth, r.max_location_error);
     metrics->write("recollect",
                    {{"epoch", progress.epoch + 1},
