@@ -54,7 +54,8 @@ void ExperimentConfig::validate() const {
                 trainer.batch_size, ")");
   VLN_CHECK_ARG(trainer.max_traj_len == -1 || trainer.max_traj_len >= 1,
                 "config: trainer.max_traj_len must be -1 (off) or at least 1, "
-                "got ", trainer.max_traj_len);
+                "got ",
+                trainer.max_traj_len);
   VLN_CHECK_ARG(!recollect || trainer.preload_size >= trainer.batch_size,
                 "config: trainer.preload_size (", trainer.preload_size,
                 ") must be at least trainer.batch_size (", trainer.batch_size,

@@ -124,8 +124,8 @@ struct RecollectTrainer::Impl {
           learner->inflectionCoef());
     }
     if (resumed) {
-      VLN_CHECK_ARG(last->progress.stage == kStage, "train --resume: ",
-                    source, " was written by stage '", last->progress.stage,
+      VLN_CHECK_ARG(last->progress.stage == kStage, "train --resume: ", source,
+                    " was written by stage '", last->progress.stage,
                     "', not by trainer.mode recollect");
       models::loadStateStrict(*policy, last->policy, source);
       loadOptimizerState(learner->optimizer(), last->optimizer_state, source);
@@ -172,9 +172,10 @@ struct RecollectTrainer::Impl {
     const auto k = static_cast<size_t>(batchesPerUpdate());
     std::vector<Update> updates;
     for (size_t i = 0; i < batches.size(); i += k)
-      updates.emplace_back(batches.begin() + static_cast<std::ptrdiff_t>(i),
-                           batches.begin() + static_cast<std::ptrdiff_t>(
-                                                 std::min(batches.size(), i + k)));
+      updates.emplace_back(
+          batches.begin() + static_cast<std::ptrdiff_t>(i),
+          batches.begin() +
+              static_cast<std::ptrdiff_t>(std::min(batches.size(), i + k)));
     return updates;
   }
 
@@ -233,16 +234,16 @@ struct RecollectTrainer::Impl {
   // truth's locations
   void logReplay(const ReplayStats& r, const EpochResult& epoch,
                  int epochIndex) {
-    const double fps = r.seconds > 0 ? static_cast<double>(r.steps) / r.seconds
-                                     : 0.0;
-    auto level = r.off_ground_truth > 0 ? spdlog::level::warn
-                                        : spdlog::level::info;
+    const double fps =
+        r.seconds > 0 ? static_cast<double>(r.steps) / r.seconds : 0.0;
+    auto level =
+        r.off_ground_truth > 0 ? spdlog::level::warn : spdlog::level::info;
     spdlog::log(level,
                 "recollect epoch {}: replayed {} episodes ({} steps) in {:.1f} "
                 "s ({:.1f} frames/s) of the epoch's {:.1f} s; {} episodes off "
                 "their ground truth's locations (largest error {:.4f} m)",
-                epochIndex + 1, r.episodes, r.steps, r.seconds, fps, epoch.seconds,
-                r.off_ground_truth, r.max_location_error);
+                epochIndex + 1, r.episodes, r.steps, r.seconds, fps,
+                epoch.seconds, r.off_ground_truth, r.max_location_error);
     metrics->write("recollect",
                    {{"epoch", progress.epoch + 1},
                     {"episodes", r.episodes},

@@ -36,8 +36,8 @@ void checkReplayable(const data::GroundTruthPath& path,
                      const data::Episode& episode, const data::Split& split,
                      const ExperimentConfig& config) {
   const auto where = [&] {
-    return strCat("recollect: split '", split.name, "' ground truth of episode ",
-                  episode.episode_id);
+    return strCat("recollect: split '", split.name,
+                  "' ground truth of episode ", episode.episode_id);
   };
   const std::vector<sim::Action>& actions = path.actions;
   VLN_CHECK_ARG(!actions.empty(), where(), " has no actions");
@@ -84,18 +84,21 @@ RecollectionPool recollectionPool(const TrainingData& data,
       continue;
     }
     // left out, not cut: VLN-CE skips the whole trajectory
-    if (maxLength != -1 && static_cast<int64_t>(path->actions.size()) > maxLength) {
+    if (maxLength != -1 &&
+        static_cast<int64_t>(path->actions.size()) > maxLength) {
       ++pool.over_max_traj_len;
       continue;
     }
     checkReplayable(*path, episode, split, config);
     pool.episodes.push_back({&episode, data.sources[i], path});
   }
-  VLN_CHECK_ARG(
-      !pool.episodes.empty(), "recollect: no training episode has a ground "
-      "truth to replay (", pool.without_ground_truth,
-      " without one in their split's _gt.json.gz, ", pool.over_max_traj_len,
-      " longer than trainer.max_traj_len = ", maxLength, ")");
+  VLN_CHECK_ARG(!pool.episodes.empty(),
+                "recollect: no training episode has a ground "
+                "truth to replay (",
+                pool.without_ground_truth,
+                " without one in their split's _gt.json.gz, ",
+                pool.over_max_traj_len,
+                " longer than trainer.max_traj_len = ", maxLength, ")");
   return pool;
 }
 
@@ -120,7 +123,10 @@ class Recollector::Job : public rollout::EpisodeJob {
  public:
   Job(Recollector& r, std::span<const RecollectEpisode> episodes,
       std::vector<RecollectedEpisode>& out)
-      : r_(r), config_(r.config_), episodes_(episodes), out_(out),
+      : r_(r),
+        config_(r.config_),
+        episodes_(episodes),
+        out_(out),
         slots_(static_cast<size_t>(r.envs_->size())) {}
 
   rollout::EpisodeStart startOf(int index) override {
@@ -138,10 +144,10 @@ class Recollector::Job : public rollout::EpisodeJob {
       s.index = batch.episodes[k];
       s.goal = e.episode->goals.front().position;
       const sim::NavMesh& navmesh = r_.envs_->simulator(env).scene().navmesh();
-      s.startDistance = e.episode->geodesic_distance
-                            ? *e.episode->geodesic_distance
-                            : navmesh.geodesicDistance(
-                                  e.episode->start_position, s.goal);
+      s.startDistance =
+          e.episode->geodesic_distance
+              ? *e.episode->geodesic_distance
+              : navmesh.geodesicDistance(e.episode->start_position, s.goal);
       s.positions.push_back(r_.envs_->state(env).agent.position);
     }
   }
@@ -184,8 +190,8 @@ class Recollector::Job : public rollout::EpisodeJob {
       if (rgb.defined()) s.rgb.push_back(rgb[static_cast<int64_t>(k)].clone());
       if (depth.defined())
         s.depth.push_back(depth[static_cast<int64_t>(k)].clone());
-      s.prevActions.push_back(
-          t == 0 ? uint8_t{0} : static_cast<uint8_t>(truth[t - 1]));
+      s.prevActions.push_back(t == 0 ? uint8_t{0}
+                                     : static_cast<uint8_t>(truth[t - 1]));
       s.labels.push_back(static_cast<uint8_t>(truth[t]));
       s.progress.push_back(targets[k]);
       actions[k] = truth[t];
@@ -212,10 +218,10 @@ class Recollector::Job : public rollout::EpisodeJob {
       const RecollectEpisode& e = episodes_[static_cast<size_t>(s.index)];
       // VLN-CE asserts this too: the replay is the whole ground truth
       if (s.labels.size() != e.ground_truth->actions.size())
-        throw std::runtime_error(strCat(
-            "Recollector: episode ", e.episode->episode_id, " ended after ",
-            s.labels.size(), " of its ", e.ground_truth->actions.size(),
-            " ground-truth actions"));
+        throw std::runtime_error(
+            strCat("Recollector: episode ", e.episode->episode_id,
+                   " ended after ", s.labels.size(), " of its ",
+                   e.ground_truth->actions.size(), " ground-truth actions"));
       RecollectedEpisode& done = out_[static_cast<size_t>(s.index)];
       StoredEpisode& stored = done.stored;
       stored.key.episode_id = e.episode->episode_id;
@@ -258,7 +264,9 @@ class Recollector::Job : public rollout::EpisodeJob {
 Recollector::Recollector(const ExperimentConfig& config,
                          std::shared_ptr<rollout::SceneCache> scenes,
                          models::ObservationEncoder encoder)
-    : config_(config), scenes_(std::move(scenes)), encoder_(std::move(encoder)) {
+    : config_(config),
+      scenes_(std::move(scenes)),
+      encoder_(std::move(encoder)) {
   envs_ = std::make_unique<rollout::VectorEnv>(
       config_.trainer.num_envs, config_.sim, config_.task, scenes_,
       config_.trainer.env_threads);

@@ -112,7 +112,8 @@ class Recollector {
 
   /// Replays `episodes` and returns them in the same order; `stats` (may
   /// be null) receives the counts. The features of an episode depend on
-  /// the episodes sharing its environment batch by float rounding only;
+  /// the episodes sharing its environment batch by float rounding only
+  /// (and through the batch's statistics with model.rgb_batch_statistics);
   /// for given `episodes` and trainer.num_envs they are always the same.
   /// Throws std::runtime_error naming the episode when an environment ends
   /// it before the ground truth's last action.

@@ -236,14 +236,16 @@ void expectAccumulationExact(const std::vector<std::vector<int64_t>>& groups) {
   EXPECT_GT(compared, 4);
 }
 
-TEST(ImitationLearnerTest, AccumulatedUpdateOfEqualBatchesEqualsTheirConcatenation) {
+TEST(ImitationLearnerTest,
+     AccumulatedUpdateOfEqualBatchesEqualsTheirConcatenation) {
   expectAccumulationExact({{0, 1, 2, 3}, {4, 5, 6, 7}});
 }
 
 // unequal episode and step counts: the batches are weighted by their
 // shares, not averaged (averaging is what VLN-CE's division by the number
 // of batches does)
-TEST(ImitationLearnerTest, AccumulatedUpdateOfUnequalBatchesEqualsTheirConcatenation) {
+TEST(ImitationLearnerTest,
+     AccumulatedUpdateOfUnequalBatchesEqualsTheirConcatenation) {
   expectAccumulationExact({{0, 1, 2}, {3, 4}, {7}});
 }
 

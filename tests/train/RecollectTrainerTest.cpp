@@ -92,10 +92,10 @@ TEST_F(RecollectTrainerTest, AccumulatingRunTrainsCheckpointsAndEvaluates) {
   EXPECT_EQ(types["epoch"], 1);
   EXPECT_EQ(types["eval"], 2);  // val_seen and val_unseen after the epoch
   for (const char* split : {"val_seen", "val_unseen"})
-    EXPECT_EQ(rollout::readStatsFile(run / "eval" /
-                                     rollout::statsFileName(0, split))
-                  .num_episodes,
-              2);
+    EXPECT_EQ(
+        rollout::readStatsFile(run / "eval" / rollout::statsFileName(0, split))
+            .num_episodes,
+        2);
   const auto finished = common::readJsonFile(run / "finished.json");
   EXPECT_EQ(finished["reason"], "completed");
   EXPECT_EQ(finished["mode"], "recollect");
@@ -139,8 +139,7 @@ TEST_F(RecollectTrainerTest, ResumedRunEndsWithTheWeightsOfAnUninterruptedOne) {
 // pool in order, draws the same batches; with float32 features both runs
 // make the same updates up to the rounding of batched encoding.
 TEST_F(RecollectTrainerTest, TrainsWhatTheStoresTeacherForcingTrains) {
-  const std::string common =
-      "  epochs: 1\n  eval_during_training: false\n";
+  const std::string common = "  epochs: 1\n  eval_during_training: false\n";
   // every update in the metrics
   const std::string everyUpdate = "--set trainer.log_every_updates=1";
   std::string output;
@@ -149,9 +148,8 @@ TEST_F(RecollectTrainerTest, TrainsWhatTheStoresTeacherForcingTrains) {
   const fs::path stored = vln::test::writeText(
       dir_ / "stored.yaml",
       test::tinyRunConfig(*world_, dir_ / "stored",
-                          common +
-                              "  expert: reference_path\n"
-                              "  store_fp16: false\n"));
+                          common + "  expert: reference_path\n"
+                                   "  store_fp16: false\n"));
   ASSERT_EQ(train(stored, everyUpdate, &output), 0) << output;
 
   auto losses = [](const fs::path& run) {
@@ -167,8 +165,8 @@ TEST_F(RecollectTrainerTest, TrainsWhatTheStoresTeacherForcingTrains) {
   ASSERT_GT(a.size(), 2u);
   for (size_t i = 0; i < a.size(); ++i)
     EXPECT_NEAR(a[i], b[i], 1e-4 * std::abs(b[i])) << "update " << i + 1;
-  const Checkpoint x =
-      loadCheckpoint(listCheckpoints(dir_ / "recollect" / "checkpoints").back());
+  const Checkpoint x = loadCheckpoint(
+      listCheckpoints(dir_ / "recollect" / "checkpoints").back());
   const Checkpoint y =
       loadCheckpoint(listCheckpoints(dir_ / "stored" / "checkpoints").back());
   ASSERT_EQ(x.policy.size(), y.policy.size());

@@ -24,8 +24,7 @@ using ::testing::HasSubstr;
 ExperimentConfig worldConfig(const test::TinyWorld& w) {
   vln::test::TempDir unused;
   ExperimentConfig c = common::loadConfigText<ExperimentConfig>(
-      test::tinyRunConfig(w, unused.path(), "  mode: recollect\n"),
-      "tiny run");
+      test::tinyRunConfig(w, unused.path(), "  mode: recollect\n"), "tiny run");
   c.task.max_episode_steps = 400;
   c.trainer.env_threads = 2;
   return c;
@@ -144,9 +143,9 @@ TEST(RecollectionTest, GroundTruthThatCannotBeReplayedIsRefused) {
     return copy;
   };
   const TrainingData noStop = edited([](auto& a) { a.pop_back(); });
-  EXPECT_THAT([&] { recollectionPool(noStop, c); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("not STOP")));
+  EXPECT_THAT(
+      [&] { recollectionPool(noStop, c); },
+      ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("not STOP")));
   const TrainingData earlyStop =
       edited([](auto& a) { a.front() = sim::Action::kStop; });
   EXPECT_THAT([&] { recollectionPool(earlyStop, c); },
@@ -160,9 +159,9 @@ TEST(RecollectionTest, GroundTruthThatCannotBeReplayedIsRefused) {
   // longer than the episode step limit: the error names both keys
   c.task.max_episode_steps = 3;
   EXPECT_THAT([&] { recollectionPool(data, c); },
-              ::testing::ThrowsMessage<std::invalid_argument>(AllOf(
-                  HasSubstr("task.max_episode_steps = 3"),
-                  HasSubstr("trainer.max_traj_len"))));
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  AllOf(HasSubstr("task.max_episode_steps = 3"),
+                        HasSubstr("trainer.max_traj_len"))));
 }
 
 // the store's trainer never reads the recollect keys, so they must not
@@ -182,9 +181,9 @@ TEST(RecollectionTest, ConfigChecksTheRecollectKeys) {
                           const std::string& message) {
     ExperimentConfig c;
     edit(c);
-    EXPECT_THAT([&] { c.validate(); },
-                ::testing::ThrowsMessage<std::invalid_argument>(
-                    HasSubstr(message)));
+    EXPECT_THAT(
+        [&] { c.validate(); },
+        ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr(message)));
   };
   expectRefused([](auto& c) { c.trainer.effective_batch_size = 10; },
                 "apply to trainer.mode recollect only");
