@@ -47,6 +47,7 @@ Simulator::Simulator(std::shared_ptr<const Scene> scene, const SimConfig& sim,
                 "Simulator: sim.depth.min_depth (", sim_.depth.min_depth,
                 ") must be below sim.depth.max_depth (", sim_.depth.max_depth,
                 ")");
+  checkPanoramaConfig(sim_.panorama, "Simulator: sim config");
   setScene(std::move(scene));
 }
 
@@ -56,6 +57,7 @@ void Simulator::setScene(std::shared_ptr<const Scene> scene) {
   VLN_CHECK_ARG(scene != nullptr, "Simulator::setScene(): scene is null");
   // the renderer holds references into the scene, so it goes first
   renderer_.reset();
+  panorama_.reset();
   scene_ = std::move(scene);
   renderer_ =
       createRenderer(scene_->mesh(), scene_->rayTracer(), sim_.renderer);
@@ -116,6 +118,15 @@ void Simulator::observe(Observation& out) {
                            intrinsics(depthCamera), out.depth);
   }
   postprocessDepth(sim_.depth, out.depth);
+}
+
+void Simulator::observePanorama(Panorama& out) {
+  VLN_ASSERT(hasEpisode_);
+  // only waypoint agents look around: the others never pay for the renderers
+  if (!panorama_)
+    panorama_ = std::make_unique<PanoramaRenderer>(*scene_, sim_.panorama,
+                                                   sim_.renderer);
+  panorama_->render(episode_.agent, out);
 }
 
 void Simulator::observeSemantic(std::vector<int32_t>& objectIds) {
