@@ -60,21 +60,30 @@ double processCpuSeconds() {
 }
 
 // The default sim config: RGB 224x224, depth 256x256, both 90 degrees (the
-// panorama's views are the same cameras).
-SimConfig benchConfig(int backend, int threads) {
+// panorama's views are the same cameras); `size` > 0 makes every camera
+// size x size instead (the CPU-scale agents of configs/vln/ see 64x64).
+SimConfig benchConfig(int backend, int threads, int size = 0) {
   SimConfig config;
   config.renderer = backend == 0 ? RendererBackend::kEmbree
                                  : RendererBackend::kOsMesa;
   config.panorama.threads = threads;
+  if (size > 0) {
+    config.rgb.width = config.rgb.height = size;
+    config.depth.camera.width = config.depth.camera.height = size;
+    config.panorama.rgb = config.rgb;
+    config.panorama.depth.camera = config.depth.camera;
+  }
   return config;
 }
 
-// args: backend (0 = Embree, 1 = OSMesa), threads of the panorama renderer
+// args: backend (0 = Embree, 1 = OSMesa), threads of the panorama renderer,
+// camera size (0 = the 224 RGB / 256 depth)
 void BM_Panorama(benchmark::State& state) {
   const HouseFixture& house = HouseFixture::get();
   Simulator sim(house.scene,
                 benchConfig(static_cast<int>(state.range(0)),
-                            static_cast<int>(state.range(1))),
+                            static_cast<int>(state.range(1)),
+                            static_cast<int>(state.range(2))),
                 TaskConfig{});
   Panorama panorama;
   sim.reset(house.states[0]);
@@ -96,13 +105,13 @@ void BM_Panorama(benchmark::State& state) {
       benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Panorama)
-    ->ArgNames({"osmesa", "threads"})
-    ->ArgsProduct({{0}, {1, 2}})
+    ->ArgNames({"osmesa", "threads", "size"})
+    ->ArgsProduct({{0}, {1, 2}, {0, 64}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 BENCHMARK(BM_Panorama)
-    ->ArgNames({"osmesa", "threads"})
-    ->Args({1, 1})
+    ->ArgNames({"osmesa", "threads", "size"})
+    ->Args({1, 1, 0})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
@@ -110,7 +119,9 @@ BENCHMARK(BM_Panorama)
 // agents' observation): the panorama ideally costs 12 of these per thread.
 void BM_SingleView(benchmark::State& state) {
   const HouseFixture& house = HouseFixture::get();
-  Simulator sim(house.scene, benchConfig(static_cast<int>(state.range(0)), 1),
+  Simulator sim(house.scene,
+                benchConfig(static_cast<int>(state.range(0)), 1,
+                            static_cast<int>(state.range(1))),
                 TaskConfig{});
   Observation obs;
   sim.reset(house.states[0]);
@@ -128,9 +139,8 @@ void BM_SingleView(benchmark::State& state) {
       static_cast<double>(state.iterations()) / std::max(cpu, 1e-9));
 }
 BENCHMARK(BM_SingleView)
-    ->ArgName("osmesa")
-    ->Arg(0)
-    ->Arg(1)
+    ->ArgNames({"osmesa", "size"})
+    ->ArgsProduct({{0, 1}, {0, 64}})
     ->Unit(benchmark::kMicrosecond)
     ->UseRealTime();
 
