@@ -194,7 +194,6 @@ Subcommand addTransfer(CLI::App& app) {
 Subcommand addWaypointMetrics(CLI::App& app) {
   auto options = std::make_shared<waypoint::WaypointMetricsOptions>();
   auto config = std::make_shared<std::filesystem::path>();
-  auto overrides = std::make_shared<std::vector<std::string>>();
   CLI::App* command = app.add_subcommand(
       "waypoint-metrics",
       "Candidate-waypoint predictor metrics (candidates, %Open, d_C, d_H) of "
@@ -216,17 +215,21 @@ Subcommand addWaypointMetrics(CLI::App& app) {
                       "Houses scored in parallel")->capture_default_str();
   command->add_option("--config", *config,
                       "Run config YAML whose sim: section sets the navmesh, "
-                      "agent, renderer and panorama")
+                      "agent and renderer, and panorama: section the views")
       ->check(CLI::ExistingFile);
-  command->add_option("--set", *overrides,
-                      "Override of the config, sim.key=value (repeatable)");
   command->add_option("--out", options->out, "Write the JSON report here");
   command->add_flag("--json", options->json, "Print JSON instead of text");
-  return {command, [options, config, overrides] {
-            if (!config->empty())
+  return {command, [options, config] {
+            if (!config->empty()) {
               common::readConfigFileSection(
-                  *config, "sim", *overrides,
-                  [&](common::ConfigVisitor& v) { options->sim.visit(v); });
+                  *config, "sim", {}, [&](common::ConfigVisitor& v) {
+                    v.section("sim", options->sim, "Simulator");
+                  });
+              common::readConfigFileSection(
+                  *config, "panorama", {}, [&](common::ConfigVisitor& v) {
+                    v.section("panorama", options->panorama, "Panorama");
+                  });
+            }
             return waypoint::runWaypointMetricsCommand(*options, std::cout);
           }};
 }

@@ -60,20 +60,28 @@ double processCpuSeconds() {
 }
 
 // The default sim config: RGB 224x224, depth 256x256, both 90 degrees (the
-// panorama's views are the same cameras); `size` > 0 makes every camera
-// size x size instead (the CPU-scale agents of configs/vln/ see 64x64).
-SimConfig benchConfig(int backend, int threads, int size = 0) {
+// default panorama's views are the same cameras); `size` > 0 makes every
+// camera size x size instead (the CPU-scale agents of configs/vln/ see
+// 64x64).
+SimConfig benchConfig(int backend, int size = 0) {
   SimConfig config;
   config.renderer = backend == 0 ? RendererBackend::kEmbree
                                  : RendererBackend::kOsMesa;
-  config.panorama.threads = threads;
   if (size > 0) {
     config.rgb.width = config.rgb.height = size;
     config.depth.camera.width = config.depth.camera.height = size;
-    config.panorama.rgb = config.rgb;
-    config.panorama.depth.camera = config.depth.camera;
   }
   return config;
+}
+
+// The panorama of the same cameras as benchConfig(backend, size).
+PanoramaConfig benchPanorama(int threads, int size = 0) {
+  const SimConfig sim = benchConfig(0, size);
+  PanoramaConfig panorama;
+  panorama.rgb = sim.rgb;
+  panorama.depth = sim.depth;
+  panorama.threads = threads;
+  return panorama;
 }
 
 // args: backend (0 = Embree, 1 = OSMesa), threads of the panorama renderer,
@@ -82,17 +90,18 @@ void BM_Panorama(benchmark::State& state) {
   const HouseFixture& house = HouseFixture::get();
   Simulator sim(house.scene,
                 benchConfig(static_cast<int>(state.range(0)),
-                            static_cast<int>(state.range(1)),
                             static_cast<int>(state.range(2))),
                 TaskConfig{});
+  const PanoramaConfig config = benchPanorama(
+      static_cast<int>(state.range(1)), static_cast<int>(state.range(2)));
   Panorama panorama;
   sim.reset(house.states[0]);
-  sim.observePanorama(panorama);  // warm-up: renderers, shading tables
+  sim.observePanorama(config, panorama);  // warm-up: renderers, shading tables
   size_t next = 0;
   const double cpuStart = processCpuSeconds();
   for (auto _ : state) {
     sim.reset(house.states[next++ % house.states.size()]);
-    sim.observePanorama(panorama);
+    sim.observePanorama(config, panorama);
     benchmark::DoNotOptimize(panorama.depth.data());
     benchmark::DoNotOptimize(panorama.rgb.data());
   }
@@ -120,7 +129,7 @@ BENCHMARK(BM_Panorama)
 void BM_SingleView(benchmark::State& state) {
   const HouseFixture& house = HouseFixture::get();
   Simulator sim(house.scene,
-                benchConfig(static_cast<int>(state.range(0)), 1,
+                benchConfig(static_cast<int>(state.range(0)),
                             static_cast<int>(state.range(1))),
                 TaskConfig{});
   Observation obs;

@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "common/Config.h"
 #include "common/Math.h"
 #include "sim/Agent.h"
 #include "sim/SimConfig.h"
@@ -32,6 +33,39 @@ namespace vln::sim {
 
 class Renderer;
 class Scene;
+
+/// The panorama's views. Defaults are Hong et al.'s: 12 views 30 degrees
+/// apart, RGB 224x224 and depth 256x256 (the input sizes of the ImageNet
+/// ResNet-50 and the DD-PPO depth ResNet), both with a 90 degree HFOV, so
+/// neighbouring views overlap by 60 degrees and every direction is seen by
+/// three views (their habitat_extensions/config/vlnce_task.yaml).
+///
+/// Deliberately not a section of SimConfig: the low-level agents' runs hash
+/// the sim section into their feature stores (train/Collector.cpp), and a
+/// panorama changes nothing they record. A waypoint run's config holds it
+/// as its own section (`panorama:`).
+struct PanoramaConfig {
+  int num_views = 12;
+  CameraConfig rgb{224, 224, 90.0f, 1.25f};
+  DepthCameraConfig depth;
+  /// Views rendered in parallel, one renderer per thread. 1 renders on the
+  /// calling thread (what parallel environments want); 2 splits the views
+  /// across both cores of a small machine.
+  int threads = 1;
+
+  void visit(common::ConfigVisitor& v) {
+    v.field("num_views", num_views,
+            "Views of a panorama, 360/num_views degrees apart, view 0 "
+            "along the agent's heading, counter-clockwise",
+            common::inRange(1, 360));
+    v.section("rgb", rgb, "RGB camera of each view");
+    v.section("depth", depth, "Depth camera of each view");
+    v.field("threads", threads,
+            "Threads rendering one panorama's views (one renderer each)",
+            common::inRange(1, 64));
+  }
+  bool operator==(const PanoramaConfig&) const = default;
+};
 
 /// Throws std::invalid_argument naming `where` and the field when `config`
 /// is out of range (the visit() bounds), the views leave gaps

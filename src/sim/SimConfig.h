@@ -140,35 +140,6 @@ struct DepthCameraConfig {
   bool operator==(const DepthCameraConfig&) const = default;
 };
 
-/// The panorama's views. Defaults are Hong et al.'s: 12 views 30 degrees
-/// apart, RGB 224x224 and depth 256x256 (the input sizes of the ImageNet
-/// ResNet-50 and the DD-PPO depth ResNet), both with a 90 degree HFOV, so
-/// neighbouring views overlap by 60 degrees and every direction is seen by
-/// three views (their habitat_extensions/config/vlnce_task.yaml). View
-/// order and heading convention: sim/Panorama.h.
-struct PanoramaConfig {
-  int num_views = 12;
-  CameraConfig rgb{224, 224, 90.0f, 1.25f};
-  DepthCameraConfig depth;
-  /// Views rendered in parallel, one renderer per thread. 1 renders on the
-  /// calling thread (what parallel environments want); 2 splits the views
-  /// across both cores of a small machine.
-  int threads = 1;
-
-  void visit(common::ConfigVisitor& v) {
-    v.field("num_views", num_views,
-            "Views of a panorama, 360/num_views degrees apart, view 0 "
-            "along the agent's heading, counter-clockwise",
-            common::inRange(1, 360));
-    v.section("rgb", rgb, "RGB camera of each view");
-    v.section("depth", depth, "Depth camera of each view");
-    v.field("threads", threads,
-            "Threads rendering one panorama's views (one renderer each)",
-            common::inRange(1, 64));
-  }
-  bool operator==(const PanoramaConfig&) const = default;
-};
-
 /// Rendering backend. Both produce the same images (tested).
 enum class RendererBackend { kEmbree, kOsMesa };
 
@@ -182,7 +153,6 @@ struct SimConfig {
   DepthCameraConfig depth;
   RendererBackend renderer = RendererBackend::kEmbree;
   bool cache_navmesh = true;
-  PanoramaConfig panorama;
 
   void visit(common::ConfigVisitor& v) {
     v.field("scenes_dir", scenes_dir, "Directory that scene ids are relative to");
@@ -198,9 +168,6 @@ struct SimConfig {
     v.field("cache_navmesh", cache_navmesh,
             "Save built navmeshes as <scene>.navmesh beside the scene file "
             "and load them from there");
-    v.section("panorama", panorama,
-              "Panoramic RGB-D observation of the waypoint agents "
-              "(Simulator::observePanorama())");
   }
   bool operator==(const SimConfig&) const = default;
 };

@@ -47,7 +47,6 @@ Simulator::Simulator(std::shared_ptr<const Scene> scene, const SimConfig& sim,
                 "Simulator: sim.depth.min_depth (", sim_.depth.min_depth,
                 ") must be below sim.depth.max_depth (", sim_.depth.max_depth,
                 ")");
-  checkPanoramaConfig(sim_.panorama, "Simulator: sim config");
   setScene(std::move(scene));
 }
 
@@ -120,11 +119,12 @@ void Simulator::observe(Observation& out) {
   postprocessDepth(sim_.depth, out.depth);
 }
 
-void Simulator::observePanorama(Panorama& out) {
+void Simulator::observePanorama(const PanoramaConfig& config,
+                                Panorama& out) {
   VLN_ASSERT(hasEpisode_);
   // only waypoint agents look around: the others never pay for the renderers
-  if (!panorama_)
-    panorama_ = std::make_unique<PanoramaRenderer>(*scene_, sim_.panorama,
+  if (!panorama_ || !(panorama_->config() == config))
+    panorama_ = std::make_unique<PanoramaRenderer>(*scene_, config,
                                                    sim_.renderer);
   panorama_->render(episode_.agent, out);
 }

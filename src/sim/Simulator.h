@@ -44,12 +44,13 @@ class Simulator {
   /// cameras' pitch) into `out` (resized as needed). RGB and depth share one
   /// pass when their cameras are equal.
   void observe(Observation& out);
-  /// Renders the panorama of sim.panorama at the current pose: view k is
+  /// Renders the panorama `config` describes at the current pose: view k is
   /// what observe() would render after turning to
   /// panoramaViewHeading(heading, k, num_views), with the panorama's
-  /// cameras (sim/Panorama.h). The panorama renderer is created on the
-  /// first call.
-  void observePanorama(Panorama& out);
+  /// cameras (sim/Panorama.h), on this simulator's backend. The panorama
+  /// renderer is created on the first call and again when `config`
+  /// changes. Throws what checkPanoramaConfig() throws.
+  void observePanorama(const PanoramaConfig& config, Panorama& out);
   /// Renders the semantic object ids seen by the RGB camera.
   void observeSemantic(std::vector<int32_t>& objectIds);
 

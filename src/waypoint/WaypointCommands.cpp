@@ -62,7 +62,7 @@ HouseResult scoreHouse(const WaypointMetricsOptions& options,
   }
   house.scored = static_cast<int>(nodes.size());
 
-  sim::PanoramaConfig panoramaConfig = options.sim.panorama;
+  sim::PanoramaConfig panoramaConfig = options.panorama;
   panoramaConfig.threads = 1;  // houses run in parallel instead
   sim::PanoramaRenderer renderer(*scene, panoramaConfig, options.sim.renderer);
   sim::Panorama panorama;
@@ -108,7 +108,7 @@ int runWaypointMetricsCommand(const WaypointMetricsOptions& options,
                 options.max_nodes);
   VLN_CHECK_ARG(options.threads >= 1 && options.threads <= 64, kCommand,
                 ": --threads must be in [1, 64], got ", options.threads);
-  sim::checkPanoramaConfig(options.sim.panorama, kCommand);
+  sim::checkPanoramaConfig(options.panorama, kCommand);
 
   // the split's houses, in file order of first appearance
   const std::filesystem::path episodesFile =

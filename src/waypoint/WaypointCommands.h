@@ -10,6 +10,7 @@
 #include <ostream>
 #include <string>
 
+#include "sim/Panorama.h"
 #include "sim/SimConfig.h"
 #include "waypoint/DepthWaypointBaseline.h"
 #include "waypoint/WaypointTargets.h"
@@ -27,7 +28,8 @@ struct WaypointMetricsOptions {
   int threads = 2;     ///< houses scored in parallel
   std::filesystem::path out;  ///< optional JSON report
   bool json = false;          ///< print the JSON report instead of text
-  sim::SimConfig sim;         ///< navmesh, agent, panorama, renderer
+  sim::SimConfig sim;         ///< navmesh, agent, renderer
+  sim::PanoramaConfig panorama;
   WaypointTargetConfig targets;
   DepthBaselineConfig baseline;
 };

@@ -30,12 +30,17 @@ std::shared_ptr<const Scene> testScene() {
 // separate passes as the default 224/256 cameras do; odd depth sizes put
 // the middle pixel on the optical axis. The depth camera sits 0.5 m up so
 // that its axis meets the 1 m cube.
-SimConfig panoramaSimConfig(RendererBackend backend, int threads) {
+PanoramaConfig smallPanorama(int threads) {
+  PanoramaConfig panorama;
+  panorama.rgb = {28, 28, 90.0f, 1.25f};
+  panorama.depth.camera = {33, 33, 90.0f, 0.5f};
+  panorama.threads = threads;
+  return panorama;
+}
+
+SimConfig backendConfig(RendererBackend backend) {
   SimConfig config;
   config.renderer = backend;
-  config.panorama.rgb = {28, 28, 90.0f, 1.25f};
-  config.panorama.depth.camera = {33, 33, 90.0f, 0.5f};
-  config.panorama.threads = threads;
   return config;
 }
 
@@ -52,21 +57,21 @@ INSTANTIATE_TEST_SUITE_P(Backends, PanoramaTest,
                          });
 
 TEST_P(PanoramaTest, EveryViewIsTheSingleViewObservationAtItsHeading) {
-  const SimConfig config = panoramaSimConfig(GetParam(), /*threads=*/1);
-  Simulator sim(scene_, config, TaskConfig{});
+  const PanoramaConfig config = smallPanorama(/*threads=*/1);
+  Simulator sim(scene_, backendConfig(GetParam()), TaskConfig{});
   const AgentState start{Vec3f(-0.7f, 0.0f, 0.9f), 0.4f};
   sim.reset(start);
   Panorama panorama;
-  sim.observePanorama(panorama);
+  sim.observePanorama(config, panorama);
   ASSERT_EQ(panorama.num_views, 12);
   ASSERT_EQ(panorama.rgb.size(), 12u * 28u * 28u * 3u);
   ASSERT_EQ(panorama.depth.size(), 12u * 33u * 33u);
   EXPECT_EQ(panorama.heading, 0.4f);
 
   // a simulator whose own cameras are the panorama's, turned to each view
-  SimConfig single = config;
-  single.rgb = config.panorama.rgb;
-  single.depth = config.panorama.depth;
+  SimConfig single = backendConfig(GetParam());
+  single.rgb = config.rgb;
+  single.depth = config.depth;
   Simulator turned(scene_, single, TaskConfig{});
   Observation obs;
   for (int view = 0; view < 12; ++view) {
@@ -86,13 +91,14 @@ TEST_P(PanoramaTest, EveryViewIsTheSingleViewObservationAtItsHeading) {
 }
 
 TEST_P(PanoramaTest, ViewsGoCounterClockwiseFromTheHeading) {
-  Simulator sim(scene_, panoramaSimConfig(GetParam(), 1), TaskConfig{});
+  Simulator sim(scene_, backendConfig(GetParam()), TaskConfig{});
+  const PanoramaConfig config = smallPanorama(1);
   // at (-1, 0): the wall z = -3 is 3 m ahead (heading 0 looks along -Z),
   // the wall x = -3 2 m to the left, the cube's face x = 1.5 2.5 m to the
   // right, the wall z = 3 3 m behind
   sim.reset({Vec3f(-1.0f, 0.0f, 0.0f), 0.0f});
   Panorama panorama;
-  sim.observePanorama(panorama);
+  sim.observePanorama(config, panorama);
   const size_t viewSize = 33u * 33u;
   const auto centre = [&](int view) {
     // normalised by max_depth 10
@@ -108,7 +114,7 @@ TEST_P(PanoramaTest, ViewsGoCounterClockwiseFromTheHeading) {
   // turning the agent left by one view shifts the panorama by one view
   sim.reset({Vec3f(-1.0f, 0.0f, 0.0f), 2.0f * kPi / 12.0f});
   Panorama turned;
-  sim.observePanorama(turned);
+  sim.observePanorama(config, turned);
   for (int view = 0; view < 11; ++view)
     EXPECT_NEAR(10.0f * turned.depth[view * viewSize + 16 * 33 + 16],
                 centre(view + 1), 1e-4f)
@@ -116,8 +122,8 @@ TEST_P(PanoramaTest, ViewsGoCounterClockwiseFromTheHeading) {
 }
 
 TEST_P(PanoramaTest, TwoThreadsRenderTheSameImagesAsOne) {
-  Simulator one(scene_, panoramaSimConfig(GetParam(), 1), TaskConfig{});
-  Simulator two(scene_, panoramaSimConfig(GetParam(), 2), TaskConfig{});
+  Simulator one(scene_, backendConfig(GetParam()), TaskConfig{});
+  Simulator two(scene_, backendConfig(GetParam()), TaskConfig{});
   Panorama a;
   Panorama b;
   for (const AgentState& state :
@@ -125,10 +131,10 @@ TEST_P(PanoramaTest, TwoThreadsRenderTheSameImagesAsOne) {
         AgentState{Vec3f(0.5f, 0.0f, -2.0f), -2.5f}}) {
     one.reset(state);
     two.reset(state);
-    one.observePanorama(a);
-    // twice: the second render reuses the buffers
-    two.observePanorama(b);
-    two.observePanorama(b);
+    one.observePanorama(smallPanorama(1), a);
+    // twice: the second render reuses the buffers and the renderers
+    two.observePanorama(smallPanorama(2), b);
+    two.observePanorama(smallPanorama(2), b);
     EXPECT_EQ(a.rgb, b.rgb);
     EXPECT_EQ(a.depth, b.depth);
   }
@@ -146,12 +152,13 @@ TEST(PanoramaViewHeadingTest, AddsEqualStepsAndWraps) {
 class PanoramaConfigTest : public test::SceneSuite<testScene> {};
 
 TEST_F(PanoramaConfigTest, RejectsBadConfigsNamingTheField) {
+  Simulator sim(scene_, SimConfig{}, TaskConfig{});
+  sim.reset({Vec3f(-1.0f, 0.0f, 0.0f), 0.0f});
   const auto expectRejected = [&](const PanoramaConfig& panorama,
                                   const std::string& field) {
-    SimConfig config;
-    config.panorama = panorama;
+    Panorama out;
     try {
-      Simulator sim(scene_, config, TaskConfig{});
+      sim.observePanorama(panorama, out);
       ADD_FAILURE() << "expected std::invalid_argument for " << field;
     } catch (const std::invalid_argument& e) {
       EXPECT_THAT(e.what(), HasSubstr(field));

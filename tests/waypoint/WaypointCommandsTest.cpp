@@ -33,7 +33,7 @@ TEST(WaypointCommandsTest, RejectsBadOptionsNamingThem) {
   options.threads = 0;
   expectRejected(options, "--threads");
   options = WaypointMetricsOptions{};
-  options.sim.panorama.num_views = 2;
+  options.panorama.num_views = 2;
   expectRejected(options, "leave gaps");
   options = WaypointMetricsOptions{};
   options.dataset = "/nonexistent/dataset";
