@@ -36,7 +36,8 @@ struct HouseFixture {
   static const HouseFixture& get() {
     static const HouseFixture fixture = [] {
       HouseFixture f;
-      world::House house = world::generateHouse(/*seed=*/1, world::HouseConfig{});
+      world::House house =
+          world::generateHouse(/*seed=*/1, world::HouseConfig{});
       f.scene = Scene::fromMesh(house.name, std::move(house.mesh),
                                 std::move(house.semantics), NavMeshConfig{});
       f.scene->rayTracer();
@@ -65,8 +66,8 @@ double processCpuSeconds() {
 // 64x64).
 SimConfig benchConfig(int backend, int size = 0) {
   SimConfig config;
-  config.renderer = backend == 0 ? RendererBackend::kEmbree
-                                 : RendererBackend::kOsMesa;
+  config.renderer =
+      backend == 0 ? RendererBackend::kEmbree : RendererBackend::kOsMesa;
   if (size > 0) {
     config.rgb.width = config.rgb.height = size;
     config.depth.camera.width = config.depth.camera.height = size;
@@ -92,8 +93,8 @@ void BM_Panorama(benchmark::State& state) {
                 benchConfig(static_cast<int>(state.range(0)),
                             static_cast<int>(state.range(2))),
                 TaskConfig{});
-  const PanoramaConfig config = benchPanorama(
-      static_cast<int>(state.range(1)), static_cast<int>(state.range(2)));
+  const PanoramaConfig config = benchPanorama(static_cast<int>(state.range(1)),
+                                              static_cast<int>(state.range(2)));
   Panorama panorama;
   sim.reset(house.states[0]);
   sim.observePanorama(config, panorama);  // warm-up: renderers, shading tables

@@ -72,9 +72,8 @@ void PanoramaRenderer::render(const AgentState& agent, Panorama& out) {
   }
   // a static split (thread t renders views t, t+T, ...) keeps each renderer
   // on one task, whichever worker runs it
-  pool_->parallelFor(renderers_.size(), [&](size_t thread) {
-    renderViews(thread, agent, out);
-  });
+  pool_->parallelFor(renderers_.size(),
+                     [&](size_t thread) { renderViews(thread, agent, out); });
 }
 
 void PanoramaRenderer::renderViews(size_t thread, const AgentState& agent,
@@ -90,9 +89,8 @@ void PanoramaRenderer::renderViews(size_t thread, const AgentState& agent,
        view += static_cast<int>(renderers_.size())) {
     // the camera poses of Simulator::observe() after turning to the view
     const float heading = panoramaViewHeading(agent.heading, view, views);
-    const CameraPose rgbPose{
-        agent.position + Vec3f(0.0f, rgb.position_y, 0.0f), heading,
-        agent.pitch};
+    const CameraPose rgbPose{agent.position + Vec3f(0.0f, rgb.position_y, 0.0f),
+                             heading, agent.pitch};
     const CameraPose depthPose{
         agent.position + Vec3f(0.0f, depth.position_y, 0.0f), heading,
         agent.pitch};

@@ -30,10 +30,10 @@ constexpr const char* kCommand = "vlnce-data waypoint-metrics";
 // What one house contributes.
 struct HouseResult {
   std::string name;
-  int nodes = 0;        ///< graph nodes
-  int valid = 0;        ///< transferred onto the navmesh
-  int scored = 0;       ///< valid nodes looked at (max_nodes)
-  int kept = 0;         ///< with targets left in open space
+  int nodes = 0;   ///< graph nodes
+  int valid = 0;   ///< transferred onto the navmesh
+  int scored = 0;  ///< valid nodes looked at (max_nodes)
+  int kept = 0;    ///< with targets left in open space
   PredictorMetrics baseline;
   PredictorMetrics targets;  ///< the targets' own cells as predictions
 };
@@ -41,7 +41,8 @@ struct HouseResult {
 HouseResult scoreHouse(const WaypointMetricsOptions& options,
                        const std::string& sceneId) {
   HouseResult house;
-  const auto scene = sim::Scene::load(options.scenes_dir / sceneId, options.sim);
+  const auto scene =
+      sim::Scene::load(options.scenes_dir / sceneId, options.sim);
   house.name = scene->name();
   const data::NavGraph graph = data::readNavGraph(
       options.dataset / "connectivity" / (house.name + "_connectivity.json"));
@@ -54,7 +55,8 @@ HouseResult scoreHouse(const WaypointMetricsOptions& options,
   house.valid = static_cast<int>(valid.size());
   // evenly spaced nodes when capped, so every part of the house counts
   std::vector<int> nodes = valid;
-  if (options.max_nodes >= 0 && static_cast<int>(valid.size()) > options.max_nodes) {
+  if (options.max_nodes >= 0 &&
+      static_cast<int>(valid.size()) > options.max_nodes) {
     nodes.clear();
     for (int k = 0; k < options.max_nodes; ++k)
       nodes.push_back(valid[static_cast<size_t>(k) * valid.size() /
@@ -91,11 +93,10 @@ HouseResult scoreHouse(const WaypointMetricsOptions& options,
 
 std::string row(const char* name, const PredictorMetrics& m) {
   char line[256];
-  std::snprintf(line, sizeof(line),
-                "%-34s %8.2f %8.2f %7.1f%% %7.2f %7.2f %6lld\n", name,
-                m.candidatesPerNode(), m.meanDelta(), 100.0 * m.openShare(),
-                m.meanChamfer(), m.meanHausdorff(),
-                static_cast<long long>(m.empty));
+  std::snprintf(
+      line, sizeof(line), "%-34s %8.2f %8.2f %7.1f%% %7.2f %7.2f %6lld\n", name,
+      m.candidatesPerNode(), m.meanDelta(), 100.0 * m.openShare(),
+      m.meanChamfer(), m.meanHausdorff(), static_cast<long long>(m.empty));
   return line;
 }
 
@@ -123,8 +124,8 @@ int runWaypointMetricsCommand(const WaypointMetricsOptions& options,
                 " has no episodes");
 
   std::vector<HouseResult> houses(sceneIds.size());
-  common::ThreadPool pool(std::min(options.threads,
-                                   static_cast<int>(sceneIds.size())));
+  common::ThreadPool pool(
+      std::min(options.threads, static_cast<int>(sceneIds.size())));
   pool.parallelFor(sceneIds.size(), [&](size_t i) {
     houses[i] = scoreHouse(options, sceneIds[i]);
   });
@@ -146,25 +147,23 @@ int runWaypointMetricsCommand(const WaypointMetricsOptions& options,
                         {"kept", h.kept},
                         {"baseline", h.baseline.toJson()}});
   }
-  const nlohmann::json report = {
-      {"split", options.split},
-      {"houses", perHouse},
-      {"nodes", total.nodes},
-      {"valid", total.valid},
-      {"scored", total.scored},
-      {"kept", total.kept},
-      {"baseline", total.baseline.toJson()},
-      {"targets", total.targets.toJson()},
-      {"seed", options.seed}};
+  const nlohmann::json report = {{"split", options.split},
+                                 {"houses", perHouse},
+                                 {"nodes", total.nodes},
+                                 {"valid", total.valid},
+                                 {"scored", total.scored},
+                                 {"kept", total.kept},
+                                 {"baseline", total.baseline.toJson()},
+                                 {"targets", total.targets.toJson()},
+                                 {"seed", options.seed}};
   if (!options.out.empty()) common::writeJsonFile(options.out, report, 2);
   if (options.json) {
     out << report.dump(2) << "\n";
     return 0;
   }
   out << options.split << ": " << houses.size() << " houses, " << total.nodes
-      << " nav-graph nodes, " << total.valid << " transferred, "
-      << total.scored << " looked at, " << total.kept
-      << " with targets in open space (mean "
+      << " nav-graph nodes, " << total.valid << " transferred, " << total.scored
+      << " looked at, " << total.kept << " with targets in open space (mean "
       << total.targets.targetsPerNode() << " targets each)\n";
   out << "predictor                          cand/pano    delta   %Open     d_C"
          "     d_H  empty\n";

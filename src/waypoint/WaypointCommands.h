@@ -23,9 +23,9 @@ struct WaypointMetricsOptions {
   std::filesystem::path dataset = "data/datasets/procedural";
   std::filesystem::path scenes_dir = "data/scene_datasets";
   std::string split = "val_unseen";
-  int max_nodes = -1;  ///< nodes per house, evenly spaced; -1: all
-  int64_t seed = 1;    ///< the agent's heading on each node
-  int threads = 2;     ///< houses scored in parallel
+  int max_nodes = -1;         ///< nodes per house, evenly spaced; -1: all
+  int64_t seed = 1;           ///< the agent's heading on each node
+  int threads = 2;            ///< houses scored in parallel
   std::filesystem::path out;  ///< optional JSON report
   bool json = false;          ///< print the JSON report instead of text
   sim::SimConfig sim;         ///< navmesh, agent, renderer

@@ -21,7 +21,8 @@ float binDistance(int d) {
 
 int headingBin(float radians) {
   // nearest bin on the circle: bin 0 covers [-1.5, 1.5) degrees
-  const float wrapped = radians - 2.0f * kPi * std::floor(radians / (2.0f * kPi));
+  const float wrapped =
+      radians - 2.0f * kPi * std::floor(radians / (2.0f * kPi));
   const int bin = static_cast<int>(std::lround(wrapped / kHeadingStep));
   return bin % kNumHeadings;
 }

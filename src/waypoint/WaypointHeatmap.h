@@ -73,8 +73,7 @@ Candidate candidateAt(int h, int d, float score);
 /// kHeatmapSize values in the layout above. Candidates are ordered by
 /// decreasing score.
 std::vector<Candidate> heatmapNms(std::span<const float> heatmap,
-                                  int maxCandidates = 5,
-                                  int headingRadius = 7,
+                                  int maxCandidates = 5, int headingRadius = 7,
                                   int distanceRadius = 5,
                                   float minScore = 0.0f);
 

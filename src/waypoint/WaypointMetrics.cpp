@@ -28,7 +28,8 @@ NodeScore scoreCandidates(const std::vector<Candidate>& candidates,
   score.targets = static_cast<int>(targets.targets.size());
   std::vector<Vec3f> predicted;
   for (const Candidate& c : candidates) {
-    if (isOpen(targets.open[static_cast<size_t>(c.heading_bin)], c.distance_bin))
+    if (isOpen(targets.open[static_cast<size_t>(c.heading_bin)],
+               c.distance_bin))
       ++score.open;
     predicted.push_back(fromPolar(targets.agent, c.heading, c.distance));
   }
@@ -93,7 +94,9 @@ double PredictorMetrics::meanDelta() const {
 double PredictorMetrics::openShare() const {
   return ratio(static_cast<double>(open), candidates);
 }
-double PredictorMetrics::meanChamfer() const { return ratio(chamfer_sum, scored); }
+double PredictorMetrics::meanChamfer() const {
+  return ratio(chamfer_sum, scored);
+}
 double PredictorMetrics::meanHausdorff() const {
   return ratio(hausdorff_sum, scored);
 }

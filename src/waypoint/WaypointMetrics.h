@@ -31,7 +31,7 @@ namespace vln::waypoint {
 /// The metrics of one node.
 struct NodeScore {
   int candidates = 0;
-  int open = 0;     ///< candidates in open space
+  int open = 0;  ///< candidates in open space
   int targets = 0;
   bool scored = false;     ///< at least one candidate and one target
   double chamfer = 0.0;    ///< d_C, metres (scored nodes)
@@ -58,8 +58,8 @@ struct PredictorMetrics {
   void merge(const PredictorMetrics& other);
   double candidatesPerNode() const;  ///< mean candidates per panorama
   double targetsPerNode() const;
-  double meanDelta() const;  ///< mean (candidates - targets)
-  double openShare() const;  ///< %Open as a share in [0, 1]
+  double meanDelta() const;      ///< mean (candidates - targets)
+  double openShare() const;      ///< %Open as a share in [0, 1]
   double meanChamfer() const;    ///< d_C over scored nodes, metres
   double meanHausdorff() const;  ///< d_H over scored nodes, metres
   /// Counts and means as a JSON object.

@@ -16,7 +16,8 @@ std::vector<float> gaussianKernel(float sigma) {
   std::vector<float> kernel(static_cast<size_t>(2 * radius + 1));
   float sum = 0.0f;
   for (int i = -radius; i <= radius; ++i) {
-    const float w = std::exp(-0.5f * static_cast<float>(i * i) / (sigma * sigma));
+    const float w =
+        std::exp(-0.5f * static_cast<float>(i * i) / (sigma * sigma));
     kernel[static_cast<size_t>(i + radius)] = w;
     sum += w;
   }
@@ -57,7 +58,8 @@ std::vector<float> targetHeatmap(const std::vector<TargetWaypoint>& targets,
                                  const WaypointTargetConfig& config) {
   std::vector<float> raw(kHeatmapSize, 0.0f);
   for (const TargetWaypoint& t : targets)
-    raw[static_cast<size_t>(t.heading_bin * kNumDistances + t.distance_bin)] = 1.0f;
+    raw[static_cast<size_t>(t.heading_bin * kNumDistances + t.distance_bin)] =
+        1.0f;
   if (targets.empty()) return raw;
 
   // separable Gaussian: headings wrap around, distances see zeros beyond
@@ -100,11 +102,11 @@ std::vector<float> targetHeatmap(const std::vector<TargetWaypoint>& targets,
   return heatmap;
 }
 
-NodeTargets nodeTargets(const data::NavGraph& graph,
-                        const std::vector<data::NodeTransferResult>& transferred,
-                        int node, float heading, const sim::NavMesh& navmesh,
-                        const sim::AgentConfig& agent,
-                        const WaypointTargetConfig& config) {
+NodeTargets nodeTargets(
+    const data::NavGraph& graph,
+    const std::vector<data::NodeTransferResult>& transferred, int node,
+    float heading, const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
+    const WaypointTargetConfig& config) {
   VLN_ASSERT(node >= 0 && node < graph.numNodes());
   VLN_ASSERT(transferred.size() == static_cast<size_t>(graph.numNodes()));
   VLN_CHECK_ARG(transferred[static_cast<size_t>(node)].valid,
@@ -117,7 +119,8 @@ NodeTargets nodeTargets(const data::NavGraph& graph,
   // neighbours in range, the farther one per heading bin
   std::vector<int> byHeading(kNumHeadings, -1);
   for (int neighbour : graph.neighbors(node)) {
-    const data::NodeTransferResult& t = transferred[static_cast<size_t>(neighbour)];
+    const data::NodeTransferResult& t =
+        transferred[static_cast<size_t>(neighbour)];
     if (!t.valid) continue;
     TargetWaypoint target;
     target.node = neighbour;
@@ -127,9 +130,8 @@ NodeTargets nodeTargets(const data::NavGraph& graph,
     target.distance_bin = distanceBin(target.polar.distance);
     if (target.distance_bin < 0) continue;
     int& slot = byHeading[static_cast<size_t>(target.heading_bin)];
-    if (slot >= 0 &&
-        result.targets[static_cast<size_t>(slot)].polar.distance >=
-            target.polar.distance)
+    if (slot >= 0 && result.targets[static_cast<size_t>(slot)].polar.distance >=
+                         target.polar.distance)
       continue;
     if (slot >= 0) {
       result.targets[static_cast<size_t>(slot)] = target;

@@ -72,19 +72,19 @@ bool isOpen(float openDistance, int d);
 
 /// One target waypoint.
 struct TargetWaypoint {
-  int node = -1;        ///< graph index of the neighbour
-  Vec3f position;       ///< its transferred position (world, navmesh)
-  Polar polar;          ///< relative to the agent
+  int node = -1;                   ///< graph index of the neighbour
+  Vec3f position = Vec3f::Zero();  ///< transferred position (world)
+  Polar polar;                     ///< relative to the agent
   int heading_bin = 0;
   int distance_bin = 0;
 };
 
 /// The targets of one node seen with one heading.
 struct NodeTargets {
-  sim::AgentState agent;                 ///< on the transferred node
-  std::vector<TargetWaypoint> targets;   ///< one per heading bin
-  std::array<float, kNumHeadings> open;  ///< openDistances()
-  std::vector<float> heatmap;            ///< [kHeatmapSize], step 3
+  sim::AgentState agent;                   ///< on the transferred node
+  std::vector<TargetWaypoint> targets;     ///< one per heading bin
+  std::array<float, kNumHeadings> open{};  ///< openDistances()
+  std::vector<float> heatmap;              ///< [kHeatmapSize], step 3
   /// False when the node has no target in range or its peak falls below
   /// min_peak_ratio once masked (step 3).
   bool kept = false;
@@ -93,11 +93,11 @@ struct NodeTargets {
 /// The targets of node `node` of `graph` for an agent standing on its
 /// transferred position with `heading` (radians). `transferred` is
 /// data::transferGraph()'s result for the graph; the node must be valid.
-NodeTargets nodeTargets(const data::NavGraph& graph,
-                        const std::vector<data::NodeTransferResult>& transferred,
-                        int node, float heading, const sim::NavMesh& navmesh,
-                        const sim::AgentConfig& agent,
-                        const WaypointTargetConfig& config);
+NodeTargets nodeTargets(
+    const data::NavGraph& graph,
+    const std::vector<data::NodeTransferResult>& transferred, int node,
+    float heading, const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
+    const WaypointTargetConfig& config);
 
 /// Step 3 alone: the smoothed, scaled and masked heatmap of target cells
 /// (heading_bin, distance_bin) given the open distance per heading. Returns

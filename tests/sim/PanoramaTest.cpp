@@ -11,9 +11,9 @@
 #include <cmath>
 #include <vector>
 
-#include "sim/Simulator.h"
 #include "sim/SimTestScenes.h"
 #include "sim/SimTestSuites.h"
+#include "sim/Simulator.h"
 
 namespace vln::sim {
 namespace {

@@ -36,9 +36,11 @@ class DepthWaypointBaselineTest : public test::SceneSuite<room> {
   }
   static sim::Panorama render(const sim::PanoramaConfig& panorama, float x,
                               float z, float heading) {
-    sim::PanoramaRenderer renderer(*scene_, panorama, sim::RendererBackend::kEmbree);
+    sim::PanoramaRenderer renderer(*scene_, panorama,
+                                   sim::RendererBackend::kEmbree);
     sim::Panorama pano;
-    renderer.render({*scene_->navmesh().snapPoint({x, 0.0f, z}), heading}, pano);
+    renderer.render({*scene_->navmesh().snapPoint({x, 0.0f, z}), heading},
+                    pano);
     return pano;
   }
 };
@@ -68,7 +70,8 @@ TEST_F(DepthWaypointBaselineTest, FreeDistancesAreTheRoomsWalls) {
       EXPECT_LE(c.score, result.candidates[i - 1].score);
     }
     for (size_t j = 0; j < i; ++j) {
-      const int gap = std::abs(c.heading_bin - result.candidates[j].heading_bin);
+      const int gap =
+          std::abs(c.heading_bin - result.candidates[j].heading_bin);
       EXPECT_GT(std::min(gap, kNumHeadings - gap), 7);
     }
   }
@@ -80,11 +83,12 @@ TEST_F(DepthWaypointBaselineTest, FreeDistancesAreTheRoomsWalls) {
 
 TEST_F(DepthWaypointBaselineTest, TurningTheAgentRotatesTheFreeDistances) {
   const sim::PanoramaConfig panorama = config();
-  const auto ahead = depthBaselineCandidates(render(panorama, -1.0f, 0.0f, 0.0f),
-                                             panorama, DepthBaselineConfig{});
+  const auto ahead = depthBaselineCandidates(
+      render(panorama, -1.0f, 0.0f, 0.0f), panorama, DepthBaselineConfig{});
   // turned left by 30 degrees = 10 bins: relative bin h then is bin h + 10
-  const auto turned = depthBaselineCandidates(
-      render(panorama, -1.0f, 0.0f, kPi / 6.0f), panorama, DepthBaselineConfig{});
+  const auto turned =
+      depthBaselineCandidates(render(panorama, -1.0f, 0.0f, kPi / 6.0f),
+                              panorama, DepthBaselineConfig{});
   for (int h = 0; h < kNumHeadings; h += 7)
     EXPECT_NEAR(turned.free[static_cast<size_t>(h)],
                 ahead.free[static_cast<size_t>((h + 10) % kNumHeadings)], 0.05f)

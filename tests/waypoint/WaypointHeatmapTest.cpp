@@ -45,7 +45,8 @@ TEST(WaypointHeatmapTest, PolarHeadingsGoCounterClockwiseFromTheAgent) {
   EXPECT_NEAR(left.heading, kPi / 2.0f, 1e-6f);
   EXPECT_NEAR(left.distance, 1.5f, 1e-6f);
   EXPECT_EQ(headingBin(left.heading), 30);
-  const Polar right = toPolar(agent, Vec3f(3.0f, 5.0f, 2.0f));  // height ignored
+  const Polar right =
+      toPolar(agent, Vec3f(3.0f, 5.0f, 2.0f));  // height ignored
   EXPECT_NEAR(right.heading, -kPi / 2.0f, 1e-6f);
   EXPECT_EQ(headingBin(right.heading), 90);
   // relative to a turned agent: facing -X, the point at -X is ahead

@@ -33,8 +33,8 @@ TEST(WaypointMetricsTest, PerfectPredictionScoresZero) {
   // 2 m ahead (-Z) and 1 m left (-X): both exactly on cell centres
   const NodeTargets node =
       nodeWithTargets({Vec3f(0.0f, 0.0f, -2.0f), Vec3f(-1.0f, 0.0f, 0.0f)});
-  const NodeScore score =
-      scoreCandidates({candidateAt(0, 7, 1.0f), candidateAt(30, 3, 1.0f)}, node);
+  const NodeScore score = scoreCandidates(
+      {candidateAt(0, 7, 1.0f), candidateAt(30, 3, 1.0f)}, node);
   EXPECT_EQ(score.candidates, 2);
   EXPECT_EQ(score.targets, 2);
   EXPECT_EQ(score.open, 2);
@@ -57,8 +57,8 @@ TEST(WaypointMetricsTest, ChamferAndHausdorffByHand) {
   // adding a prediction 1 m to the left: both targets are sqrt(5) m from
   // it, so it is the one behind's nearest now; predictions' mean and
   // targets' mean are both (1 + sqrt 5) / 2, d_H = sqrt 5
-  const NodeScore two =
-      scoreCandidates({candidateAt(0, 3, 1.0f), candidateAt(30, 3, 1.0f)}, node);
+  const NodeScore two = scoreCandidates(
+      {candidateAt(0, 3, 1.0f), candidateAt(30, 3, 1.0f)}, node);
   EXPECT_NEAR(two.chamfer, (1.0 + std::sqrt(5.0)) / 2.0, 1e-5);
   EXPECT_NEAR(two.hausdorff, std::sqrt(5.0), 1e-5);
 }
@@ -67,10 +67,10 @@ TEST(WaypointMetricsTest, OpenCountsCandidatesWithinTheOpenDistance) {
   NodeTargets node = nodeWithTargets({Vec3f(0.0f, 0.0f, -2.0f)});
   node.open[0] = 1.1f;  // 4 whole steps: cells 0.25 .. 1.0 m
   node.open[45] = 3.0f;
-  const NodeScore score = scoreCandidates(
-      {candidateAt(0, 3, 1.0f), candidateAt(0, 4, 1.0f),
-       candidateAt(45, 11, 1.0f)},
-      node);
+  const NodeScore score =
+      scoreCandidates({candidateAt(0, 3, 1.0f), candidateAt(0, 4, 1.0f),
+                       candidateAt(45, 11, 1.0f)},
+                      node);
   EXPECT_EQ(score.open, 2);  // 1.0 m ahead and 3.0 m at bin 45; not 1.25 m
   EXPECT_TRUE(isOpen(1.0f, 3));
   EXPECT_TRUE(isOpen(0.9999999f, 3));  // a float step short is still a step
@@ -85,8 +85,8 @@ TEST(WaypointMetricsTest, NodesWithoutCandidatesAreCountedNotAveraged) {
   // d_C 0.5 * (1 + 1) = 1, d_H 1; the candidate is open
   metrics.add(scoreCandidates({candidateAt(0, 3, 1.0f)}, node));
   // two candidates for one target: delta +1; d_C = 0.5 * ((1 + 0) / 2 + 0)
-  metrics.add(
-      scoreCandidates({candidateAt(0, 3, 1.0f), candidateAt(0, 7, 1.0f)}, node));
+  metrics.add(scoreCandidates(
+      {candidateAt(0, 3, 1.0f), candidateAt(0, 7, 1.0f)}, node));
   EXPECT_EQ(metrics.nodes, 3);
   EXPECT_EQ(metrics.empty, 1);
   EXPECT_EQ(metrics.scored, 2);
