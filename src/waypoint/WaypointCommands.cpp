@@ -93,10 +93,11 @@ HouseResult scoreHouse(const WaypointMetricsOptions& options,
 
 std::string row(const char* name, const PredictorMetrics& m) {
   char line[256];
-  std::snprintf(
-      line, sizeof(line), "%-34s %8.2f %8.2f %7.1f%% %7.2f %7.2f %6lld\n", name,
-      m.candidatesPerNode(), m.meanDelta(), 100.0 * m.openShare(),
-      m.meanChamfer(), m.meanHausdorff(), static_cast<long long>(m.empty));
+  std::snprintf(line, sizeof(line),
+                "%-34s %8.2f %8.2f %8.2f %7.1f%% %7.2f %7.2f %6lld\n", name,
+                m.candidatesPerNode(), m.meanDelta(), m.meanAbsDelta(),
+                100.0 * m.openShare(), m.meanChamfer(), m.meanHausdorff(),
+                static_cast<long long>(m.empty));
   return line;
 }
 
@@ -165,7 +166,8 @@ int runWaypointMetricsCommand(const WaypointMetricsOptions& options,
       << " nav-graph nodes, " << total.valid << " transferred, " << total.scored
       << " looked at, " << total.kept << " with targets in open space (mean "
       << total.targets.targetsPerNode() << " targets each)\n";
-  out << "predictor                          cand/pano    delta   %Open     d_C"
+  out << "predictor                          cand/pano    delta  |delta|   "
+         "%Open     d_C"
          "     d_H  empty\n";
   out << row("depth-only baseline", total.baseline);
   out << row("targets at their cells (floor)", total.targets);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 #include <nlohmann/json.hpp>
@@ -63,6 +64,7 @@ void PredictorMetrics::add(const NodeScore& score) {
   candidates += score.candidates;
   open += score.open;
   targets += score.targets;
+  abs_delta_sum += std::abs(score.candidates - score.targets);
   if (score.candidates == 0) ++empty;
   if (score.scored) {
     ++scored;
@@ -80,6 +82,7 @@ void PredictorMetrics::merge(const PredictorMetrics& other) {
   empty += other.empty;
   chamfer_sum += other.chamfer_sum;
   hausdorff_sum += other.hausdorff_sum;
+  abs_delta_sum += other.abs_delta_sum;
 }
 
 double PredictorMetrics::candidatesPerNode() const {
@@ -90,6 +93,9 @@ double PredictorMetrics::targetsPerNode() const {
 }
 double PredictorMetrics::meanDelta() const {
   return ratio(static_cast<double>(candidates - targets), nodes);
+}
+double PredictorMetrics::meanAbsDelta() const {
+  return ratio(static_cast<double>(abs_delta_sum), nodes);
 }
 double PredictorMetrics::openShare() const {
   return ratio(static_cast<double>(open), candidates);
@@ -111,6 +117,7 @@ nlohmann::json PredictorMetrics::toJson() const {
           {"candidates_per_node", candidatesPerNode()},
           {"targets_per_node", targetsPerNode()},
           {"delta", meanDelta()},
+          {"abs_delta", meanAbsDelta()},
           {"open_share", openShare()},
           {"chamfer", meanChamfer()},
           {"hausdorff", meanHausdorff()}};

@@ -3,7 +3,8 @@
 // 1; their waypoint predictor's eval.py), per node and summed over nodes:
 //
 //  - candidates: waypoints predicted per panorama (at most 5 after NMS);
-//    delta = candidates - targets.
+//    delta = candidates - targets, averaged signed (their eval.py) and
+//    absolute (|delta|, a mismatch that signs cannot cancel).
 //  - %Open: share of predicted waypoints whose cell is open space (the
 //    node's open distance along the candidate's heading reaches its
 //    distance; WaypointTargets.h step 2).
@@ -53,12 +54,14 @@ struct PredictorMetrics {
   int64_t empty = 0;  ///< nodes without a candidate
   double chamfer_sum = 0.0;
   double hausdorff_sum = 0.0;
+  int64_t abs_delta_sum = 0;  ///< sum of |candidates - targets|
 
   void add(const NodeScore& score);
   void merge(const PredictorMetrics& other);
   double candidatesPerNode() const;  ///< mean candidates per panorama
   double targetsPerNode() const;
   double meanDelta() const;      ///< mean (candidates - targets)
+  double meanAbsDelta() const;   ///< mean |candidates - targets|
   double openShare() const;      ///< %Open as a share in [0, 1]
   double meanChamfer() const;    ///< d_C over scored nodes, metres
   double meanHausdorff() const;  ///< d_H over scored nodes, metres

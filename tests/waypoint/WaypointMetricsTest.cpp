@@ -92,6 +92,7 @@ TEST(WaypointMetricsTest, NodesWithoutCandidatesAreCountedNotAveraged) {
   EXPECT_EQ(metrics.scored, 2);
   EXPECT_DOUBLE_EQ(metrics.candidatesPerNode(), 1.0);
   EXPECT_DOUBLE_EQ(metrics.meanDelta(), 0.0);  // (-1 + 0 + 1) / 3
+  EXPECT_DOUBLE_EQ(metrics.meanAbsDelta(), 2.0 / 3.0);
   EXPECT_DOUBLE_EQ(metrics.openShare(), 1.0);
   EXPECT_NEAR(metrics.meanChamfer(), (1.0 + 0.25) / 2.0, 1e-6);
   EXPECT_NEAR(metrics.meanHausdorff(), (1.0 + 1.0) / 2.0, 1e-6);
