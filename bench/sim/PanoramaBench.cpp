@@ -4,7 +4,7 @@
 // in the same run. Results and commands: docs/performance.md, section
 // "Panoramas".
 //
-//   build/bin/PanoramaBench --benchmark_min_time=2
+//   build/bin/PanoramaBench --benchmark_min_time=3
 //
 // Scene: procedural house seed 1, the agent on random navigable points with
 // random headings (as RenderBench).
