@@ -16,6 +16,7 @@
 #include "common/App.h"
 #include "common/Config.h"
 #include "data/DataCommands.h"
+#include "waypoint/WaypointCommands.h"
 #include "world/WorldCommands.h"
 
 namespace {
@@ -190,6 +191,49 @@ Subcommand addTransfer(CLI::App& app) {
           [options] { return world::runTransferCommand(*options, std::cout); }};
 }
 
+Subcommand addWaypointMetrics(CLI::App& app) {
+  auto options = std::make_shared<waypoint::WaypointMetricsOptions>();
+  auto config = std::make_shared<std::filesystem::path>();
+  CLI::App* command = app.add_subcommand(
+      "waypoint-metrics",
+      "Candidate-waypoint predictor metrics (candidates, %Open, d_C, d_H) of "
+      "the depth-only baseline against nav-graph targets on a split's houses");
+  command->add_option("--dataset", options->dataset,
+                      "Dataset root with <split>/ and connectivity/")
+      ->capture_default_str();
+  command->add_option("--scenes-dir", options->scenes_dir,
+                      "Directory that the episodes' scene ids are relative to")
+      ->capture_default_str();
+  command->add_option("--split", options->split, "Split whose houses to score")
+      ->capture_default_str();
+  command->add_option("--max-nodes", options->max_nodes,
+                      "Nodes per house, evenly spaced (-1: all)")
+      ->capture_default_str();
+  command->add_option("--seed", options->seed, "Seed of the agent's heading on "
+                      "each node")->capture_default_str();
+  command->add_option("--threads", options->threads,
+                      "Houses scored in parallel")->capture_default_str();
+  command->add_option("--config", *config,
+                      "Run config YAML whose sim: section sets the navmesh, "
+                      "agent and renderer, and panorama: section the views")
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", options->out, "Write the JSON report here");
+  command->add_flag("--json", options->json, "Print JSON instead of text");
+  return {command, [options, config] {
+            if (!config->empty()) {
+              common::readConfigFileSection(
+                  *config, "sim", {}, [&](common::ConfigVisitor& v) {
+                    v.section("sim", options->sim, "Simulator");
+                  });
+              common::readConfigFileSection(
+                  *config, "panorama", {}, [&](common::ConfigVisitor& v) {
+                    v.section("panorama", options->panorama, "Panorama");
+                  });
+            }
+            return waypoint::runWaypointMetricsCommand(*options, std::cout);
+          }};
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -208,6 +252,7 @@ int main(int argc, char** argv) {
         addRxrMerge(app),
         addGenerate(app),
         addTransfer(app),
+        addWaypointMetrics(app),
     };
     try {
       app.parse(argc, argv);

@@ -56,6 +56,7 @@ void Simulator::setScene(std::shared_ptr<const Scene> scene) {
   VLN_CHECK_ARG(scene != nullptr, "Simulator::setScene(): scene is null");
   // the renderer holds references into the scene, so it goes first
   renderer_.reset();
+  panorama_.reset();
   scene_ = std::move(scene);
   renderer_ =
       createRenderer(scene_->mesh(), scene_->rayTracer(), sim_.renderer);
@@ -116,6 +117,16 @@ void Simulator::observe(Observation& out) {
                            intrinsics(depthCamera), out.depth);
   }
   postprocessDepth(sim_.depth, out.depth);
+}
+
+void Simulator::observePanorama(const PanoramaConfig& config,
+                                Panorama& out) {
+  VLN_ASSERT(hasEpisode_);
+  // only waypoint agents look around: the others never pay for the renderers
+  if (!panorama_ || !(panorama_->config() == config))
+    panorama_ = std::make_unique<PanoramaRenderer>(*scene_, config,
+                                                   sim_.renderer);
+  panorama_->render(episode_.agent, out);
 }
 
 void Simulator::observeSemantic(std::vector<int32_t>& objectIds) {

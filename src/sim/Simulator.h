@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "sim/Agent.h"
+#include "sim/Panorama.h"
 #include "sim/Renderer.h"
 #include "sim/Scene.h"
 #include "sim/SimConfig.h"
@@ -43,6 +44,13 @@ class Simulator {
   /// cameras' pitch) into `out` (resized as needed). RGB and depth share one
   /// pass when their cameras are equal.
   void observe(Observation& out);
+  /// Renders the panorama `config` describes at the current pose: view k is
+  /// what observe() would render after turning to
+  /// panoramaViewHeading(heading, k, num_views), with the panorama's
+  /// cameras (sim/Panorama.h), on this simulator's backend. The panorama
+  /// renderer is created on the first call and again when `config`
+  /// changes. Throws what checkPanoramaConfig() throws.
+  void observePanorama(const PanoramaConfig& config, Panorama& out);
   /// Renders the semantic object ids seen by the RGB camera.
   void observeSemantic(std::vector<int32_t>& objectIds);
 
@@ -60,6 +68,7 @@ class Simulator {
   SimConfig sim_;
   TaskConfig task_;
   std::unique_ptr<Renderer> renderer_;
+  std::unique_ptr<PanoramaRenderer> panorama_;  ///< made by observePanorama()
   EpisodeState episode_;
   bool hasEpisode_ = false;  ///< reset() has placed the agent in scene_
 };
