@@ -75,10 +75,11 @@ const TinyRxrWorld& tinyRxrWorld() {
           common::loadConfigFile<world::RxrWorldConfig>(configs / "rxr.yaml");
       config.world =
           common::loadConfigFile<world::WorldConfig>(configs / "tiny.yaml");
-      config.splits.train_per_house = 6;
-      config.splits.val_seen_per_house = 1;
-      config.splits.val_unseen_per_house = 2;
-      config.splits.test_challenge_per_house = 1;
+      // RxrWorldGeneratorTest's quotas, which these houses meet
+      config.splits.train_per_house = 8;
+      config.splits.val_seen_per_house = 2;
+      config.splits.val_unseen_per_house = 4;
+      config.splits.test_challenge_per_house = 3;
       world::generateRxrWorld(config, {w.data, w.scenes, 2});
       data::RxrFilterConfig all;
       all.roles = {"*"};
