@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "common/Check.h"
+#include "data/RxrEpisodes.h"
 
 namespace vln::data {
 
@@ -45,6 +46,34 @@ Split loadSplit(const std::filesystem::path& root, const std::string& name,
   if (split.hasGoals && std::filesystem::exists(gt))
     split.groundTruth = std::make_unique<GroundTruth>(readGroundTruth(gt));
   return split;
+}
+
+Split loadDatasetSplit(const DatasetConfig& dataset, const std::string& name,
+                       int cap) {
+  if (!dataset.isRxr()) return loadSplit(dataset.data_path, name, cap);
+  Split split;
+  split.name = name;
+  split.episodes = readRxrEpisodes(dataset.data_path, name, dataset.rxr_filter);
+  keepEvenlySpaced(split.episodes, cap);
+  for (const Episode& e : split.episodes)
+    if (!e.goals.empty()) split.hasGoals = true;
+  // like R2R, a split may ship without ground truth (test_challenge)
+  bool allFiles = true;
+  for (const auto& file : datasetGroundTruthPaths(dataset, name))
+    allFiles = allFiles && std::filesystem::exists(file);
+  if (split.hasGoals && allFiles)
+    split.groundTruth = std::make_unique<GroundTruth>(readRxrGroundTruth(
+        dataset.data_path, name, dataset.rxr_filter.resolvedRoles()));
+  return split;
+}
+
+std::vector<std::filesystem::path> datasetGroundTruthPaths(
+    const DatasetConfig& dataset, const std::string& name) {
+  if (!dataset.isRxr()) return {splitGroundTruthPath(dataset.data_path, name)};
+  std::vector<std::filesystem::path> files;
+  for (const std::string& role : dataset.rxr_filter.resolvedRoles())
+    files.push_back(rxrGroundTruthPath(dataset.data_path, name, role));
+  return files;
 }
 
 std::filesystem::path hiddenGoalsPath(const std::filesystem::path& root,

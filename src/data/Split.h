@@ -18,6 +18,7 @@
 #include <string_view>
 #include <vector>
 
+#include "data/DatasetConfig.h"
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
 
@@ -50,6 +51,19 @@ struct HiddenSplitFiles {
 /// Throws what readEpisodes() and readGroundTruth() throw.
 Split loadSplit(const std::filesystem::path& root, const std::string& name,
                 int cap);
+
+/// Split `name` of the dataset `dataset` names: loadSplit() of data_path
+/// for format r2r; for format rxr the episodes of readRxrEpisodes() with
+/// dataset.rxr_filter, capped like loadSplit(), and, when they have goals,
+/// the ground truth of the filter's roles (readRxrGroundTruth()) when every
+/// role's file exists. Throws what those readers throw.
+Split loadDatasetSplit(const DatasetConfig& dataset, const std::string& name,
+                       int cap);
+
+/// The ground-truth file(s) of split `name` of `dataset`, in the order they
+/// are read: <split>_gt.json.gz (r2r) or one per rxr_filter role (rxr).
+std::vector<std::filesystem::path> datasetGroundTruthPaths(
+    const DatasetConfig& dataset, const std::string& name);
 
 /// `root / "hidden" / split / (split + "_goals.json.gz")`.
 std::filesystem::path hiddenGoalsPath(const std::filesystem::path& root,

@@ -17,6 +17,7 @@
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
 #include "data/NodeTransfer.h"
+#include "data/RxrEpisodes.h"
 #include "data/Split.h"
 #include "data/TransferConfig.h"
 #include "eval/BaselineAgents.h"
@@ -25,6 +26,7 @@
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
 #include "rollout/Evaluator.h"
+#include "rollout/ObservationBatch.h"
 #include "rollout/PolicyAgent.h"
 #include "rollout/ScriptedPolicyAgent.h"
 #include "rollout/VectorEnv.h"
@@ -45,7 +47,7 @@ namespace {
 data::Split loadSplit(const train::ExperimentConfig& config,
                       const std::string& name, int cap) {
   const fs::path root = config.dataset.data_path;
-  data::Split split = data::loadSplit(root, name, cap);
+  data::Split split = data::loadDatasetSplit(config.dataset, name, cap);
   VLN_CHECK_ARG(!split.episodes.empty(), "eval: split '", name, "' under '",
                 root.string(), "' has no episodes");
   return split;
@@ -117,6 +119,23 @@ std::unique_ptr<rollout::Agent> makeAgent(
         static_cast<uint64_t>(ec.seed), config.dataset.max_instruction_length,
         config.model.device);
   return policyAgent(config, candidate.checkpoint);
+}
+
+// an rxr_text policy reads the text feature files of the split it runs on
+// (all checked before the first episode)
+void useSplitTextFeatures(rollout::Agent& agent,
+                          const train::ExperimentConfig& config,
+                          const data::Split& split) {
+  auto* policy = dynamic_cast<rollout::PolicyAgent*>(&agent);
+  if (policy == nullptr || !config.model.usesInstruction() ||
+      !config.model.usesTextFeatures())
+    return;
+  std::vector<const data::Episode*> episodes;
+  for (const data::Episode& e : split.episodes) episodes.push_back(&e);
+  const fs::path dir = config.dataset.textFeaturesPath();
+  rollout::requireRxrTextFeatureFiles(dir, split.name, episodes);
+  policy->setInstructionFeatures(rollout::rxrTextFeatureSource(
+      dir, split.name, config.model.text_feature_dim));
 }
 
 // ---------------------------------------------------------------------------
@@ -312,16 +331,24 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     VLN_CHECK_ARG(options.agent == "random" || options.agent == "handcrafted",
                   "eval: --agent must be random, handcrafted or oracle, got '",
                   options.agent, "'");
-    const fs::path gt = data::splitGroundTruthPath(
-        settings.dataset.data_path, settings.dataset.train_split);
-    VLN_CHECK_IO(fs::exists(gt), "eval --agent ", options.agent,
-                 ": the baseline's statistics need the ground truth of "
-                 "dataset.train_split '",
-                 settings.dataset.train_split, "': '", gt.string(),
-                 "' does not exist");
-    baselineStats = std::make_unique<BaselineStatistics>(
-        baselineStatistics(data::readGroundTruth(gt),
-                           settings.sim.agent.forward_step_size, gt.string()));
+    // R2R: <train_split>_gt.json.gz; RxR: the filter's roles' files merged
+    const data::DatasetConfig& dataset = settings.dataset;
+    const std::vector<fs::path> gtFiles =
+        data::datasetGroundTruthPaths(dataset, dataset.train_split);
+    for (const fs::path& gt : gtFiles)
+      VLN_CHECK_IO(fs::exists(gt), "eval --agent ", options.agent,
+                   ": the baseline's statistics need the ground truth of "
+                   "dataset.train_split '",
+                   dataset.train_split, "': '", gt.string(),
+                   "' does not exist");
+    const data::GroundTruth truth =
+        dataset.isRxr()
+            ? data::readRxrGroundTruth(dataset.data_path, dataset.train_split,
+                                       dataset.rxr_filter.resolvedRoles())
+            : data::readGroundTruth(gtFiles.front());
+    baselineStats = std::make_unique<BaselineStatistics>(baselineStatistics(
+        truth, settings.sim.agent.forward_step_size,
+        gtFiles.front().string()));
     out << "baseline " << options.agent << ": " << baselineStats->num_paths
         << " training paths, mean length " << baselineStats->mean_path_length
         << " m (" << baselineStats->forward_steps << " forward steps), actions "
@@ -414,6 +441,7 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
         makeAgent(candidate, settings, baselineStats.get());
     if (!options.report.empty()) agent->keepInstructionAttention(true);
     for (const data::Split* split : todo) {
+      useSplitTextFeatures(*agent, settings, *split);
       SplitReport report = evaluateSplit(*agent, candidate, *split, ctx);
       out << summaryLine(report) << "\n";
       out.flush();

@@ -88,18 +88,60 @@ InstructionFeatureSource rxrTextFeatureSource(
                   " has no instruction.instruction_id, which names its text "
                   "feature file (not an RxR_VLNCE episode?)");
     // the loader checks the width (model.text_feature_dim) and names the
-    // file
-    const data::RxrTextFeatures features = data::loadRxrTextFeatures(
-        data::rxrTextFeaturesPath(featuresDir, split,
-                                  *episode.instruction.instruction_id,
-                                  episode.instruction.language),
-        data::kRxrTextTokens, dim);
+    // file; the episode is added here, with the error's type kept (a
+    // missing file is I/O, a bad one invalid input)
+    const std::filesystem::path file = data::rxrTextFeaturesPath(
+        featuresDir, split, *episode.instruction.instruction_id,
+        episode.instruction.language);
+    const std::string context =
+        strCat("text features of episode ", episode.episode_id, " (split '",
+               split, "', instruction_id ", *episode.instruction.instruction_id,
+               ", ", episode.instruction.language, "): ");
+    if (!std::filesystem::exists(file))
+      throw std::runtime_error(strCat(
+          context, "'", file.string(),
+          "' does not exist (dataset.text_features_dir; made by trainer.task "
+          "text_mlm, docs/rxr_text.md)"));
+    data::RxrTextFeatures features;
+    try {
+      features = data::loadRxrTextFeatures(file, data::kRxrTextTokens, dim);
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument(context + error.what());
+    } catch (const std::runtime_error& error) {
+      throw std::runtime_error(context + error.what());
+    }
     // the file's rows only: the zero rows after them are padding
     const int64_t rows = std::max(features.valid_tokens, 1);
     return torch::from_blob(const_cast<float*>(features.values.data()),
                             {rows, features.dim}, torch::kFloat32)
         .clone();
   };
+}
+
+void requireRxrTextFeatureFiles(
+    const std::filesystem::path& featuresDir, const std::string& split,
+    std::span<const data::Episode* const> episodes) {
+  std::string first;
+  size_t missing = 0;
+  for (const data::Episode* episode : episodes) {
+    VLN_CHECK_ARG(episode->instruction.instruction_id.has_value(),
+                  "requireRxrTextFeatureFiles(): episode ", episode->episode_id,
+                  " of split '", split,
+                  "' has no instruction.instruction_id, which names its text "
+                  "feature file (not an RxR_VLNCE episode?)");
+    const std::filesystem::path file = data::rxrTextFeaturesPath(
+        featuresDir, split, *episode->instruction.instruction_id,
+        episode->instruction.language);
+    if (std::filesystem::exists(file)) continue;
+    if (missing++ == 0)
+      first = strCat("'", file.string(), "' (episode ", episode->episode_id,
+                     ", instruction_id ", *episode->instruction.instruction_id,
+                     ")");
+  }
+  VLN_CHECK_IO(missing == 0, "text features of split '", split, "': ", missing,
+               " of ", episodes.size(), " files are missing, the first ", first,
+               " (dataset.text_features_dir; made by trainer.task text_mlm, "
+               "docs/rxr_text.md)");
 }
 
 torch::Tensor instructionFeatures(const InstructionFeatureSource& source,

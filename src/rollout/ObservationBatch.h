@@ -52,6 +52,15 @@ InstructionFeatureSource rxrTextFeatureSource(
     const std::filesystem::path& featuresDir, const std::string& split,
     int dim);
 
+/// Checks that every episode of `episodes` (of split `split`) has its text
+/// feature file under `featuresDir`, before a run spends time on them.
+/// Throws std::runtime_error naming the first missing file, its episode and
+/// how many are missing; std::invalid_argument for an episode without
+/// instruction_id.
+void requireRxrTextFeatureFiles(const std::filesystem::path& featuresDir,
+                                const std::string& split,
+                                std::span<const data::Episode* const> episodes);
+
 /// One episode's text features from `source`, checked ([L, dim] float with
 /// L >= 1, else std::invalid_argument naming the episode) and cut to its
 /// first `maxLength` rows: [1, L', dim].

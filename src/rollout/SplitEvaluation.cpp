@@ -5,6 +5,7 @@
 
 #include "common/Check.h"
 #include "common/Progress.h"
+#include "data/RxrPredictions.h"
 
 namespace vln::rollout {
 namespace fs = std::filesystem;
@@ -72,6 +73,24 @@ SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
     writeLeaderboardFile(file, unscored);
     out.files.push_back(file);
   }
+  // RxR episodes: the RxR-Habitat inference file (VLN-CE's INFERENCE
+  // FORMAT rxr), scored or not; it needs every episode's path, so only a
+  // process that ran the whole split writes it
+  if (options.num_shards == 1 && !episodes->empty() &&
+      std::all_of(episodes->begin(), episodes->end(),
+                  [](const data::Episode& e) {
+                    return e.instruction.instruction_id.has_value();
+                  })) {
+    std::vector<data::RxrPrediction> predictions;
+    for (size_t i = 0; i < out.result.episodes.size(); ++i)
+      predictions.push_back({*(*episodes)[i].instruction.instruction_id,
+                             data::rxrPathFromPositions(
+                                 out.result.episodes[i].record.positions)});
+    const fs::path file =
+        options.out_dir / rxrPredictionsFileName(out.checkpoint, split.name);
+    data::writeRxrPredictions(file, std::move(predictions));
+    out.files.push_back(file);
+  }
   return out;
 }
 
@@ -126,6 +145,11 @@ std::string summaryLine(const SplitEvaluation& evaluation) {
 std::string predictionsFileName(int checkpoint, std::string_view split) {
   return "predictions_ckpt_" + std::to_string(checkpoint) + "_" +
          std::string(split) + ".json";
+}
+
+std::string rxrPredictionsFileName(int checkpoint, std::string_view split) {
+  return "rxr_predictions_ckpt_" + std::to_string(checkpoint) + "_" +
+         std::string(split) + ".jsonl";
 }
 
 }  // namespace vln::rollout

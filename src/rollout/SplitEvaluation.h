@@ -12,6 +12,11 @@
 //                                        the episodes without goals (all
 //                                        episodes with
 //                                        predictions_of_scored)
+//   rxr_predictions_ckpt_<i>_<split>.jsonl  RxR episodes (all with an
+//                                        instruction_id): the RxR-Habitat
+//                                        inference output of every episode
+//                                        (data/RxrPredictions.h); written
+//                                        when one process ran the split
 
 #include <cstdint>
 #include <filesystem>
@@ -103,5 +108,8 @@ std::string summaryLine(const SplitEvaluation& evaluation);
 
 /// "predictions_ckpt_<checkpoint>_<split>.json".
 std::string predictionsFileName(int checkpoint, std::string_view split);
+
+/// "rxr_predictions_ckpt_<checkpoint>_<split>.jsonl".
+std::string rxrPredictionsFileName(int checkpoint, std::string_view split);
 
 }  // namespace vln::rollout

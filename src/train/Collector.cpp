@@ -180,6 +180,8 @@ class Collector::Job : public rollout::EpisodeJob {
           config_.dataset.max_instruction_length,
           config_.trainer.exact_resume ? rollout::InstructionBatching::kOneByOne
                                        : rollout::InstructionBatching::kJoint);
+    if (stepper_ && collector.featureSource_)
+      stepper_->setInstructionFeatures(collector.featureSource_);
   }
 
   rollout::EpisodeStart startOf(int index) override {
@@ -481,6 +483,13 @@ std::string storeConfigHash(const ExperimentConfig& config) {
     // for the same reason: the look actions (RxR) and more training splits
     if (key == "sim.agent.look_actions" || key == "sim.agent.tilt_angle") {
       if (config.sim.agent.look_actions) text += key + "=" + value + "\n";
+      continue;
+    }
+    // RxR runs read other files (and their filter picks the episodes);
+    // the text features are read at batch time, not stored
+    if (key.rfind("dataset.format", 0) == 0 ||
+        key.rfind("dataset.rxr_filter.", 0) == 0) {
+      if (config.dataset.isRxr()) text += key + "=" + value + "\n";
       continue;
     }
     if (key == "dataset.extra_train_splits") {

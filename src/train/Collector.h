@@ -128,6 +128,13 @@ class Collector {
             models::ObservationEncoder encoder);
   ~Collector();
 
+  /// Where a policy with model.instruction_features: rxr_text gets each
+  /// episode's text features when it runs (DAgger rounds, beta < 1;
+  /// TrainingData::textFeatureSource()). Teacher forcing needs none.
+  void setInstructionFeatures(rollout::InstructionFeatureSource source) {
+    featureSource_ = std::move(source);
+  }
+
   /// Runs the missing slots of `round` (of its shard) and appends each
   /// finished episode
   /// to `store` (one transaction each). `policy` is needed when
@@ -152,6 +159,7 @@ class Collector {
   std::shared_ptr<rollout::SceneCache> scenes_;
   models::ObservationEncoder encoder_;
   std::unique_ptr<rollout::VectorEnv> envs_;
+  rollout::InstructionFeatureSource featureSource_;
 };
 
 /// Hash (16 hex digits) of everything that determines what the feature

@@ -60,6 +60,20 @@ void ExperimentConfig::validate() const {
                 "config: trainer.preload_size (", trainer.preload_size,
                 ") must be at least trainer.batch_size (", trainer.batch_size,
                 ")");
+  // RxR runs: the filter names what is read; text features need RxR's
+  // instruction ids, which R2R episode files do not have
+  if (dataset.isRxr()) {
+    try {
+      dataset.rxr_filter.validate();
+    } catch (const std::invalid_argument& error) {
+      throw std::invalid_argument(std::string("config: dataset.rxr_filter: ") +
+                                  error.what());
+    }
+  }
+  VLN_CHECK_ARG(!model.usesTextFeatures() || dataset.isRxr(),
+                "config: model.instruction_features is rxr_text, which reads "
+                "RxR's text feature files by instruction_id, but "
+                "dataset.format is '", dataset.format, "' (set rxr)");
   bool selectionEvaluated = false;
   for (const auto& split : eval.splits) selectionEvaluated |= split == eval.selection_split;
   VLN_CHECK_ARG(selectionEvaluated, "config: eval.selection_split '", eval.selection_split,

@@ -99,7 +99,9 @@ struct EpisodeBatch {
   at::Tensor tokens;          ///< [B, L] int64, PAD 0 on the right (L >= 1)
   /// [B, L, D] float32, zero rows on the right: the instructions' text
   /// features for model.instruction_features: rxr_text (filled by the
-  /// caller, not by the store, which keeps tokens); undefined otherwise.
+  /// caller, not by the store, which keeps tokens: ImitationLearner's
+  /// setTextFeatures(), reading the files by the episodes' keys at batch
+  /// time); undefined otherwise.
   at::Tensor text_features;
   std::vector<int64_t> indices;  ///< store indices of the B episodes
   int64_t steps = 0;             ///< real (valid) steps in the batch

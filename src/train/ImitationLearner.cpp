@@ -271,7 +271,8 @@ EpochResult ImitationLearner::trainEpoch(
   common::ProgressLine line(strCat("epoch ", epoch),
                             static_cast<int64_t>(batches.size()), "updates");
   for (const auto& indices : batches) {
-    const EpisodeBatch batch = store.loadBatch(indices);
+    EpisodeBatch batch = store.loadBatch(indices);
+    if (textFeatures_) batch.text_features = textFeatures_(store, indices);
     const UpdateResult u = update(batch);
     addToEpoch(u, epoch, result);
     if (onUpdate) onUpdate(u);

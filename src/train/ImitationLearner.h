@@ -74,6 +74,17 @@ class ImitationLearner {
   /// per update. `dist` must outlive the learner.
   void setDistributed(Distributed* dist) { dist_ = dist; }
 
+  /// Fills EpisodeBatch::text_features of each batch trainEpoch() loads
+  /// (the store keeps no text): `fill(store, indices)` returns
+  /// [B, L, model.text_feature_dim] for the stored episodes `indices`
+  /// (TrainingData::batchTextFeatures()). Needed by a model with
+  /// model.instruction_features: rxr_text.
+  using TextFeatureFill =
+      std::function<at::Tensor(const FeatureStore&, std::span<const int64_t>)>;
+  void setTextFeatures(TextFeatureFill fill) {
+    textFeatures_ = std::move(fill);
+  }
+
   /// Inflection coefficient of the action loss.
   void setInflectionCoef(double coef) { inflectionCoef_ = coef; }
   double inflectionCoef() const { return inflectionCoef_; }
@@ -157,6 +168,7 @@ class ImitationLearner {
   int64_t nonFiniteTotal_ = 0;
   int64_t nonFiniteInARow_ = 0;
   std::function<torch::Tensor(const torch::Tensor&)> lossHook_;
+  TextFeatureFill textFeatures_;
   Distributed* dist_ = nullptr;
 };
 

@@ -3,6 +3,7 @@
 #include <spdlog/spdlog.h>
 
 #include "common/Check.h"
+#include "rollout/ObservationBatch.h"
 #include "rollout/PolicyAgent.h"
 #include "rollout/SplitEvaluation.h"
 #include "train/Distributed.h"
@@ -51,12 +52,19 @@ PeriodicEvaluator::PeriodicEvaluator(
   const int cap =
       ec.train_eval_episodes >= 0 ? ec.train_eval_episodes : ec.episodes;
   for (const auto& name : ec.splits) {
-    splits_.push_back(data::loadSplit(config.dataset.data_path, name, cap));
+    splits_.push_back(data::loadDatasetSplit(config.dataset, name, cap));
     VLN_CHECK_ARG(splits_.back().hasGoals || splits_.back().episodes.empty(),
                   "train: eval.splits: split '", name, "' under '",
                   config.dataset.data_path,
                   "' has no goals to validate on (leave it to the eval "
                   "binary)");
+    if (config.model.usesInstruction() && config.model.usesTextFeatures()) {
+      std::vector<const data::Episode*> episodes;
+      for (const data::Episode& e : splits_.back().episodes)
+        episodes.push_back(&e);
+      rollout::requireRxrTextFeatureFiles(config.dataset.textFeaturesPath(),
+                                          name, episodes);
+    }
   }
 }
 
@@ -82,6 +90,10 @@ double PeriodicEvaluator::evaluate(
     rollout::PolicyAgent agent(policy, encoder, ec.num_envs, ec.sample_actions,
                                static_cast<uint64_t>(ec.seed),
                                config_.dataset.max_instruction_length);
+    if (config_.model.usesInstruction() && config_.model.usesTextFeatures())
+      agent.setInstructionFeatures(rollout::rxrTextFeatureSource(
+          config_.dataset.textFeaturesPath(), split.name,
+          config_.model.text_feature_dim));
     rollout::SplitEvaluationOptions options;
     options.checkpoint = index;
     options.observer = observer.get();

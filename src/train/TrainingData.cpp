@@ -3,16 +3,20 @@
 #include <spdlog/spdlog.h>
 #include <torch/torch.h>
 
+#include <unordered_map>
+
 #include "common/Check.h"
 #include "data/Glove.h"
+#include "train/FeatureStore.h"
 
 namespace vln::train {
 
 TrainingData TrainingData::load(const ExperimentConfig& config) {
   const std::filesystem::path root = config.dataset.data_path;
   TrainingData data;
-  data.train = data::loadSplit(root, config.dataset.train_split,
-                               config.dataset.max_train_episodes);
+  data.train =
+      data::loadDatasetSplit(config.dataset, config.dataset.train_split,
+                             config.dataset.max_train_episodes);
   VLN_CHECK_ARG(!data.train.episodes.empty(), "train: dataset.train_split '",
                 config.dataset.train_split, "' under '", root.string(),
                 "' has no episodes");
@@ -20,8 +24,9 @@ TrainingData TrainingData::load(const ExperimentConfig& config) {
                data.train.episodes.size(),
                data.train.groundTruth ? "" : " (no ground-truth file)");
   if (config.trainer.use_aug) {
-    data.aug = std::make_unique<data::Split>(data::loadSplit(
-        root, config.dataset.aug_split, config.dataset.max_aug_episodes));
+    data.aug = std::make_unique<data::Split>(
+        data::loadDatasetSplit(config.dataset, config.dataset.aug_split,
+                               config.dataset.max_aug_episodes));
     spdlog::info("augmentation split '{}': {} episodes", data.aug->name,
                  data.aug->episodes.size());
   }
@@ -41,7 +46,7 @@ TrainingData TrainingData::load(const ExperimentConfig& config) {
                 extraNames.size(), " splits, at most 253 are allowed");
   for (size_t k = 0; k < extraNames.size(); ++k) {
     data.extra.push_back(std::make_unique<data::Split>(
-        data::loadSplit(root, extraNames[k], /*cap=*/-1)));
+        data::loadDatasetSplit(config.dataset, extraNames[k], /*cap=*/-1)));
     const data::Split& split = *data.extra.back();
     VLN_CHECK_ARG(!split.episodes.empty(), "train: dataset.extra_train_splits[",
                   k, "] '", extraNames[k], "' under '", root.string(),
@@ -53,6 +58,11 @@ TrainingData TrainingData::load(const ExperimentConfig& config) {
       data.sources.push_back(static_cast<uint8_t>(2 + k));
     }
   }
+  for (size_t i = 0; i < data.pool.size(); ++i)
+    data.byKey.emplace(
+        std::make_pair(data.sources[i],
+                       static_cast<int64_t>(data.pool[i]->episode_id)),
+        data.pool[i]);
   return data;
 }
 
@@ -61,6 +71,69 @@ std::vector<const data::GroundTruth*> TrainingData::groundTruths() const {
   if (aug) out.push_back(aug->groundTruth.get());
   for (const auto& split : extra) out.push_back(split->groundTruth.get());
   return out;
+}
+
+const data::Split& TrainingData::sourceSplit(uint8_t source) const {
+  if (source == 0) return train;
+  if (source == 1) {
+    VLN_ASSERT(aug != nullptr);
+    return *aug;
+  }
+  VLN_ASSERT(static_cast<size_t>(source - 2) < extra.size());
+  return *extra[static_cast<size_t>(source - 2)];
+}
+
+const data::Episode& TrainingData::episode(uint8_t source,
+                                           int64_t episodeId) const {
+  const auto it = byKey.find({source, episodeId});
+  VLN_CHECK_ARG(it != byKey.end(),
+                "TrainingData::episode(): the training "
+                "pool has no episode ",
+                episodeId, " of source ", static_cast<int>(source),
+                " (a store of other splits?)");
+  return *it->second;
+}
+
+rollout::InstructionFeatureSource TrainingData::textFeatureSource(
+    const ExperimentConfig& config) const {
+  // one reader per source split (the file path names the split)
+  std::vector<rollout::InstructionFeatureSource> readers;
+  const size_t sourcesCount = 2 + extra.size();
+  for (size_t s = 0; s < sourcesCount; ++s)
+    readers.push_back(s == 1 && !aug
+                          ? rollout::InstructionFeatureSource()
+                          : rollout::rxrTextFeatureSource(
+                                config.dataset.textFeaturesPath(),
+                                sourceSplit(static_cast<uint8_t>(s)).name,
+                                config.model.text_feature_dim));
+  auto sourceOf =
+      std::make_shared<std::unordered_map<const data::Episode*, uint8_t>>();
+  for (size_t i = 0; i < pool.size(); ++i)
+    sourceOf->emplace(pool[i], sources[i]);
+  return [readers = std::move(readers), sourceOf](const data::Episode& e) {
+    const auto it = sourceOf->find(&e);
+    VLN_ASSERT(it != sourceOf->end());  // only pool episodes are collected
+    return readers[it->second](e);
+  };
+}
+
+torch::Tensor TrainingData::batchTextFeatures(
+    const ExperimentConfig& config, const FeatureStore& store,
+    std::span<const int64_t> indices) const {
+  std::vector<torch::Tensor> rows;
+  rows.reserve(indices.size());
+  for (const int64_t i : indices) {
+    const StoredEpisodeKey& key = store.key(i);
+    // a reader is a path and a split name: cheap to make per episode
+    const rollout::InstructionFeatureSource reader =
+        rollout::rxrTextFeatureSource(config.dataset.textFeaturesPath(),
+                                      sourceSplit(key.source).name,
+                                      config.model.text_feature_dim);
+    rows.push_back(rollout::instructionFeatures(
+        reader, episode(key.source, key.episode_id),
+        config.model.text_feature_dim, config.dataset.max_instruction_length));
+  }
+  return rollout::batchInstructionFeatures(rows);
 }
 
 torch::Tensor embeddingTensor(const ExperimentConfig& config) {

@@ -3,18 +3,25 @@
 // dataset.max_train_episodes), dataset.extra_train_splits and, with
 // trainer.use_aug, dataset.aug_split (capped by dataset.max_aug_episodes);
 // the pool that collection rounds draw from (train first, then aug, then the
-// extra splits); and the word embeddings the policy starts from.
+// extra splits); the word embeddings the policy starts from, or, for
+// model.instruction_features: rxr_text, where each episode's text features
+// are (dataset.textFeaturesPath()/rxr_<its split>/...).
 
 #include <ATen/core/Tensor.h>
 
 #include <cstdint>
+#include <map>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "data/Split.h"
+#include "rollout/ObservationBatch.h"
 #include "train/ExperimentConfig.h"
 
 namespace vln::train {
+
+class FeatureStore;
 
 struct TrainingData {
   data::Split train;
@@ -28,6 +35,8 @@ struct TrainingData {
   /// Per pool episode: 0 train, 1 aug, 2 + k extra split k (episode ids are
   /// unique only within a split; the feature store keys on both).
   std::vector<uint8_t> sources;
+  /// Pool episode by (source, episode id), the feature store's key.
+  std::map<std::pair<uint8_t, int64_t>, const data::Episode*> byKey;
 
   /// Loads the splits and logs their sizes. Throws std::invalid_argument
   /// naming dataset.train_split (or an extra split) when it has no
@@ -35,6 +44,28 @@ struct TrainingData {
   static TrainingData load(const ExperimentConfig& config);
   /// The ground truths of the splits that have one.
   std::vector<const data::GroundTruth*> groundTruths() const;
+
+  /// The split of pool source `source` (0 train, 1 aug, 2 + k extra k).
+  const data::Split& sourceSplit(uint8_t source) const;
+  /// The pool episode `episodeId` of source `source` (a store key);
+  /// throws std::invalid_argument naming both when there is none (a store
+  /// written from other splits).
+  const data::Episode& episode(uint8_t source, int64_t episodeId) const;
+  /// The text features of every pool episode (rollout::rxrTextFeatureSource()
+  /// of its split under dataset.textFeaturesPath(), rows of width
+  /// model.text_feature_dim), read from the file each time it is asked for:
+  /// memory stays bounded however large the dataset. Only pool episodes
+  /// (the pointers in `pool`) may be asked for. The source holds pointers
+  /// into this object, which must outlive it.
+  rollout::InstructionFeatureSource textFeatureSource(
+      const ExperimentConfig& config) const;
+  /// The text features of the stored episodes `indices` of `store`, in that
+  /// order, zero-padded: [B, L, model.text_feature_dim] float32 (L capped
+  /// at dataset.max_instruction_length), what EpisodeBatch::text_features
+  /// holds for an rxr_text model.
+  at::Tensor batchTextFeatures(const ExperimentConfig& config,
+                               const FeatureStore& store,
+                               std::span<const int64_t> indices) const;
 };
 
 /// The GloVe rows of dataset.embeddings as a [vocab, dim] tensor. Throws

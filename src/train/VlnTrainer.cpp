@@ -105,6 +105,8 @@ struct VlnTrainer::Impl {
     }
     learner = std::make_unique<ImitationLearner>(policy, config);
     if (dist) learner->setDistributed(dist);
+    if (config.model.usesInstruction() && config.model.usesTextFeatures())
+      useTextFeatures();
     if (config.trainer.inflection_weight <= 0.0) {
       learner->setInflectionCoef(
           inverseInflectionFrequency(data.groundTruths()));
@@ -158,6 +160,25 @@ struct VlnTrainer::Impl {
     }
   }
 
+  // rxr_text: every pool episode's feature file exists (checked before
+  // any collection), batches read them by store key, DAgger's policy by
+  // episode
+  void useTextFeatures() {
+    for (uint8_t source = 0; source < 2 + data.extra.size(); ++source) {
+      if (source == 1 && !data.aug) continue;
+      std::vector<const data::Episode*> episodes;
+      for (size_t i = 0; i < data.pool.size(); ++i)
+        if (data.sources[i] == source) episodes.push_back(data.pool[i]);
+      rollout::requireRxrTextFeatureFiles(config.dataset.textFeaturesPath(),
+                                          data.sourceSplit(source).name,
+                                          episodes);
+    }
+    learner->setTextFeatures(
+        [this](const FeatureStore& s, std::span<const int64_t> indices) {
+          return data.batchTextFeatures(config, s, indices);
+        });
+  }
+
   // every rank needs at least one episode of every collection round
   void checkRoundsFitRanks() const {
     const size_t smallest = schedule.smallestRound(data.pool.size());
@@ -187,8 +208,11 @@ struct VlnTrainer::Impl {
       round.shard = dist->rank();
       round.num_shards = dist->worldSize();
     }
-    if (!collector)
+    if (!collector) {
       collector = std::make_unique<Collector>(config, scenes, encoder);
+      if (config.model.usesInstruction() && config.model.usesTextFeatures())
+        collector->setInstructionFeatures(data.textFeatureSource(config));
+    }
     CollectionStats stats = collector->collect(
         round, *store, round.beta < 1.0 ? policy : nullptr,
         round.beta >= 1.0 ? data.train.groundTruth.get() : nullptr);

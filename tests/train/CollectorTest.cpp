@@ -81,6 +81,27 @@ TEST(StoreConfigHashTest, LaterKeysEnterOnlyAwayFromTheirDefaults) {
   EXPECT_NE(storeConfigHash(c), extra);
 }
 
+// RxR's dataset keys change which episodes are collected only with
+// dataset.format rxr; the text features are read at batch time, never stored
+TEST(StoreConfigHashTest, RxrKeysEnterOnlyForRxrRuns) {
+  ExperimentConfig c;
+  const std::string defaults = storeConfigHash(c);
+  c.dataset.rxr_filter.roles = {"*"};
+  c.dataset.text_features_dir = "elsewhere";
+  EXPECT_EQ(storeConfigHash(c), defaults);
+  c = ExperimentConfig{};
+  c.dataset.format = "rxr";
+  const std::string rxr = storeConfigHash(c);
+  EXPECT_NE(rxr, defaults);
+  c.dataset.text_features_dir = "elsewhere";
+  EXPECT_EQ(storeConfigHash(c), rxr);
+  c.dataset.rxr_filter.roles = {"*"};
+  const std::string roles = storeConfigHash(c);
+  EXPECT_NE(roles, rxr);
+  c.dataset.rxr_filter.languages = {"en-US"};
+  EXPECT_NE(storeConfigHash(c), roles);
+}
+
 // VLN-CE's progress target (habitat_extensions/sensors.py,
 // VLNOracleProgressSensor): (d0 - d) / d0, not clipped; 0 when d is inf
 TEST(ProgressTargetTest, FollowsVlnCeUnclippedOrClipsOnRequest) {

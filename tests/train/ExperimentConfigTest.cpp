@@ -5,6 +5,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "support/TestPaths.h"
 #include "support/TestUtil.h"
 
 namespace vln::train {
@@ -25,6 +26,46 @@ TEST(ExperimentConfigTest, SixActionModelNeedsTheLookActions) {
   // a four-action policy on RxR's simulator runs (it never looks)
   c.model.num_actions = 4;
   EXPECT_THAT(errorOf([&] { c.validate(); }), Not(HasSubstr("num_actions")));
+}
+
+// rxr_text features are looked up by RxR's instruction ids: R2R episode
+// files have none
+TEST(ExperimentConfigTest, TextFeaturesNeedTheRxrFormatAndAValidFilter) {
+  ExperimentConfig c;
+  c.model.instruction_features = models::InstructionFeatures::kRxrText;
+  EXPECT_THAT(errorOf([&] { c.validate(); }),
+              HasSubstr("model.instruction_features is rxr_text"));
+  c.dataset.format = "rxr";
+  EXPECT_EQ(errorOf([&] { c.validate(); }), "");
+  c.dataset.rxr_filter.roles = {"narrator"};
+  EXPECT_THAT(errorOf([&] { c.validate(); }),
+              HasSubstr("dataset.rxr_filter: RxrFilterConfig: roles: unknown "
+                        "role 'narrator'"));
+  // an R2R run ignores the filter
+  c.dataset.format = "r2r";
+  c.model.instruction_features = models::InstructionFeatures::kTokens;
+  EXPECT_EQ(errorOf([&] { c.validate(); }), "");
+}
+
+// the shipped RxR run config: RxR-Habitat's task at CPU scale, CMA on
+// text features with six actions, the guide role, R2R keys untouched
+TEST(ExperimentConfigTest, RxrCmaConfigLoads) {
+  const ExperimentConfig c = loadExperimentConfig(
+      vln::test::sourcePath() / "configs" / "rxr" / "cma.yaml");
+  EXPECT_EQ(c.dataset.format, "rxr");
+  EXPECT_EQ(c.dataset.rxr_filter.roles, std::vector<std::string>{"guide"});
+  EXPECT_EQ(c.dataset.textFeaturesPath(),
+            std::filesystem::path("data/datasets/RxR_VLNCE_procedural") /
+                "text_features");
+  EXPECT_TRUE(c.model.usesTextFeatures());
+  EXPECT_EQ(c.model.num_actions, 6);
+  EXPECT_TRUE(c.sim.agent.look_actions);
+  EXPECT_FLOAT_EQ(c.sim.agent.turn_angle, 30.0f);
+  EXPECT_EQ(c.sim.rgb.width, 64);
+  EXPECT_FLOAT_EQ(c.sim.rgb.hfov, 79.0f);
+  EXPECT_FLOAT_EQ(c.sim.rgb.position_y, 0.88f);
+  // the default dataset section stays R2R's
+  EXPECT_EQ(ExperimentConfig{}.dataset.format, "r2r");
 }
 
 }  // namespace

@@ -1,0 +1,256 @@
+// RxR-CE end to end through the `train` and `eval` binaries: the RxR split
+// of configs/world/tiny.yaml's houses (RxR_VLNCE_v0 layout, guide and
+// follower roles), text features written in RxR's .npz layout, a CMA with
+// model.instruction_features: rxr_text and six actions trained by teacher
+// forcing then one DAgger round (the policy reads the features while
+// collecting), validated during training, then scored by `eval`, which
+// writes the RxR inference .jsonl. A missing feature file stops the run
+// with the file and the episode named.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+#include <cmath>
+
+#include "TinyWorldBinaryTest.h"
+#include "common/Config.h"
+#include "common/FileIo.h"
+#include "common/Json.h"
+#include "data/RxrEpisodes.h"
+#include "data/RxrPredictions.h"
+#include "data/RxrTextFeatures.h"
+#include "data/Vocabulary.h"
+#include "rollout/Metrics.h"
+#include "support/TestPaths.h"
+#include "support/TestUtil.h"
+#include "train/Checkpoint.h"
+#include "world/RxrWorldGenerator.h"
+
+namespace vln::train {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using vln::test::binary;
+
+constexpr int kFeatureDim = 16;
+
+// Features of one instruction: a row per word of data::tokenize(), each a
+// fixed function of the word (so equal words get equal rows, as a
+// context-free encoder would give).
+std::vector<float> fixtureFeatures(const std::string& text) {
+  std::vector<float> values;
+  for (const std::string& word : data::tokenize(text)) {
+    const uint64_t h = std::hash<std::string>{}(word);
+    for (int c = 0; c < kFeatureDim; ++c)
+      values.push_back(static_cast<float>(
+          std::sin(static_cast<double>((h >> (c % 48)) & 0xFFFF) * 1e-3 + c)));
+  }
+  if (values.empty()) values.assign(kFeatureDim, 0.0f);
+  return values;
+}
+
+// The RxR split of the tiny world and its feature files, made once per
+// build tree (a file lock serialises the first generation).
+struct TinyRxrWorld {
+  fs::path data;    ///< RxR_VLNCE-style root, text features under it
+  fs::path scenes;  ///< sim.scenes_dir
+};
+
+const TinyRxrWorld& tinyRxrWorld() {
+  static const TinyRxrWorld world = [] {
+    const fs::path root =
+        vln::test::binaryPath() / "tests" / "train_tiny_rxr_world";
+    fs::create_directories(root);
+    TinyRxrWorld w{root / "rxr", root / "scenes"};
+    const int fd = ::open((root / "lock").c_str(), O_CREAT | O_RDWR, 0644);
+    if (fd < 0) throw std::runtime_error("tinyRxrWorld(): no lock file");
+    ::flock(fd, LOCK_EX);
+    if (!fs::exists(root / "done")) {
+      const fs::path configs = vln::test::sourcePath() / "configs" / "world";
+      world::RxrWorldConfig config =
+          common::loadConfigFile<world::RxrWorldConfig>(configs / "rxr.yaml");
+      config.world =
+          common::loadConfigFile<world::WorldConfig>(configs / "tiny.yaml");
+      // RxrWorldGeneratorTest's quotas, which these houses meet
+      config.splits.train_per_house = 8;
+      config.splits.val_seen_per_house = 2;
+      config.splits.val_unseen_per_house = 4;
+      config.splits.test_challenge_per_house = 3;
+      world::generateRxrWorld(config, {w.data, w.scenes, 2});
+      data::RxrFilterConfig all;
+      all.roles = {"*"};
+      for (const char* split : {"train", "val_seen", "val_unseen"})
+        for (const data::Episode& e : data::readRxrEpisodes(w.data, split, all))
+          data::writeRxrTextFeatures(
+              data::rxrTextFeaturesPath(w.data / "text_features", split,
+                                        *e.instruction.instruction_id,
+                                        e.instruction.language),
+              fixtureFeatures(e.instruction.instruction_text), kFeatureDim);
+      common::writeFileAtomic(root / "done", "ok\n");
+    }
+    ::flock(fd, LOCK_UN);
+    ::close(fd);
+    return w;
+  }();
+  return world;
+}
+
+std::string rxrRunConfig(const TinyRxrWorld& w, const fs::path& out) {
+  return "_base_: " +
+         (vln::test::sourcePath() / "configs" / "rxr" / "task.yaml").string() +
+         "\n"
+         "sim:\n"
+         "  scenes_dir: " +
+         w.scenes.string() +
+         "\n"
+         "  rgb: {width: 32, height: 32}\n"
+         "  depth: {width: 32, height: 32}\n"
+         "task:\n"
+         "  max_episode_steps: 150\n"
+         "dataset:\n"
+         "  format: rxr\n"
+         "  data_path: " +
+         w.data.string() +
+         "\n"
+         "  rxr_filter: {roles: [guide]}\n"
+         "  max_instruction_length: 512\n"
+         "model:\n"
+         "  policy: cma\n"
+         "  num_actions: 6\n"
+         "  instruction_features: rxr_text\n"
+         "  text_feature_dim: " +
+         std::to_string(kFeatureDim) +
+         "\n"
+         "  rgb_encoder: small_cnn\n"
+         "  depth_encoder: small_cnn\n"
+         "  instruction_hidden_size: 8\n"
+         "  hidden_size: 16\n"
+         "  prev_action_embedding_dim: 4\n"
+         "  rgb_projection_size: 8\n"
+         "  depth_projection_size: 8\n"
+         "  spatial_embedding_dim: 4\n"
+         "  progress_monitor: true\n"
+         "  rgb_height: 32\n  rgb_width: 32\n"
+         "  depth_height: 32\n  depth_width: 32\n"
+         "trainer:\n"
+         "  torch_threads: 1\n"
+         "  num_envs: 3\n"
+         "  env_threads: 1\n"
+         "  lr: 0.002\n"
+         "  batch_size: 3\n"
+         "  store_max_gib: 0.25\n"
+         // iteration 0 is teacher forcing (beta 1), iteration 1 lets the
+         // policy act (beta 0.75), reading the features while collecting
+         "  dagger_iterations: 2\n"
+         "  dagger_episodes: 6\n"
+         "  dagger_epochs: 1\n"
+         "  evaluate_every: iteration\n"
+         "eval:\n"
+         "  splits: [val_unseen]\n"
+         "  selection_split: val_unseen\n"
+         "  train_eval_episodes: 2\n"
+         "  num_envs: 2\n"
+         "  threads: 1\n"
+         "  map_episodes: 0\n"
+         "output:\n"
+         "  dir: " +
+         out.string() +
+         "\n"
+         "  tensorboard: false\n";
+}
+
+class RxrTrainEndToEndTest : public test::TinyWorldBinaryTest {
+ protected:
+  RxrTrainEndToEndTest() : TinyWorldBinaryTest("train") {}
+};
+
+TEST_F(RxrTrainEndToEndTest, TrainsAndEvaluatesOnTextFeaturesAndWritesJsonl) {
+  if (!fs::exists(binary("eval"))) GTEST_SKIP() << "build eval first";
+  const TinyRxrWorld& w = tinyRxrWorld();
+  const fs::path run = dir_ / "run";
+  const fs::path config =
+      vln::test::writeText(dir_ / "rxr.yaml", rxrRunConfig(w, run));
+  std::string output;
+  ASSERT_EQ(
+      vln::test::runCommand(
+          binary("train") + " --config " + config.string() + " 2>&1", &output),
+      0)
+      << output;
+
+  // two rounds collected (teacher forcing, then the policy acting), one
+  // epoch each, validated after each iteration with the .jsonl beside
+  // the stats
+  int collected = 0;
+  double oracleShare = 1.0;
+  for (const auto& record : vln::test::readJsonLines(run / "metrics.jsonl"))
+    if (record["type"] == "collect") {
+      ++collected;
+      oracleShare =
+          record["oracle_steps"].get<double>() / record["steps"].get<double>();
+    }
+  EXPECT_EQ(collected, 2);
+  EXPECT_LT(oracleShare, 1.0);  // the policy drove some steps
+  const auto checkpoints = listCheckpoints(run / "checkpoints");
+  ASSERT_EQ(checkpoints.size(), 2u);
+  const auto duringTraining = data::readRxrPredictions(
+      run / "eval" / "rxr_predictions_ckpt_1_val_unseen.jsonl");
+  EXPECT_EQ(duringTraining.size(), 2u);  // eval.train_eval_episodes
+
+  // the eval binary on every val_unseen guide episode
+  data::RxrFilterConfig guide;
+  const auto episodes = data::readRxrEpisodes(w.data, "val_unseen", guide);
+  ASSERT_GE(episodes.size(), 2u);
+  const fs::path out = dir_ / "eval";
+  const std::string eval = binary("eval") + " --config " + config.string() +
+                           " --checkpoint " + checkpoints.back().string() +
+                           " --split val_unseen --out " + out.string() +
+                           " 2>&1";
+  ASSERT_EQ(vln::test::runCommand(eval, &output), 0) << output;
+  const auto lines =
+      data::readRxrPredictions(out / "rxr_predictions_ckpt_1_val_unseen.jsonl");
+  ASSERT_EQ(lines.size(), episodes.size());
+  std::set<int64_t> ids;
+  for (const data::Episode& e : episodes)
+    ids.insert(*e.instruction.instruction_id);
+  for (const data::RxrPrediction& line : lines) {
+    EXPECT_TRUE(ids.count(line.instruction_id)) << line.instruction_id;
+    ASSERT_FALSE(line.path.empty());
+  }
+  // every path starts where its episode starts
+  for (const data::Episode& e : episodes) {
+    const auto it =
+        std::find_if(lines.begin(), lines.end(), [&](const auto& l) {
+          return l.instruction_id == *e.instruction.instruction_id;
+        });
+    ASSERT_NE(it, lines.end());
+    EXPECT_LT((it->path.front() - e.start_position).norm(), 1e-4f);
+  }
+  const rollout::SplitStats stats =
+      rollout::readStatsFile(out / rollout::statsFileName(1, "val_unseen"));
+  EXPECT_EQ(stats.num_episodes, static_cast<int>(episodes.size()));
+  EXPECT_TRUE(std::isfinite(stats.mean.ndtw));
+  EXPECT_GE(stats.mean.ndtw, 0.0);
+  EXPECT_TRUE(std::isfinite(stats.mean.sdtw));
+
+  // a missing feature file is named with its episode before anything runs
+  const data::Episode& first = episodes.front();
+  const fs::path missing = data::rxrTextFeaturesPath(
+      w.data / "text_features", "val_unseen", *first.instruction.instruction_id,
+      first.instruction.language);
+  const fs::path moved = dir_ / "moved.npz";
+  fs::copy_file(missing, moved);
+  fs::remove(missing);
+  const int code = vln::test::runCommand(eval, &output);
+  fs::copy_file(moved, missing);
+  EXPECT_NE(code, 0);
+  EXPECT_THAT(output, HasSubstr(missing.filename().string()));
+  EXPECT_THAT(output,
+              HasSubstr("(episode " + std::to_string(first.episode_id)));
+}
+
+}  // namespace
+}  // namespace vln::train
