@@ -53,6 +53,12 @@ struct RecollectTrainer::Impl {
   TrainingProgress progress;
   bool resumed = false;
 
+  // model.instruction_features rxr_text: each batch reads its episodes'
+  // feature files (TrainingData::batchTextFeatures), as the store's batches
+  bool readsTextFeatures() const {
+    return config.model.usesInstruction() && config.model.usesTextFeatures();
+  }
+
   // batches per optimizer step (gradient accumulation)
   int batchesPerUpdate() const {
     const TrainerConfig& t = config.trainer;
@@ -66,11 +72,6 @@ struct RecollectTrainer::Impl {
     const common::Stopwatch setupClock;
     const fs::path runDir = config.output.dir;
     const torch::Device device = models::modelDevice(config.model);
-    VLN_CHECK_ARG(
-        !config.model.usesInstruction() || !config.model.usesTextFeatures(),
-        "train: trainer.mode recollect does not read text features yet "
-        "(model.instruction_features: rxr_text); they reach its batches "
-        "with RxR dataset reading");
     torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
     data = TrainingData::load(config);
     pool = recollectionPool(data, config);
@@ -89,7 +90,11 @@ struct RecollectTrainer::Impl {
     // the policy and the frozen encoders, in this order under the seed (as
     // VlnTrainer: the same initial weights as mode dagger)
     torch::Tensor embeddings;
-    if (config.model.usesInstruction()) embeddings = embeddingTensor(config);
+    // GloVe only for token ids; rxr_text models have no word embedding
+    if (config.model.usesInstruction() && !config.model.usesTextFeatures())
+      embeddings = embeddingTensor(config);
+    else if (readsTextFeatures())
+      data.requireTextFeatureFiles(config);
     policy = models::makePolicy(config.model, embeddings);
     encoder = models::ObservationEncoder(config.model);
     encoder->loadPretrained();
@@ -208,10 +213,15 @@ struct RecollectTrainer::Impl {
         std::vector<EpisodeBatch> batches;
         for (const auto& indices : updates[u]) {
           std::vector<StoredEpisode> members;
-          for (size_t j = 0; j < indices.size(); ++j)
+          std::vector<StoredEpisodeKey> keys;
+          for (size_t j = 0; j < indices.size(); ++j) {
             members.push_back(std::move(episodes[position++].stored));
+            keys.push_back(members.back().key);
+          }
           batches.push_back(batchEpisodes(members, layout));
           batches.back().indices = indices;
+          if (readsTextFeatures())
+            batches.back().text_features = data.batchTextFeatures(config, keys);
         }
         const UpdateResult r = batches.size() == 1
                                    ? learner->update(batches.front())

@@ -117,13 +117,33 @@ rollout::InstructionFeatureSource TrainingData::textFeatureSource(
   };
 }
 
+void TrainingData::requireTextFeatureFiles(
+    const ExperimentConfig& config) const {
+  for (uint8_t source = 0; source < 2 + extra.size(); ++source) {
+    if (source == 1 && !aug) continue;
+    std::vector<const data::Episode*> episodes;
+    for (size_t i = 0; i < pool.size(); ++i)
+      if (sources[i] == source) episodes.push_back(pool[i]);
+    rollout::requireRxrTextFeatureFiles(config.dataset.textFeaturesPath(),
+                                        sourceSplit(source).name, episodes);
+  }
+}
+
 torch::Tensor TrainingData::batchTextFeatures(
     const ExperimentConfig& config, const FeatureStore& store,
     std::span<const int64_t> indices) const {
+  std::vector<StoredEpisodeKey> keys;
+  keys.reserve(indices.size());
+  for (const int64_t i : indices) keys.push_back(store.key(i));
+  return batchTextFeatures(config, keys);
+}
+
+torch::Tensor TrainingData::batchTextFeatures(
+    const ExperimentConfig& config,
+    std::span<const StoredEpisodeKey> keys) const {
   std::vector<torch::Tensor> rows;
-  rows.reserve(indices.size());
-  for (const int64_t i : indices) {
-    const StoredEpisodeKey& key = store.key(i);
+  rows.reserve(keys.size());
+  for (const StoredEpisodeKey& key : keys) {
     // a reader is a path and a split name: cheap to make per episode
     const rollout::InstructionFeatureSource reader =
         rollout::rxrTextFeatureSource(config.dataset.textFeaturesPath(),

@@ -22,6 +22,7 @@
 namespace vln::train {
 
 class FeatureStore;
+struct StoredEpisodeKey;
 
 struct TrainingData {
   data::Split train;
@@ -66,6 +67,13 @@ struct TrainingData {
   at::Tensor batchTextFeatures(const ExperimentConfig& config,
                                const FeatureStore& store,
                                std::span<const int64_t> indices) const;
+  /// Throws, naming the missing files, unless every pool episode's RxR
+  /// text-feature file exists: checked before anything is collected.
+  void requireTextFeatureFiles(const ExperimentConfig& config) const;
+  /// The same for episodes named by their keys (source and episode id), as
+  /// the recollect trainer's batches, which have no store, carry them.
+  at::Tensor batchTextFeatures(const ExperimentConfig& config,
+                               std::span<const StoredEpisodeKey> keys) const;
 };
 
 /// The GloVe rows of dataset.embeddings as a [vocab, dim] tensor. Throws

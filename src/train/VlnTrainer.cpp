@@ -164,15 +164,7 @@ struct VlnTrainer::Impl {
   // any collection), batches read them by store key, DAgger's policy by
   // episode
   void useTextFeatures() {
-    for (uint8_t source = 0; source < 2 + data.extra.size(); ++source) {
-      if (source == 1 && !data.aug) continue;
-      std::vector<const data::Episode*> episodes;
-      for (size_t i = 0; i < data.pool.size(); ++i)
-        if (data.sources[i] == source) episodes.push_back(data.pool[i]);
-      rollout::requireRxrTextFeatureFiles(config.dataset.textFeaturesPath(),
-                                          data.sourceSplit(source).name,
-                                          episodes);
-    }
+    data.requireTextFeatureFiles(config);
     learner->setTextFeatures(
         [this](const FeatureStore& s, std::span<const int64_t> indices) {
           return data.batchTextFeatures(config, s, indices);

@@ -99,7 +99,16 @@ const TinyRxrWorld& tinyRxrWorld() {
   return world;
 }
 
-std::string rxrRunConfig(const TinyRxrWorld& w, const fs::path& out) {
+// iteration 0 is teacher forcing (beta 1), iteration 1 lets the policy act
+// (beta 0.75), reading the features while collecting
+constexpr const char* kDaggerTrainer =
+    "  dagger_iterations: 2\n"
+    "  dagger_episodes: 6\n"
+    "  dagger_epochs: 1\n"
+    "  evaluate_every: iteration\n";
+
+std::string rxrRunConfig(const TinyRxrWorld& w, const fs::path& out,
+                         const std::string& trainer = kDaggerTrainer) {
   return "_base_: " +
          (vln::test::sourcePath() / "configs" / "rxr" / "task.yaml").string() +
          "\n"
@@ -142,13 +151,8 @@ std::string rxrRunConfig(const TinyRxrWorld& w, const fs::path& out) {
          "  env_threads: 1\n"
          "  lr: 0.002\n"
          "  batch_size: 3\n"
-         "  store_max_gib: 0.25\n"
-         // iteration 0 is teacher forcing (beta 1), iteration 1 lets the
-         // policy act (beta 0.75), reading the features while collecting
-         "  dagger_iterations: 2\n"
-         "  dagger_episodes: 6\n"
-         "  dagger_epochs: 1\n"
-         "  evaluate_every: iteration\n"
+         "  store_max_gib: 0.25\n" +
+         trainer +
          "eval:\n"
          "  splits: [val_unseen]\n"
          "  selection_split: val_unseen\n"
@@ -250,6 +254,58 @@ TEST_F(RxrTrainEndToEndTest, TrainsAndEvaluatesOnTextFeaturesAndWritesJsonl) {
   EXPECT_THAT(output, HasSubstr(missing.filename().string()));
   EXPECT_THAT(output,
               HasSubstr("(episode " + std::to_string(first.episode_id)));
+}
+
+// VLN-CE's way to train on RxR: the recollect trainer replays the guide
+// ground truth on the task itself (sliding off, as the RxR follower made
+// it) with the text features in every batch; a missing file stops it
+// before the first replay.
+TEST_F(RxrTrainEndToEndTest, RecollectTrainsOnTextFeaturesWithoutSliding) {
+  const TinyRxrWorld& w = tinyRxrWorld();
+  const fs::path run = dir_ / "recollect";
+  const fs::path config = vln::test::writeText(
+      dir_ / "rxr_recollect.yaml",
+      rxrRunConfig(w, run,
+                   "  mode: recollect\n"
+                   "  dagger_iterations: 0\n"
+                   "  epochs: 2\n"
+                   "  effective_batch_size: 6\n"
+                   "  preload_size: 6\n"));
+  std::string output;
+  ASSERT_EQ(
+      vln::test::runCommand(
+          binary("train") + " --config " + config.string() + " 2>&1", &output),
+      0)
+      << output;
+  int epochs = 0;
+  for (const auto& record : vln::test::readJsonLines(run / "metrics.jsonl"))
+    if (record["type"] == "recollect") {
+      ++epochs;
+      EXPECT_GT(record["episodes"].get<int64_t>(), 0);
+      // the ground truth replays exactly with sliding off
+      EXPECT_EQ(record["off_ground_truth"].get<int64_t>(), 0) << record;
+    }
+  EXPECT_EQ(epochs, 2);
+  EXPECT_EQ(listCheckpoints(run / "checkpoints").size(), 2u);
+  EXPECT_FALSE(fs::exists(run / "store"));
+
+  // a training episode's feature file missing: named before any replay
+  data::RxrFilterConfig guide;
+  const data::Episode first =
+      data::readRxrEpisodes(w.data, "train", guide).front();
+  const fs::path missing = data::rxrTextFeaturesPath(
+      w.data / "text_features", "train", *first.instruction.instruction_id,
+      first.instruction.language);
+  const fs::path moved = dir_ / "moved_train.npz";
+  fs::copy_file(missing, moved);
+  fs::remove(missing);
+  fs::remove_all(run);
+  const int code = vln::test::runCommand(
+      binary("train") + " --config " + config.string() + " 2>&1", &output);
+  fs::copy_file(moved, missing);
+  EXPECT_NE(code, 0);
+  EXPECT_THAT(output, HasSubstr(missing.filename().string()));
+  EXPECT_THAT(output, ::testing::Not(HasSubstr("recollect epoch")));
 }
 
 }  // namespace
