@@ -148,6 +148,19 @@ torch::Tensor WaypointPredictorImpl::forward(const torch::Tensor& depth,
   return viewOutputsToHeatmap(head->forward(tokens));
 }
 
+WaypointPredictor makeWaypointPredictor(const ModelConfig& model,
+                                        const WaypointPredictorConfig& config,
+                                        int64_t numViews) {
+  auto flat = [](const FeatureShape& shape) {
+    int64_t n = 1;
+    for (int64_t s : shape) n *= s;
+    return n;
+  };
+  return WaypointPredictor(
+      config, numViews, model.usesDepth() ? flat(depthFeatureShape(model)) : 0,
+      model.usesRgb() ? flat(rgbFeatureShape(model)) : 0);
+}
+
 // ===========================================================================
 // losses
 // ===========================================================================

@@ -24,6 +24,7 @@
 
 #include <cstdint>
 
+#include "models/ModelConfig.h"
 #include "models/WaypointPredictorConfig.h"
 
 namespace vln::models {
@@ -83,6 +84,14 @@ class WaypointPredictorImpl : public torch::nn::Module {
   int64_t numViews_;
 };
 TORCH_MODULE(WaypointPredictor);
+
+/// The predictor of `numViews` views whose features come from `model`'s
+/// encoders (depthFeatureShape() / rgbFeatureShape() flattened; none for
+/// model.no_depth / no_rgb): what the training task builds and what its
+/// weight file loads into.
+WaypointPredictor makeWaypointPredictor(const ModelConfig& model,
+                                        const WaypointPredictorConfig& config,
+                                        int64_t numViews);
 
 /// Training losses against a target heatmap [Bt, 120, 12] (peak 1).
 enum class WaypointLoss {

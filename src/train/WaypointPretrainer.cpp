@@ -64,7 +64,8 @@ struct SplitData {
   std::vector<torch::Tensor> depthChunks, rgbChunks, targetChunks;
   torch::Tensor depth, rgb, targets;  // [N, V, F], [N, V, F], [N, 120, 12]
   std::vector<waypoint::NodeTargets> nodes;
-  waypoint::PredictorMetrics baseline, floor;
+  waypoint::PredictorMetrics baseline, floor;  // evaluation splits only
+  bool evaluation = false;
   int houses = 0, graphNodes = 0, transferred = 0;
 
   int64_t size() const { return static_cast<int64_t>(nodes.size()); }
@@ -236,6 +237,7 @@ struct WaypointPretrainer::Impl {
       RawSample& s = house.samples[static_cast<size_t>(i)];
       std::memcpy(targets[i].data_ptr<float>(), s.targets.heatmap.data(),
                   sizeof(float) * waypoint::kHeatmapSize);
+      if (!split.evaluation) continue;
       split.baseline.add(s.baseline);
       std::vector<waypoint::Candidate> own;
       for (const auto& t : s.targets.targets)
@@ -269,6 +271,7 @@ struct WaypointPretrainer::Impl {
   SplitData collect(const std::string& splitName, bool training) {
     const std::vector<std::string> scenes = splitScenes(config, splitName);
     SplitData split;
+    split.evaluation = !training;
     const size_t group = static_cast<size_t>(config.trainer.env_threads);
     common::ThreadPool pool(config.trainer.env_threads);
     common::ProgressLine line(std::string(kTask) + " " + splitName,
@@ -361,10 +364,8 @@ struct WaypointPretrainer::Impl {
     const SplitData eval = collect(w.eval_split, false);
     const double renderSeconds = clock.seconds();
 
-    net = models::WaypointPredictor(
-        w.predictor, config.panorama.num_views,
-        train.depth.defined() ? train.depth.size(2) : 0,
-        train.rgb.defined() ? train.rgb.size(2) : 0);
+    net = models::makeWaypointPredictor(config.model, w.predictor,
+                                        config.panorama.num_views);
     torch::optim::AdamW optimizer(
         net->parameters(),
         torch::optim::AdamWOptions(w.lr).weight_decay(w.weight_decay));

@@ -150,8 +150,8 @@ TEST(WaypointPretrainerTest, TinyRunTrainsEvaluatesAndWritesWeights) {
 
   // the weights load strictly into the same network
   ASSERT_EQ(result.weights_file, dir / "run" / "waypoint_predictor.pt");
-  models::WaypointPredictor net(config.waypoint.predictor, 12, 32 * 4 * 4,
-                                models::rgbFeatureShape(config.model)[0] * 16);
+  models::WaypointPredictor net =
+      models::makeWaypointPredictor(config.model, config.waypoint.predictor, 12);
   EXPECT_NO_THROW(models::loadModule(*net, result.weights_file));
 
   const nlohmann::json metrics =
@@ -174,6 +174,39 @@ TEST(WaypointPretrainerTest, TinyRunTrainsEvaluatesAndWritesWeights) {
   EXPECT_EQ(second.train_panoramas, result.train_panoramas);
   EXPECT_DOUBLE_EQ(second.final_loss, result.final_loss);
   EXPECT_DOUBLE_EQ(second.model.chamfer_sum, result.model.chamfer_sum);
+}
+
+TEST(WaypointPretrainerTest, TrainBinaryRunsTheShippedConfigAndRefusesResume) {
+  const fs::path binary = vln::test::binaryPath() / "bin" / "train";
+  if (!fs::exists(binary)) GTEST_SKIP() << "build the train binary first";
+  const test::TinyWorld& world = test::tinyWorld();
+  vln::test::TempDir dir;
+  std::string command =
+      binary.string() + " --config " +
+      (vln::test::sourcePath() / "configs" / "waypoint" / "predictor.yaml")
+          .string();
+  for (const std::string set :
+       {"sim.rgb.width=32", "sim.rgb.height=32", "sim.depth.width=32",
+        "sim.depth.height=32", "model.rgb_width=32", "model.rgb_height=32",
+        "model.depth_width=32", "model.depth_height=32",
+        "panorama.rgb.width=32", "panorama.rgb.height=32",
+        "panorama.depth.width=32", "panorama.depth.height=32",
+        "model.rgb_weights=", "model.depth_weights=",
+        "waypoint.headings_per_node=1", "waypoint.max_nodes_per_house=3",
+        "waypoint.epochs=1", "output.log_level=warn"})
+    command += " --set " + set;
+  command += " --set dataset.data_path=" + world.data.string() +
+             " --set sim.scenes_dir=" + world.scenes.string() +
+             " --set output.dir=" + (dir / "run").string() + " 2>&1";
+  std::string output;
+  ASSERT_EQ(vln::test::runCommand(command, &output), 0) << output;
+  EXPECT_TRUE(fs::exists(dir / "run" / "waypoint_predictor.pt"));
+  const nlohmann::json metrics =
+      common::readJsonFile(dir / "run" / "pretrain_metrics.json");
+  EXPECT_EQ(metrics["task"], "waypoint_predictor");
+  EXPECT_GT(metrics["eval_panoramas"].get<int>(), 0);
+  EXPECT_NE(vln::test::runCommand(command + " --resume", &output), 0);
+  EXPECT_THAT(output, HasSubstr("cannot resume"));
 }
 
 TEST(WaypointPretrainerTest, RefusesAnotherTask) {
