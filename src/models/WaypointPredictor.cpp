@@ -42,8 +42,8 @@ ViewAttentionLayerImpl::ViewAttentionLayerImpl(
   norm1 = register_module("norm1", nn::LayerNorm(nn::LayerNormOptions({h})));
   norm2 = register_module("norm2", nn::LayerNorm(nn::LayerNormOptions({h})));
   dropout = register_module("dropout", nn::Dropout(config.dropout));
-  offset_bias = register_parameter("offset_bias",
-                                   torch::zeros({config.heads, numViews}));
+  offset_bias =
+      register_parameter("offset_bias", torch::zeros({config.heads, numViews}));
   // circular offsets and the neighbourhood mask depend on (key - query)
   // mod N only: what keeps the layer equivariant to rolling the views
   const torch::Tensor index = torch::arange(numViews, torch::kInt64);
@@ -70,17 +70,15 @@ torch::Tensor ViewAttentionLayerImpl::forward(const torch::Tensor& x) {
   const torch::Tensor k = parts.select(2, 1).transpose(1, 2);
   const torch::Tensor v = parts.select(2, 2).transpose(1, 2);
   // bias[h, i, j] = offset_bias[h, (j - i) mod N]
-  const torch::Tensor bias =
-      offset_bias.index_select(1, offsets.reshape({-1}))
-          .view({heads_, views, views});
-  const torch::Tensor scores =
-      torch::matmul(q, k.transpose(-2, -1)) /
-          std::sqrt(static_cast<double>(headSize)) +
-      bias.unsqueeze(0) + mask;
+  const torch::Tensor bias = offset_bias.index_select(1, offsets.reshape({-1}))
+                                 .view({heads_, views, views});
+  const torch::Tensor scores = torch::matmul(q, k.transpose(-2, -1)) /
+                                   std::sqrt(static_cast<double>(headSize)) +
+                               bias.unsqueeze(0) + mask;
   const torch::Tensor attention = dropout->forward(torch::softmax(scores, -1));
-  const torch::Tensor context =
-      torch::matmul(attention, v).transpose(1, 2).reshape(
-          {batch, views, hidden});
+  const torch::Tensor context = torch::matmul(attention, v)
+                                    .transpose(1, 2)
+                                    .reshape({batch, views, hidden});
   const torch::Tensor y =
       norm1->forward(x + dropout->forward(out->forward(context)));
   const torch::Tensor ff =
@@ -105,8 +103,7 @@ WaypointPredictorImpl::WaypointPredictorImpl(
   const int64_t h = config.hidden_size;
   if (depthFeatures > 0)
     depth_fc = register_module(
-        "depth_fc",
-        nn::Sequential(nn::Linear(depthFeatures, h), nn::ReLU()));
+        "depth_fc", nn::Sequential(nn::Linear(depthFeatures, h), nn::ReLU()));
   if (rgbFeatures > 0)
     rgb_fc = register_module(
         "rgb_fc", nn::Sequential(nn::Linear(rgbFeatures, h), nn::ReLU()));
@@ -134,10 +131,10 @@ torch::Tensor WaypointPredictorImpl::forward(const torch::Tensor& depth,
   };
   torch::Tensor tokens;
   if (depth_fc && rgb_fc) {
-    tokens = merge->forward(
-        torch::cat({depth_fc->forward(checked(depth, "depth")),
-                    rgb_fc->forward(checked(rgb, "RGB"))},
-                   -1));
+    tokens =
+        merge->forward(torch::cat({depth_fc->forward(checked(depth, "depth")),
+                                   rgb_fc->forward(checked(rgb, "RGB"))},
+                                  -1));
   } else if (depth_fc) {
     tokens = depth_fc->forward(checked(depth, "depth"));
   } else {
@@ -187,8 +184,7 @@ torch::Tensor waypointLoss(const torch::Tensor& logits,
       flatTargets / flatTargets.sum(1, true).clamp_min(1e-12);
   const torch::Tensor logProbabilities =
       torch::log_softmax(logits.reshape({batch, -1}), 1);
-  return -(distribution * logProbabilities).sum() /
-         static_cast<double>(batch);
+  return -(distribution * logProbabilities).sum() / static_cast<double>(batch);
 }
 
 torch::Tensor waypointProbabilities(const torch::Tensor& logits) {

@@ -67,9 +67,8 @@ class WaypointPredictorImpl : public torch::nn::Module {
   /// one view (0: the modality is not used; at least one is positive).
   /// Throws std::invalid_argument when numViews does not divide 120, or
   /// what config.validate() throws.
-  WaypointPredictorImpl(const WaypointPredictorConfig& config,
-                        int64_t numViews, int64_t depthFeatures,
-                        int64_t rgbFeatures);
+  WaypointPredictorImpl(const WaypointPredictorConfig& config, int64_t numViews,
+                        int64_t depthFeatures, int64_t rgbFeatures);
   /// depth [Bt, N, depthFeatures], rgb [Bt, N, rgbFeatures] (undefined for
   /// an unused modality) -> logits [Bt, 120, 12].
   torch::Tensor forward(const torch::Tensor& depth, const torch::Tensor& rgb);

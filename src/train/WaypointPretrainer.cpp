@@ -45,8 +45,8 @@ constexpr uint64_t kOrderStream = 0x5750524f;    // "WPRO"
 
 // One rendered panorama and what it is scored against.
 struct RawSample {
-  std::vector<float> depth;    // [V, H, W]
-  std::vector<uint8_t> rgb;    // [V, H, W, 3]
+  std::vector<float> depth;  // [V, H, W]
+  std::vector<uint8_t> rgb;  // [V, H, W, 3]
   waypoint::NodeTargets targets;
   waypoint::NodeScore baseline;  // eval only
 };
@@ -89,8 +89,8 @@ void validateWaypointPretrainConfig(const ExperimentConfig& config) {
   const WaypointPretrainConfig& w = config.waypoint;
   const models::ModelConfig& m = config.model;
   sim::checkPanoramaConfig(config.panorama, "panorama");
-  VLN_CHECK_ARG(waypoint::kNumHeadings % config.panorama.num_views == 0,
-                kTask, ": panorama.num_views (", config.panorama.num_views,
+  VLN_CHECK_ARG(waypoint::kNumHeadings % config.panorama.num_views == 0, kTask,
+                ": panorama.num_views (", config.panorama.num_views,
                 ") must divide the ", waypoint::kNumHeadings, " heading bins");
   VLN_CHECK_ARG(m.usesDepth() || m.usesRgb(), kTask,
                 ": model.no_depth and model.no_rgb leave no features");
@@ -98,8 +98,10 @@ void validateWaypointPretrainConfig(const ExperimentConfig& config) {
     VLN_CHECK_ARG(m.depth_width == config.panorama.depth.camera.width &&
                       m.depth_height == config.panorama.depth.camera.height,
                   kTask, ": model.depth_width x depth_height (", m.depth_width,
-                  "x", m.depth_height, ") must equal panorama.depth.width x "
-                  "height (", config.panorama.depth.camera.width, "x",
+                  "x", m.depth_height,
+                  ") must equal panorama.depth.width x "
+                  "height (",
+                  config.panorama.depth.camera.width, "x",
                   config.panorama.depth.camera.height, ")");
     VLN_CHECK_ARG(!m.depth_trainable, kTask,
                   ": model.depth_trainable must be false (the encoders' "
@@ -123,10 +125,10 @@ waypoint::PredictorMetrics scoreWaypointLogits(
     const torch::Tensor& logits,
     const std::vector<waypoint::NodeTargets>& targets,
     const WaypointPretrainConfig& config) {
-  VLN_CHECK_ARG(logits.dim() == 3 && logits.size(0) ==
-                    static_cast<int64_t>(targets.size()),
-                "scoreWaypointLogits(): ", logits.size(0),
-                " heatmaps for ", targets.size(), " targets");
+  VLN_CHECK_ARG(logits.dim() == 3 &&
+                    logits.size(0) == static_cast<int64_t>(targets.size()),
+                "scoreWaypointLogits(): ", logits.size(0), " heatmaps for ",
+                targets.size(), " targets");
   const torch::Tensor p =
       models::waypointProbabilities(logits.detach().to(torch::kCPU))
           .contiguous();
@@ -163,9 +165,9 @@ struct WaypointPretrainer::Impl {
     const auto scene =
         sim::Scene::load(fs::path(config.sim.scenes_dir) / sceneId, config.sim);
     house.name = scene->name();
-    const data::NavGraph graph = data::readNavGraph(
-        fs::path(config.dataset.data_path) / "connectivity" /
-        (house.name + "_connectivity.json"));
+    const data::NavGraph graph =
+        data::readNavGraph(fs::path(config.dataset.data_path) / "connectivity" /
+                           (house.name + "_connectivity.json"));
     const auto transferred =
         data::transferGraph(graph, scene->navmesh(), data::TransferConfig{});
     std::vector<int> valid;
@@ -184,27 +186,25 @@ struct WaypointPretrainer::Impl {
     }
     sim::PanoramaConfig panoramaConfig = config.panorama;
     panoramaConfig.threads = 1;  // houses render in parallel instead
-    sim::PanoramaRenderer renderer(*scene, panoramaConfig,
-                                   config.sim.renderer);
+    sim::PanoramaRenderer renderer(*scene, panoramaConfig, config.sim.renderer);
     sim::Panorama panorama;
     const int headings = training ? w.headings_per_node : 1;
     for (int node : nodes) {
       const std::string& id = graph.node(node).id;
       for (int h = 0; h < headings; ++h) {
         std::mt19937_64 rng =
-            training
-                ? std::mt19937_64(common::episodeSeed(
-                      common::deriveSeed(
-                          static_cast<uint64_t>(config.trainer.seed),
-                          kHeadingStream),
-                      house.name + "/" + id + "/" + std::to_string(h)))
-                : std::mt19937_64(common::episodeSeed(
-                      static_cast<uint64_t>(w.eval_seed), id));
+            training ? std::mt19937_64(common::episodeSeed(
+                           common::deriveSeed(
+                               static_cast<uint64_t>(config.trainer.seed),
+                               kHeadingStream),
+                           house.name + "/" + id + "/" + std::to_string(h)))
+                     : std::mt19937_64(common::episodeSeed(
+                           static_cast<uint64_t>(w.eval_seed), id));
         const float heading = common::uniformRange(rng, -kPi, kPi);
         RawSample sample;
-        sample.targets =
-            waypoint::nodeTargets(graph, transferred, node, heading,
-                                  scene->navmesh(), config.sim.agent, w.targets);
+        sample.targets = waypoint::nodeTargets(graph, transferred, node,
+                                               heading, scene->navmesh(),
+                                               config.sim.agent, w.targets);
         if (!sample.targets.kept) continue;
         renderer.render(sample.targets.agent, panorama);
         if (!training)
@@ -231,8 +231,8 @@ struct WaypointPretrainer::Impl {
     split.graphNodes += house.nodes;
     split.transferred += house.transferred;
     if (n == 0) return;
-    torch::Tensor targets = torch::empty({n, waypoint::kNumHeadings,
-                                          waypoint::kNumDistances});
+    torch::Tensor targets =
+        torch::empty({n, waypoint::kNumHeadings, waypoint::kNumDistances});
     for (int64_t i = 0; i < n; ++i) {
       RawSample& s = house.samples[static_cast<size_t>(i)];
       std::memcpy(targets[i].data_ptr<float>(), s.targets.heatmap.data(),
@@ -262,9 +262,11 @@ struct WaypointPretrainer::Impl {
         std::memcpy(images[i * v].data_ptr<uint8_t>(),
                     house.samples[static_cast<size_t>(i)].rgb.data(),
                     static_cast<size_t>(v * hgt * wid * 3));
-      split.rgbChunks.push_back(rgbEncoder->forward(images).reshape({n, v, -1}));
+      split.rgbChunks.push_back(
+          rgbEncoder->forward(images).reshape({n, v, -1}));
     }
-    for (RawSample& s : house.samples) split.nodes.push_back(std::move(s.targets));
+    for (RawSample& s : house.samples)
+      split.nodes.push_back(std::move(s.targets));
     house.samples.clear();
   }
 
@@ -369,10 +371,10 @@ struct WaypointPretrainer::Impl {
     torch::optim::AdamW optimizer(
         net->parameters(),
         torch::optim::AdamWOptions(w.lr).weight_decay(w.weight_decay));
-    spdlog::info("{}: {} parameters; {} training and {} evaluation panoramas "
-                 "rendered and encoded in {:.1f} s",
-                 kTask, parameterCount(*net), train.size(), eval.size(),
-                 renderSeconds);
+    spdlog::info(
+        "{}: {} parameters; {} training and {} evaluation panoramas "
+        "rendered and encoded in {:.1f} s",
+        kTask, parameterCount(*net), train.size(), eval.size(), renderSeconds);
 
     WaypointPretrainResult result;
     result.train_panoramas = train.size();
@@ -395,8 +397,8 @@ struct WaypointPretrainer::Impl {
       double lossSum = 0.0;
       int64_t batches = 0;
       for (int64_t start = 0; start < train.size(); start += w.batch_size) {
-        const torch::Tensor idx = all.slice(
-            0, start, std::min(train.size(), start + w.batch_size));
+        const torch::Tensor idx =
+            all.slice(0, start, std::min(train.size(), start + w.batch_size));
         const torch::Tensor logits =
             net->forward(rows(train.depth, idx), rows(train.rgb, idx));
         const torch::Tensor loss = models::waypointLoss(
@@ -419,8 +421,9 @@ struct WaypointPretrainer::Impl {
           metrics->write("train", {{"epoch", epoch}, {"loss", value}},
                          {{"train/loss", value}}, updates);
       }
-      result.final_loss = batches > 0 ? lossSum / static_cast<double>(batches)
-                                      : std::numeric_limits<double>::quiet_NaN();
+      result.final_loss = batches > 0
+                              ? lossSum / static_cast<double>(batches)
+                              : std::numeric_limits<double>::quiet_NaN();
       const auto [logits, evalLoss] = predict(eval);
       result.model = scoreWaypointLogits(logits, eval.nodes, w);
       const nlohmann::json record = {{"epoch", epoch},
@@ -450,28 +453,27 @@ struct WaypointPretrainer::Impl {
       fs::create_directories(result.weights_file.parent_path());
     models::saveModule(*net, result.weights_file);
     result.seconds = clock.seconds();
-    const nlohmann::json record = {
-        {"task", kTask},
-        {"seconds", result.seconds},
-        {"render_encode_seconds", renderSeconds},
-        {"updates", updates},
-        {"nonfinite_updates", nonFinite.total},
-        {"parameters", parameterCount(*net)},
-        {"train_split", w.train_split},
-        {"eval_split", w.eval_split},
-        {"train_houses", train.houses},
-        {"train_panoramas", train.size()},
-        {"eval_houses", eval.houses},
-        {"eval_nodes", eval.graphNodes},
-        {"eval_transferred", eval.transferred},
-        {"eval_panoramas", eval.size()},
-        {"initial_loss", result.initial_loss},
-        {"final_loss", result.final_loss},
-        {"model", result.model.toJson()},
-        {"baseline", result.baseline.toJson()},
-        {"targets", result.floor.toJson()},
-        {"epochs", history},
-        {"weights", result.weights_file.string()}};
+    const nlohmann::json record = {{"task", kTask},
+                                   {"seconds", result.seconds},
+                                   {"render_encode_seconds", renderSeconds},
+                                   {"updates", updates},
+                                   {"nonfinite_updates", nonFinite.total},
+                                   {"parameters", parameterCount(*net)},
+                                   {"train_split", w.train_split},
+                                   {"eval_split", w.eval_split},
+                                   {"train_houses", train.houses},
+                                   {"train_panoramas", train.size()},
+                                   {"eval_houses", eval.houses},
+                                   {"eval_nodes", eval.graphNodes},
+                                   {"eval_transferred", eval.transferred},
+                                   {"eval_panoramas", eval.size()},
+                                   {"initial_loss", result.initial_loss},
+                                   {"final_loss", result.final_loss},
+                                   {"model", result.model.toJson()},
+                                   {"baseline", result.baseline.toJson()},
+                                   {"targets", result.floor.toJson()},
+                                   {"epochs", history},
+                                   {"weights", result.weights_file.string()}};
     common::writeJsonFile(runDir / "pretrain_metrics.json", record, 2);
     metrics->write("finished", record,
                    {{"final/d_C", result.model.meanChamfer()},

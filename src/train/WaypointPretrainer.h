@@ -70,8 +70,8 @@ struct WaypointPretrainResult {
   waypoint::PredictorMetrics model;     ///< after the last epoch
   waypoint::PredictorMetrics baseline;  ///< depth-only, same panoramas
   waypoint::PredictorMetrics floor;     ///< the targets' own cells
-  double initial_loss = 0.0;  ///< first batch, before any update
-  double final_loss = 0.0;    ///< mean training loss of the last epoch
+  double initial_loss = 0.0;            ///< first batch, before any update
+  double final_loss = 0.0;  ///< mean training loss of the last epoch
   int64_t train_panoramas = 0;
   int64_t eval_panoramas = 0;
   double seconds = 0.0;

@@ -45,9 +45,9 @@ TEST(WaypointPredictorTest, OutputsOneHeatmapPerPanorama) {
   EXPECT_THROW(net->forward(torch::rand({3, 12, 512}), torch::Tensor()),
                c10::Error);
   WaypointPredictor depthOnly(WaypointPredictorConfig{}, 12, 512, 0);
-  EXPECT_EQ(depthOnly->forward(torch::rand({2, 12, 512}), torch::Tensor())
-                .sizes(),
-            (std::vector<int64_t>{2, 120, 12}));
+  EXPECT_EQ(
+      depthOnly->forward(torch::rand({2, 12, 512}), torch::Tensor()).sizes(),
+      (std::vector<int64_t>{2, 120, 12}));
   EXPECT_THROW(WaypointPredictor(WaypointPredictorConfig{}, 7, 512, 0),
                std::invalid_argument);
   EXPECT_THROW(WaypointPredictor(WaypointPredictorConfig{}, 12, 0, 0),
@@ -76,12 +76,13 @@ TEST(WaypointPredictorTest, TurningByOneViewRollsTheLogitsByTenBins) {
     // k - 1, and what was at bin h is now at bin h + 10
     const torch::Tensor turned =
         net->forward(torch::roll(depth, {1}, {1}), torch::roll(rgb, {1}, {1}));
-    EXPECT_TRUE(torch::allclose(turned, torch::roll(logits, {10}, {1}), 1e-4,
-                                1e-5))
+    EXPECT_TRUE(
+        torch::allclose(turned, torch::roll(logits, {10}, {1}), 1e-4, 1e-5))
         << "neighbors " << neighbors;
     // and it is not trivially constant across headings
-    EXPECT_GT((logits - torch::roll(logits, {10}, {1})).abs().max().item<float>(),
-              1e-3);
+    EXPECT_GT(
+        (logits - torch::roll(logits, {10}, {1})).abs().max().item<float>(),
+        1e-3);
   }
 }
 
@@ -110,20 +111,23 @@ TEST(WaypointPredictorTest, LossesOnHandCases) {
   target[0][30][4] = 1.0f;
   const torch::Tensor zeros = torch::zeros({1, 120, 12});
   // squared error against the scaled target: 10^2 in one cell, / 120
-  EXPECT_NEAR(waypointLoss(zeros, target, WaypointLoss::kMse, 10.0).item<double>(),
-              100.0 / 120.0, 1e-6);
-  torch::Tensor exact = target * 10.0f;
-  EXPECT_NEAR(waypointLoss(exact, target, WaypointLoss::kMse, 10.0).item<double>(),
-              0.0, 1e-9);
-  // averaged over the batch
-  EXPECT_NEAR(waypointLoss(torch::cat({zeros, exact}), torch::cat({target, target}),
-                           WaypointLoss::kMse, 10.0)
-                  .item<double>(),
-              50.0 / 120.0, 1e-6);
-  // softmax: uniform logits cost log(1440) whatever the target's scale
   EXPECT_NEAR(
-      waypointLoss(zeros, target * 0.3f, WaypointLoss::kSoftmax, 10.0).item<double>(),
-      std::log(1440.0), 1e-5);
+      waypointLoss(zeros, target, WaypointLoss::kMse, 10.0).item<double>(),
+      100.0 / 120.0, 1e-6);
+  torch::Tensor exact = target * 10.0f;
+  EXPECT_NEAR(
+      waypointLoss(exact, target, WaypointLoss::kMse, 10.0).item<double>(), 0.0,
+      1e-9);
+  // averaged over the batch
+  EXPECT_NEAR(
+      waypointLoss(torch::cat({zeros, exact}), torch::cat({target, target}),
+                   WaypointLoss::kMse, 10.0)
+          .item<double>(),
+      50.0 / 120.0, 1e-6);
+  // softmax: uniform logits cost log(1440) whatever the target's scale
+  EXPECT_NEAR(waypointLoss(zeros, target * 0.3f, WaypointLoss::kSoftmax, 10.0)
+                  .item<double>(),
+              std::log(1440.0), 1e-5);
   // two target cells of mass 1 and 3 against logits favouring the first:
   // -(0.25 log p1 + 0.75 log p2)
   torch::Tensor two = target.clone();
@@ -131,11 +135,13 @@ TEST(WaypointPredictorTest, LossesOnHandCases) {
   torch::Tensor logits = torch::zeros({1, 120, 12});
   logits[0][30][4] = 2.0f;
   const double z = 1439.0 + std::exp(2.0);
-  EXPECT_NEAR(waypointLoss(logits, two, WaypointLoss::kSoftmax, 1.0).item<double>(),
-              -(0.25 * (2.0 - std::log(z)) + 0.75 * (0.0 - std::log(z))), 1e-5);
-  EXPECT_THROW(waypointLoss(torch::zeros({1, 120, 11}), torch::zeros({1, 120, 11}),
-                            WaypointLoss::kMse, 1.0),
-               c10::Error);
+  EXPECT_NEAR(
+      waypointLoss(logits, two, WaypointLoss::kSoftmax, 1.0).item<double>(),
+      -(0.25 * (2.0 - std::log(z)) + 0.75 * (0.0 - std::log(z))), 1e-5);
+  EXPECT_THROW(
+      waypointLoss(torch::zeros({1, 120, 11}), torch::zeros({1, 120, 11}),
+                   WaypointLoss::kMse, 1.0),
+      c10::Error);
 }
 
 TEST(WaypointPredictorTest, ProbabilitiesAreASoftmaxOverAllCells) {

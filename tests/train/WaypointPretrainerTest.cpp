@@ -122,7 +122,8 @@ TEST(WaypointPretrainerTest, ScoresTheSoftmaxPeaksAfterNms) {
   // without a threshold NMS keeps picking the (tiny) rest of the map, as
   // Hong et al.'s, up to 5 a node (fewer when a pick repeats a heading)
   config.nms_min_score = 0.0;
-  const int64_t all = scoreWaypointLogits(logits, {node, node}, config).candidates;
+  const int64_t all =
+      scoreWaypointLogits(logits, {node, node}, config).candidates;
   EXPECT_GT(all, 2);
   EXPECT_LE(all, 10);
   EXPECT_THROW(scoreWaypointLogits(logits, {node}, config),
@@ -150,8 +151,8 @@ TEST(WaypointPretrainerTest, TinyRunTrainsEvaluatesAndWritesWeights) {
 
   // the weights load strictly into the same network
   ASSERT_EQ(result.weights_file, dir / "run" / "waypoint_predictor.pt");
-  models::WaypointPredictor net =
-      models::makeWaypointPredictor(config.model, config.waypoint.predictor, 12);
+  models::WaypointPredictor net = models::makeWaypointPredictor(
+      config.model, config.waypoint.predictor, 12);
   EXPECT_NO_THROW(models::loadModule(*net, result.weights_file));
 
   const nlohmann::json metrics =
