@@ -33,6 +33,33 @@ void ExperimentConfig::validate() const {
                 "config: trainer.fine_tune_dagger (DA*) needs trainer.init_checkpoint");
   VLN_CHECK_ARG(!(trainer.fine_tune_dagger && trainer.dagger_iterations == 0),
                 "config: trainer.fine_tune_dagger needs trainer.dagger_iterations > 0");
+  // the recollect trainer's keys mean nothing to the store's trainer, and
+  // it trains by teacher forcing only (VLN-CE's recollect_trainer)
+  const bool recollect = trainer.mode == "recollect";
+  VLN_CHECK_ARG(recollect || (trainer.effective_batch_size == -1 &&
+                              trainer.max_traj_len == -1),
+                "config: trainer.effective_batch_size and trainer.max_traj_len "
+                "apply to trainer.mode recollect only (mode is '",
+                trainer.mode, "')");
+  VLN_CHECK_ARG(!recollect || trainer.dagger_iterations == 0,
+                "config: trainer.mode recollect trains by teacher forcing on "
+                "the ground truth; trainer.dagger_iterations must be 0 (use "
+                "mode dagger for DAgger)");
+  VLN_CHECK_ARG(trainer.effective_batch_size == -1 ||
+                    (trainer.effective_batch_size > 0 &&
+                     trainer.effective_batch_size % trainer.batch_size == 0),
+                "config: trainer.effective_batch_size (",
+                trainer.effective_batch_size,
+                ") must be -1 or a positive multiple of trainer.batch_size (",
+                trainer.batch_size, ")");
+  VLN_CHECK_ARG(trainer.max_traj_len == -1 || trainer.max_traj_len >= 1,
+                "config: trainer.max_traj_len must be -1 (off) or at least 1, "
+                "got ",
+                trainer.max_traj_len);
+  VLN_CHECK_ARG(!recollect || trainer.preload_size >= trainer.batch_size,
+                "config: trainer.preload_size (", trainer.preload_size,
+                ") must be at least trainer.batch_size (", trainer.batch_size,
+                ")");
   bool selectionEvaluated = false;
   for (const auto& split : eval.splits) selectionEvaluated |= split == eval.selection_split;
   VLN_CHECK_ARG(selectionEvaluated, "config: eval.selection_split '", eval.selection_split,

@@ -52,6 +52,11 @@ struct TrainerConfig {
   bool clip_progress_target = false;
   std::string evaluate_every = "epoch";
 
+  std::string mode = "dagger";
+  int effective_batch_size = -1;
+  int max_traj_len = -1;
+  int preload_size = 30;
+
   bool store_fp16 = true;
   double store_max_gib = 64.0;
 
@@ -158,6 +163,30 @@ struct TrainerConfig {
              "checkpoint) after every epoch, as VLN-CE evaluates every saved "
              "checkpoint, or only after each iteration's last epoch "
              "(teacher forcing evaluates every epoch either way)");
+    v.choice("mode", mode, {"dagger", "recollect"},
+             "How episodes reach the learner (docs/paper_scale.md): dagger "
+             "collects them once into the feature store (teacher forcing is "
+             "its first round, beta = 1; VLN-CE's dagger_trainer); recollect "
+             "re-simulates the dataset's ground-truth action sequences "
+             "(<split>_gt.json.gz) every epoch and trains on them without a "
+             "store (VLN-CE's recollect_trainer; teacher forcing only)");
+    v.field("effective_batch_size", effective_batch_size,
+            "mode recollect: episodes per optimizer step by gradient "
+            "accumulation over effective_batch_size / batch_size batches, "
+            "a multiple of batch_size (-1: one batch per step; VLN-CE's "
+            "IL.RECOLLECT_TRAINER.effective_batch_size)",
+            common::inRange(-1, 10000000));
+    v.field("max_traj_len", max_traj_len,
+            "mode recollect: episodes whose ground truth has more actions "
+            "than this are left out of training, as VLN-CE does (-1: none; "
+            "VLN-CE's RxR configs: 250)",
+            common::inRange(-1, 10000000));
+    v.field("preload_size", preload_size,
+            "mode recollect: episodes simulated ahead of the updates that "
+            "use them and held in memory, rounded up to whole updates "
+            "(VLN-CE's IL.RECOLLECT_TRAINER.preload_size); at least "
+            "batch_size",
+            common::inRange(1, 10000000));
     v.field("store_fp16", store_fp16,
             "Store encoder features as fp16 in the on-disk store (half the "
             "bytes)");

@@ -547,17 +547,23 @@ EpisodeBatch FeatureStore::loadBatch(std::span<const int64_t> indices) const {
   VLN_CHECK_ARG(!indices.empty(), "FeatureStore::loadBatch(): empty batch");
   std::vector<StoredEpisode> episodes;
   episodes.reserve(indices.size());
+  for (int64_t index : indices) episodes.push_back(read(index));
+  EpisodeBatch batch = batchEpisodes(episodes, layout_);
+  batch.indices.assign(indices.begin(), indices.end());
+  return batch;
+}
+
+EpisodeBatch batchEpisodes(std::span<const StoredEpisode> episodes,
+                           const StoreLayout& layout) {
+  VLN_CHECK_ARG(!episodes.empty(), "batchEpisodes(): empty batch");
   int64_t T = 0;
   int64_t L = 1;
-  for (int64_t index : indices) {
-    episodes.push_back(read(index));
-    T = std::max(T, episodes.back().length());
-    L = std::max<int64_t>(L,
-                          static_cast<int64_t>(episodes.back().tokens.size()));
+  for (const StoredEpisode& e : episodes) {
+    T = std::max(T, e.length());
+    L = std::max<int64_t>(L, static_cast<int64_t>(e.tokens.size()));
   }
-  const auto B = static_cast<int64_t>(indices.size());
+  const auto B = static_cast<int64_t>(episodes.size());
   EpisodeBatch batch;
-  batch.indices.assign(indices.begin(), indices.end());
   batch.prev_actions = torch::zeros({T, B}, torch::kInt64);
   batch.oracle_actions = torch::zeros({T, B}, torch::kInt64);
   batch.progress = torch::zeros({T, B}, torch::kFloat32);
@@ -569,8 +575,8 @@ EpisodeBatch FeatureStore::loadBatch(std::span<const int64_t> indices) const {
     return s[0] == 0 ? torch::Tensor()
                      : torch::zeros({T, B, s[0], s[1], s[2]}, torch::kFloat32);
   };
-  batch.rgb = feature(layout_.rgb_shape);
-  batch.depth = feature(layout_.depth_shape);
+  batch.rgb = feature(layout.rgb_shape);
+  batch.depth = feature(layout.depth_shape);
   auto prev = batch.prev_actions.accessor<int64_t, 2>();
   auto oracle = batch.oracle_actions.accessor<int64_t, 2>();
   auto progress = batch.progress.accessor<float, 2>();

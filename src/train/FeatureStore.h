@@ -178,6 +178,14 @@ class FeatureStore {
   bool readOnly_ = false;
 };
 
+/// `episodes` padded to the longest into a batch of `layout`'s feature
+/// shapes (their features may be float16 or float32; the batch's are
+/// float32); `indices` is left empty. What loadBatch() returns for stored
+/// episodes, and the recollect trainer for re-simulated ones. Throws
+/// std::invalid_argument for an empty list.
+EpisodeBatch batchEpisodes(std::span<const StoredEpisode> episodes,
+                           const StoreLayout& layout);
+
 /// The batches of one epoch over episodes with `lengths`: a seeded shuffle
 /// (deterministic in seed and epoch), then, as VLN-CE's IWTrajectoryDataset,
 /// chunks of batchSize * 100 episodes are sorted by length (ties broken at

@@ -66,7 +66,8 @@ double ImitationLearner::applyGradients() {
   return norm;
 }
 
-UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
+ImitationLearner::BatchLosses ImitationLearner::batchLosses(
+    const EpisodeBatch& batch) {
   policy_->train();
   const models::ModelConfig& model = config_.model;
   auto to = [&](const torch::Tensor& t) {
@@ -92,19 +93,27 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
     instructionInput = to(batch.tokens);
   }
 
-  optimizer_->zero_grad();
   const models::EncodedInstruction instruction =
       policy_->encodeInstruction(instructionInput);
   const models::PolicyOutputs out =
       policy_->forwardSequence(instruction, inputs, policy_->initialHidden(B));
   const torch::Tensor weights =
       models::inflectionWeights(actions, valid, inflectionCoef_);
-  torch::Tensor actionLoss =
-      models::weightedActionLoss(out.logits, actions, weights);
-  torch::Tensor progressLoss;
+  BatchLosses losses;
+  losses.episodes = B;
+  losses.action = models::weightedActionLoss(out.logits, actions, weights);
   if (model.progress_monitor)
-    progressLoss =
+    losses.progress =
         models::progressLoss(out.progress, to(batch.progress), valid);
+  return losses;
+}
+
+UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
+  optimizer_->zero_grad();
+  BatchLosses losses = batchLosses(batch);
+  torch::Tensor& actionLoss = losses.action;
+  torch::Tensor& progressLoss = losses.progress;
+  const int64_t B = losses.episodes;
   // multi-process: the update is that of the union of the ranks' batches.
   // The action loss is a mean over episodes and the progress loss one over
   // steps, so this rank's terms are weighted by its share of the episodes
@@ -152,21 +161,72 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
     result.steps = static_cast<int64_t>(sums[4]);
     result.episodes = static_cast<int64_t>(sums[5]);
   }
-  if (skip) {
-    // skip: no gradient reaches the parameters or Adam's moments
-    result.skipped = true;
-    ++nonFiniteTotal_;
-    ++nonFiniteInARow_;
-    spdlog::warn(
-        "non-finite loss ({}{}) at update {}: skipped ({} in a row, {} in "
-        "total; limit trainer.max_nonfinite_updates = {})",
-        result.loss, finiteHere ? " here, non-finite on another rank" : "",
-        updates_, nonFiniteInARow_, nonFiniteTotal_,
-        config_.trainer.max_nonfinite_updates);
-    optimizer_->zero_grad();
-    return result;
-  }
+  if (skip) return skipUpdate(result, finiteHere);
   loss.backward();
+  result.grad_norm = applyGradients();
+  nonFiniteInARow_ = 0;
+  ++updates_;
+  return result;
+}
+
+UpdateResult ImitationLearner::skipUpdate(UpdateResult result,
+                                          bool finiteHere) {
+  // skip: no gradient reaches the parameters or Adam's moments
+  result.skipped = true;
+  ++nonFiniteTotal_;
+  ++nonFiniteInARow_;
+  spdlog::warn(
+      "non-finite loss ({}{}) at update {}: skipped ({} in a row, {} in "
+      "total; limit trainer.max_nonfinite_updates = {})",
+      result.loss, finiteHere ? " here, non-finite on another rank" : "",
+      updates_, nonFiniteInARow_, nonFiniteTotal_,
+      config_.trainer.max_nonfinite_updates);
+  optimizer_->zero_grad();
+  return result;
+}
+
+UpdateResult ImitationLearner::updateAccumulated(
+    std::span<const EpisodeBatch> batches) {
+  VLN_CHECK_ARG(!batches.empty(),
+                "ImitationLearner::updateAccumulated(): no batches");
+  VLN_CHECK_ARG(dist_ == nullptr,
+                "ImitationLearner::updateAccumulated(): gradient "
+                "accumulation does not run in a multi-process run");
+  // the group's totals are known before any forward pass, so each batch's
+  // terms can be weighted by its share right away and every graph freed
+  // after its backward pass
+  UpdateResult result;
+  for (const EpisodeBatch& batch : batches) {
+    result.episodes += batch.oracle_actions.size(1);
+    result.steps += batch.steps;
+  }
+  const auto episodes = static_cast<double>(result.episodes);
+  const double steps = std::max(static_cast<double>(result.steps), 1.0);
+
+  optimizer_->zero_grad();
+  for (const EpisodeBatch& batch : batches) {
+    const BatchLosses losses = batchLosses(batch);
+    // the action loss is a mean over episodes and the progress loss one
+    // over steps: weighted by this batch's share of the group's episodes
+    // and steps they sum to the losses of the concatenated batch
+    const torch::Tensor actionLoss =
+        losses.action * (static_cast<double>(losses.episodes) / episodes);
+    torch::Tensor progressLoss;
+    if (losses.progress.defined())
+      progressLoss =
+          losses.progress * (static_cast<double>(batch.steps) / steps);
+    torch::Tensor loss = actionLoss;
+    if (progressLoss.defined())
+      loss = loss + config_.trainer.progress_loss_weight * progressLoss;
+    if (lossHook_) loss = lossHook_(loss);
+    const double value = loss.item<double>();
+    result.loss += value;
+    result.action_loss += actionLoss.item<double>();
+    if (progressLoss.defined())
+      result.progress_loss += progressLoss.item<double>();
+    if (!std::isfinite(value)) return skipUpdate(result, /*finiteHere=*/false);
+    loss.backward();
+  }
   result.grad_norm = applyGradients();
   nonFiniteInARow_ = 0;
   ++updates_;
@@ -213,36 +273,44 @@ EpochResult ImitationLearner::trainEpoch(
   for (const auto& indices : batches) {
     const EpisodeBatch batch = store.loadBatch(indices);
     const UpdateResult u = update(batch);
-    if (u.skipped) {
-      ++result.skipped;
-      if (nonFiniteInARow_ >= config_.trainer.max_nonfinite_updates)
-        throw std::runtime_error(strCat(
-            "ImitationLearner: ", nonFiniteInARow_,
-            " consecutive non-finite losses (trainer.max_nonfinite_updates = ",
-            config_.trainer.max_nonfinite_updates, ") at update ", updates_,
-            " of epoch ", epoch,
-            ": training stopped, no checkpoint was written for this epoch"));
-    } else {
-      ++result.updates;
-      result.mean.loss += u.loss;
-      result.mean.action_loss += u.action_loss;
-      result.mean.progress_loss += u.progress_loss;
-      result.mean.grad_norm += u.grad_norm;
-    }
-    result.mean.steps += u.steps;
-    result.mean.episodes += u.episodes;
+    addToEpoch(u, epoch, result);
     if (onUpdate) onUpdate(u);
     line.advance();
   }
-  if (result.updates > 0) {
-    const auto n = static_cast<double>(result.updates);
-    result.mean.loss /= n;
-    result.mean.action_loss /= n;
-    result.mean.progress_loss /= n;
-    result.mean.grad_norm /= n;
-  }
+  finishEpoch(result);
   result.seconds = clock.seconds();
   return result;
+}
+
+void ImitationLearner::addToEpoch(const UpdateResult& u, int epoch,
+                                  EpochResult& result) const {
+  if (u.skipped) {
+    ++result.skipped;
+    if (nonFiniteInARow_ >= config_.trainer.max_nonfinite_updates)
+      throw std::runtime_error(strCat(
+          "ImitationLearner: ", nonFiniteInARow_,
+          " consecutive non-finite losses (trainer.max_nonfinite_updates = ",
+          config_.trainer.max_nonfinite_updates, ") at update ", updates_,
+          " of epoch ", epoch,
+          ": training stopped, no checkpoint was written for this epoch"));
+  } else {
+    ++result.updates;
+    result.mean.loss += u.loss;
+    result.mean.action_loss += u.action_loss;
+    result.mean.progress_loss += u.progress_loss;
+    result.mean.grad_norm += u.grad_norm;
+  }
+  result.mean.steps += u.steps;
+  result.mean.episodes += u.episodes;
+}
+
+void ImitationLearner::finishEpoch(EpochResult& result) {
+  if (result.updates == 0) return;
+  const auto n = static_cast<double>(result.updates);
+  result.mean.loss /= n;
+  result.mean.action_loss /= n;
+  result.mean.progress_loss /= n;
+  result.mean.grad_norm /= n;
 }
 
 // ---------------------------------------------------------------------------

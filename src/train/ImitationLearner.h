@@ -16,6 +16,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <span>
 
 #include "data/GroundTruth.h"
 #include "models/Policy.h"
@@ -80,6 +81,19 @@ class ImitationLearner {
   /// One update on `batch` (CPU tensors from FeatureStore::loadBatch).
   UpdateResult update(const EpisodeBatch& batch);
 
+  /// One update on `batches` together (gradient accumulation: one forward
+  /// and backward pass per batch, then one optimizer step): the gradient,
+  /// the step and the losses are those of update() on the batches
+  /// concatenated into one, to float rounding. Each batch's action loss (a
+  /// mean over its episodes) is weighted by its share of all the episodes
+  /// and its progress loss (a mean over its steps) by its share of all the
+  /// steps, so batches of unequal sizes are exact too. (VLN-CE's recollect
+  /// trainer divides every batch's loss by the number of batches, which is
+  /// the same for the action loss of equal batches only.) A non-finite
+  /// loss in any batch skips the whole update. Not in a multi-process run
+  /// (std::invalid_argument).
+  UpdateResult updateAccumulated(std::span<const EpisodeBatch> batches);
+
   /// One epoch over `store` in epochBatches(seed, epoch) order, taken over
   /// the episodes sorted by (round, slot), not by their place in the store:
   /// the batches do not depend on the order in which collection finished.
@@ -93,6 +107,14 @@ class ImitationLearner {
   EpochResult trainEpoch(
       const FeatureStore& store, uint64_t seed, int epoch,
       const std::function<void(const UpdateResult&)>& onUpdate = {});
+
+  /// Adds update `u` of epoch `epoch` to `result`'s counts and sums (the
+  /// bookkeeping of trainEpoch(), for trainers that draw their own
+  /// batches). Throws std::runtime_error after
+  /// trainer.max_nonfinite_updates consecutive non-finite losses.
+  void addToEpoch(const UpdateResult& u, int epoch, EpochResult& result) const;
+  /// Turns `result`'s sums over its applied updates into means.
+  static void finishEpoch(EpochResult& result);
 
   torch::optim::Adam& optimizer() { return *optimizer_; }
   models::PolicyImpl& policy() { return *policy_; }
@@ -113,6 +135,17 @@ class ImitationLearner {
   /// The gradient all-reduce (multi-process), clipping and the optimizer
   /// step. Returns the gradient norm before clipping.
   double applyGradients();
+
+  /// The losses of one batch, forward pass done, graph kept.
+  struct BatchLosses {
+    torch::Tensor action;    ///< mean over the batch's episodes
+    torch::Tensor progress;  ///< mean over its steps; undefined without PM
+    int64_t episodes = 0;
+  };
+  BatchLosses batchLosses(const EpisodeBatch& batch);
+  /// Counts and logs a non-finite update (`finiteHere`: only another
+  /// rank's loss was non-finite) and drops its gradients.
+  UpdateResult skipUpdate(UpdateResult result, bool finiteHere);
 
   std::shared_ptr<models::PolicyImpl> policy_;
   ExperimentConfig config_;

@@ -16,6 +16,7 @@
 #include "models/StateDict.h"
 #include "train/DistributedTraining.h"
 #include "train/PretrainTasks.h"
+#include "train/RecollectTrainer.h"
 #include "train/RunDirectory.h"
 #include "train/TextPretrainer.h"
 #include "train/VlnTrainer.h"
@@ -58,6 +59,16 @@ TaskRunner taskRunner(const std::string& task) {
   static const std::map<std::string, TaskRunner> runners = {
       {"vln",
        [](const ExperimentConfig& config, bool resume, Distributed* dist) {
+         if (config.trainer.mode == "recollect") {
+           VLN_CHECK_ARG(dist == nullptr,
+                         "train: trainer.mode recollect trains in one process "
+                         "only, but WORLD_SIZE=",
+                         dist ? dist->worldSize() : 1,
+                         " (unset WORLD_SIZE or set trainer.distributed: off)");
+           RecollectTrainer trainer(config, resume);
+           trainer.run();
+           return;
+         }
          VlnTrainer trainer(config, resume, dist);
          trainer.run();
        }},

@@ -1,13 +1,17 @@
 // Tests of src/train/ImitationLearner.cpp: the inverse inflection frequency
 // on hand-made ground truth, non-finite losses skipped (nothing changes),
-// the consecutive-fault limit, and learning on a small synthetic store.
+// the consecutive-fault limit, learning on a small synthetic store, and
+// gradient accumulation equal to one update on the concatenated batch.
 
 #include "train/ImitationLearner.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "common/Config.h"
+#include "models/StateDict.h"
 #include "support/TestPaths.h"
 #include "train/LearnerTestUtil.h"
 
@@ -176,6 +180,103 @@ TEST(ImitationLearnerTest, TextFeatureModelTrainsOnTheBatchsFeatures) {
   double last = first;
   for (int i = 0; i < 40; ++i) last = learner.update(batch).action_loss;
   EXPECT_LT(last, 0.5 * first) << "first " << first << " last " << last;
+}
+
+// One accumulated update over `groups` (store indices per batch) against
+// one update on their concatenation, from the same initial weights: the
+// losses, every gradient and the weights after the step agree to float
+// rounding. Adam's first step is about lr * sign(g), so the gradients are
+// compared too: a wrong scale would pass the weights' check.
+void expectAccumulationExact(const std::vector<std::vector<int64_t>>& groups) {
+  ExperimentConfig c = tinyLearnerConfig(4);
+  vln::test::TempDir dir;
+  FeatureStore store(dir / "store", layoutOf(c), 0.05);
+  fillStore(store, c, 8);
+  std::vector<EpisodeBatch> batches;
+  std::vector<int64_t> all;
+  for (const auto& g : groups) {
+    batches.push_back(store.loadBatch(g));
+    all.insert(all.end(), g.begin(), g.end());
+  }
+  const EpisodeBatch joined = store.loadBatch(all);
+
+  torch::manual_seed(3);
+  ImitationLearner accumulated(models::makePolicy(c.model), c);
+  torch::manual_seed(3);
+  ImitationLearner single(models::makePolicy(c.model), c);
+  const UpdateResult a = accumulated.updateAccumulated(batches);
+  const UpdateResult s = single.update(joined);
+  ASSERT_FALSE(a.skipped);
+  EXPECT_EQ(a.episodes, s.episodes);
+  EXPECT_EQ(a.steps, s.steps);
+  EXPECT_NEAR(a.loss, s.loss, 1e-5 * std::abs(s.loss));
+  EXPECT_NEAR(a.action_loss, s.action_loss, 1e-5 * std::abs(s.action_loss));
+  EXPECT_NEAR(a.progress_loss, s.progress_loss,
+              1e-5 * std::abs(s.progress_loss));
+  EXPECT_NEAR(a.grad_norm, s.grad_norm, 1e-4 * s.grad_norm);
+  EXPECT_EQ(accumulated.updates(), 1);
+
+  const auto pa = accumulated.policy().named_parameters();
+  const auto ps = single.policy().named_parameters();
+  ASSERT_EQ(pa.size(), ps.size());
+  int compared = 0;
+  for (size_t i = 0; i < pa.size(); ++i) {
+    const torch::Tensor& ga = pa[i].value().grad();
+    const torch::Tensor& gs = ps[i].value().grad();
+    ASSERT_EQ(ga.defined(), gs.defined()) << pa[i].key();
+    if (!ga.defined()) continue;
+    ++compared;
+    EXPECT_TRUE(torch::allclose(ga, gs, /*rtol=*/1e-4, /*atol=*/1e-7))
+        << pa[i].key() << ": largest gradient difference "
+        << (ga - gs).abs().max().item<double>() << " of "
+        << gs.abs().max().item<double>();
+    EXPECT_TRUE(torch::allclose(pa[i].value(), ps[i].value(), 1e-5, 1e-7))
+        << pa[i].key();
+  }
+  EXPECT_GT(compared, 4);
+}
+
+TEST(ImitationLearnerTest,
+     AccumulatedUpdateOfEqualBatchesEqualsTheirConcatenation) {
+  expectAccumulationExact({{0, 1, 2, 3}, {4, 5, 6, 7}});
+}
+
+// unequal episode and step counts: the batches are weighted by their
+// shares, not averaged (averaging is what VLN-CE's division by the number
+// of batches does)
+TEST(ImitationLearnerTest,
+     AccumulatedUpdateOfUnequalBatchesEqualsTheirConcatenation) {
+  expectAccumulationExact({{0, 1, 2}, {3, 4}, {7}});
+}
+
+TEST(ImitationLearnerTest, AccumulatedUpdateWithANonFiniteBatchIsSkippedWhole) {
+  ExperimentConfig c = tinyLearnerConfig(4);
+  vln::test::TempDir dir;
+  FeatureStore store(dir / "store", layoutOf(c), 0.05);
+  fillStore(store, c, 4);
+  torch::manual_seed(3);
+  ImitationLearner learner(models::makePolicy(c.model), c);
+  models::NamedTensors before = models::namedState(learner.policy());
+  for (auto& [name, value] : before) value = value.clone();
+  // the second batch's loss turns NaN, after the first's backward pass
+  int calls = 0;
+  learner.setLossHook([&](const torch::Tensor& loss) {
+    return ++calls == 2 ? loss * std::nan("") : loss;
+  });
+  const std::vector<EpisodeBatch> batches = {store.loadBatch({{0, 1}}),
+                                             store.loadBatch({{2, 3}})};
+  const UpdateResult r = learner.updateAccumulated(batches);
+  EXPECT_TRUE(r.skipped);
+  EXPECT_EQ(learner.updates(), 0);
+  EXPECT_EQ(learner.nonFiniteInARow(), 1);
+  const models::NamedTensors after = models::namedState(learner.policy());
+  ASSERT_EQ(before.size(), after.size());
+  for (size_t i = 0; i < before.size(); ++i)
+    EXPECT_TRUE(torch::equal(before[i].second, after[i].second))
+        << before[i].first;
+  for (const auto& p : learner.policy().parameters())
+    EXPECT_TRUE(!p.grad().defined() || p.grad().abs().sum().item<double>() == 0)
+        << "gradients of the skipped update remain";
 }
 
 }  // namespace
