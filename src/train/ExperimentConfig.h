@@ -13,8 +13,10 @@
 #include "data/DatasetConfig.h"
 #include "models/ModelConfig.h"
 #include "rollout/EvalConfig.h"
+#include "sim/Panorama.h"
 #include "sim/SimConfig.h"
 #include "train/TextPretrainConfig.h"
+#include "train/WaypointPretrainConfig.h"
 #include "world/HouseConfig.h"
 
 namespace vln::train {
@@ -71,10 +73,12 @@ struct TrainerConfig {
 
   void visit(common::ConfigVisitor& v) {
     v.choice("task", task,
-             {"vln", "depth_pointnav", "rgb_semantic", "text_mlm"},
+             {"vln", "depth_pointnav", "rgb_semantic", "text_mlm",
+              "waypoint_predictor"},
              "What the run trains: the VLN policy, or one of the encoder "
              "pretraining tasks that stand in for the downloads the paper uses "
-             "(text_mlm: the text encoder of RxR's instruction features)");
+             "(text_mlm: the text encoder of RxR's instruction features), or "
+             "the candidate-waypoint predictor (waypoint_predictor)");
     v.field("seed", seed,
             "Seed of everything random in the run (episode order, DAgger "
             "coins, initialisation)",
@@ -341,6 +345,8 @@ struct ExperimentConfig {
   PretrainConfig pretrain;
   rollout::EvalConfig eval;
   OutputConfig output;
+  sim::PanoramaConfig panorama;
+  WaypointPretrainConfig waypoint;
 
   void visit(common::ConfigVisitor& v) {
     v.section("sim", sim,
@@ -352,6 +358,11 @@ struct ExperimentConfig {
     v.section("pretrain", pretrain, "Encoder pretraining tasks");
     v.section("eval", eval, "Evaluation");
     v.section("output", output, "Run directory and logging");
+    v.section("panorama", panorama,
+              "Panoramic views of the waypoint runs (docs/waypoints.md)");
+    v.section("waypoint", waypoint,
+              "trainer.task waypoint_predictor: the candidate-waypoint "
+              "predictor and its training");
   }
   bool operator==(const ExperimentConfig&) const = default;
 

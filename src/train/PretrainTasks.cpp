@@ -17,6 +17,7 @@
 #include "train/PretrainCommon.h"
 #include "train/SemanticPretrainer.h"
 #include "train/TextPretrainer.h"
+#include "train/WaypointPretrainer.h"
 #include "world/HouseGenerator.h"
 
 namespace vln::train {
@@ -60,10 +61,15 @@ void validatePretrainConfig(const ExperimentConfig& config) {
   const PretrainConfig& p = config.pretrain;
   const std::string& task = config.trainer.task;
   VLN_CHECK_ARG(
-      task == "depth_pointnav" || task == "rgb_semantic" || task == "text_mlm",
-      "pretraining: trainer.task must be depth_pointnav, rgb_semantic or "
-      "text_mlm, got '",
+      task == "depth_pointnav" || task == "rgb_semantic" ||
+          task == "text_mlm" || task == "waypoint_predictor",
+      "pretraining: trainer.task must be depth_pointnav, rgb_semantic, "
+      "text_mlm or waypoint_predictor, got '",
       task, "'");
+  if (task == "waypoint_predictor") {
+    validateWaypointPretrainConfig(config);
+    return;
+  }
   if (task == "text_mlm") {
     validateTextPretrainConfig(config);
     return;

@@ -8,6 +8,8 @@
 //  - trainer.task = rgb_semantic: recognising the object categories, their
 //    colours and the room type in a view (SemanticPretrainer.h), the
 //    stand-in for ImageNet.
+// (trainer.task = waypoint_predictor trains the candidate-waypoint
+// predictor on the world's nav-graphs instead: WaypointPretrainer.h.)
 // Both write, in the run directory: metrics.jsonl (and tb/ when
 // output.tensorboard), pretrain_metrics.json (held-out results of the
 // trained encoder and of a reference that has no learned vision), and the

@@ -20,6 +20,7 @@
 #include "train/RunDirectory.h"
 #include "train/TextPretrainer.h"
 #include "train/VlnTrainer.h"
+#include "train/WaypointPretrainer.h"
 
 namespace vln::train {
 namespace fs = std::filesystem;
@@ -73,11 +74,12 @@ TaskRunner taskRunner(const std::string& task) {
        }},
       {"depth_pointnav", pretraining(&runDepthPointNavPretraining)},
       {"rgb_semantic", pretraining(&runRgbSemanticPretraining)},
-      {"text_mlm", pretraining(&runTextMlmPretraining)}};
+      {"text_mlm", pretraining(&runTextMlmPretraining)},
+      {"waypoint_predictor", pretraining(&runWaypointPredictorPretraining)}};
   auto it = runners.find(task);
   VLN_CHECK_ARG(it != runners.end(), "train: trainer.task '", task,
                 "' is unknown (available: vln, depth_pointnav, rgb_semantic, "
-                "text_mlm)");
+                "text_mlm, waypoint_predictor)");
   return it->second;
 }
 

@@ -44,7 +44,8 @@ enum class Kind { kWorld, kRxrWorld, kExperiment };
 
 const std::set<std::string>& experimentSections() {
   static const std::set<std::string> sections = {
-      "sim", "task", "dataset", "model", "trainer", "pretrain", "eval", "output", "_base_"};
+      "sim",  "task",   "dataset",  "model",   "trainer", "pretrain",
+      "eval", "output", "panorama", "waypoint", "_base_"};
   return sections;
 }
 
