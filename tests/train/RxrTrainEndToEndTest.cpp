@@ -107,6 +107,15 @@ constexpr const char* kDaggerTrainer =
     "  dagger_epochs: 1\n"
     "  evaluate_every: iteration\n";
 
+// A private copy of the world's feature files, for the tests that take one
+// away: the world's own files are shared by tests running in parallel.
+fs::path privateFeatures(const TinyRxrWorld& w, const fs::path& dir) {
+  const fs::path copy = dir / "text_features";
+  fs::create_directories(dir);
+  fs::copy(w.data / "text_features", copy, fs::copy_options::recursive);
+  return copy;
+}
+
 std::string rxrRunConfig(const TinyRxrWorld& w, const fs::path& out,
                          const std::string& trainer = kDaggerTrainer) {
   return "_base_: " +
@@ -242,14 +251,18 @@ TEST_F(RxrTrainEndToEndTest, TrainsAndEvaluatesOnTextFeaturesAndWritesJsonl) {
 
   // a missing feature file is named with its episode before anything runs
   const data::Episode& first = episodes.front();
+  const fs::path features = privateFeatures(w, dir_ / "private");
   const fs::path missing = data::rxrTextFeaturesPath(
-      w.data / "text_features", "val_unseen", *first.instruction.instruction_id,
+      features, "val_unseen", *first.instruction.instruction_id,
       first.instruction.language);
-  const fs::path moved = dir_ / "moved.npz";
-  fs::copy_file(missing, moved);
   fs::remove(missing);
-  const int code = vln::test::runCommand(eval, &output);
-  fs::copy_file(moved, missing);
+  const int code = vln::test::runCommand(
+      binary("eval") + " --config " + config.string() +
+          " --set dataset.text_features_dir=" + features.string() +
+          " --checkpoint " + checkpoints.back().string() +
+          " --split val_unseen --out " + (dir_ / "eval_missing").string() +
+          " 2>&1",
+      &output);
   EXPECT_NE(code, 0);
   EXPECT_THAT(output, HasSubstr(missing.filename().string()));
   EXPECT_THAT(output,
@@ -293,16 +306,16 @@ TEST_F(RxrTrainEndToEndTest, RecollectTrainsOnTextFeaturesWithoutSliding) {
   data::RxrFilterConfig guide;
   const data::Episode first =
       data::readRxrEpisodes(w.data, "train", guide).front();
+  const fs::path features = privateFeatures(w, dir_ / "private");
   const fs::path missing = data::rxrTextFeaturesPath(
-      w.data / "text_features", "train", *first.instruction.instruction_id,
+      features, "train", *first.instruction.instruction_id,
       first.instruction.language);
-  const fs::path moved = dir_ / "moved_train.npz";
-  fs::copy_file(missing, moved);
   fs::remove(missing);
   fs::remove_all(run);
   const int code = vln::test::runCommand(
-      binary("train") + " --config " + config.string() + " 2>&1", &output);
-  fs::copy_file(moved, missing);
+      binary("train") + " --config " + config.string() +
+          " --set dataset.text_features_dir=" + features.string() + " 2>&1",
+      &output);
   EXPECT_NE(code, 0);
   EXPECT_THAT(output, HasSubstr(missing.filename().string()));
   EXPECT_THAT(output, ::testing::Not(HasSubstr("recollect epoch")));
