@@ -395,6 +395,19 @@ models::NamedTensors readPolicyWeights(const std::filesystem::path& given) {
   }
 }
 
+Checkpoint trainingCheckpoint(const std::string& configYaml,
+                              const models::PolicyImpl& policy,
+                              const torch::optim::Optimizer& optimizer,
+                              const TrainingProgress& progress) {
+  Checkpoint ckpt;
+  ckpt.config_yaml = configYaml;
+  ckpt.policy = models::namedState(policy);
+  ckpt.optimizer_state = serializeOptimizer(optimizer);
+  ckpt.progress = progress;
+  ckpt.rng_state = captureRngState();
+  return ckpt;
+}
+
 std::string captureRngState() {
   auto generator = at::detail::getDefaultCPUGenerator();
   std::lock_guard<std::mutex> lock(generator.mutex());

@@ -97,6 +97,13 @@ models::NamedTensors readPolicyWeights(const std::filesystem::path& given);
 
 /// LibTorch's default CPU generator state as bytes (Checkpoint::rng_state).
 std::string captureRngState();
+
+/// A training run's state now: its config (as YAML), the policy's weights,
+/// the optimizer's state, `progress` and the generator state.
+Checkpoint trainingCheckpoint(const std::string& configYaml,
+                              const models::PolicyImpl& policy,
+                              const torch::optim::Optimizer& optimizer,
+                              const TrainingProgress& progress);
 /// Restores captureRngState() bytes (nothing when empty); throws
 /// std::runtime_error naming `source` when they are not a generator state.
 void restoreRngState(const std::string& bytes, const std::string& source);

@@ -6,6 +6,7 @@
 #include "rollout/ObservationBatch.h"
 #include "rollout/PolicyAgent.h"
 #include "rollout/SplitEvaluation.h"
+#include "train/CheckpointKeeper.h"
 #include "train/Distributed.h"
 #include "viz/EpisodeMedia.h"
 
@@ -147,6 +148,31 @@ std::optional<double> PeriodicEvaluator::recorded(int index) {
                   .mean.spl;
   if (dist_) spl = dist_->allReduceSum({master ? spl : 0.0}).front();
   return spl;
+}
+
+bool PeriodicEvaluator::evaluateLatest(
+    TrainingProgress& progress, CheckpointKeeper& keeper, int64_t updates,
+    const std::shared_ptr<models::PolicyImpl>& policy,
+    const models::ObservationEncoder& encoder, MetricsLog* metrics) {
+  const int index = progress.checkpoint_index;
+  const double spl = evaluate(index, updates, policy, encoder, metrics);
+  return keeper.recordEvaluation(progress, index, spl);
+}
+
+bool PeriodicEvaluator::catchUp(
+    TrainingProgress& progress, CheckpointKeeper& keeper, int64_t updates,
+    const std::shared_ptr<models::PolicyImpl>& policy,
+    const models::ObservationEncoder& encoder, MetricsLog* metrics) {
+  if (!progress.extra.value("eval_due", false)) return false;
+  const int index = progress.checkpoint_index;
+  // finished before the interruption: fold its result in from the files
+  if (const std::optional<double> spl = recorded(index))
+    return keeper.recordEvaluation(progress, index, *spl);
+  spdlog::info(
+      "evaluating checkpoint {} (its evaluation did not finish before the "
+      "interruption)",
+      index);
+  return evaluateLatest(progress, keeper, updates, policy, encoder, metrics);
 }
 
 }  // namespace vln::train

@@ -33,7 +33,9 @@
 
 namespace vln::train {
 
+class CheckpointKeeper;
 class Distributed;
+struct TrainingProgress;
 
 class PeriodicEvaluator {
  public:
@@ -57,6 +59,24 @@ class PeriodicEvaluator {
   /// eval/ directory decides for all ranks): the selection split's SPL in
   /// them (-1 when it is not evaluated). nullopt otherwise.
   std::optional<double> recorded(int index);
+
+  /// Evaluates the policy as checkpoint progress.checkpoint_index (see
+  /// evaluate()) and records its selection SPL with `keeper`; true when
+  /// training should stop (the keeper's patience is exhausted).
+  bool evaluateLatest(TrainingProgress& progress, CheckpointKeeper& keeper,
+                      int64_t updates,
+                      const std::shared_ptr<models::PolicyImpl>& policy,
+                      const models::ObservationEncoder& encoder,
+                      MetricsLog* metrics);
+
+  /// After a resume: the evaluation due after the last checkpoint
+  /// (progress.extra "eval_due") that did not finish before the
+  /// interruption is folded in from its files when they are complete, run
+  /// otherwise. False when none was due; else as evaluateLatest().
+  bool catchUp(TrainingProgress& progress, CheckpointKeeper& keeper,
+               int64_t updates,
+               const std::shared_ptr<models::PolicyImpl>& policy,
+               const models::ObservationEncoder& encoder, MetricsLog* metrics);
 
  private:
   ExperimentConfig config_;

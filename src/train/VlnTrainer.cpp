@@ -251,36 +251,21 @@ struct VlnTrainer::Impl {
     progress.extra["inflection_coef"] = learner->inflectionCoef();
     if (dist) progress.extra["world_size"] = dist->worldSize();
     if (!master()) return;  // the progress above is kept on every rank
-    Checkpoint ckpt;
-    ckpt.config_yaml = experimentConfigYaml(config);
-    ckpt.policy = models::namedState(*policy);
-    ckpt.optimizer_state = serializeOptimizer(learner->optimizer());
-    ckpt.progress = progress;
-    ckpt.rng_state = captureRngState();
-    checkpoints->save(ckpt);
+    checkpoints->save(trainingCheckpoint(experimentConfigYaml(config), *policy,
+                                         learner->optimizer(), progress));
   }
 
   // evaluates the latest checkpoint's policy; true when training should stop
   bool evaluate() {
-    const int index = progress.checkpoint_index;
-    const double spl = evaluator->evaluate(index, learner->updates(), policy,
-                                           encoder, metrics.get());
-    return checkpoints->recordEvaluation(progress, index, spl);
+    return evaluator->evaluateLatest(progress, *checkpoints, learner->updates(),
+                                     policy, encoder, metrics.get());
   }
 
   // an evaluation that was due after the last checkpoint but did not finish
   bool catchUpEvaluation() {
-    if (!resumed || !evaluator || !progress.extra.value("eval_due", false))
-      return false;
-    const int index = progress.checkpoint_index;
-    // finished before the interruption: fold its result in from the files
-    if (const std::optional<double> spl = evaluator->recorded(index))
-      return checkpoints->recordEvaluation(progress, index, *spl);
-    spdlog::info(
-        "evaluating checkpoint {} (its evaluation did not finish before the "
-        "interruption)",
-        index);
-    return evaluate();
+    return resumed && evaluator &&
+           evaluator->catchUp(progress, *checkpoints, learner->updates(),
+                              policy, encoder, metrics.get());
   }
 
   void finish(const std::string& reason) {
