@@ -29,6 +29,7 @@
 #include "rollout/ObservationBatch.h"
 #include "rollout/PolicyAgent.h"
 #include "rollout/ScriptedPolicyAgent.h"
+#include "train/WaypointAgentTrainer.h"
 #include "rollout/VectorEnv.h"
 #include "train/Checkpoint.h"
 #include "viz/EpisodePictures.h"
@@ -84,6 +85,15 @@ struct Candidate {
 std::unique_ptr<rollout::Agent> policyAgent(
     const train::ExperimentConfig& config, const fs::path& checkpoint) {
   const models::NamedTensors weights = train::loadCheckpoint(checkpoint).policy;
+  if (config.trainer.task == "waypoint_cma") {
+    train::validateWaypointAgentConfig(config);
+    train::WaypointAgentModels nets =
+        train::makeWaypointAgentModels(config, /*withEmbeddings=*/false);
+    models::loadStateStrict(*nets.policy, weights, checkpoint.string());
+    return train::makeWaypointAgent(config, nets, config.eval.num_envs,
+                                    config.eval.sample_actions,
+                                    static_cast<uint64_t>(config.eval.seed));
+  }
   // the trainer's construction order under its seed, so that encoders
   // without weight files get the initialisation the policy was trained with
   torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));

@@ -13,6 +13,7 @@
 #include "data/DatasetConfig.h"
 #include "models/ModelConfig.h"
 #include "rollout/EvalConfig.h"
+#include "rollout/WaypointAgentConfig.h"
 #include "sim/Panorama.h"
 #include "sim/SimConfig.h"
 #include "train/TextPretrainConfig.h"
@@ -74,11 +75,13 @@ struct TrainerConfig {
   void visit(common::ConfigVisitor& v) {
     v.choice("task", task,
              {"vln", "depth_pointnav", "rgb_semantic", "text_mlm",
-              "waypoint_predictor"},
+              "waypoint_predictor", "waypoint_cma"},
              "What the run trains: the VLN policy, or one of the encoder "
              "pretraining tasks that stand in for the downloads the paper uses "
              "(text_mlm: the text encoder of RxR's instruction features), or "
-             "the candidate-waypoint predictor (waypoint_predictor)");
+             "the candidate-waypoint predictor (waypoint_predictor), or the "
+             "CMA agent over candidate waypoints (waypoint_cma, "
+             "`waypoint_agent:`)");
     v.field("seed", seed,
             "Seed of everything random in the run (episode order, DAgger "
             "coins, initialisation)",
@@ -347,6 +350,7 @@ struct ExperimentConfig {
   OutputConfig output;
   sim::PanoramaConfig panorama;
   WaypointPretrainConfig waypoint;
+  rollout::WaypointAgentConfig waypoint_agent;
 
   void visit(common::ConfigVisitor& v) {
     v.section("sim", sim,
@@ -363,6 +367,9 @@ struct ExperimentConfig {
     v.section("waypoint", waypoint,
               "trainer.task waypoint_predictor: the candidate-waypoint "
               "predictor and its training");
+    v.section("waypoint_agent", waypoint_agent,
+              "trainer.task waypoint_cma: the agent over candidate waypoints "
+              "(docs/waypoints.md)");
   }
   bool operator==(const ExperimentConfig&) const = default;
 

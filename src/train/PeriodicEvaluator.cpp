@@ -74,6 +74,28 @@ double PeriodicEvaluator::evaluate(
     const std::shared_ptr<models::PolicyImpl>& policy,
     const models::ObservationEncoder& encoder, MetricsLog* metrics) {
   const rollout::EvalConfig& ec = config_.eval;
+  const double spl = evaluateAgent(
+      index, updates,
+      [&](const data::Split& split) {
+        auto agent = std::make_unique<rollout::PolicyAgent>(
+            policy, encoder, ec.num_envs, ec.sample_actions,
+            static_cast<uint64_t>(ec.seed),
+            config_.dataset.max_instruction_length);
+        if (config_.model.usesInstruction() && config_.model.usesTextFeatures())
+          agent->setInstructionFeatures(rollout::rxrTextFeatureSource(
+              config_.dataset.textFeaturesPath(), split.name,
+              config_.model.text_feature_dim));
+        return agent;
+      },
+      metrics);
+  policy->train();
+  return spl;
+}
+
+double PeriodicEvaluator::evaluateAgent(int index, int64_t updates,
+                                        const AgentForSplit& agentFor,
+                                        MetricsLog* metrics) {
+  const rollout::EvalConfig& ec = config_.eval;
   const bool writes = !dist_ || dist_->isMaster();
   // media only where TensorBoard is written (rank 0) and asked for
   const bool media = metrics != nullptr && metrics->tensorboard() &&
@@ -88,13 +110,7 @@ double PeriodicEvaluator::evaluate(
       mc.success_distance = config_.task.success_distance;
       observer = std::make_unique<viz::EpisodeMedia>(mc);
     }
-    rollout::PolicyAgent agent(policy, encoder, ec.num_envs, ec.sample_actions,
-                               static_cast<uint64_t>(ec.seed),
-                               config_.dataset.max_instruction_length);
-    if (config_.model.usesInstruction() && config_.model.usesTextFeatures())
-      agent.setInstructionFeatures(rollout::rxrTextFeatureSource(
-          config_.dataset.textFeaturesPath(), split.name,
-          config_.model.text_feature_dim));
+    const std::unique_ptr<rollout::Agent> agent = agentFor(split);
     rollout::SplitEvaluationOptions options;
     options.checkpoint = index;
     options.observer = observer.get();
@@ -110,7 +126,7 @@ double PeriodicEvaluator::evaluate(
       };
     }
     const rollout::SplitEvaluation result = rollout::evaluateSplit(
-        agent, split, scenes_, config_.sim, config_.task, ec, options);
+        *agent, split, scenes_, config_.sim, config_.task, ec, options);
     spdlog::info("{}", rollout::summaryLine(result));
     if (metrics) {
       const nlohmann::json values = rollout::metricsToJson(result.stats.mean);
@@ -128,7 +144,6 @@ double PeriodicEvaluator::evaluate(
     if (observer) writeMedia(observer->take(), split.name, index, *metrics);
     if (split.name == ec.selection_split) selectionSpl = result.stats.mean.spl;
   }
-  policy->train();
   return selectionSpl;
 }
 

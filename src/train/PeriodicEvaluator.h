@@ -20,6 +20,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -27,6 +28,7 @@
 #include "data/Split.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
+#include "rollout/Agent.h"
 #include "rollout/VectorEnv.h"
 #include "train/ExperimentConfig.h"
 #include "train/MetricsLog.h"
@@ -55,6 +57,14 @@ class PeriodicEvaluator {
                   const models::ObservationEncoder& encoder,
                   MetricsLog* metrics);
 
+  /// The agent evaluate() runs on `split` (built per split: an rxr_text
+  /// policy reads that split's text features).
+  using AgentForSplit =
+      std::function<std::unique_ptr<rollout::Agent>(const data::Split&)>;
+  /// evaluate() of any agent (the waypoint agent's trainer); the caller
+  /// restores its modules' training mode.
+  double evaluateAgent(int index, int64_t updates,
+                       const AgentForSplit& agentFor, MetricsLog* metrics);
   /// When every split's stats file of checkpoint `index` exists (rank 0's
   /// eval/ directory decides for all ranks): the selection split's SPL in
   /// them (-1 when it is not evaluated). nullopt otherwise.

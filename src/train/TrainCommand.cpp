@@ -20,6 +20,7 @@
 #include "train/RunDirectory.h"
 #include "train/TextPretrainer.h"
 #include "train/VlnTrainer.h"
+#include "train/WaypointAgentTrainer.h"
 #include "train/WaypointPretrainer.h"
 
 namespace vln::train {
@@ -75,11 +76,23 @@ TaskRunner taskRunner(const std::string& task) {
       {"depth_pointnav", pretraining(&runDepthPointNavPretraining)},
       {"rgb_semantic", pretraining(&runRgbSemanticPretraining)},
       {"text_mlm", pretraining(&runTextMlmPretraining)},
-      {"waypoint_predictor", pretraining(&runWaypointPredictorPretraining)}};
+      {"waypoint_predictor", pretraining(&runWaypointPredictorPretraining)},
+      {"waypoint_cma",
+       [](const ExperimentConfig& config, bool resume, Distributed* dist) {
+         VLN_CHECK_ARG(!resume,
+                       "train --resume: trainer.task 'waypoint_cma' cannot "
+                       "resume; delete ",
+                       config.output.dir, " and start again");
+         VLN_CHECK_ARG(dist == nullptr,
+                       "train: trainer.task waypoint_cma trains in one "
+                       "process only (unset WORLD_SIZE or set "
+                       "trainer.distributed: off)");
+         runWaypointAgentTraining(config, config.output.dir);
+       }}};
   auto it = runners.find(task);
   VLN_CHECK_ARG(it != runners.end(), "train: trainer.task '", task,
                 "' is unknown (available: vln, depth_pointnav, rgb_semantic, "
-                "text_mlm, waypoint_predictor)");
+                "text_mlm, waypoint_predictor, waypoint_cma)");
   return it->second;
 }
 

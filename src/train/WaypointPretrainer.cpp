@@ -85,40 +85,44 @@ std::vector<std::string> splitScenes(const ExperimentConfig& config,
 
 }  // namespace
 
-void validateWaypointPretrainConfig(const ExperimentConfig& config) {
-  const WaypointPretrainConfig& w = config.waypoint;
+void checkWaypointPanorama(const ExperimentConfig& config,
+                           std::string_view task) {
   const models::ModelConfig& m = config.model;
   sim::checkPanoramaConfig(config.panorama, "panorama");
-  VLN_CHECK_ARG(waypoint::kNumHeadings % config.panorama.num_views == 0, kTask,
+  VLN_CHECK_ARG(waypoint::kNumHeadings % config.panorama.num_views == 0, task,
                 ": panorama.num_views (", config.panorama.num_views,
                 ") must divide the ", waypoint::kNumHeadings, " heading bins");
-  VLN_CHECK_ARG(m.usesDepth() || m.usesRgb(), kTask,
+  VLN_CHECK_ARG(m.usesDepth() || m.usesRgb(), task,
                 ": model.no_depth and model.no_rgb leave no features");
   if (m.usesDepth()) {
     VLN_CHECK_ARG(m.depth_width == config.panorama.depth.camera.width &&
                       m.depth_height == config.panorama.depth.camera.height,
-                  kTask, ": model.depth_width x depth_height (", m.depth_width,
+                  task, ": model.depth_width x depth_height (", m.depth_width,
                   "x", m.depth_height,
                   ") must equal panorama.depth.width x "
                   "height (",
                   config.panorama.depth.camera.width, "x",
                   config.panorama.depth.camera.height, ")");
-    VLN_CHECK_ARG(!m.depth_trainable, kTask,
+    VLN_CHECK_ARG(!m.depth_trainable, task,
                   ": model.depth_trainable must be false (the encoders' "
                   "features are computed once and cached)");
   }
   if (m.usesRgb()) {
     VLN_CHECK_ARG(m.rgb_width == config.panorama.rgb.width &&
                       m.rgb_height == config.panorama.rgb.height,
-                  kTask, ": model.rgb_width x rgb_height (", m.rgb_width, "x",
+                  task, ": model.rgb_width x rgb_height (", m.rgb_width, "x",
                   m.rgb_height, ") must equal panorama.rgb.width x height (",
                   config.panorama.rgb.width, "x", config.panorama.rgb.height,
                   ")");
-    VLN_CHECK_ARG(!m.rgb_trainable, kTask,
+    VLN_CHECK_ARG(!m.rgb_trainable, task,
                   ": model.rgb_trainable must be false (the encoders' "
                   "features are computed once and cached)");
   }
-  w.predictor.validate("waypoint.predictor");
+}
+
+void validateWaypointPretrainConfig(const ExperimentConfig& config) {
+  checkWaypointPanorama(config, kTask);
+  config.waypoint.predictor.validate("waypoint.predictor");
 }
 
 waypoint::PredictorMetrics scoreWaypointLogits(

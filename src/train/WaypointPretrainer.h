@@ -42,6 +42,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -56,6 +57,11 @@ namespace vln::train {
 /// encoders, 120 divisible by the views, the predictor's heads. Throws
 /// std::invalid_argument naming the key.
 void validateWaypointPretrainConfig(const ExperimentConfig& config);
+
+/// The panorama checks of validateWaypointPretrainConfig(), shared with the
+/// waypoint agent's; errors begin with `task`.
+void checkWaypointPanorama(const ExperimentConfig& config,
+                           std::string_view task);
 
 /// Scores heatmap logits [N, 120, 12] of N panoramas against their
 /// targets (targets[i] for row i): softmax over the cells, heatmapNms()

@@ -1,0 +1,233 @@
+#include "models/WaypointCmaPolicy.h"
+
+#include <cmath>
+#include <limits>
+
+#include "common/Check.h"
+
+namespace vln::models {
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+constexpr int64_t kPrevFeatures = 4;  // sin, cos, distance / 3, start
+
+// [.., 2] heading, distance -> [.., 3] sin, cos, distance / 3
+torch::Tensor polarFeatures(const torch::Tensor& polar) {
+  const torch::Tensor heading = polar.select(-1, 0);
+  const torch::Tensor distance = polar.select(-1, 1);
+  return torch::stack(
+      {torch::sin(heading), torch::cos(heading), distance / 3.0}, -1);
+}
+
+// softmax attention of queries q [n, D] over values [n, M, Dv] with keys
+// [n, M, D] (mask [n, M] bool, true = attend; may be undefined)
+torch::Tensor attend(const torch::Tensor& q, const torch::Tensor& keys,
+                     const torch::Tensor& values, const torch::Tensor& mask) {
+  torch::Tensor scores = torch::bmm(keys, q.unsqueeze(2)).squeeze(2) /
+                         std::sqrt(static_cast<double>(q.size(1)));
+  if (mask.defined())
+    scores = scores.masked_fill(mask.logical_not(),
+                                -std::numeric_limits<float>::infinity());
+  const torch::Tensor alpha = torch::softmax(scores, 1);
+  return torch::bmm(alpha.unsqueeze(1), values).squeeze(1);
+}
+
+}  // namespace
+
+WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
+                                             int64_t numViews,
+                                             int64_t rgbFeatures,
+                                             int64_t depthFeatures)
+    : config_(config),
+      numViews_(numViews),
+      rgbFeatures_(rgbFeatures),
+      depthFeatures_(depthFeatures) {
+  VLN_CHECK_ARG(numViews >= 1, "WaypointCmaPolicy: numViews must be >= 1, got ",
+                numViews);
+  VLN_CHECK_ARG(config.usesRgb() || config.usesDepth(),
+                "WaypointCmaPolicy: model.no_rgb and model.no_depth leave "
+                "nothing to see");
+  namespace nn = torch::nn;
+  const int64_t hidden = config.hidden_size;
+  const int64_t prevDim = config.prev_action_embedding_dim;
+  int64_t viewIn = 2;  // sin, cos of the view's heading
+  if (config.usesRgb()) {
+    rgb_linear = register_module(
+        "rgb_linear", nn::Linear(rgbFeatures, config.rgb_projection_size));
+    viewIn += config.rgb_projection_size;
+  }
+  if (config.usesDepth()) {
+    depth_linear = register_module(
+        "depth_linear",
+        nn::Linear(depthFeatures, config.depth_projection_size));
+    viewIn += config.depth_projection_size;
+  }
+  view_linear = register_module("view_linear", nn::Linear(viewIn, hidden));
+  prev_linear =
+      register_module("prev_linear", nn::Linear(kPrevFeatures, prevDim));
+  state_encoder =
+      register_module("state_encoder", MaskedGru(hidden + prevDim, hidden));
+  int64_t compressIn = hidden + hidden + prevDim;
+  if (config.usesInstruction()) {
+    instruction_encoder =
+        register_module("instruction_encoder", InstructionEncoder(config));
+    const int64_t textDim = config.instructionStateSize();
+    state_q = register_module("state_q", nn::Linear(hidden, hidden));
+    text_k = register_module("text_k", nn::Linear(textDim, hidden));
+    text_q = register_module("text_q", nn::Linear(textDim, hidden));
+    compressIn += textDim;
+  } else {
+    visual_query = register_parameter(
+        "visual_query", torch::randn({hidden}) / std::sqrt(double(hidden)));
+  }
+  second_state_compress =
+      register_module("second_state_compress", nn::Linear(compressIn, hidden));
+  second_state_encoder =
+      register_module("second_state_encoder", MaskedGru(hidden, hidden));
+  candidate_linear =
+      register_module("candidate_linear", nn::Linear(hidden + 3, hidden));
+  stop_key = register_parameter(
+      "stop_key", torch::randn({hidden}) / std::sqrt(double(hidden)));
+  query_linear =
+      register_module("query_linear", nn::Linear(compressIn - prevDim, hidden));
+}
+
+EncodedInstruction WaypointCmaPolicyImpl::encodeInstruction(
+    const torch::Tensor& tokens) {
+  EncodedInstruction out;
+  if (!config_.usesInstruction()) return out;
+  const InstructionStates states = instruction_encoder(tokens);
+  out.states = states.states;
+  out.mask = states.mask;
+  out.keys = text_k(states.states);
+  return out;
+}
+
+torch::Tensor WaypointCmaPolicyImpl::encodeViews(
+    const WaypointPolicyInputs& inputs, int64_t n) {
+  std::vector<torch::Tensor> parts;
+  if (config_.usesRgb())
+    parts.push_back(torch::relu(
+        rgb_linear(inputs.rgb.reshape({n, numViews_, rgbFeatures_}))));
+  if (config_.usesDepth())
+    parts.push_back(torch::relu(
+        depth_linear(inputs.depth.reshape({n, numViews_, depthFeatures_}))));
+  const torch::Tensor angles =
+      torch::arange(numViews_, parts[0].options()) * (kTwoPi / numViews_);
+  parts.push_back(torch::stack({torch::sin(angles), torch::cos(angles)}, 1)
+                      .unsqueeze(0)
+                      .expand({n, numViews_, 2}));
+  return torch::relu(view_linear(torch::cat(parts, 2)));
+}
+
+WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
+    const EncodedInstruction& instruction, const WaypointPolicyInputs& inputs,
+    const torch::Tensor& hidden) {
+  VLN_CHECK_ARG(inputs.not_done.dim() == 2,
+                "WaypointCmaPolicy: not_done must be [T, B], got ",
+                inputs.not_done.sizes());
+  const int64_t steps = inputs.not_done.size(0);
+  const int64_t batch = inputs.not_done.size(1);
+  const int64_t n = steps * batch;
+  const int64_t H = config_.hidden_size;
+  const int64_t K = inputs.candidate_mask.size(-1);
+  VLN_CHECK_ARG(hidden.dim() == 3 && hidden.size(0) == batch &&
+                    hidden.size(1) == 2 && hidden.size(2) == H,
+                "WaypointCmaPolicy: hidden must be [", batch, ", 2, ", H,
+                "], got ", hidden.sizes());
+
+  const torch::Tensor views = encodeViews(inputs, n);  // [n, N, H]
+  const torch::Tensor notDone = inputs.not_done.reshape({n, 1});
+  const torch::Tensor prevFeatures = torch::cat(
+      {polarFeatures(inputs.prev.reshape({n, 2})) * notDone, 1.0 - notDone}, 1);
+  const torch::Tensor prev = torch::relu(prev_linear(prevFeatures));
+
+  const torch::Tensor gru1In =
+      torch::cat({views.mean(1), prev}, 1).view({steps, batch, -1});
+  auto [h1Seq, h1Last] =
+      state_encoder(gru1In, hidden.select(1, 0), inputs.not_done);
+  const torch::Tensor h1 = h1Seq.reshape({n, H});
+
+  std::vector<torch::Tensor> context{h1};
+  torch::Tensor visualQuery;
+  if (config_.usesInstruction()) {
+    // the instruction rows repeat over the T steps
+    const int64_t L = instruction.states.size(1);
+    auto perStep = [&](const torch::Tensor& t) {
+      return t.unsqueeze(0)
+          .expand({steps, batch, L, t.size(-1)})
+          .reshape({n, L, t.size(-1)});
+    };
+    const torch::Tensor mask =
+        instruction.mask.unsqueeze(0).expand({steps, batch, L}).reshape({n, L});
+    const torch::Tensor text = attend(state_q(h1), perStep(instruction.keys),
+                                      perStep(instruction.states), mask);
+    context.push_back(text);
+    visualQuery = text_q(text);
+  } else {
+    visualQuery = visual_query.unsqueeze(0).expand({n, H});
+  }
+  const torch::Tensor visual = attend(visualQuery, views, views, {});
+  context.push_back(visual);
+
+  const torch::Tensor compressed = torch::relu(
+      second_state_compress(torch::cat({torch::cat(context, 1), prev}, 1)));
+  auto [h2Seq, h2Last] = second_state_encoder(
+      compressed.view({steps, batch, H}), hidden.select(1, 1), inputs.not_done);
+  const torch::Tensor h2 = h2Seq.reshape({n, H});
+  context[0] = h2;
+  const torch::Tensor query = query_linear(torch::cat(context, 1));  // [n, H]
+
+  // each candidate reads the view nearest its heading
+  const torch::Tensor polar = inputs.candidates.reshape({n, K, 2});
+  const torch::Tensor viewIndex =
+      torch::remainder(torch::round(polar.select(2, 0) * (numViews_ / kTwoPi)),
+                       numViews_)
+          .to(torch::kLong);
+  const torch::Tensor candidateViews =
+      torch::gather(views, 1, viewIndex.unsqueeze(2).expand({n, K, H}));
+  const torch::Tensor keys = torch::cat(
+      {stop_key.view({1, 1, H}).expand({n, 1, H}),
+       candidate_linear(torch::cat({candidateViews, polarFeatures(polar)}, 2))},
+      1);  // [n, 1 + K, H]
+  torch::Tensor logits = torch::bmm(keys, query.unsqueeze(2)).squeeze(2) /
+                         std::sqrt(static_cast<double>(H));
+  const torch::Tensor valid =
+      torch::cat({torch::ones({n, 1}, inputs.candidate_mask.options()),
+                  inputs.candidate_mask.reshape({n, K})},
+                 1);
+  logits = logits.masked_fill(valid.logical_not(),
+                              -std::numeric_limits<float>::infinity());
+
+  WaypointPolicyOutputs out;
+  out.logits = logits.view({steps, batch, K + 1});
+  out.hidden = torch::stack({h1Last, h2Last}, 1);
+  return out;
+}
+
+WaypointPolicyOutputs WaypointCmaPolicyImpl::step(
+    const EncodedInstruction& instruction, const WaypointPolicyInputs& inputs,
+    const torch::Tensor& hidden) {
+  auto seq = [](const torch::Tensor& t) {
+    return t.defined() ? t.unsqueeze(0) : t;
+  };
+  WaypointPolicyInputs one{seq(inputs.rgb),        seq(inputs.depth),
+                           seq(inputs.candidates), seq(inputs.candidate_mask),
+                           seq(inputs.prev),       seq(inputs.not_done)};
+  WaypointPolicyOutputs out = forwardSequence(instruction, one, hidden);
+  out.logits = out.logits.squeeze(0);
+  return out;
+}
+
+torch::Tensor WaypointCmaPolicyImpl::initialHidden(int64_t batch) const {
+  const torch::Device device = view_linear->weight.device();
+  return torch::zeros({batch, 2, config_.hidden_size},
+                      torch::TensorOptions().device(device));
+}
+
+void WaypointCmaPolicyImpl::setWordEmbeddings(const torch::Tensor& matrix) {
+  if (!config_.usesInstruction()) return;
+  instruction_encoder->setWordEmbeddings(matrix);
+}
+
+}  // namespace vln::models

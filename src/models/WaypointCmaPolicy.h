@@ -1,0 +1,106 @@
+#pragma once
+// The cross-modal attention agent over candidate waypoints (issue 18), after
+// Hong et al.'s CMA with a waypoint predictor (CVPR 2022, "Bridging the Gap
+// Between Learning in Discrete and Continuous Environments for VLN") and
+// the paper's CMA (CmaPolicy.h): at each decision the agent sees a panorama
+// of N views and up to K candidate waypoints, and picks one or STOP.
+//
+//   e_k   = W_e [rgb_k', depth_k', sin, cos of view k's heading]   views
+//   h1_t  = GRU1([mean_k e_k, a_{t-1}])
+//   s_t   = Attn(S, W_s h1_t)                     instruction (as CmaPolicy)
+//   v_t   = Attn(E_t, W_t s_t)                    views
+//   h2_t  = GRU2(ReLU(W_c [h1_t, s_t, v_t, a_{t-1}]))
+//   c_j   = W_c' [e_{view(j)}, sin, cos, dist / 3]  candidate j, in the view
+//           nearest its heading; c_0 = a learned STOP key
+//   logit_j = (W_q [h2_t, s_t, v_t]) . c_j / sqrt(H), -inf where masked
+// with rgb_k' = ReLU(W_r rgb_k), depth_k' = ReLU(W_d depth_k) of the
+// flattened frozen encoder features, and a_{t-1} = ReLU(W_a [sin, cos,
+// dist / 3, start]) of the previous decision's candidate (relative heading
+// and distance when it was chosen; zeros and start = 1 at t = 0).
+//
+// Sequence mode (training): inputs [T, B, ...]; step mode (acting):
+// [B, ...]. Headings are radians counter-clockwise relative to the agent's
+// heading when the panorama was taken (waypoint/WaypointHeatmap.h); view k
+// looks k * 2*pi/N to the left. Index 0 of the logits is STOP, index j >= 1
+// candidate j - 1.
+
+#include <torch/torch.h>
+
+#include "models/InstructionEncoder.h"
+#include "models/MaskedGru.h"
+#include "models/ModelConfig.h"
+#include "models/Policy.h"
+
+namespace vln::models {
+
+struct WaypointPolicyInputs {
+  torch::Tensor rgb;    ///< [.., N, F_rgb] float; undefined with no_rgb
+  torch::Tensor depth;  ///< [.., N, F_depth] float; undefined with no_depth
+  /// [.., K, 2] float: relative heading (rad), distance (m) of each
+  /// candidate slot (anything where the mask is false)
+  torch::Tensor candidates;
+  torch::Tensor candidate_mask;  ///< [.., K] bool, true at real candidates
+  torch::Tensor prev;            ///< [.., 2] heading, distance of a_{t-1}
+  torch::Tensor not_done;        ///< [..] float 0/1, 0 at an episode's start
+};
+
+struct WaypointPolicyOutputs {
+  torch::Tensor logits;  ///< [.., 1 + K]: STOP, then the candidates
+  torch::Tensor hidden;  ///< [B, 2, hidden_size] after the last step
+};
+
+class WaypointCmaPolicyImpl : public torch::nn::Module {
+ public:
+  /// Sizes from `config` (hidden_size, rgb/depth_projection_size,
+  /// prev_action_embedding_dim, the instruction encoder's; no_rgb,
+  /// no_depth, no_instruction); `rgbFeatures` / `depthFeatures` are the
+  /// flattened encoder features of one view (rgbFeatureShape(),
+  /// depthFeatureShape()), `numViews` the panorama's views.
+  WaypointCmaPolicyImpl(const ModelConfig& config, int64_t numViews,
+                        int64_t rgbFeatures, int64_t depthFeatures);
+
+  /// Token ids [B, L] (PAD 0) -> the encoded instruction (keys, states,
+  /// mask); empty when model.no_instruction.
+  EncodedInstruction encodeInstruction(const torch::Tensor& tokens);
+
+  /// Sequence mode: inputs [T, B, ...], hidden [B, 2, H] before t = 0.
+  WaypointPolicyOutputs forwardSequence(const EncodedInstruction& instruction,
+                                        const WaypointPolicyInputs& inputs,
+                                        const torch::Tensor& hidden);
+  /// Step mode: inputs [B, ...].
+  WaypointPolicyOutputs step(const EncodedInstruction& instruction,
+                             const WaypointPolicyInputs& inputs,
+                             const torch::Tensor& hidden);
+
+  torch::Tensor initialHidden(int64_t batch) const;
+  /// Copies GloVe [vocab_size, embedding_dim] into the instruction encoder.
+  void setWordEmbeddings(const torch::Tensor& matrix);
+
+  const ModelConfig& config() const { return config_; }
+  int64_t numViews() const { return numViews_; }
+
+  InstructionEncoder instruction_encoder{nullptr};
+  torch::nn::Linear rgb_linear{nullptr}, depth_linear{nullptr};
+  torch::nn::Linear view_linear{nullptr};
+  torch::nn::Linear prev_linear{nullptr};
+  MaskedGru state_encoder{nullptr};
+  torch::nn::Linear state_q{nullptr}, text_k{nullptr}, text_q{nullptr};
+  torch::Tensor visual_query;  ///< [hidden] with no_instruction
+  torch::nn::Linear second_state_compress{nullptr};
+  MaskedGru second_state_encoder{nullptr};
+  torch::nn::Linear candidate_linear{nullptr};
+  torch::Tensor stop_key;  ///< [hidden]
+  torch::nn::Linear query_linear{nullptr};
+
+ private:
+  // views [n, N, H] from the features of n steps
+  torch::Tensor encodeViews(const WaypointPolicyInputs& inputs, int64_t n);
+
+  ModelConfig config_;
+  int64_t numViews_;
+  int64_t rgbFeatures_;
+  int64_t depthFeatures_;
+};
+TORCH_MODULE(WaypointCmaPolicy);
+
+}  // namespace vln::models

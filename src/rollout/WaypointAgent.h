@@ -1,0 +1,129 @@
+#pragma once
+// The waypoint agent (issue 18) as an evaluation Agent: at each decision it
+// renders a panorama (sim/Panorama.h), encodes its views with the frozen
+// encoders, asks the candidate source (the learned predictor or the
+// depth-only baseline) for up to waypoint_agent.max_candidates waypoints,
+// and the waypoint CMA (models/WaypointCmaPolicy.h) picks one or STOP. The
+// chosen waypoint is executed with low-level actions (waypoint::
+// planApproach(): turns, then 0.25 m forward steps with collisions and
+// sliding), one per act(), so the evaluator, its metrics, the step limit
+// (task.max_episode_steps) and the maps see an ordinary low-level agent.
+// After waypoint_agent.max_decisions decisions the agent STOPs.
+//
+// For training (train/WaypointAgentTrainer.h) the agent also labels every
+// decision with the oracle (waypoint::oracleChoice()), follows it with
+// probability beta (DAgger), and records what the policy saw: the views'
+// features (fp16), the candidates, the previous decision and the label.
+//
+// Batching does not change behaviour: instructions are encoded per
+// episode, recurrent state is per environment, and draws come from a
+// per-episode generator (common::episodeSeed()).
+
+#include <ATen/core/Tensor.h>
+
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <span>
+#include <vector>
+
+#include "models/ObservationEncoder.h"
+#include "models/Policy.h"
+#include "models/WaypointCmaPolicy.h"
+#include "models/WaypointPredictor.h"
+#include "rollout/Agent.h"
+#include "rollout/WaypointAgentConfig.h"
+#include "sim/Panorama.h"
+#include "waypoint/WaypointHeatmap.h"
+
+namespace vln::rollout {
+
+/// How the learned predictor's heatmap becomes candidates
+/// (waypoint::heatmapNms()).
+struct CandidateNms {
+  int max_candidates = 5;
+  int heading_radius = 7;
+  int distance_radius = 5;
+  float min_score = 0.0f;
+};
+
+/// One decision as the policy saw it, with the oracle's label.
+struct WaypointDecision {
+  at::Tensor rgb;    ///< [N, F_rgb] fp16 on the CPU; undefined with no_rgb
+  at::Tensor depth;  ///< [N, F_depth] fp16; undefined with no_depth
+  std::vector<waypoint::Candidate> candidates;  ///< at most max_candidates
+  float prev_heading = 0.0f;   ///< the previous decision's candidate
+  float prev_distance = 0.0f;  ///< (0 at the first decision)
+  int label = 0;               ///< oracle: 0 STOP, j + 1 candidate j
+  int taken = 0;               ///< what the agent did, same coding
+};
+
+/// Training-time behaviour (WaypointAgent::collect()).
+struct WaypointCollection {
+  double beta = 1.0;   ///< probability of taking the oracle's choice
+  bool sample = true;  ///< otherwise sample the policy (else its argmax)
+  uint64_t seed = 0;   ///< of the per-episode draws
+};
+
+class WaypointAgent : public Agent {
+ public:
+  /// `predictor` may be null with candidates: depth_baseline. The policy,
+  /// encoder and predictor run in eval mode under NoGradGuard. `agent` is
+  /// the low-level action space (sim.agent).
+  WaypointAgent(std::shared_ptr<models::WaypointCmaPolicyImpl> policy,
+                models::ObservationEncoder encoder,
+                models::WaypointPredictor predictor, CandidateNms nms,
+                const WaypointAgentConfig& config,
+                const sim::PanoramaConfig& panorama,
+                const sim::AgentConfig& agent, int numEnvs, bool sampleActions,
+                uint64_t seed, int maxInstructionLength);
+  ~WaypointAgent() override;
+
+  /// Label every decision with the oracle, follow it with probability
+  /// `collection.beta` and record the decisions (takeDecisions()).
+  void collect(const WaypointCollection& collection);
+
+  void reset(int env, const data::Episode& episode) override;
+  std::vector<sim::Action> act(VectorEnv& envs,
+                               std::span<const int> active) override;
+  bool needsObservations() const override { return false; }
+
+  /// The decisions recorded in environment `env` since its reset() (with
+  /// collect()), moved out.
+  std::vector<WaypointDecision> takeDecisions(int env);
+  /// Decisions made in `env`'s current episode.
+  int decisions(int env) const;
+
+ private:
+  struct Slot;
+  void decide(VectorEnv& envs, std::span<const int> deciding);
+
+  std::shared_ptr<models::WaypointCmaPolicyImpl> policy_;
+  models::ObservationEncoder encoder_;
+  models::WaypointPredictor predictor_;
+  CandidateNms nms_;
+  WaypointAgentConfig config_;
+  sim::PanoramaConfig panorama_;
+  sim::AgentConfig agent_;
+  bool sample_;
+  uint64_t seed_;
+  int maxInstructionLength_;
+  bool collecting_ = false;
+  WaypointCollection collection_;
+  std::vector<std::unique_ptr<Slot>> slots_;
+};
+
+/// The recorded episodes `episodes` (each a decision sequence, in order) as
+/// one training batch: WaypointPolicyInputs [T, B, ...] with T the longest
+/// episode and K = `maxCandidates` slots, padded after each episode's end
+/// (not_done 0, no candidates), features as float; labels [T, B] int64
+/// with -1 on the padding.
+struct WaypointBatch {
+  models::WaypointPolicyInputs inputs;
+  at::Tensor labels;
+};
+WaypointBatch batchDecisions(
+    std::span<const std::vector<WaypointDecision>* const> episodes,
+    int maxCandidates);
+
+}  // namespace vln::rollout

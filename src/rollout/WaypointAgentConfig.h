@@ -1,0 +1,57 @@
+#pragma once
+// Settings of the waypoint agent (rollout/WaypointAgent.h) and its training
+// (trainer.task = waypoint_cma, train/WaypointAgentTrainer.h): YAML section
+// `waypoint_agent:`. No LibTorch.
+
+#include <string>
+
+#include "common/Config.h"
+#include "waypoint/DepthWaypointBaseline.h"
+#include "waypoint/WaypointApproach.h"
+
+namespace vln::rollout {
+
+struct WaypointAgentConfig {
+  /// Where the candidates come from: the learned predictor (its weights in
+  /// predictor_weights, its network as `waypoint.predictor`, non-maximum
+  /// suppression as `waypoint.nms_*`) or the depth-only baseline.
+  std::string candidates = "predictor";
+  std::string predictor_weights =
+      "runs/waypoint/predictor/waypoint_predictor.pt";
+  /// Candidate slots of the policy (more candidates are dropped, the
+  /// lowest scores first).
+  int max_candidates = 5;
+  /// Decisions per episode; the agent STOPs at the next one.
+  int max_decisions = 15;
+  /// What the training oracle aims for: the episode's goal, or the next
+  /// reference-path waypoint not yet within stop_distance (then the goal).
+  std::string oracle = "goal";
+  waypoint::ApproachConfig approach;
+  waypoint::DepthBaselineConfig depth_baseline;
+
+  void visit(common::ConfigVisitor& v) {
+    v.choice("candidates", candidates, {"predictor", "depth_baseline"},
+             "Candidate waypoints from the learned predictor "
+             "(predictor_weights) or the depth-only baseline");
+    v.field("predictor_weights", predictor_weights,
+            "Weights of the learned predictor (trainer.task "
+            "waypoint_predictor's output), built as waypoint.predictor");
+    v.field("max_candidates", max_candidates,
+            "Candidates the policy chooses among (besides STOP)",
+            common::inRange(1, 120));
+    v.field("max_decisions", max_decisions,
+            "Waypoint decisions per episode; then the agent STOPs",
+            common::inRange(1, 10000));
+    v.choice("oracle", oracle, {"goal", "reference_path"},
+             "The training oracle picks the candidate whose approach ends "
+             "nearest the goal, or nearest the next reference-path waypoint "
+             "not yet reached");
+    v.section("approach", approach,
+              "Executing a waypoint and the oracle's stopping rule");
+    v.section("depth_baseline", depth_baseline,
+              "The depth-only candidates (candidates: depth_baseline)");
+  }
+  bool operator==(const WaypointAgentConfig&) const = default;
+};
+
+}  // namespace vln::rollout

@@ -1,0 +1,357 @@
+#include "train/WaypointAgentTrainer.h"
+
+#include <spdlog/spdlog.h>
+
+#include <numeric>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "common/Check.h"
+#include "common/Progress.h"
+#include "common/Random.h"
+#include "models/StateDict.h"
+#include "rollout/EpisodeScheduler.h"
+#include "rollout/ObservationBatch.h"
+#include "train/Checkpoint.h"
+#include "train/CheckpointKeeper.h"
+#include "train/MetricsLog.h"
+#include "train/PeriodicEvaluator.h"
+#include "train/TrainingData.h"
+#include "train/TrainingSchedule.h"
+#include "train/WaypointPretrainer.h"
+
+namespace vln::train {
+namespace fs = std::filesystem;
+namespace {
+
+constexpr const char* kTask = "waypoint_cma";
+
+int64_t flatSize(const models::FeatureShape& shape) {
+  return shape[0] * shape[1] * shape[2];
+}
+
+// one episode's decisions and its instruction
+struct CollectedEpisode {
+  const data::Episode* episode = nullptr;
+  std::vector<rollout::WaypointDecision> decisions;
+};
+
+// a collection round: the agent runs the episodes and hands over what it
+// recorded, in the order the episodes end
+class DecisionCollection : public rollout::EpisodeJob {
+ public:
+  DecisionCollection(std::span<const data::Episode* const> episodes,
+                     rollout::WaypointAgent& agent, rollout::VectorEnv& envs,
+                     std::vector<CollectedEpisode>& out)
+      : episodes_(episodes), agent_(agent), envs_(envs), out_(out) {}
+  /// Episodes that ended within their goal's radius.
+  int64_t successes() const { return successes_; }
+  rollout::EpisodeStart startOf(int index) override {
+    return rollout::EpisodeStart::of(*episodes_[static_cast<size_t>(index)]);
+  }
+  void started(const rollout::EnvBatch& batch) override {
+    for (size_t k = 0; k < batch.size(); ++k)
+      agent_.reset(batch.envs[k],
+                   *episodes_[static_cast<size_t>(batch.episodes[k])]);
+  }
+  std::vector<sim::Action> act(const rollout::EnvBatch& running) override {
+    return agent_.act(envs_, running.envs);
+  }
+  void finished(const rollout::EnvBatch& ended) override {
+    for (size_t k = 0; k < ended.size(); ++k) {
+      CollectedEpisode e;
+      e.episode = episodes_[static_cast<size_t>(ended.episodes[k])];
+      // how far from the goal the round's driver (oracle and policy) ends
+      const float distance =
+          envs_.simulator(ended.envs[k])
+              .scene()
+              .navmesh()
+              .geodesicDistance(envs_.state(ended.envs[k]).agent.position,
+                                e.episode->goals.front().position);
+      if (distance <= e.episode->goals.front().radius) ++successes_;
+      e.decisions = agent_.takeDecisions(ended.envs[k]);
+      if (!e.decisions.empty()) out_.push_back(std::move(e));
+    }
+  }
+
+ private:
+  std::span<const data::Episode* const> episodes_;
+  rollout::WaypointAgent& agent_;
+  rollout::VectorEnv& envs_;
+  std::vector<CollectedEpisode>& out_;
+  int64_t successes_ = 0;
+};
+
+}  // namespace
+
+void validateWaypointAgentConfig(const ExperimentConfig& config) {
+  checkWaypointPanorama(config, kTask);
+  VLN_CHECK_ARG(!config.model.usesTextFeatures(), kTask,
+                ": model.instruction_features must be tokens");
+  VLN_CHECK_ARG(config.trainer.mode == "dagger", kTask,
+                ": trainer.mode must be dagger (the agent's rounds are "
+                "collected by the waypoint oracle)");
+  if (config.waypoint_agent.candidates == "predictor") {
+    config.waypoint.predictor.validate("waypoint.predictor");
+    VLN_CHECK_ARG(!config.waypoint_agent.predictor_weights.empty(), kTask,
+                  ": waypoint_agent.predictor_weights is empty (train one "
+                  "with configs/waypoint/predictor.yaml, or set "
+                  "waypoint_agent.candidates: depth_baseline)");
+  }
+}
+
+WaypointAgentModels makeWaypointAgentModels(const ExperimentConfig& config,
+                                            bool withEmbeddings) {
+  const models::ModelConfig& m = config.model;
+  torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
+  WaypointAgentModels out;
+  out.policy = std::make_shared<models::WaypointCmaPolicyImpl>(
+      m, config.panorama.num_views,
+      m.usesRgb() ? flatSize(models::rgbFeatureShape(m)) : 0,
+      m.usesDepth() ? flatSize(models::depthFeatureShape(m)) : 0);
+  if (withEmbeddings && m.usesInstruction())
+    out.policy->setWordEmbeddings(embeddingTensor(config));
+  out.encoder = models::ObservationEncoder(m);
+  out.encoder->loadPretrained();
+  if (config.waypoint_agent.candidates == "predictor") {
+    const fs::path file = config.waypoint_agent.predictor_weights;
+    VLN_CHECK_IO(fs::exists(file), kTask,
+                 ": waypoint_agent.predictor_weights '", file.string(),
+                 "' does not exist (train it with configs/waypoint/"
+                 "predictor.yaml)");
+    out.predictor = models::makeWaypointPredictor(m, config.waypoint.predictor,
+                                                  config.panorama.num_views);
+    models::loadModule(*out.predictor, file);
+    out.predictor->eval();
+  }
+  const torch::Device device = models::modelDevice(m);
+  out.policy->to(device);
+  out.encoder->to(device);
+  if (!out.predictor.is_empty()) out.predictor->to(device);
+  return out;
+}
+
+std::unique_ptr<rollout::WaypointAgent> makeWaypointAgent(
+    const ExperimentConfig& config, const WaypointAgentModels& models,
+    int numEnvs, bool sampleActions, uint64_t seed) {
+  const WaypointPretrainConfig& w = config.waypoint;
+  rollout::CandidateNms nms;
+  nms.max_candidates = w.nms_max_candidates;
+  nms.heading_radius = w.nms_heading_radius;
+  nms.distance_radius = w.nms_distance_radius;
+  nms.min_score = static_cast<float>(w.nms_min_score);
+  return std::make_unique<rollout::WaypointAgent>(
+      models.policy, models.encoder, models.predictor, nms,
+      config.waypoint_agent, config.panorama, config.sim.agent, numEnvs,
+      sampleActions, seed, config.dataset.max_instruction_length);
+}
+
+void runWaypointAgentTraining(const ExperimentConfig& config,
+                              const fs::path& runDir) {
+  validateWaypointAgentConfig(config);
+  common::Stopwatch clock;
+  const TrainerConfig& tc = config.trainer;
+  const rollout::EvalConfig& ec = config.eval;
+  fs::create_directories(runDir / "checkpoints");
+
+  TrainingData data = TrainingData::load(config);
+  WaypointAgentModels nets = makeWaypointAgentModels(config, true);
+  const std::shared_ptr<models::WaypointCmaPolicyImpl>& policy = nets.policy;
+  std::vector<torch::Tensor> parameters;
+  for (const torch::Tensor& p : policy->parameters())
+    if (p.requires_grad()) parameters.push_back(p);
+  torch::optim::Adam optimizer(parameters, torch::optim::AdamOptions(tc.lr));
+  int64_t parameterCount = 0;
+  for (const torch::Tensor& p : parameters) parameterCount += p.numel();
+
+  auto scenes = std::make_shared<rollout::SceneCache>(config.sim);
+  rollout::VectorEnv envs(tc.num_envs, config.sim, config.task, scenes,
+                          tc.env_threads);
+  std::unique_ptr<PeriodicEvaluator> evaluator;
+  if (tc.eval_during_training)
+    evaluator = std::make_unique<PeriodicEvaluator>(config, scenes, nullptr);
+  CheckpointKeeper keeper(config, runDir / "checkpoints", true);
+  MetricsLog metrics(runDir / "metrics.jsonl",
+                     config.output.tensorboard ? runDir / "tb" : fs::path());
+  metrics.write("start",
+                {{"resumed", false},
+                 {"checkpoint", -1},
+                 {"updates", 0},
+                 {"setup_seconds", clock.seconds()}},
+                {}, 0);
+  spdlog::info(
+      "{}: {} trainable policy parameters, candidates from {}, {} "
+      "training episodes in the pool",
+      kTask, parameterCount, config.waypoint_agent.candidates,
+      data.pool.size());
+
+  const TrainingSchedule schedule(tc);
+  TrainingProgress progress;
+  progress.checkpoint_index = -1;
+  progress.stage = schedule.dagger() ? "dagger" : "teacher_forcing";
+  const int K = config.waypoint_agent.max_candidates;
+  const torch::Device device = models::modelDevice(config.model);
+  std::vector<CollectedEpisode> collected;
+  std::mt19937_64 orderRng(
+      common::deriveSeed(static_cast<uint64_t>(tc.seed), 17));
+  bool stop = false;
+
+  for (const ScheduledIteration& iteration : schedule.remaining(0, 0)) {
+    if (stop) break;
+    if (iteration.collect) {
+      common::Stopwatch roundClock;
+      std::vector<const data::Episode*> episodes;
+      for (size_t i :
+           schedule.roundEpisodes(iteration.iteration, data.pool.size()))
+        episodes.push_back(data.pool[i]);
+      const std::unique_ptr<rollout::WaypointAgent> agent =
+          makeWaypointAgent(config, nets, tc.num_envs, false, 0);
+      rollout::WaypointCollection how;
+      how.beta = schedule.beta(iteration.iteration);
+      how.sample = tc.dagger_action == "sample";
+      how.seed =
+          common::deriveSeed(static_cast<uint64_t>(tc.seed),
+                             1000 + static_cast<uint64_t>(iteration.iteration));
+      agent->collect(how);
+      const size_t before = collected.size();
+      DecisionCollection job(episodes, *agent, envs, collected);
+      const rollout::RolloutCounts counts = rollout::runEpisodes(
+          envs, static_cast<int>(episodes.size()), job, /*render=*/false);
+      int64_t decisions = 0;
+      for (size_t i = before; i < collected.size(); ++i)
+        decisions += static_cast<int64_t>(collected[i].decisions.size());
+      policy->train();
+      const double success =
+          counts.episodes > 0
+              ? static_cast<double>(job.successes()) / counts.episodes
+              : 0.0;
+      spdlog::info(
+          "{}: round {} (beta {:.3f}): {} episodes, {} decisions, {} steps in "
+          "{:.1f} s, {:.3f} ended within the goal radius; {} episodes "
+          "aggregated",
+          kTask, iteration.iteration, how.beta, counts.episodes, decisions,
+          counts.steps, roundClock.seconds(), success, collected.size());
+      metrics.write("collect",
+                    {{"iteration", iteration.iteration},
+                     {"beta", how.beta},
+                     {"episodes", counts.episodes},
+                     {"decisions", decisions},
+                     {"steps", counts.steps},
+                     {"success", success},
+                     {"seconds", roundClock.seconds()}},
+                    {}, progress.updates);
+    }
+
+    for (const ScheduledEpoch& epoch : iteration.epochs) {
+      common::Stopwatch epochClock;
+      std::vector<size_t> order(collected.size());
+      std::iota(order.begin(), order.end(), size_t{0});
+      common::deterministicShuffle(order, orderRng);
+      double lossSum = 0.0;
+      int64_t correct = 0, labelled = 0, batches = 0;
+      policy->train();
+      for (size_t start = 0; start < order.size(); start += tc.batch_size) {
+        const size_t end = std::min(order.size(), start + tc.batch_size);
+        std::vector<const std::vector<rollout::WaypointDecision>*> rows;
+        std::vector<const data::Episode*> instructions;
+        for (size_t i = start; i < end; ++i) {
+          rows.push_back(&collected[order[i]].decisions);
+          instructions.push_back(collected[order[i]].episode);
+        }
+        rollout::WaypointBatch batch = rollout::batchDecisions(rows, K);
+        auto& in = batch.inputs;
+        for (torch::Tensor* t : {&in.rgb, &in.depth, &in.candidates,
+                                 &in.candidate_mask, &in.prev, &in.not_done})
+          if (t->defined()) *t = t->to(device);
+        const torch::Tensor labels = batch.labels.to(device).reshape({-1});
+        const models::EncodedInstruction instruction =
+            policy->encodeInstruction(
+                rollout::batchInstructions(
+                    instructions, config.dataset.max_instruction_length)
+                    .to(device));
+        const models::WaypointPolicyOutputs out = policy->forwardSequence(
+            instruction, in,
+            policy->initialHidden(static_cast<int64_t>(rows.size())));
+        const torch::Tensor logits = out.logits.reshape({labels.size(0), -1});
+        const torch::Tensor loss = torch::nn::functional::cross_entropy(
+            logits, labels,
+            torch::nn::functional::CrossEntropyFuncOptions().ignore_index(-1));
+        optimizer.zero_grad();
+        loss.backward();
+        optimizer.step();
+        ++progress.updates;
+        ++batches;
+        lossSum += loss.item<double>();
+        {
+          torch::NoGradGuard noGrad;
+          const torch::Tensor valid = labels.ge(0);
+          correct += logits.argmax(1)
+                         .eq(labels)
+                         .logical_and(valid)
+                         .sum()
+                         .item<int64_t>();
+          labelled += valid.sum().item<int64_t>();
+        }
+        if (progress.updates % tc.log_every_updates == 0)
+          metrics.write("train",
+                        {{"loss", loss.item<double>()},
+                         {"iteration", iteration.iteration},
+                         {"epoch", epoch.epoch}},
+                        {{"train/loss", loss.item<double>()}},
+                        progress.updates);
+      }
+      const double meanLoss = batches > 0 ? lossSum / batches : 0.0;
+      const double accuracy =
+          labelled > 0 ? static_cast<double>(correct) / labelled : 0.0;
+      spdlog::info(
+          "{}: iteration {} epoch {}: {} updates, loss {:.4f}, label accuracy "
+          "{:.3f} over {} decisions, {:.1f} s",
+          kTask, iteration.iteration, epoch.epoch, batches, meanLoss, accuracy,
+          labelled, epochClock.seconds());
+      metrics.write(
+          "epoch",
+          {{"iteration", iteration.iteration},
+           {"epoch", epoch.epoch},
+           {"loss", meanLoss},
+           {"accuracy", accuracy},
+           {"updates", progress.updates},
+           {"seconds", epochClock.seconds()}},
+          {{"train/epoch_loss", meanLoss}, {"train/label_accuracy", accuracy}},
+          progress.updates);
+
+      ++progress.checkpoint_index;
+      progress.dagger_iteration = epoch.iterations_done;
+      progress.epoch = epoch.epochs_done;
+      Checkpoint checkpoint;
+      checkpoint.config_yaml = experimentConfigYaml(config);
+      checkpoint.policy = models::namedState(*policy);
+      checkpoint.optimizer_state = serializeOptimizer(optimizer);
+      checkpoint.progress = progress;
+      checkpoint.rng_state = captureRngState();
+      keeper.save(checkpoint);
+
+      if (evaluator && epoch.evaluate_after) {
+        const int index = progress.checkpoint_index;
+        const double spl = evaluator->evaluateAgent(
+            index, progress.updates,
+            [&](const data::Split&) -> std::unique_ptr<rollout::Agent> {
+              return makeWaypointAgent(config, nets, ec.num_envs,
+                                       ec.sample_actions,
+                                       static_cast<uint64_t>(ec.seed));
+            },
+            &metrics);
+        policy->train();
+        if (keeper.recordEvaluation(progress, index, spl)) {
+          spdlog::info("{}: early stopping after checkpoint {}", kTask, index);
+          stop = true;
+          break;
+        }
+      }
+    }
+  }
+  spdlog::info("{}: done in {:.1f} s, {} updates; best checkpoint {}", kTask,
+               clock.seconds(), progress.updates, progress.best_checkpoint);
+}
+
+}  // namespace vln::train

@@ -1,0 +1,70 @@
+#pragma once
+// Training the CMA agent over candidate waypoints (trainer.task =
+// waypoint_cma; issue 18, docs/waypoints.md) by DAgger, as Hong et al.
+// (CVPR 2022) train theirs, on the trainer's usual schedule
+// (train/TrainingSchedule.h: trainer.dagger_iterations, dagger_episodes,
+// dagger_beta, dagger_epochs, evaluate_every; teacher forcing is round 0,
+// beta = 1):
+//
+//  - Collection: the agent (rollout/WaypointAgent.h) runs the round's
+//    episodes on trainer.num_envs environments; at every decision the
+//    oracle labels the candidates (waypoint::oracleChoice(): the one whose
+//    approach ends nearest the goal by geodesic distance, or STOP), the agent
+//    takes the oracle's choice with probability beta, else its own (sampled
+//    with trainer.dagger_action: sample), and records what it saw. The
+//    decisions of every round stay in memory (features as fp16: about
+//    N * (F_rgb + F_depth) * 2 bytes per decision) and are aggregated.
+//  - Learning: cross-entropy of the policy's logits (STOP and the
+//    candidates) against the labels over whole decision sequences,
+//    batches of trainer.batch_size episodes, Adam at trainer.lr.
+//  - After each epoch: a checkpoint (ckpt.<i>.pth, the policy's tensors
+//    only; the encoders and the predictor are frozen files named by the
+//    config) and, as the schedule says, an evaluation on eval.splits
+//    (eval.train_eval_episodes each) through the trainer's validation
+//    (train/PeriodicEvaluator.h), the best by eval.selection_split SPL in
+//    checkpoints/best.json. `eval` scores the checkpoints like any other.
+//
+// train --resume is refused: a run is minutes long on the default world.
+
+#include <filesystem>
+#include <memory>
+
+#include "models/ObservationEncoder.h"
+#include "models/WaypointCmaPolicy.h"
+#include "models/WaypointPredictor.h"
+#include "rollout/WaypointAgent.h"
+#include "train/ExperimentConfig.h"
+
+namespace vln::train {
+
+/// Checks what the YAML bounds cannot: the panorama (sim::
+/// checkPanoramaConfig()), its image sizes equal to the model's, frozen
+/// encoders, token instructions, 120 divisible by the views. Throws
+/// std::invalid_argument naming the key.
+void validateWaypointAgentConfig(const ExperimentConfig& config);
+
+/// The networks of a waypoint agent built from `config` under
+/// trainer.seed: the policy (initialised, GloVe copied in), the frozen
+/// encoders with their weight files, the predictor with
+/// waypoint_agent.predictor_weights (none with candidates: depth_baseline).
+struct WaypointAgentModels {
+  std::shared_ptr<models::WaypointCmaPolicyImpl> policy;
+  models::ObservationEncoder encoder{nullptr};
+  models::WaypointPredictor predictor{nullptr};
+};
+/// `withEmbeddings`: copy dataset.embeddings into the policy (a new run;
+/// a checkpoint brings its own).
+WaypointAgentModels makeWaypointAgentModels(const ExperimentConfig& config,
+                                            bool withEmbeddings);
+
+/// An agent over `models` with `numEnvs` environments, non-maximum
+/// suppression from waypoint.nms_*.
+std::unique_ptr<rollout::WaypointAgent> makeWaypointAgent(
+    const ExperimentConfig& config, const WaypointAgentModels& models,
+    int numEnvs, bool sampleActions, uint64_t seed);
+
+/// trainer.task = waypoint_cma. Expects logging set up.
+void runWaypointAgentTraining(const ExperimentConfig& config,
+                              const std::filesystem::path& runDir);
+
+}  // namespace vln::train

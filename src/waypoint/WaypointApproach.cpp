@@ -1,0 +1,69 @@
+#include "waypoint/WaypointApproach.h"
+
+#include <cmath>
+#include <limits>
+
+#include "sim/NavMesh.h"
+
+namespace vln::waypoint {
+
+int turnsTowards(const sim::AgentConfig& agent, float heading) {
+  const float step = agent.turn_angle * kPi / 180.0f;
+  return static_cast<int>(std::lround(wrapAngle(heading) / step));
+}
+
+Approach planApproach(const sim::NavMesh& navmesh,
+                      const sim::AgentConfig& agent,
+                      const sim::AgentState& start, float heading,
+                      float distance, const ApproachConfig& config) {
+  Approach approach;
+  approach.end = start;
+  const int turns = turnsTowards(agent, heading);
+  const sim::Action turn =
+      turns >= 0 ? sim::Action::kTurnLeft : sim::Action::kTurnRight;
+  for (int i = 0; i < std::abs(turns); ++i) {
+    sim::applyAction(navmesh, agent, approach.end, turn);
+    approach.actions.push_back(turn);
+  }
+  approach.turns = std::abs(turns);
+  const int forward = std::max(
+      1, static_cast<int>(std::lround(distance / agent.forward_step_size)));
+  for (int i = 0; i < forward; ++i) {
+    const sim::StepResult result = sim::applyAction(
+        navmesh, agent, approach.end, sim::Action::kMoveForward);
+    approach.actions.push_back(sim::Action::kMoveForward);
+    ++approach.forward_steps;
+    if (result.collided && result.distance < config.blocked_distance) {
+      approach.blocked = true;
+      break;
+    }
+  }
+  return approach;
+}
+
+int oracleChoice(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
+                 const sim::AgentState& state,
+                 std::span<const Candidate> candidates, const Vec3f& goal,
+                 const ApproachConfig& config) {
+  const float here = navmesh.geodesicDistance(state.position, goal);
+  if (here <= config.stop_distance) return -1;
+  int best = -1;
+  float bestDistance = std::numeric_limits<float>::infinity();
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const Approach approach =
+        planApproach(navmesh, agent, state, candidates[i].heading,
+                     candidates[i].distance, config);
+    const float d = navmesh.geodesicDistance(approach.end.position, goal);
+    if (d < bestDistance) {
+      bestDistance = d;
+      best = static_cast<int>(i);
+    }
+  }
+  if (best < 0 || !std::isfinite(bestDistance)) return -1;
+  if (here <= config.success_distance &&
+      bestDistance > here - config.min_progress)
+    return -1;
+  return best;
+}
+
+}  // namespace vln::waypoint

@@ -1,0 +1,96 @@
+#pragma once
+// Executing a candidate waypoint with the low-level actions (issue 18): the
+// agent turns towards it in task turns (sim.agent.turn_angle) and walks in
+// forward steps (sim.agent.forward_step_size) with the navmesh's collisions
+// and sliding, as a real robot would; an approach that runs into an
+// obstacle ends where the agent got stuck (its consequence, as Hong et al.
+// argue). And the oracle that labels a panorama's candidates: the one whose
+// approach ends nearest the goal by geodesic distance, or STOP.
+//
+// Both simulate with sim::applyAction() on the navmesh, exactly what the
+// environment does when it takes the same actions, so a planned approach
+// is the one the agent will live through (up to the episode's step limit).
+// Heading convention: waypoint/WaypointHeatmap.h.
+
+#include <span>
+#include <vector>
+
+#include "common/Config.h"
+#include "common/Math.h"
+#include "sim/Agent.h"
+#include "waypoint/WaypointHeatmap.h"
+
+namespace vln::sim {
+class NavMesh;
+}
+
+namespace vln::waypoint {
+
+struct ApproachConfig {
+  /// A forward step that collides and moves less than this (m) ends the
+  /// approach: the agent is stuck against something.
+  float blocked_distance = 0.1f;
+  /// The oracle STOPs once the agent is this close to the goal (geodesic m).
+  float stop_distance = 1.5f;
+  /// ... or, within success_distance of the goal, when no candidate's
+  /// approach ends at least min_progress (m) closer to it than the agent.
+  float success_distance = 3.0f;
+  float min_progress = 0.25f;
+
+  void visit(common::ConfigVisitor& v) {
+    v.field("blocked_distance", blocked_distance,
+            "A forward step that collides and moves less than this ends the "
+            "approach (m)",
+            common::inRange(0.0, 10.0));
+    v.field("stop_distance", stop_distance,
+            "The oracle STOPs within this geodesic distance of the goal (m)",
+            common::inRange(0.0, 100.0));
+    v.field("success_distance", success_distance,
+            "... or within this distance when no candidate gets min_progress "
+            "closer (m; R2R's success radius)",
+            common::inRange(0.0, 100.0));
+    v.field("min_progress", min_progress,
+            "Progress a candidate must make for the oracle to prefer it over "
+            "STOP inside success_distance (m)",
+            common::inRange(0.0, 100.0));
+  }
+  bool operator==(const ApproachConfig&) const = default;
+};
+
+/// The low-level actions of one approach and where they leave the agent.
+struct Approach {
+  std::vector<sim::Action> actions;  ///< turns, then forward steps; no STOP
+  sim::AgentState end;               ///< after the last action
+  int turns = 0;
+  int forward_steps = 0;  ///< taken (the last one may be blocked)
+  bool blocked = false;   ///< ended early against an obstacle
+};
+
+/// Turns of `agent.turn_angle` nearest to `heading` (radians, relative,
+/// counter-clockwise positive): positive = TURN_LEFT count, negative =
+/// TURN_RIGHT count; |result| <= 180 / turn_angle (rounded).
+int turnsTowards(const sim::AgentConfig& agent, float heading);
+
+/// Plans the approach of the waypoint at relative `heading` (radians) and
+/// horizontal `distance` (m) from `start`: turnsTowards() turns, then
+/// round(distance / forward_step_size) forward steps (at least one), stopped
+/// early by a blocked step (config.blocked_distance). Throws what
+/// sim::applyAction() throws for a state off the navmesh's bounds.
+Approach planApproach(const sim::NavMesh& navmesh,
+                      const sim::AgentConfig& agent,
+                      const sim::AgentState& start, float heading,
+                      float distance, const ApproachConfig& config);
+
+/// The oracle's choice among `candidates` for an agent at `state` heading
+/// for `goal` (world frame): -1 for STOP, else the index of the candidate
+/// whose planned approach ends at the smallest geodesic distance to the
+/// goal. STOP when the agent is within config.stop_distance, or within
+/// config.success_distance and no candidate ends config.min_progress
+/// closer, or when there is no candidate (or none reaches the goal's
+/// island) at all.
+int oracleChoice(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
+                 const sim::AgentState& state,
+                 std::span<const Candidate> candidates, const Vec3f& goal,
+                 const ApproachConfig& config);
+
+}  // namespace vln::waypoint

@@ -1,0 +1,167 @@
+// Tests src/models/WaypointCmaPolicy.cpp: shapes, the candidate mask, that
+// stepping equals the sequence, that candidates read the view at their
+// heading, the no-instruction ablation, and that it can fit labels.
+
+#include "models/WaypointCmaPolicy.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "ModelTestUtil.h"
+
+namespace vln::models {
+namespace {
+
+constexpr int64_t kViews = 12;
+constexpr int64_t kRgb = 20;
+constexpr int64_t kDepth = 16;
+constexpr int64_t kSlots = 4;
+
+ModelConfig config() {
+  ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  c.fine_tune_embeddings = true;
+  return c;
+}
+
+// inputs [T, B, ...]: random features, `count[b]` candidates per row at
+// random headings and distances, previous decisions, episode starts at t = 0
+WaypointPolicyInputs randomInputs(int64_t T,
+                                  const std::vector<int64_t>& count) {
+  const auto B = static_cast<int64_t>(count.size());
+  WaypointPolicyInputs in;
+  in.rgb = torch::randn({T, B, kViews, kRgb});
+  in.depth = torch::rand({T, B, kViews, kDepth});
+  in.candidates = torch::stack({torch::rand({T, B, kSlots}) * 6.28,
+                                torch::rand({T, B, kSlots}) * 2.75 + 0.25},
+                               -1);
+  in.candidate_mask = torch::zeros({T, B, kSlots}, torch::kBool);
+  for (int64_t b = 0; b < B; ++b)
+    in.candidate_mask.select(1, b).slice(1, 0, count[static_cast<size_t>(b)]) =
+        true;
+  in.prev = torch::rand({T, B, 2});
+  in.not_done = torch::ones({T, B});
+  in.not_done[0] = 0.0f;
+  return in;
+}
+
+WaypointPolicyInputs stepOf(const WaypointPolicyInputs& in, int64_t t) {
+  return {in.rgb[t],  in.depth[t],   in.candidates[t], in.candidate_mask[t],
+          in.prev[t], in.not_done[t]};
+}
+
+TEST(WaypointCmaPolicyTest, LogitsAreStopThenTheCandidatesMasked) {
+  torch::manual_seed(0);
+  WaypointCmaPolicy policy(config(), kViews, kRgb, kDepth);
+  const auto instruction =
+      policy->encodeInstruction(test::randomTokens({5, 3}, 6, 23));
+  const WaypointPolicyInputs in = randomInputs(3, {2, 0});
+  const WaypointPolicyOutputs out =
+      policy->forwardSequence(instruction, in, policy->initialHidden(2));
+  ASSERT_EQ(out.logits.sizes(), (std::vector<int64_t>{3, 2, kSlots + 1}));
+  ASSERT_EQ(out.hidden.sizes(),
+            (std::vector<int64_t>{2, 2, config().hidden_size}));
+  // STOP and the real candidates are finite, empty slots -inf
+  EXPECT_TRUE(torch::isfinite(out.logits.select(1, 0).slice(1, 0, 3))
+                  .all()
+                  .item<bool>());
+  EXPECT_TRUE(
+      torch::isinf(out.logits.select(1, 0).slice(1, 3)).all().item<bool>());
+  EXPECT_TRUE(torch::isfinite(out.logits.select(1, 1).slice(1, 0, 1))
+                  .all()
+                  .item<bool>());
+  EXPECT_TRUE(
+      torch::isinf(out.logits.select(1, 1).slice(1, 1)).all().item<bool>());
+}
+
+TEST(WaypointCmaPolicyTest, SteppingEqualsTheSequence) {
+  torch::manual_seed(1);
+  WaypointCmaPolicy policy(config(), kViews, kRgb, kDepth);
+  policy->eval();
+  torch::NoGradGuard noGrad;
+  const auto instruction =
+      policy->encodeInstruction(test::randomTokens({6, 2, 4}, 6, 23));
+  const WaypointPolicyInputs in = randomInputs(4, {4, 1, 3});
+  const WaypointPolicyOutputs sequence =
+      policy->forwardSequence(instruction, in, policy->initialHidden(3));
+  torch::Tensor hidden = policy->initialHidden(3);
+  for (int64_t t = 0; t < 4; ++t) {
+    const WaypointPolicyOutputs step =
+        policy->step(instruction, stepOf(in, t), hidden);
+    const torch::Tensor finite = torch::isfinite(sequence.logits[t]);
+    EXPECT_TRUE(torch::equal(finite, torch::isfinite(step.logits)));
+    EXPECT_TRUE(torch::allclose(step.logits.masked_fill(~finite, 0),
+                                sequence.logits[t].masked_fill(~finite, 0),
+                                1e-5, 1e-5))
+        << "t = " << t;
+    hidden = step.hidden;
+  }
+  EXPECT_TRUE(torch::allclose(hidden, sequence.hidden, 1e-5, 1e-5));
+}
+
+TEST(WaypointCmaPolicyTest, ACandidateReadsTheViewAtItsHeading) {
+  torch::manual_seed(2);
+  WaypointCmaPolicy policy(config(), kViews, kRgb, kDepth);
+  policy->eval();
+  torch::NoGradGuard noGrad;
+  const auto instruction =
+      policy->encodeInstruction(test::randomTokens({4}, 4, 23));
+  WaypointPolicyInputs in = randomInputs(1, {1});
+  in.candidates[0][0][0][0] = 3.0 * 6.283185307 / kViews;  // view 3's axis
+  const torch::Tensor before =
+      policy->forwardSequence(instruction, in, policy->initialHidden(1)).logits;
+  // changing view 3 alone moves the candidate's logit relative to STOP by
+  // more than changing view 7 does (which only reaches it through the
+  // attended summaries)
+  auto changed = [&](int64_t view) {
+    WaypointPolicyInputs other = in;
+    other.rgb = in.rgb.clone();
+    other.rgb[0][0][view] += 3.0;
+    const torch::Tensor logits =
+        policy->forwardSequence(instruction, other, policy->initialHidden(1))
+            .logits;
+    return logits[0][0][1] - logits[0][0][0];
+  };
+  const double base = (before[0][0][1] - before[0][0][0]).item<double>();
+  EXPECT_GT(std::abs(changed(3).item<double>() - base),
+            std::abs(changed(7).item<double>() - base));
+}
+
+TEST(WaypointCmaPolicyTest, WithoutTheInstructionThereIsNoEncoder) {
+  ModelConfig c = config();
+  c.no_instruction = true;
+  WaypointCmaPolicy policy(c, kViews, kRgb, kDepth);
+  EXPECT_TRUE(policy->instruction_encoder.is_empty());
+  const EncodedInstruction none = policy->encodeInstruction({});
+  const WaypointPolicyOutputs out = policy->forwardSequence(
+      none, randomInputs(2, {3, 2}), policy->initialHidden(2));
+  EXPECT_EQ(out.logits.sizes(), (std::vector<int64_t>{2, 2, kSlots + 1}));
+}
+
+TEST(WaypointCmaPolicyTest, LearnsToFollowLabels) {
+  torch::manual_seed(3);
+  WaypointCmaPolicy policy(config(), kViews, kRgb, kDepth);
+  const torch::Tensor tokens = test::randomTokens({5, 4, 6, 3}, 6, 23);
+  const WaypointPolicyInputs in = randomInputs(3, {4, 4, 3, 2});
+  // labels among each row's valid choices (0 STOP, 1..count)
+  const torch::Tensor labels =
+      torch::tensor({{1, 2, 3, 0}, {4, 0, 1, 2}, {0, 3, 2, 1}}, torch::kLong);
+  torch::optim::Adam optimizer(policy->parameters(), 1e-2);
+  double loss = 0.0;
+  for (int i = 0; i < 200; ++i) {
+    const auto instruction = policy->encodeInstruction(tokens);
+    const torch::Tensor logits =
+        policy->forwardSequence(instruction, in, policy->initialHidden(4))
+            .logits.reshape({12, kSlots + 1});
+    const torch::Tensor l =
+        torch::nn::functional::cross_entropy(logits, labels.reshape({12}));
+    optimizer.zero_grad();
+    l.backward();
+    optimizer.step();
+    loss = l.item<double>();
+  }
+  EXPECT_LT(loss, 0.05);
+}
+
+}  // namespace
+}  // namespace vln::models

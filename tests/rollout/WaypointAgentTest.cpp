@@ -1,0 +1,160 @@
+// WaypointAgent: the oracle-driven agent reaches the goals and records
+// consistent decisions, batching never changes an episode, the decision cap
+// STOPs, and recorded decisions batch into padded training tensors.
+
+#include "rollout/WaypointAgent.h"
+
+#include <gtest/gtest.h>
+
+#include "rollout/Evaluator.h"
+#include "rollout/RolloutTestPolicy.h"
+#include "rollout/RolloutTestWorld.h"
+
+namespace vln::rollout {
+namespace {
+
+using test::rolloutTestWorld;
+
+int64_t flat(const models::FeatureShape& s) { return s[0] * s[1] * s[2]; }
+
+struct TinyWaypointAgent {
+  std::shared_ptr<models::WaypointCmaPolicyImpl> policy;
+  models::ObservationEncoder encoder{nullptr};
+  WaypointAgentConfig config;
+  sim::PanoramaConfig panorama;
+};
+
+TinyWaypointAgent tinyWaypointAgent(uint64_t seed) {
+  torch::manual_seed(seed);
+  TinyWaypointAgent t;
+  const models::ModelConfig model = test::tinyModel(models::PolicyType::kCma);
+  t.policy = std::make_shared<models::WaypointCmaPolicyImpl>(
+      model, 12, flat(models::rgbFeatureShape(model)),
+      flat(models::depthFeatureShape(model)));
+  t.encoder = models::ObservationEncoder(model);
+  t.config.candidates = "depth_baseline";
+  t.panorama.rgb = {32, 32, 90.0f, 1.25f};
+  t.panorama.depth.camera = {32, 32, 90.0f, 1.25f};
+  return t;
+}
+
+std::unique_ptr<WaypointAgent> makeAgent(const TinyWaypointAgent& t,
+                                         int numEnvs, bool sample) {
+  return std::make_unique<WaypointAgent>(
+      t.policy, t.encoder, models::WaypointPredictor{nullptr}, CandidateNms{},
+      t.config, t.panorama, rolloutTestWorld().sim.agent, numEnvs, sample,
+      /*seed=*/7, /*maxInstructionLength=*/200);
+}
+
+sim::TaskConfig longTask() {
+  sim::TaskConfig task = rolloutTestWorld().task;
+  task.max_episode_steps = 500;
+  return task;
+}
+
+EvaluationResult run(WaypointAgent& agent,
+                     const std::vector<data::Episode>& episodes, int numEnvs,
+                     int threads) {
+  const auto& w = rolloutTestWorld();
+  VectorEnv envs(numEnvs, w.sim, longTask(),
+                 std::make_shared<SceneCache>(w.sim), threads);
+  return evaluateEpisodes(agent, envs, episodes, nullptr, EvalConfig{});
+}
+
+TEST(WaypointAgentTest, FollowingTheOracleReachesTheGoalsAndRecordsLabels) {
+  const auto& w = rolloutTestWorld();
+  const TinyWaypointAgent t = tinyWaypointAgent(1);
+  int successes = 0;
+  for (const data::Episode& episode : w.episodes) {
+    auto agent = makeAgent(t, 1, false);
+    agent->collect({/*beta=*/1.0, /*sample=*/true, /*seed=*/3});
+    const EvaluationResult r = run(*agent, {episode}, 1, 1);
+    successes += r.episodes.front().metrics.success > 0.5 ? 1 : 0;
+    const std::vector<WaypointDecision> decisions = agent->takeDecisions(0);
+    ASSERT_FALSE(decisions.empty());
+    EXPECT_EQ(static_cast<int>(decisions.size()), agent->decisions(0));
+    for (size_t i = 0; i < decisions.size(); ++i) {
+      const WaypointDecision& d = decisions[i];
+      EXPECT_EQ(d.taken, d.label);  // beta 1: the oracle drives
+      EXPECT_LE(d.candidates.size(), 5u);
+      EXPECT_LE(d.label, static_cast<int>(d.candidates.size()));
+      EXPECT_EQ(d.rgb.sizes(), (std::vector<int64_t>{12, d.rgb.size(1)}));
+      EXPECT_EQ(d.depth.scalar_type(), torch::kHalf);
+      if (i == 0)
+        EXPECT_EQ(d.prev_distance, 0.0f);
+      else
+        EXPECT_GT(d.prev_distance, 0.0f);
+    }
+    // the episode ended by the oracle's STOP, its last decision
+    EXPECT_EQ(decisions.back().label, 0);
+    EXPECT_EQ(r.episodes.front().record.actions.back(),
+              static_cast<int>(sim::Action::kStop));
+  }
+  EXPECT_GE(successes, 8) << "of " << w.episodes.size();
+}
+
+TEST(WaypointAgentTest, BatchingDoesNotChangeAnEpisode) {
+  const auto& w = rolloutTestWorld();
+  const TinyWaypointAgent t = tinyWaypointAgent(2);
+  auto one = makeAgent(t, 1, /*sample=*/true);
+  auto four = makeAgent(t, 4, /*sample=*/true);
+  const EvaluationResult a = run(*one, w.episodes, 1, 1);
+  const EvaluationResult b = run(*four, w.episodes, 4, 2);
+  ASSERT_EQ(a.episodes.size(), b.episodes.size());
+  size_t longest = 0;
+  for (size_t i = 0; i < a.episodes.size(); ++i) {
+    EXPECT_EQ(a.episodes[i].record.actions, b.episodes[i].record.actions)
+        << "episode " << i;
+    longest = std::max(longest, a.episodes[i].record.actions.size());
+  }
+  EXPECT_GT(longest, 10u);  // the random policy walks somewhere
+}
+
+TEST(WaypointAgentTest, StopsAfterMaxDecisions) {
+  const auto& w = rolloutTestWorld();
+  TinyWaypointAgent t = tinyWaypointAgent(3);
+  t.config.max_decisions = 2;
+  // whatever the random policy picks, the third decision is STOP
+  auto agent = makeAgent(t, 2, /*sample=*/true);
+  const EvaluationResult r = run(*agent, w.episodes, 2, 2);
+  for (const auto& e : r.episodes) {
+    EXPECT_EQ(e.record.actions.back(), static_cast<int>(sim::Action::kStop));
+    // two approaches of at most 12 turns and 12 steps each, then STOP
+    EXPECT_LE(e.record.actions.size(), 2u * 24u + 1u);
+  }
+}
+
+TEST(WaypointAgentTest, DecisionsBatchIntoPaddedSequences) {
+  auto decision = [](int candidates, int label) {
+    WaypointDecision d;
+    d.rgb = torch::ones({12, 3}, torch::kHalf);
+    d.depth = torch::full({12, 2}, 2.0, torch::kHalf);
+    for (int j = 0; j < candidates; ++j)
+      d.candidates.push_back(waypoint::candidateAt(10 * j, j, 1.0f));
+    d.prev_heading = 0.5f;
+    d.prev_distance = 1.0f;
+    d.label = label;
+    return d;
+  };
+  const std::vector<WaypointDecision> a = {decision(2, 1), decision(3, 0)};
+  const std::vector<WaypointDecision> b = {decision(1, 1)};
+  const std::vector<const std::vector<WaypointDecision>*> rows = {&a, &b};
+  const WaypointBatch batch = batchDecisions(rows, 4);
+  EXPECT_EQ(batch.inputs.rgb.sizes(), (std::vector<int64_t>{2, 2, 12, 3}));
+  EXPECT_EQ(batch.inputs.rgb.scalar_type(), torch::kFloat);
+  EXPECT_EQ(batch.inputs.candidates.sizes(),
+            (std::vector<int64_t>{2, 2, 4, 2}));
+  EXPECT_TRUE(torch::equal(batch.labels,
+                           torch::tensor({{1, 1}, {0, -1}}, torch::kLong)));
+  EXPECT_TRUE(torch::equal(batch.inputs.not_done,
+                           torch::tensor({{0.0f, 0.0f}, {1.0f, 0.0f}})));
+  EXPECT_EQ(batch.inputs.candidate_mask[1][0].sum().item<int64_t>(), 3);
+  EXPECT_EQ(batch.inputs.candidate_mask[1][1].sum().item<int64_t>(), 0);
+  EXPECT_FLOAT_EQ(batch.inputs.candidates[0][0][1][1].item<float>(),
+                  waypoint::binDistance(1));
+  EXPECT_FLOAT_EQ(batch.inputs.depth[1][0][5][1].item<float>(), 2.0f);
+  EXPECT_FLOAT_EQ(batch.inputs.depth[1][1][5][1].item<float>(), 0.0f);
+}
+
+}  // namespace
+}  // namespace vln::rollout

@@ -1,0 +1,129 @@
+// Tests src/waypoint/WaypointApproach.cpp: the turns towards a heading, the
+// approach of a waypoint (turns, forward steps, stopped by an obstacle),
+// and the oracle's choice among candidates, in a room of known geometry.
+
+#include "waypoint/WaypointApproach.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "sim/NavMesh.h"
+#include "sim/Scene.h"
+#include "sim/SimTestScenes.h"
+#include "sim/SimTestSuites.h"
+
+namespace vln::waypoint {
+namespace {
+
+// 6 m x 6 m room (walls at x, z = +-3), a 1 m cube over x in [1.5, 2.5],
+// z in [-0.5, 0.5]
+std::shared_ptr<const sim::Scene> room() {
+  return test::roomWithCube("approach-room", /*ceiling=*/false);
+}
+
+class WaypointApproachTest : public test::SceneSuite<room> {
+ protected:
+  static sim::AgentState at(float x, float z, float heading) {
+    return {*scene_->navmesh().snapPoint({x, 0.0f, z}), heading, 0.0f};
+  }
+  static float degrees(float d) { return d * kPi / 180.0f; }
+  sim::AgentConfig agent_;  // R2R: 15 degree turns, 0.25 m steps, sliding
+  ApproachConfig config_;
+};
+
+TEST_F(WaypointApproachTest, TurnsRoundToTheNearestTurnAngle) {
+  EXPECT_EQ(turnsTowards(agent_, 0.0f), 0);
+  EXPECT_EQ(turnsTowards(agent_, degrees(30)), 2);    // left
+  EXPECT_EQ(turnsTowards(agent_, degrees(-45)), -3);  // right
+  EXPECT_EQ(turnsTowards(agent_, degrees(350)), -1);  // wraps: 10 right
+  EXPECT_EQ(turnsTowards(agent_, degrees(97)), 6);    // 6.47 turns -> 6
+  EXPECT_EQ(std::abs(turnsTowards(agent_, kPi)), 12);
+}
+
+TEST_F(WaypointApproachTest, WalksStraightToAnOpenWaypoint) {
+  // from (-1, 0) facing -Z: 2 m ahead is open floor
+  const sim::AgentState start = at(-1.0f, 0.0f, 0.0f);
+  const Approach a =
+      planApproach(scene_->navmesh(), agent_, start, 0.0f, 2.0f, config_);
+  EXPECT_EQ(a.turns, 0);
+  EXPECT_EQ(a.forward_steps, 8);
+  EXPECT_FALSE(a.blocked);
+  ASSERT_EQ(a.actions.size(), 8u);
+  for (sim::Action action : a.actions)
+    EXPECT_EQ(action, sim::Action::kMoveForward);
+  EXPECT_NEAR(a.end.position.x(), -1.0f, 1e-3f);
+  EXPECT_NEAR(a.end.position.z(), -2.0f, 1e-3f);
+}
+
+TEST_F(WaypointApproachTest, TurnsFirstThenWalks) {
+  // 90 degrees left of -Z is -X: 1.5 m there from (0, 0)
+  const sim::AgentState start = at(0.0f, 0.0f, 0.0f);
+  const Approach a = planApproach(scene_->navmesh(), agent_, start, degrees(90),
+                                  1.5f, config_);
+  EXPECT_EQ(a.turns, 6);
+  EXPECT_EQ(a.forward_steps, 6);
+  ASSERT_EQ(a.actions.size(), 12u);
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(a.actions[i], sim::Action::kTurnLeft);
+  EXPECT_NEAR(a.end.position.x(), -1.5f, 1e-3f);
+  EXPECT_NEAR(a.end.position.z(), 0.0f, 1e-3f);
+  EXPECT_NEAR(wrapAngle(a.end.heading - degrees(90)), 0.0f, 1e-4f);
+}
+
+TEST_F(WaypointApproachTest, AnObstacleEndsTheApproachWhereTheAgentIsStuck) {
+  // facing +X (90 degrees right of -Z) from (0, 0): the cube's face at
+  // x = 1.5 stops the agent short of a waypoint 3 m away, head on, so
+  // sliding cannot carry it along
+  const sim::AgentState start = at(0.0f, 0.0f, 0.0f);
+  const Approach a = planApproach(scene_->navmesh(), agent_, start,
+                                  degrees(-90), 3.0f, config_);
+  EXPECT_EQ(a.turns, 6);
+  EXPECT_TRUE(a.blocked);
+  EXPECT_LT(a.forward_steps, 12);
+  EXPECT_LT(a.end.position.x(), 1.5f);
+  EXPECT_GT(a.end.position.x(), 1.0f);
+  // the plan is what the environment will do: replaying it moves the same
+  sim::AgentState replay = start;
+  for (sim::Action action : a.actions)
+    sim::applyAction(scene_->navmesh(), agent_, replay, action);
+  EXPECT_EQ(replay, a.end);
+}
+
+TEST_F(WaypointApproachTest, OracleTakesTheCandidateNearestTheGoal) {
+  const sim::AgentState start = at(-1.0f, 2.0f, 0.0f);
+  const Vec3f goal = *scene_->navmesh().snapPoint({-1.0f, 0.0f, -2.5f});
+  const std::vector<Candidate> candidates = {
+      candidateAt(60, 7, 1.0f),  // behind (+Z), 2 m
+      candidateAt(0, 7, 0.5f),   // ahead (-Z), 2 m: towards the goal
+      candidateAt(30, 3, 0.2f),  // left, 1 m
+  };
+  EXPECT_EQ(
+      oracleChoice(scene_->navmesh(), agent_, start, candidates, goal, config_),
+      1);
+}
+
+TEST_F(WaypointApproachTest, OracleStopsNearTheGoalOrWithoutProgress) {
+  const std::vector<Candidate> ahead = {candidateAt(0, 7, 1.0f)};
+  // within stop_distance (1.5 m): STOP whatever the candidates
+  const Vec3f goal = *scene_->navmesh().snapPoint({-1.0f, 0.0f, -1.0f});
+  EXPECT_EQ(oracleChoice(scene_->navmesh(), agent_, at(-1.0f, 0.0f, 0.0f),
+                         ahead, goal, config_),
+            -1);
+  // 2.5 m away (inside success_distance) and the only candidate leads away
+  const Vec3f far = *scene_->navmesh().snapPoint({-1.0f, 0.0f, 2.5f});
+  EXPECT_EQ(oracleChoice(scene_->navmesh(), agent_, at(-1.0f, 0.0f, 0.0f),
+                         ahead, far, config_),
+            -1);
+  // no candidates at all
+  EXPECT_EQ(oracleChoice(scene_->navmesh(), agent_, at(-1.0f, 2.0f, 0.0f), {},
+                         goal, config_),
+            -1);
+  // farther than success_distance: the best candidate even if it leads away
+  const Vec3f distant = *scene_->navmesh().snapPoint({-1.0f, 0.0f, 2.8f});
+  EXPECT_EQ(oracleChoice(scene_->navmesh(), agent_, at(-1.0f, -2.0f, 0.0f),
+                         ahead, distant, config_),
+            0);
+}
+
+}  // namespace
+}  // namespace vln::waypoint
