@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "data/Episode.h"
+#include "rollout/Metrics.h"
 #include "rollout/VectorEnv.h"
 #include "sim/Agent.h"
 
@@ -29,7 +30,14 @@ class Agent {
   /// The weights the agent's last act() for `env` gave the instruction's
   /// tokens (the CMA's attention; one per token, summing to 1), empty when
   /// it has none or was not asked to keep them.
-  virtual std::vector<float> instructionAttention(int /*env*/) const { return {}; }
+  virtual std::vector<float> instructionAttention(int /*env*/) const {
+    return {};
+  }
+  /// The waypoint decisions of `env`'s current episode (a waypoint agent's
+  /// candidates and choices, for maps); empty for low-level agents.
+  virtual std::vector<WaypointChoice> waypointChoices(int /*env*/) const {
+    return {};
+  }
 };
 
 }  // namespace vln::rollout

@@ -134,6 +134,9 @@ class EvaluationJob : public EpisodeJob {
   // metrics in parallel (each writes only its own result), then the
   // callbacks in environment order
   void finished(const EnvBatch& ended) override {
+    for (int env : ended.envs)
+      records_[static_cast<size_t>(env)].waypoint_choices =
+          agent_.waypointChoices(env);
     envs_.forEach(ended.envs, [&](int env) {
       const auto index =
           static_cast<size_t>(ended.episodes[ended.indexOf(env)]);

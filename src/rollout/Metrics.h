@@ -63,6 +63,15 @@ struct MetricsOptions {
   int fastdtw_radius = 1;
 };
 
+/// One decision of a waypoint agent (rollout/WaypointAgent.h), for maps:
+/// where the agent stood, its candidate waypoints (world frame, metres) and
+/// the one it chose (-1: STOP).
+struct WaypointChoice {
+  Vec3f position = Vec3f::Zero();
+  std::vector<Vec3f> candidates;
+  int chosen = -1;
+};
+
 /// One evaluated episode as the evaluator records it.
 struct EpisodeRecord {
   std::string episode_id;
@@ -93,6 +102,9 @@ struct EpisodeRecord {
   /// d0: geodesic distance from the start to the goal at reset, metres
   /// (Habitat's SPL takes DistanceToGoal at reset).
   double start_distance = 0.0;
+  /// A waypoint agent's decisions in order (Agent::waypointChoices());
+  /// empty for low-level agents. Drawn on maps, not written to files.
+  std::vector<WaypointChoice> waypoint_choices;
 };
 
 /// The per-episode metrics, named by VLN-CE's measure uuids.
@@ -105,8 +117,8 @@ struct EpisodeMetrics {
   double path_length = 0.0;       ///< TL: sum of 3-D step lengths (m)
   double oracle_success = 0.0;    ///< OS: 1 when ever within the radius
   double oracle_navigation_error = 0.0;  ///< ONE: nearest to goal (m)
-  double oracle_spl = 0.0;  ///< SPL had the agent stopped on first arrival
-  double steps_taken = 0.0;       ///< actions taken, STOP included
+  double oracle_spl = 0.0;   ///< SPL had the agent stopped on first arrival
+  double steps_taken = 0.0;  ///< actions taken, STOP included
   bool operator==(const EpisodeMetrics&) const = default;
 };
 
@@ -114,17 +126,17 @@ struct EpisodeMetrics {
 /// order: the one list the files, the logs and the multi-process sums use.
 inline constexpr std::array<std::pair<const char*, double EpisodeMetrics::*>,
                             10>
-    kMetricFields{{{"distance_to_goal", &EpisodeMetrics::distance_to_goal},
-                   {"success", &EpisodeMetrics::success},
-                   {"spl", &EpisodeMetrics::spl},
-                   {"ndtw", &EpisodeMetrics::ndtw},
-                   {"sdtw", &EpisodeMetrics::sdtw},
-                   {"path_length", &EpisodeMetrics::path_length},
-                   {"oracle_success", &EpisodeMetrics::oracle_success},
-                   {"oracle_navigation_error",
-                    &EpisodeMetrics::oracle_navigation_error},
-                   {"oracle_spl", &EpisodeMetrics::oracle_spl},
-                   {"steps_taken", &EpisodeMetrics::steps_taken}}};
+    kMetricFields{
+        {{"distance_to_goal", &EpisodeMetrics::distance_to_goal},
+         {"success", &EpisodeMetrics::success},
+         {"spl", &EpisodeMetrics::spl},
+         {"ndtw", &EpisodeMetrics::ndtw},
+         {"sdtw", &EpisodeMetrics::sdtw},
+         {"path_length", &EpisodeMetrics::path_length},
+         {"oracle_success", &EpisodeMetrics::oracle_success},
+         {"oracle_navigation_error", &EpisodeMetrics::oracle_navigation_error},
+         {"oracle_spl", &EpisodeMetrics::oracle_spl},
+         {"steps_taken", &EpisodeMetrics::steps_taken}}};
 
 /// Metrics that files written before they existed lack: reading such a
 /// file gives NaN for them (tables print "-"), not an error.

@@ -27,6 +27,7 @@ struct WaypointAgent::Slot {
   float prevDistance = 0.0f;
   int referenceIndex = 1;  // oracle: reference_path's next waypoint
   std::vector<WaypointDecision> record;
+  std::vector<WaypointChoice> choices;
   EpisodeDraws draws;
   sim::Panorama panorama;
 };
@@ -72,6 +73,7 @@ void WaypointAgent::reset(int env, const data::Episode& episode) {
   slot.prevHeading = slot.prevDistance = 0.0f;
   slot.referenceIndex = 1;
   slot.record.clear();
+  slot.choices.clear();
   slot.draws.restart(collecting_ ? collection_.seed : seed_, episode);
   if (collecting_)
     VLN_CHECK_ARG(!episode.goals.empty(), "WaypointAgent: episode ",
@@ -87,6 +89,10 @@ void WaypointAgent::reset(int env, const data::Episode& episode) {
 
 int WaypointAgent::decisions(int env) const {
   return slots_.at(static_cast<size_t>(env))->decisions;
+}
+
+std::vector<WaypointChoice> WaypointAgent::waypointChoices(int env) const {
+  return slots_.at(static_cast<size_t>(env))->choices;
 }
 
 std::vector<WaypointDecision> WaypointAgent::takeDecisions(int env) {
@@ -296,6 +302,13 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     const int choice = useOracle ? label : policyChoice;
     labels[static_cast<size_t>(i)] = label;
     taken[static_cast<size_t>(i)] = choice;
+    WaypointChoice mark;
+    mark.position = state.position;
+    for (const waypoint::Candidate& c : cands)
+      mark.candidates.push_back(
+          waypoint::fromPolar(state, c.heading, c.distance));
+    mark.chosen = choice - 1;
+    slot.choices.push_back(std::move(mark));
     if (choice == 0) {
       slot.queue.push_back(sim::Action::kStop);
     } else {

@@ -93,6 +93,7 @@ class WaypointAgent : public Agent {
   std::vector<WaypointDecision> takeDecisions(int env);
   /// Decisions made in `env`'s current episode.
   int decisions(int env) const;
+  std::vector<WaypointChoice> waypointChoices(int env) const override;
 
  private:
   struct Slot;

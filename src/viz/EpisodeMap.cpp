@@ -44,6 +44,10 @@ std::vector<Entry> legendEntries(const MapLegend& legend) {
   }
   if (legend.agent_path)
     entries.push_back({Swatch::kArrow, kAgentColor, "agent at the end"});
+  if (legend.waypoints) {
+    entries.push_back({Swatch::kDisc, kCandidateColor, "candidates"});
+    entries.push_back({Swatch::kThinLine, kChosenColor, "chosen waypoint"});
+  }
   return entries;
 }
 
@@ -121,10 +125,26 @@ sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
     map.drawCircle(record.goal, successDistance, kGoalColor, px(2));
     map.drawPoint(record.goal, kGoalColor, px(5));
   }
+  for (const rollout::WaypointChoice& choice : record.waypoint_choices) {
+    for (const Vec3f& c : choice.candidates)
+      map.drawPoint(c, kCandidateColor, px(2));
+    if (choice.chosen >= 0 &&
+        choice.chosen < static_cast<int>(choice.candidates.size()))
+      map.drawPath({choice.position,
+                    choice.candidates[static_cast<size_t>(choice.chosen)]},
+                   kChosenColor, px(1));
+  }
   map.drawPoint(record.positions.front(), kStartColor, px(5));
   const float heading = record.headings.empty() ? 0.0f : record.headings.back();
   map.drawAgent(record.positions.back(), heading, kAgentColor);
   return map;
+}
+
+MapLegend mapLegendOf(const rollout::EpisodeRecord& record, bool hasGoal,
+                      float successDistance) {
+  MapLegend legend{hasGoal, successDistance, /*agent_path=*/true};
+  legend.waypoints = !record.waypoint_choices.empty();
+  return legend;
 }
 
 ScaleBar chooseScaleBar(float metersPerPixel, int maxPixels) {

@@ -21,6 +21,9 @@ inline constexpr sim::Rgb8 kReferenceColor = {30, 100, 220};
 inline constexpr sim::Rgb8 kAgentColor = {245, 130, 20};
 inline constexpr sim::Rgb8 kStartColor = {20, 170, 40};
 inline constexpr sim::Rgb8 kGoalColor = {220, 30, 30};
+/// A waypoint agent's candidates and the ones it chose.
+inline constexpr sim::Rgb8 kCandidateColor = {150, 150, 150};
+inline constexpr sim::Rgb8 kChosenColor = {150, 40, 200};
 
 /// How large a map is drawn: `meters_per_pixel` when > 0, else the scale at
 /// which the floor's map is `long_side` pixels on its long side.
@@ -34,7 +37,9 @@ struct MapStyle {
 
 /// A top-down map of `scene` on the floor of the record's start with the
 /// reference path, the agent path, start, goal and success circle (goal
-/// and circle only when `hasGoal`) and the agent's final pose.
+/// and circle only when `hasGoal`) and the agent's final pose; for a
+/// waypoint agent also every decision's candidates (grey) and a line from
+/// where it stood to the one it chose (purple).
 sim::TopDownMap drawEpisodeMap(const sim::Scene& scene,
                                const rollout::EpisodeRecord& record,
                                bool hasGoal, float successDistance,
@@ -45,7 +50,13 @@ struct MapLegend {
   bool goal = true;               ///< goal marker and success circle drawn
   float success_distance = 3.0f;  ///< their radius, metres
   bool agent_path = true;         ///< agent path and final pose drawn
+  bool waypoints = false;         ///< a waypoint agent's candidates and choices
 };
+
+/// The legend of a map drawn from `record`: goal and circle when `hasGoal`,
+/// the waypoint entries when it holds waypoint choices.
+MapLegend mapLegendOf(const rollout::EpisodeRecord& record, bool hasGoal,
+                      float successDistance);
 
 /// A scale bar: its length in metres (1, 2 or 5 times a power of ten) and
 /// in pixels, at most `maxPixels` long.

@@ -268,10 +268,10 @@ void EpisodeMedia::episodeFinished(int index, rollout::VectorEnv& envs, int env,
     videos_.erase(it);
   }
   if (index >= config_.maps) return;
-  const Image picture = mapPicture(
-      drawEpisodeMap(envs.simulator(env).scene(), result.record, scored,
-                     config_.success_distance, config_.map),
-      MapLegend{scored, config_.success_distance, /*agent_path=*/true});
+  const Image picture =
+      mapPicture(drawEpisodeMap(envs.simulator(env).scene(), result.record,
+                                scored, config_.success_distance, config_.map),
+                 mapLegendOf(result.record, scored, config_.success_distance));
   EpisodeMediaItem item;
   item.kind = EpisodeMediaItem::Kind::kMap;
   item.index = index;

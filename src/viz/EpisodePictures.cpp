@@ -373,7 +373,8 @@ void EpisodePictures::episodeFinished(int index, rollout::VectorEnv& envs,
                      config_.success_distance, config_.map);
   const fs::path file =
       config_.dir / mapFileName(config_.prefix, result.record.episode_id);
-  savePng(mapPicture(map, MapLegend{scored, config_.success_distance, true}),
+  savePng(mapPicture(map, mapLegendOf(result.record, scored,
+                                      config_.success_distance)),
           file);
   files_.push_back(file);
 }

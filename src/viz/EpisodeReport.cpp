@@ -195,8 +195,8 @@ void EpisodeReport::episodeFinished(int index, rollout::VectorEnv& envs,
     const sim::TopDownMap map =
         drawEpisodeMap(envs.simulator(env).scene(), result.record, scored,
                        config_.success_distance, config_.map);
-    const Image picture =
-        mapPicture(map, MapLegend{scored, config_.success_distance, true});
+    const Image picture = mapPicture(
+        map, mapLegendOf(result.record, scored, config_.success_distance));
     e->map = "maps/episode_" + e->id + ".png";
     savePng(picture, config_.dir / e->map);
     e->map_width = map.width();

@@ -85,6 +85,13 @@ TEST(WaypointAgentTest, FollowingTheOracleReachesTheGoalsAndRecordsLabels) {
       else
         EXPECT_GT(d.prev_distance, 0.0f);
     }
+    // the evaluator's record carries the decisions for maps
+    const auto& choices = r.episodes.front().record.waypoint_choices;
+    ASSERT_EQ(choices.size(), decisions.size());
+    for (size_t i = 0; i < choices.size(); ++i) {
+      EXPECT_EQ(choices[i].chosen, decisions[i].taken - 1);
+      EXPECT_EQ(choices[i].candidates.size(), decisions[i].candidates.size());
+    }
     // the episode ended by the oracle's STOP, its last decision
     EXPECT_EQ(decisions.back().label, 0);
     EXPECT_EQ(r.episodes.front().record.actions.back(),

@@ -70,6 +70,40 @@ TEST(EpisodeMapTest, ShowsPathsStartGoalAndCircle) {
             countColor(bare, kReferenceColor) + 60);
 }
 
+TEST(EpisodeMapTest, ShowsAWaypointAgentsCandidatesAndChoices) {
+  const auto& w = rolloutTestWorld();
+  rollout::EpisodeRecord record = replayedRecord();
+  const MapStyle style{.meters_per_pixel = 0.05f};
+  const sim::TopDownMap plain =
+      drawEpisodeMap(*w.scene, record, true, 3.0f, style);
+  EXPECT_FALSE(mapLegendOf(record, true, 3.0f).waypoints);
+  // two decisions along the path: three candidates each, the first one
+  // chosen, then STOP
+  for (size_t i : {size_t{0}, record.positions.size() / 2}) {
+    rollout::WaypointChoice choice;
+    choice.position = record.positions[i];
+    for (float dx : {-1.0f, 0.0f, 1.0f})
+      choice.candidates.push_back(record.positions[i] + Vec3f(dx, 0.0f, 1.0f));
+    choice.chosen = i == 0 ? 0 : -1;
+    record.waypoint_choices.push_back(choice);
+  }
+  const sim::TopDownMap map =
+      drawEpisodeMap(*w.scene, record, true, 3.0f, style);
+  EXPECT_GT(countColor(map, kCandidateColor),
+            countColor(plain, kCandidateColor) + 6 * 5);
+  // one chosen line of about 1.4 m: ~28 px at 0.05 m/px
+  EXPECT_GT(countColor(map, kChosenColor),
+            countColor(plain, kChosenColor) + 15);
+  const MapLegend legend = mapLegendOf(record, true, 3.0f);
+  EXPECT_TRUE(legend.waypoints);
+  const Image picture = mapPicture(map, legend);
+  const std::vector<uint8_t> footer(
+      picture.rgb.begin() + static_cast<long>(map.rgb().size()),
+      picture.rgb.end());
+  EXPECT_GT(countColor(footer, kCandidateColor), 10);
+  EXPECT_GT(countColor(footer, kChosenColor), 10);
+}
+
 TEST(EpisodeMapTest, LegibleSizeWithStrokesThatKeepTheirWidth) {
   const auto& w = rolloutTestWorld();
   const rollout::EpisodeRecord& record = replayedRecord();
