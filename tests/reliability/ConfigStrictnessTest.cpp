@@ -44,8 +44,8 @@ enum class Kind { kWorld, kRxrWorld, kExperiment };
 
 const std::set<std::string>& experimentSections() {
   static const std::set<std::string> sections = {
-      "sim",  "task",   "dataset",  "model",   "trainer", "pretrain",
-      "eval", "output", "panorama", "waypoint", "_base_"};
+      "sim",  "task",   "dataset",  "model",    "trainer",        "pretrain",
+      "eval", "output", "panorama", "waypoint", "waypoint_agent", "_base_"};
   return sections;
 }
 
@@ -78,7 +78,8 @@ struct KeyToken {
 };
 
 std::vector<KeyToken> keyTokens(const std::string& text) {
-  static const std::regex key(R"((^[ \t]*(?:-[ \t]+)?|[{,][ \t]*)([A-Za-z_][A-Za-z0-9_]*)[ \t]*:(?=[ \t]|$))");
+  static const std::regex key(
+      R"((^[ \t]*(?:-[ \t]+)?|[{,][ \t]*)([A-Za-z_][A-Za-z0-9_]*)[ \t]*:(?=[ \t]|$))");
   std::vector<KeyToken> tokens;
   size_t lineStart = 0;
   while (lineStart < text.size()) {
@@ -87,14 +88,16 @@ std::vector<KeyToken> keyTokens(const std::string& text) {
     std::string line = text.substr(lineStart, lineEnd - lineStart);
     // a comment starts at a '#' at the line start or after a blank
     for (size_t i = 0; i < line.size(); ++i)
-      if (line[i] == '#' && (i == 0 || line[i - 1] == ' ' || line[i - 1] == '\t')) {
+      if (line[i] == '#' &&
+          (i == 0 || line[i - 1] == ' ' || line[i - 1] == '\t')) {
         line.resize(i);
         break;
       }
     for (auto it = std::sregex_iterator(line.begin(), line.end(), key);
          it != std::sregex_iterator(); ++it) {
       const auto& m = *it;
-      tokens.push_back({lineStart + static_cast<size_t>(m.position(2)), m.str(2)});
+      tokens.push_back(
+          {lineStart + static_cast<size_t>(m.position(2)), m.str(2)});
     }
     lineStart = lineEnd + 1;
   }
@@ -102,8 +105,8 @@ std::vector<KeyToken> keyTokens(const std::string& text) {
 }
 
 // loads `text`, then every single-key typo of it; returns the keys checked
-int checkEveryKeyTypo(Kind kind, const std::string& text, const std::string& source,
-                      const fs::path& baseDir) {
+int checkEveryKeyTypo(Kind kind, const std::string& text,
+                      const std::string& source, const fs::path& baseDir) {
   EXPECT_NO_THROW(load(kind, text, source, baseDir)) << source;
   const auto tokens = keyTokens(text);
   for (const auto& token : tokens) {
@@ -142,17 +145,21 @@ Kind classify(const fs::path& file) {
   for (const auto& token : keyTokens(text)) {
     const bool topLevel = token.offset == 0 || text[token.offset - 1] == '\n';
     if (topLevel && !experimentSections().count(token.name))
-      throw std::invalid_argument(file.string() + ": neither a world config (configs/**/world/) "
-                                  "nor a run config (top-level key '" + token.name + "')");
+      throw std::invalid_argument(
+          file.string() +
+          ": neither a world config (configs/**/world/) "
+          "nor a run config (top-level key '" +
+          token.name + "')");
   }
   return Kind::kExperiment;
 }
 
 std::vector<fs::path> configFiles() {
   std::vector<fs::path> files;
-  for (const auto& entry : fs::recursive_directory_iterator(vln::test::sourcePath() / "configs"))
-    if (entry.is_regular_file() &&
-        (entry.path().extension() == ".yaml" || entry.path().extension() == ".yml"))
+  for (const auto& entry :
+       fs::recursive_directory_iterator(vln::test::sourcePath() / "configs"))
+    if (entry.is_regular_file() && (entry.path().extension() == ".yaml" ||
+                                    entry.path().extension() == ".yml"))
       files.push_back(entry.path());
   std::sort(files.begin(), files.end());
   return files;
@@ -160,11 +167,13 @@ std::vector<fs::path> configFiles() {
 
 TEST(ConfigStrictnessTest, KeyTokensFindBlockAndFlowKeys) {
   const auto tokens = keyTokens(
-      "# a: comment\nsim:\n  rgb: {width: 32, height: 3}  # b: no\n  list:\n    - x: 1\n"
+      "# a: comment\nsim:\n  rgb: {width: 32, height: 3}  # b: no\n  list:\n   "
+      " - x: 1\n"
       "url: 'http://a'\n");
   std::vector<std::string> names;
   for (const auto& t : tokens) names.push_back(t.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"sim", "rgb", "width", "height", "list", "x", "url"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"sim", "rgb", "width", "height",
+                                             "list", "x", "url"}));
 }
 
 TEST(ConfigStrictnessTest, EveryConfigFileLoadsAndRejectsEveryKeyTypo) {
@@ -175,7 +184,8 @@ TEST(ConfigStrictnessTest, EveryConfigFileLoadsAndRejectsEveryKeyTypo) {
     SCOPED_TRACE(file.string());
     Kind kind{};
     ASSERT_NO_THROW(kind = classify(file));
-    keys += checkEveryKeyTypo(kind, readText(file), file.string(), file.parent_path());
+    keys += checkEveryKeyTypo(kind, readText(file), file.string(),
+                              file.parent_path());
   }
   RecordProperty("config_files", static_cast<int>(files.size()));
   RecordProperty("keys_mutated", keys);
@@ -187,7 +197,8 @@ TEST(ConfigStrictnessTest, EveryConfigFileLoadsAndRejectsEveryKeyTypo) {
 TEST(ConfigStrictnessTest, EveryRunConfigKeyTypoIsRefused) {
   const train::ExperimentConfig defaults;
   const std::string yaml = train::experimentConfigYaml(defaults);
-  const int mutated = checkEveryKeyTypo(Kind::kExperiment, yaml, "resolved.yaml", ".");
+  const int mutated =
+      checkEveryKeyTypo(Kind::kExperiment, yaml, "resolved.yaml", ".");
   train::ExperimentConfig copy = defaults;
   const auto leafKeys =
       common::configKeys([&](common::ConfigVisitor& v) { copy.visit(v); });
@@ -201,15 +212,17 @@ TEST(ConfigStrictnessTest, EveryWorldConfigKeyTypoIsRefused) {
   const std::string yaml = common::configToYaml(defaults);
   const int mutated = checkEveryKeyTypo(Kind::kWorld, yaml, "world.yaml", ".");
   world::WorldConfig copy = defaults;
-  EXPECT_GE(mutated, static_cast<int>(common::configKeys([&](common::ConfigVisitor& v) {
-                                        copy.visit(v);
-                                      }).size()));
+  EXPECT_GE(mutated,
+            static_cast<int>(common::configKeys([&](common::ConfigVisitor& v) {
+                               copy.visit(v);
+                             }).size()));
 }
 
 // a misspelt override is refused too (the --set path)
 TEST(ConfigStrictnessTest, MisspeltOverrideIsRefused) {
   vln::test::TempDir dir;
-  const fs::path file = vln::test::writeText(dir / "run.yaml", "trainer:\n  seed: 1\n");
+  const fs::path file =
+      vln::test::writeText(dir / "run.yaml", "trainer:\n  seed: 1\n");
   try {
     train::loadExperimentConfig(file, {"trainer.learning_rate=0.1"});
     FAIL() << "accepted";
@@ -228,9 +241,14 @@ models::ModelConfig smallModel(int hidden, bool progressMonitor) {
   return common::loadConfigText<models::ModelConfig>(
       "policy: cma\nrgb_encoder: small_cnn\ndepth_encoder: small_cnn\n"
       "vocab_size: 20\nembedding_dim: 8\ninstruction_hidden_size: 8\n"
-      "hidden_size: " + std::to_string(hidden) + "\nprev_action_embedding_dim: 4\n"
-      "rgb_projection_size: 8\ndepth_projection_size: 8\nspatial_embedding_dim: 4\n"
-      "progress_monitor: " + (progressMonitor ? "true" : "false") + "\n"
+      "hidden_size: " +
+      std::to_string(hidden) +
+      "\nprev_action_embedding_dim: 4\n"
+      "rgb_projection_size: 8\ndepth_projection_size: "
+      "8\nspatial_embedding_dim: 4\n"
+      "progress_monitor: " +
+      (progressMonitor ? "true" : "false") +
+      "\n"
       "rgb_height: 32\nrgb_width: 32\ndepth_height: 32\ndepth_width: 32\n");
 }
 
@@ -238,8 +256,10 @@ models::ModelConfig smallModel(int hidden, bool progressMonitor) {
 // and reshaped tensor is named, and the target keeps its weights
 TEST(ConfigStrictnessTest, MismatchedCheckpointListsEveryTensor) {
   torch::manual_seed(1);
-  auto saved = models::makePolicy(smallModel(/*hidden=*/16, /*progressMonitor=*/true));
-  auto target = models::makePolicy(smallModel(/*hidden=*/24, /*progressMonitor=*/false));
+  auto saved =
+      models::makePolicy(smallModel(/*hidden=*/16, /*progressMonitor=*/true));
+  auto target =
+      models::makePolicy(smallModel(/*hidden=*/24, /*progressMonitor=*/false));
   vln::test::TempDir dir;
   train::Checkpoint checkpoint;
   checkpoint.policy = models::namedState(*saved);
