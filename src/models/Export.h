@@ -25,6 +25,8 @@
 //   (zeros without a progress monitor), hidden [B, layers, hidden_size].
 //   Inputs of ablated modalities are ignored (pass any tensor).
 // The attribute `model_config` holds the model's YAML config.
+// The waypoint CMA has its own export (WaypointExport.h); both are generated
+// from the pieces in ExportCodegen.h.
 
 #include <torch/script.h>
 

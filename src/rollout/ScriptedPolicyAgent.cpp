@@ -79,6 +79,13 @@ ScriptedPolicyAgent::ScriptedPolicyAgent(const std::filesystem::path& file,
   }
   module_.eval();
   config_ = exportedModelConfig(module_, file);
+  // a waypoint policy (models::exportWaypointPolicy()) takes panoramas and
+  // candidate waypoints, not one view, and chooses a waypoint
+  VLN_CHECK_ARG(!module_.hasattr("num_views"), "ScriptedPolicyAgent: '",
+                file.string(),
+                "' is a waypoint policy export (it chooses among candidate "
+                "waypoints); evaluate the waypoint_cma run's checkpoints "
+                "instead");
   // the agent feeds the archive token ids; text features would need a
   // feature source (PolicyStepper::setInstructionFeatures) here
   VLN_CHECK_ARG(!config_.usesInstruction() || !config_.usesTextFeatures(),

@@ -26,8 +26,10 @@ class ScriptedPolicyAgent : public Agent {
   /// Loads `file` onto `device` ("cpu", "cuda", ...). Throws
   /// std::runtime_error naming the file when it is missing or not a
   /// TorchScript archive, and std::invalid_argument when it has no
-  /// `model_config` attribute or was exported without the encoders of the
-  /// modalities it uses (its forward then takes features, not images).
+  /// `model_config` attribute, is a waypoint policy's export
+  /// (models::exportWaypointPolicy()) or was exported without the encoders
+  /// of the modalities it uses (its forward then takes features, not
+  /// images).
   ScriptedPolicyAgent(const std::filesystem::path& file, int numEnvs,
                       bool sampleActions, uint64_t seed,
                       int maxInstructionLength,

@@ -9,11 +9,12 @@
 #include "common/Check.h"
 #include "common/Config.h"
 #include "common/FileIo.h"
-#include "train/Checkpoint.h"
 #include "models/Export.h"
 #include "models/ObservationEncoder.h"
 #include "models/Policy.h"
 #include "models/StateDict.h"
+#include "models/WaypointExport.h"
+#include "train/Checkpoint.h"
 #include "train/DistributedTraining.h"
 #include "train/PretrainTasks.h"
 #include "train/RecollectTrainer.h"
@@ -29,15 +30,27 @@ namespace fs = std::filesystem;
 namespace {
 
 // `checkpoint` with `config`'s model (policy strictly loaded, the
-// observation encoders with their pretrained weights) as TorchScript
+// observation encoders with their pretrained weights) as TorchScript: the
+// low-level agents (trainer.task vln) or the waypoint CMA (waypoint_cma)
 void exportCheckpoint(const fs::path& checkpoint,
                       const ExperimentConfig& config, const fs::path& out) {
   const Checkpoint ckpt = loadCheckpoint(checkpoint);
-  auto policy = models::makePolicy(config.model);
-  models::loadStateStrict(*policy, ckpt.policy, checkpoint.string());
-  models::ObservationEncoder encoder(config.model);
-  encoder->loadPretrained();
-  models::exportPolicy(*policy, encoder.get(), out);
+  if (config.trainer.task == "waypoint_cma") {
+    // the candidate predictor is not part of the archive
+    // (models/WaypointExport.h), so its weight file need not exist here
+    ExperimentConfig withoutPredictor = config;
+    withoutPredictor.waypoint_agent.candidates = "depth_baseline";
+    WaypointAgentModels nets =
+        makeWaypointAgentModels(withoutPredictor, /*withEmbeddings=*/false);
+    models::loadStateStrict(*nets.policy, ckpt.policy, checkpoint.string());
+    models::exportWaypointPolicy(*nets.policy, nets.encoder.get(), out);
+  } else {
+    auto policy = models::makePolicy(config.model);
+    models::loadStateStrict(*policy, ckpt.policy, checkpoint.string());
+    models::ObservationEncoder encoder(config.model);
+    encoder->loadPretrained();
+    models::exportPolicy(*policy, encoder.get(), out);
+  }
   spdlog::info("exported {} to {}", checkpoint.string(), out.string());
 }
 
@@ -50,9 +63,9 @@ TaskRunner taskRunner(const std::string& task) {
   auto pretraining = [](void (*run)(const ExperimentConfig&, const fs::path&)) {
     // one process only: runTrain() refuses WORLD_SIZE > 1 for them
     return [run](const ExperimentConfig& config, bool resume, Distributed*) {
-      VLN_CHECK_ARG(!resume, "train --resume: trainer.task '", config.trainer.task,
-                    "' cannot resume; delete ", config.output.dir,
-                    " and start again");
+      VLN_CHECK_ARG(!resume, "train --resume: trainer.task '",
+                    config.trainer.task, "' cannot resume; delete ",
+                    config.output.dir, " and start again");
       validatePretrainConfig(config);
       run(config, config.output.dir);
     };
@@ -100,9 +113,11 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   const ExperimentConfig config =
       loadExperimentConfig(options.config, options.overrides);
   const std::string yaml = experimentConfigYaml(config);
-  VLN_CHECK_ARG(options.export_path.empty() || config.trainer.task == "vln",
-                "train --export: trainer.task '", config.trainer.task,
-                "' trains an encoder, not a policy; it is saved to pretrain.encoder_out");
+  VLN_CHECK_ARG(
+      options.export_path.empty() || config.trainer.task == "vln" ||
+          config.trainer.task == "waypoint_cma",
+      "train --export: trainer.task '", config.trainer.task,
+      "' trains an encoder, not a policy; it is saved to pretrain.encoder_out");
   if (options.dry_run) {
     out << yaml;
     return 0;

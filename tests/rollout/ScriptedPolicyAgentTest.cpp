@@ -9,6 +9,7 @@
 #include <set>
 
 #include "models/Export.h"
+#include "models/WaypointExport.h"
 #include "rollout/Evaluator.h"
 #include "rollout/PolicyAgent.h"
 #include "rollout/RolloutTestPolicy.h"
@@ -104,6 +105,15 @@ TEST(ScriptedPolicyAgentTest, BadArchivesAreNamed) {
       ::testing::Throws<std::invalid_argument>(
           ::testing::Property(&std::exception::what,
                               HasSubstr("exported without its RGB encoder"))));
+  // a waypoint policy's archive takes panoramas and candidates
+  models::WaypointCmaPolicyImpl waypoint(model.policy->config(), /*numViews=*/4,
+                                         /*rgbFeatures=*/8,
+                                         /*depthFeatures=*/8);
+  models::exportWaypointPolicy(waypoint, nullptr, dir / "waypoint.pt");
+  EXPECT_THAT(
+      [&] { ScriptedPolicyAgent a(dir / "waypoint.pt", 1, false, 0, 200); },
+      ::testing::Throws<std::invalid_argument>(::testing::Property(
+          &std::exception::what, HasSubstr("is a waypoint policy export"))));
   // a tensor file is an archive without model_config
   torch::jit::Module plain("plain");
   plain.register_buffer("x", torch::zeros({1}));

@@ -2,12 +2,16 @@
 // `train` binary runs trainer.task waypoint_cma (DAgger over candidate
 // waypoints from a predictor weight file), writes checkpoints, validation
 // stats and the best checkpoint; `eval` scores a checkpoint like any other;
-// --resume and bad configs are refused with the key named.
+// `train --export` and `vlnce-export` write the policy as TorchScript that
+// acts as the checkpoint does; --resume and bad configs are refused with the
+// key named.
 
 #include "train/WaypointAgentTrainer.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <torch/script.h>
 
 #include "models/StateDict.h"
 #include "models/WaypointPredictor.h"
@@ -55,13 +59,72 @@ class WaypointAgentTrainerTest : public test::TinyWorldBinaryTest {
   }
 };
 
+// The TorchScript archive `file` gives the logits and recurrent state of
+// `checkpoint`'s policy (with the run's frozen encoders) on a random
+// panorama, masked candidate slots and a random instruction.
+void expectExportActsAsCheckpoint(const fs::path& file,
+                                  const fs::path& checkpoint,
+                                  const ExperimentConfig& config) {
+  SCOPED_TRACE(file.string());
+  ExperimentConfig c = config;
+  c.waypoint_agent.candidates = "depth_baseline";  // no predictor needed
+  WaypointAgentModels nets = makeWaypointAgentModels(c, false);
+  models::loadStateStrict(*nets.policy, loadCheckpoint(checkpoint).policy,
+                          checkpoint.string());
+  nets.policy->eval();
+  torch::jit::Module exported = torch::jit::load(file.string());
+
+  torch::manual_seed(5);
+  const int64_t views = c.panorama.num_views;
+  const torch::Tensor rgb = torch::randint(
+      0, 256, {2, views, c.panorama.rgb.height, c.panorama.rgb.width, 3},
+      torch::kUInt8);
+  const torch::Tensor depth =
+      torch::rand({2, views, c.panorama.depth.camera.height,
+                   c.panorama.depth.camera.width, 1});
+  const torch::Tensor tokens =
+      torch::randint(1, c.model.vocab_size, {2, 6}, torch::kInt64);
+  const torch::Tensor candidates = torch::stack(
+      {torch::rand({2, 3}) * 6.28, torch::rand({2, 3}) * 2.75 + 0.25}, -1);
+  const torch::Tensor mask =
+      torch::tensor({1, 1, 0, 1, 0, 0}, torch::kBool).view({2, 3});
+  const torch::Tensor prev =
+      torch::tensor({0.5f, 1.0f, -1.0f, 2.0f}).view({2, 2});
+  const torch::Tensor notDone = torch::tensor({1.0f, 0.0f});
+  const torch::Tensor hidden = torch::randn({2, 2, c.model.hidden_size});
+
+  torch::NoGradGuard noGrad;
+  const models::VisualFeatures f = nets.encoder->forward(rgb, depth);
+  const models::WaypointPolicyOutputs expected = nets.policy->step(
+      nets.policy->encodeInstruction(tokens),
+      {f.rgb.reshape({2, views, -1}), f.depth.reshape({2, views, -1}),
+       candidates, mask, prev, notDone},
+      hidden);
+  const auto out = exported
+                       .forward({rgb, depth, tokens, candidates, mask, prev,
+                                 notDone, hidden})
+                       .toTuple();
+  const torch::Tensor logits = out->elements()[0].toTensor();
+  const torch::Tensor finite = torch::isfinite(expected.logits);
+  ASSERT_EQ(logits.sizes(), (std::vector<int64_t>{2, 4}));
+  EXPECT_TRUE(torch::equal(finite, torch::isfinite(logits)));
+  EXPECT_TRUE(torch::allclose(logits.masked_fill(~finite, 0),
+                              expected.logits.masked_fill(~finite, 0), 1e-4,
+                              1e-5))
+      << logits << "\n"
+      << expected.logits;
+  EXPECT_TRUE(torch::allclose(out->elements()[1].toTensor(), expected.hidden,
+                              1e-4, 1e-5));
+}
+
 TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
   const fs::path config = writeConfig("  max_decisions: 6\n");
   std::string output;
-  ASSERT_EQ(
-      vln::test::runCommand(
-          binary("train") + " --config " + config.string() + " 2>&1", &output),
-      0)
+  ASSERT_EQ(vln::test::runCommand(binary("train") + " --config " +
+                                      config.string() + " --export " +
+                                      (dir_ / "agent.pt").string() + " 2>&1",
+                                  &output),
+            0)
       << output;
   const fs::path run = dir_ / "run";
   const auto checkpoints = listCheckpoints(run / "checkpoints");
@@ -85,6 +148,11 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
     }
   EXPECT_EQ(collects, 2);
 
+  // train --export wrote the best (or else the latest) checkpoint's policy
+  const ExperimentConfig runConfig = loadExperimentConfig(run / "config.yaml");
+  expectExportActsAsCheckpoint(dir_ / "agent.pt", bestOrLatestCheckpoint(run),
+                               runConfig);
+
   // eval scores the checkpoint with the waypoint agent
   if (!fs::exists(binary("eval"))) GTEST_SKIP() << "build the eval binary";
   ASSERT_EQ(
@@ -106,6 +174,20 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
                                   &output),
             0);
   EXPECT_THAT(output, HasSubstr("cannot resume"));
+
+  // vlnce-export from a checkpoint with its embedded config; the candidate
+  // predictor is not exported, so its weight file is not needed
+  if (!fs::exists(binary("vlnce-export")))
+    GTEST_SKIP() << "build the vlnce-export binary";
+  fs::remove(dir_ / "predictor.pt");
+  ASSERT_EQ(vln::test::runCommand(binary("vlnce-export") + " --checkpoint " +
+                                      checkpoints.front().string() + " --out " +
+                                      (dir_ / "again.pt").string() + " 2>&1",
+                                  &output),
+            0)
+      << output;
+  expectExportActsAsCheckpoint(dir_ / "again.pt", checkpoints.front(),
+                               runConfig);
 }
 
 TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {

@@ -1,0 +1,321 @@
+// Tests src/models/WaypointExport.cpp: the exported waypoint policy, loaded
+// back by torch::jit::load (and by Python's torch.jit.load when available),
+// reproduces WaypointCmaPolicyImpl::step() on raw panoramas and on features,
+// with masked candidate slots, episode starts mid-batch and the ablations.
+
+#include "models/WaypointExport.h"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <torch/script.h>
+
+#include <map>
+
+#include "ModelTestUtil.h"
+#include "models/StateDict.h"
+#include "support/TestPaths.h"
+
+namespace vln::models {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr int64_t kViews = 6;
+constexpr int64_t kSlots = 3;
+constexpr int64_t kBatch = 3;
+
+int64_t flatSize(const FeatureShape& s) { return s[0] * s[1] * s[2]; }
+
+// a tiny policy over the encoder's features, as train::
+// makeWaypointAgentModels() builds it
+WaypointCmaPolicy makeWaypointPolicy(const ModelConfig& c) {
+  return WaypointCmaPolicy(c, kViews,
+                           c.usesRgb() ? flatSize(rgbFeatureShape(c)) : 0,
+                           c.usesDepth() ? flatSize(depthFeatureShape(c)) : 0);
+}
+
+// one decision of kBatch rows: raw panoramas, candidate slots of which
+// `count[b]` are real (headings on both sides of 0 and past 2 pi, so the
+// view lookup wraps), the previous decision
+struct Decision {
+  torch::Tensor rgb, depth, candidates, mask, prev, notDone;
+};
+
+Decision randomDecision(const ModelConfig& c, const std::vector<int64_t>& count,
+                        const std::vector<float>& notDone) {
+  Decision d;
+  d.rgb = torch::randint(0, 256, {kBatch, kViews, c.rgb_height, c.rgb_width, 3},
+                         torch::kUInt8);
+  d.depth = torch::rand({kBatch, kViews, c.depth_height, c.depth_width, 1});
+  d.candidates = torch::stack({torch::rand({kBatch, kSlots}) * 9.0 - 3.0,
+                               torch::rand({kBatch, kSlots}) * 2.75 + 0.25},
+                              -1);
+  d.mask = torch::zeros({kBatch, kSlots}, torch::kBool);
+  for (int64_t b = 0; b < kBatch; ++b)
+    d.mask[b].slice(0, 0, count[static_cast<size_t>(b)]) = true;
+  d.prev = torch::stack(
+      {torch::rand({kBatch}) * 6.0 - 3.0, torch::rand({kBatch}) * 3.0}, -1);
+  d.notDone = torch::tensor(notDone);
+  return d;
+}
+
+// three decisions: all rows start at the first, row 1 starts again at the
+// third; row 2 never has a candidate, row 0 loses some
+std::vector<Decision> randomEpisode(const ModelConfig& c) {
+  return {randomDecision(c, {3, 1, 0}, {0, 0, 0}),
+          randomDecision(c, {2, 3, 0}, {1, 1, 1}),
+          randomDecision(c, {1, 2, 0}, {1, 0, 1})};
+}
+
+struct Outputs {
+  std::vector<torch::Tensor> logits;
+  torch::Tensor hidden;
+};
+
+Outputs runCpp(WaypointCmaPolicyImpl& policy, ObservationEncoderImpl& encoder,
+               const torch::Tensor& tokens,
+               const std::vector<Decision>& episode) {
+  torch::NoGradGuard noGrad;
+  Outputs out;
+  const EncodedInstruction instruction = policy.encodeInstruction(tokens);
+  torch::Tensor hidden = policy.initialHidden(kBatch);
+  for (const Decision& d : episode) {
+    const VisualFeatures f = encoder.forward(
+        policy.config().usesRgb() ? d.rgb : torch::Tensor(),
+        policy.config().usesDepth() ? d.depth : torch::Tensor());
+    auto views = [](const torch::Tensor& t) {
+      return t.defined() ? t.reshape({kBatch, kViews, -1}) : t;
+    };
+    const WaypointPolicyOutputs o = policy.step(
+        instruction,
+        {views(f.rgb), views(f.depth), d.candidates, d.mask, d.prev, d.notDone},
+        hidden);
+    out.logits.push_back(o.logits);
+    hidden = o.hidden;
+  }
+  out.hidden = hidden;
+  return out;
+}
+
+Outputs runScript(torch::jit::Module& m, const ModelConfig& c,
+                  const torch::Tensor& tokens,
+                  const std::vector<Decision>& episode) {
+  torch::NoGradGuard noGrad;
+  Outputs out;
+  torch::Tensor hidden = torch::zeros({kBatch, 2, c.hidden_size});
+  for (const Decision& d : episode) {
+    const auto tuple = m.forward({d.rgb, d.depth, tokens, d.candidates, d.mask,
+                                  d.prev, d.notDone, hidden})
+                           .toTuple();
+    out.logits.push_back(tuple->elements()[0].toTensor());
+    hidden = tuple->elements()[1].toTensor();
+  }
+  out.hidden = hidden;
+  return out;
+}
+
+// equal -inf at the same (masked) slots, close elsewhere
+void expectSameLogits(const torch::Tensor& expected, const torch::Tensor& got,
+                      const std::string& what) {
+  ASSERT_EQ(expected.sizes(), got.sizes()) << what;
+  const torch::Tensor finite = torch::isfinite(expected);
+  EXPECT_TRUE(torch::equal(finite, torch::isfinite(got))) << what;
+  EXPECT_TRUE(torch::allclose(expected.masked_fill(~finite, 0),
+                              got.masked_fill(~finite, 0), 1e-4, 1e-5))
+      << what << "\n"
+      << expected << "\n"
+      << got;
+}
+
+void expectClose(const Outputs& expected, const Outputs& got,
+                 const std::string& what) {
+  ASSERT_EQ(expected.logits.size(), got.logits.size());
+  for (size_t t = 0; t < expected.logits.size(); ++t)
+    expectSameLogits(expected.logits[t], got.logits[t],
+                     what + " t=" + std::to_string(t));
+  EXPECT_TRUE(torch::allclose(expected.hidden, got.hidden, 1e-4, 1e-5)) << what;
+}
+
+struct Variant {
+  std::string name;
+  ModelConfig config;
+};
+
+std::vector<Variant> variants() {
+  const ModelConfig base = test::tinyConfig(PolicyType::kCma);
+  std::vector<Variant> out{{"cma", base}};
+  ModelConfig c = base;
+  c.no_instruction = true;
+  out.push_back({"no_instruction", c});
+  c = base;
+  c.no_rgb = true;
+  out.push_back({"no_rgb", c});
+  c = base;
+  c.no_depth = true;
+  out.push_back({"no_depth", c});
+  // a unidirectional instruction encoder (model.policy: seq2seq)
+  c = base;
+  c.policy = PolicyType::kSeq2Seq;
+  out.push_back({"seq2seq_instruction_encoder", c});
+  return out;
+}
+
+TEST(WaypointExportTest, ExportedModuleMatchesThePolicyOnRawPanoramas) {
+  for (const Variant& v : variants()) {
+    SCOPED_TRACE(v.name);
+    torch::manual_seed(21);
+    WaypointCmaPolicy policy = makeWaypointPolicy(v.config);
+    ObservationEncoder encoder(v.config);
+    policy->eval();
+    encoder->eval();
+    const torch::Tensor tokens =
+        test::randomTokens({5, 2, 7}, 8, v.config.vocab_size);
+    const std::vector<Decision> episode = randomEpisode(v.config);
+
+    vln::test::TempDir dir;
+    exportWaypointPolicy(*policy, encoder.get(), dir / "agent.pt");
+    torch::jit::Module loaded = torch::jit::load((dir / "agent.pt").string());
+    const Outputs expected = runCpp(*policy, *encoder, tokens, episode);
+    expectClose(expected, runScript(loaded, v.config, tokens, episode), v.name);
+    // the logits are STOP then the K slots
+    EXPECT_EQ(expected.logits[0].sizes(),
+              (std::vector<int64_t>{kBatch, 1 + kSlots}));
+    EXPECT_EQ(loaded.attr("model_config").toStringRef(),
+              common::configToYaml(v.config));
+    EXPECT_EQ(loaded.attr("num_views").toInt(), kViews);
+  }
+}
+
+TEST(WaypointExportTest, FeatureEntryPointMatchesStep) {
+  torch::manual_seed(22);
+  const ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  // features of any size when no encoder is exported
+  WaypointCmaPolicy policy(c, kViews, /*rgbFeatures=*/11, /*depthFeatures=*/13);
+  policy->eval();
+  torch::jit::Module m = buildWaypointExportModule(*policy, nullptr);
+  const torch::Tensor tokens = test::randomTokens({4, 6, 1}, 6, c.vocab_size);
+  const Decision d = randomDecision(c, {3, 0, 2}, {1, 0, 1});
+  const torch::Tensor rgb = torch::randn({kBatch, kViews, 11});
+  const torch::Tensor depth = torch::rand({kBatch, kViews, 13});
+  const torch::Tensor hidden = torch::randn({kBatch, 2, c.hidden_size});
+  torch::NoGradGuard noGrad;
+  const WaypointPolicyOutputs expected = policy->step(
+      policy->encodeInstruction(tokens),
+      {rgb, depth, d.candidates, d.mask, d.prev, d.notDone}, hidden);
+  // R2R pads instructions to 200 tokens: extra PAD must not matter
+  const torch::Tensor padded =
+      torch::cat({tokens, torch::zeros({kBatch, 20}, torch::kInt64)}, 1);
+  for (const char* method : {"forward", "step_features"}) {
+    for (const torch::Tensor& t : {tokens, padded}) {
+      const auto out = m.get_method(method)({rgb, depth, t, d.candidates,
+                                             d.mask, d.prev, d.notDone, hidden})
+                           .toTuple();
+      const std::string what =
+          std::string(method) + " width " + std::to_string(t.size(1));
+      expectSameLogits(expected.logits, out->elements()[0].toTensor(), what);
+      EXPECT_TRUE(torch::allclose(out->elements()[1].toTensor(),
+                                  expected.hidden, 1e-4, 1e-5))
+          << what;
+    }
+  }
+  // a panorama without candidate slots: STOP is the only choice
+  const torch::Tensor noSlots = torch::zeros({kBatch, 0, 2});
+  const torch::Tensor noMask = torch::zeros({kBatch, 0}, torch::kBool);
+  const WaypointPolicyOutputs stopOnly =
+      policy->step(policy->encodeInstruction(tokens),
+                   {rgb, depth, noSlots, noMask, d.prev, d.notDone}, hidden);
+  const auto none =
+      m.get_method("step_features")(
+           {rgb, depth, tokens, noSlots, noMask, d.prev, d.notDone, hidden})
+          .toTuple();
+  expectSameLogits(stopOnly.logits, none->elements()[0].toTensor(), "no slots");
+  EXPECT_EQ(none->elements()[0].toTensor().sizes(),
+            (std::vector<int64_t>{kBatch, 1}));
+}
+
+TEST(WaypointExportTest, EncoderThatDoesNotFitIsRejected) {
+  const ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  WaypointCmaPolicy policy(c, kViews, /*rgbFeatures=*/11,
+                           flatSize(depthFeatureShape(c)));
+  ObservationEncoder encoder(c);
+  try {
+    buildWaypointExportModule(*policy, encoder.get());
+    ADD_FAILURE() << "11 RGB features per view cannot fit the encoder's";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("exportWaypointPolicy()"));
+    EXPECT_THAT(e.what(), HasSubstr("RGB features"));
+  }
+  ModelConfig noRgb = c;
+  noRgb.no_rgb = true;
+  ObservationEncoder depthOnly(noRgb);
+  WaypointCmaPolicy fits = makeWaypointPolicy(c);
+  EXPECT_THROW(buildWaypointExportModule(*fits, depthOnly.get()),
+               std::invalid_argument);
+}
+
+// Python's torch.jit.load runs the archive on a raw panorama and reproduces
+// the C++ outputs; tensors travel both ways as TorchScript tensor archives
+TEST(WaypointExportTest, PythonTorchJitLoadReproducesOutputs) {
+  if (vln::test::runCommand("/usr/bin/python3 -c 'import torch'") != 0)
+    GTEST_SKIP() << "/usr/bin/python3 cannot import torch";
+  torch::manual_seed(23);
+  const ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  WaypointCmaPolicy policy = makeWaypointPolicy(c);
+  ObservationEncoder encoder(c);
+  policy->eval();
+  const torch::Tensor tokens = test::randomTokens({3, 5, 2}, 6, c.vocab_size);
+  const Decision d = randomDecision(c, {1, 3, 0}, {1, 0, 1});
+  const torch::Tensor hidden = torch::randn({kBatch, 2, c.hidden_size});
+  vln::test::TempDir dir;
+  exportWaypointPolicy(*policy, encoder.get(), dir / "agent.pt");
+  writeTensorFile(dir / "inputs.pt", {{"rgb", d.rgb},
+                                      {"depth", d.depth},
+                                      {"instruction", tokens},
+                                      {"candidates", d.candidates},
+                                      {"candidate_mask", d.mask},
+                                      {"prev", d.prev},
+                                      {"not_done", d.notDone},
+                                      {"hidden", hidden}});
+  const std::string script = R"PY(
+import sys, torch
+agent = torch.jit.load(sys.argv[1])
+x = dict(torch.jit.load(sys.argv[2]).named_buffers())
+with torch.no_grad():
+    logits, hidden = agent(x["rgb"], x["depth"], x["instruction"],
+                           x["candidates"], x["candidate_mask"], x["prev"],
+                           x["not_done"], x["hidden"])
+class Out(torch.nn.Module):
+    pass
+out = Out()
+out.register_buffer("logits", logits)
+out.register_buffer("hidden", hidden)
+torch.jit.script(out).save(sys.argv[3])
+)PY";
+  vln::test::writeText(dir / "run.py", script);
+  std::string log;
+  ASSERT_EQ(
+      vln::test::runCommand("/usr/bin/python3 " + (dir / "run.py").string() +
+                                " " + (dir / "agent.pt").string() + " " +
+                                (dir / "inputs.pt").string() + " " +
+                                (dir / "outputs.pt").string() + " 2>&1",
+                            &log),
+      0)
+      << log;
+  std::map<std::string, torch::Tensor> py;
+  for (auto& [name, t] : readTensorFile(dir / "outputs.pt")) py[name] = t;
+
+  torch::NoGradGuard noGrad;
+  const VisualFeatures f = encoder->forward(d.rgb, d.depth);
+  const WaypointPolicyOutputs expected =
+      policy->step(policy->encodeInstruction(tokens),
+                   {f.rgb.reshape({kBatch, kViews, -1}),
+                    f.depth.reshape({kBatch, kViews, -1}), d.candidates, d.mask,
+                    d.prev, d.notDone},
+                   hidden);
+  expectSameLogits(expected.logits, py.at("logits"), "python");
+  EXPECT_TRUE(torch::allclose(py.at("hidden"), expected.hidden, 1e-4, 1e-5));
+}
+
+}  // namespace
+}  // namespace vln::models
