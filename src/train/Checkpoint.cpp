@@ -357,15 +357,17 @@ void loadOptimizerState(torch::optim::Optimizer& optimizer,
 // ---------------------------------------------------------------------------
 // finding and restoring
 
-std::filesystem::path bestOrLatestCheckpoint(const std::filesystem::path& runDir) {
+std::filesystem::path bestOrLatestCheckpoint(
+    const std::filesystem::path& runDir) {
   const std::filesystem::path dir = runDir / "checkpoints";
   const std::filesystem::path best = dir / "best.json";
   if (std::filesystem::exists(best)) {
     const auto json = common::readJsonFile(best);
-    const std::filesystem::path file = dir / common::requireField<std::string>(
-                                    json, "checkpoint", best.string());
-    VLN_CHECK_IO(std::filesystem::exists(file), "train: ", best.string(), " names '",
-                 file.string(), "', which does not exist");
+    const std::filesystem::path file =
+        dir /
+        common::requireField<std::string>(json, "checkpoint", best.string());
+    VLN_CHECK_IO(std::filesystem::exists(file), "train: ", best.string(),
+                 " names '", file.string(), "', which does not exist");
     return file;
   }
   const auto all = listCheckpoints(dir);
@@ -379,8 +381,8 @@ models::NamedTensors readPolicyWeights(const std::filesystem::path& given) {
   std::filesystem::path file = given;
   if (std::filesystem::is_directory(given)) {
     file = bestOrLatestCheckpoint(given);
-    spdlog::info("trainer.init_checkpoint: run directory {} -> {}", given.string(),
-                 file.string());
+    spdlog::info("trainer.init_checkpoint: run directory {} -> {}",
+                 given.string(), file.string());
   }
   try {
     return loadCheckpoint(file).policy;
@@ -396,7 +398,7 @@ models::NamedTensors readPolicyWeights(const std::filesystem::path& given) {
 }
 
 Checkpoint trainingCheckpoint(const std::string& configYaml,
-                              const models::PolicyImpl& policy,
+                              const torch::nn::Module& policy,
                               const torch::optim::Optimizer& optimizer,
                               const TrainingProgress& progress) {
   Checkpoint ckpt;

@@ -98,10 +98,11 @@ models::NamedTensors readPolicyWeights(const std::filesystem::path& given);
 /// LibTorch's default CPU generator state as bytes (Checkpoint::rng_state).
 std::string captureRngState();
 
-/// A training run's state now: its config (as YAML), the policy's weights,
+/// A training run's state now: its config (as YAML), the policy's weights
+/// (any policy module: the low-level policies, the waypoint CMA),
 /// the optimizer's state, `progress` and the generator state.
 Checkpoint trainingCheckpoint(const std::string& configYaml,
-                              const models::PolicyImpl& policy,
+                              const torch::nn::Module& policy,
                               const torch::optim::Optimizer& optimizer,
                               const TrainingProgress& progress);
 /// Restores captureRngState() bytes (nothing when empty); throws

@@ -323,13 +323,8 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       ++progress.checkpoint_index;
       progress.dagger_iteration = epoch.iterations_done;
       progress.epoch = epoch.epochs_done;
-      Checkpoint checkpoint;
-      checkpoint.config_yaml = experimentConfigYaml(config);
-      checkpoint.policy = models::namedState(*policy);
-      checkpoint.optimizer_state = serializeOptimizer(optimizer);
-      checkpoint.progress = progress;
-      checkpoint.rng_state = captureRngState();
-      keeper.save(checkpoint);
+      keeper.save(trainingCheckpoint(experimentConfigYaml(config), *policy,
+                                     optimizer, progress));
 
       if (evaluator && epoch.evaluate_after) {
         const int index = progress.checkpoint_index;
