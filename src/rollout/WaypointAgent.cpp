@@ -158,6 +158,9 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
   }
   if (envList.empty()) return;
   const auto n = static_cast<int64_t>(envList.size());
+  // each deciding environment's row in the batch tensors below
+  std::vector<int64_t> rowOf(slots_.size(), -1);
+  for (int64_t i = 0; i < n; ++i) rowOf[static_cast<size_t>(envList[i])] = i;
 
   envs.forEach(envList, [&](int env) {
     envs.simulator(env).observePanorama(
@@ -218,8 +221,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     }
   } else {
     envs.forEach(envList, [&](int env) {
-      const size_t i = static_cast<size_t>(
-          std::find(envList.begin(), envList.end(), env) - envList.begin());
+      const auto i = static_cast<size_t>(rowOf[static_cast<size_t>(env)]);
       candidates[i] = waypoint::depthBaselineCandidates(
                           slots_[static_cast<size_t>(env)]->panorama, panorama_,
                           config_.depth_baseline)
@@ -272,8 +274,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     slot.hidden = out.hidden.slice(0, i, i + 1).clone();
   }
   envs.forEach(envList, [&](int env) {
-    const auto i = static_cast<int64_t>(
-        std::find(envList.begin(), envList.end(), env) - envList.begin());
+    const int64_t i = rowOf[static_cast<size_t>(env)];
     Slot& slot = *slots_[static_cast<size_t>(env)];
     const sim::NavMesh& navmesh = envs.simulator(env).scene().navmesh();
     const sim::AgentState& state = envs.state(env).agent;
