@@ -8,7 +8,7 @@
 namespace vln::eval {
 
 BaselineStatistics baselineStatistics(const data::GroundTruth& train,
-                                      double forwardStepSize,
+                                      const sim::AgentConfig& agent,
                                       std::string_view source) {
   VLN_CHECK_ARG(!train.empty(), "baselineStatistics(): ", source,
                 " has no ground-truth paths");
@@ -39,7 +39,8 @@ BaselineStatistics baselineStatistics(const data::GroundTruth& train,
   double sum = 0.0;
   for (double length : lengths) sum += length;
   stats.mean_path_length = sum / static_cast<double>(lengths.size());
-  stats.forward_steps = handcraftedForwardSteps(lengths, forwardStepSize);
+  stats.forward_steps = handcraftedForwardSteps(lengths, agent.forward_step_size);
+  stats.max_turns = handcraftedMaxTurns(agent.turn_angle);
   stats.num_paths = static_cast<int>(lengths.size());
   return stats;
 }
@@ -54,7 +55,8 @@ BaselineAgentAdapter::BaselineAgentAdapter(std::string_view name,
   // episode's draws from (seed, episode id), not from the environment
   for (int i = 0; i < numEnvs; ++i)
     agents_.push_back(
-        makeBaseline(name, stats.distribution, stats.forward_steps, seed));
+        makeBaseline(name, stats.distribution, stats.forward_steps,
+                     stats.max_turns, seed));
   started_.assign(static_cast<size_t>(numEnvs), false);
 }
 

@@ -29,16 +29,19 @@ struct BaselineStatistics {
   double mean_path_length = 0.0;
   /// round(mean_path_length / forward step size) (handcraftedForwardSteps()).
   int forward_steps = kPaperHandcraftedForwardSteps;
+  /// The hand-crafted agent's largest number of initial turns, from the
+  /// agent's turn angle (handcraftedMaxTurns(): 24 for 15 degrees).
+  int max_turns = kHandcraftedMaxTurns;
   /// Ground-truth paths the statistics were computed from.
   int num_paths = 0;
 };
 
-/// Statistics of a training ground truth for an agent whose MOVE_FORWARD
-/// covers `forwardStepSize` metres. Throws std::invalid_argument naming
-/// `source` when the ground truth is empty, has no actions, or a path has no
-/// locations.
+/// Statistics of a training ground truth for an agent that moves and turns
+/// as `agent` says (forward_step_size, turn_angle). Throws
+/// std::invalid_argument naming `source` when the ground truth is empty, has
+/// no actions, or a path has no locations.
 BaselineStatistics baselineStatistics(const data::GroundTruth& train,
-                                      double forwardStepSize,
+                                      const sim::AgentConfig& agent,
                                       std::string_view source = "<ground truth>");
 
 /// Runs one BaselineAgent per environment. reset() re-seeds the

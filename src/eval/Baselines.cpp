@@ -53,6 +53,15 @@ int handcraftedForwardSteps(std::span<const double> pathLengths,
   return static_cast<int>(std::lround(mean / forwardStepSize));
 }
 
+int handcraftedMaxTurns(double turnAngleDeg) {
+  VLN_CHECK_ARG(turnAngleDeg > 0.0 && turnAngleDeg <= 360.0,
+                "handcraftedMaxTurns(): turn angle must be in (0, 360] "
+                "degrees, got ",
+                turnAngleDeg);
+  // 360 / 30 must give 12, not 11.999...: a hair of slack before flooring
+  return static_cast<int>(std::floor(360.0 / turnAngleDeg + 1e-9));
+}
+
 // ---------------------------------------------------------------------------
 // random agent
 // ---------------------------------------------------------------------------
@@ -134,12 +143,11 @@ sim::Action HandcraftedAgent::act() {
 
 std::unique_ptr<BaselineAgent> makeBaseline(
     std::string_view name, const ActionDistribution& distribution,
-    int forwardSteps, uint64_t seed) {
+    int forwardSteps, int maxTurns, uint64_t seed) {
   if (name == "random")
     return std::make_unique<RandomAgent>(distribution, seed);
   if (name == "handcrafted")
-    return std::make_unique<HandcraftedAgent>(forwardSteps,
-                                              kHandcraftedMaxTurns, seed);
+    return std::make_unique<HandcraftedAgent>(forwardSteps, maxTurns, seed);
   throw std::invalid_argument(
       strCat("makeBaseline(): unknown baseline '", name,
              "', expected one of: random, handcrafted"));

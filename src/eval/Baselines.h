@@ -5,7 +5,8 @@
 //    action distribution (VLN-CE: STOP 0.02, MOVE_FORWARD 0.68, TURN_LEFT
 //    0.15, TURN_RIGHT 0.15).
 //  - Hand-crafted: turns right a uniformly random number of times in
-//    0..24 (a random heading in 15 degree steps), walks forward for the
+//    0..24 (a random heading in 15 degree steps; 0..12 with RxR-Habitat's
+//    30 degree turns), walks forward for the
 //    mean training path length in steps (37 in the paper: 9.27 m / 0.25 m),
 //    then calls STOP.
 // Both are deterministic: reset(episodeId) seeds the episode's draws from
@@ -39,6 +40,12 @@ inline constexpr int kPaperHandcraftedForwardSteps = 37;
 /// Largest number of initial TURN_RIGHT actions: VLN-CE draws
 /// np.random.randint(0, int(360 / 15) + 1), whose upper bound is exclusive.
 inline constexpr int kHandcraftedMaxTurns = 24;
+
+/// The same rule for turns of `turnAngleDeg` degrees: int(360 / angle)
+/// (24 for R2R's 15 degrees, 12 for RxR-Habitat's 30), so that the random
+/// heading covers the circle whatever the task's turn. Throws
+/// std::invalid_argument unless 0 < turnAngleDeg <= 360.
+int handcraftedMaxTurns(double turnAngleDeg);
 
 /// Frequencies of the action codes over all ground-truth action sequences
 /// (e.g. the "actions" lists of train_gt.json.gz). Throws
@@ -111,10 +118,10 @@ class HandcraftedAgent : public BaselineAgent {
 };
 
 /// "random" -> RandomAgent(distribution, seed), "handcrafted" ->
-/// HandcraftedAgent(forwardSteps, kHandcraftedMaxTurns, seed); throws
+/// HandcraftedAgent(forwardSteps, maxTurns, seed); throws
 /// std::invalid_argument naming any other `name`.
 std::unique_ptr<BaselineAgent> makeBaseline(
     std::string_view name, const ActionDistribution& distribution,
-    int forwardSteps, uint64_t seed);
+    int forwardSteps, int maxTurns, uint64_t seed);
 
 }  // namespace vln::eval

@@ -357,11 +357,11 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
                                        dataset.rxr_filter.resolvedRoles())
             : data::readGroundTruth(gtFiles.front());
     baselineStats = std::make_unique<BaselineStatistics>(baselineStatistics(
-        truth, settings.sim.agent.forward_step_size,
-        gtFiles.front().string()));
+        truth, settings.sim.agent, gtFiles.front().string()));
     out << "baseline " << options.agent << ": " << baselineStats->num_paths
         << " training paths, mean length " << baselineStats->mean_path_length
-        << " m (" << baselineStats->forward_steps << " forward steps), actions "
+        << " m (" << baselineStats->forward_steps << " forward steps, up to "
+        << baselineStats->max_turns << " turns), actions "
         << "STOP " << baselineStats->distribution[0] << " FORWARD "
         << baselineStats->distribution[1] << " LEFT "
         << baselineStats->distribution[2] << " RIGHT "

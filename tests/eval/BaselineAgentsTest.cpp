@@ -30,7 +30,7 @@ TEST(BaselineAgentsTest, StatisticsComeFromTheGroundTruth) {
   data::GroundTruth gt;
   gt[1] = path({{0, 0, 0}, {0, 0, -1}, {0, 0, -3}}, {1, 1, 2, 0});             // 3 m
   gt[2] = path({{1, 0, 0}, {1, 0, 4}}, {3, 3, 1, 1, 1, 0});                    // 4 m
-  const BaselineStatistics s = baselineStatistics(gt, /*forwardStepSize=*/0.25);
+  const BaselineStatistics s = baselineStatistics(gt, sim::AgentConfig{});
   EXPECT_EQ(s.num_paths, 2);
   EXPECT_DOUBLE_EQ(s.mean_path_length, 3.5);
   EXPECT_EQ(s.forward_steps, 14);  // 3.5 m / 0.25 m
@@ -38,10 +38,18 @@ TEST(BaselineAgentsTest, StatisticsComeFromTheGroundTruth) {
   EXPECT_DOUBLE_EQ(s.distribution[1], 5.0 / 10.0);
   EXPECT_DOUBLE_EQ(s.distribution[2], 1.0 / 10.0);
   EXPECT_DOUBLE_EQ(s.distribution[3], 2.0 / 10.0);
+  EXPECT_EQ(s.max_turns, 24);  // 15 degree turns
+  // RxR-Habitat's agent: 30 degree turns, the same forward step
+  sim::AgentConfig rxr;
+  rxr.turn_angle = 30.0f;
+  EXPECT_EQ(baselineStatistics(gt, rxr).max_turns, 12);
+  sim::AgentConfig longSteps;
+  longSteps.forward_step_size = 0.5f;
+  EXPECT_EQ(baselineStatistics(gt, longSteps).forward_steps, 7);
 
   // the house's follower ground truth: forward steps of about 0.25 m each
   const auto& w = rolloutTestWorld();
-  const BaselineStatistics h = baselineStatistics(w.groundTruth, 0.25);
+  const BaselineStatistics h = baselineStatistics(w.groundTruth, sim::AgentConfig{});
   int forward = 0, total = 0;
   for (const auto& [id, p] : w.groundTruth) {
     forward += p.forward_steps;
@@ -52,17 +60,17 @@ TEST(BaselineAgentsTest, StatisticsComeFromTheGroundTruth) {
 }
 
 TEST(BaselineAgentsTest, BadGroundTruthIsNamed) {
-  EXPECT_THAT([] { baselineStatistics({}, 0.25, "train_gt.json.gz"); },
+  EXPECT_THAT([] { baselineStatistics({}, sim::AgentConfig{}, "train_gt.json.gz"); },
               ::testing::Throws<std::invalid_argument>(::testing::Property(
                   &std::exception::what, HasSubstr("train_gt.json.gz has no ground-truth paths"))));
   data::GroundTruth empty;
   empty[7] = path({}, {0});
-  EXPECT_THAT([&] { baselineStatistics(empty, 0.25, "gt.json"); },
+  EXPECT_THAT([&] { baselineStatistics(empty, sim::AgentConfig{}, "gt.json"); },
               ::testing::Throws<std::invalid_argument>(::testing::Property(
                   &std::exception::what, HasSubstr("gt.json: episode 7: field 'locations' is empty"))));
   data::GroundTruth noActions;
   noActions[3] = path({{0, 0, 0}}, {});
-  EXPECT_THAT([&] { baselineStatistics(noActions, 0.25, "gt.json"); },
+  EXPECT_THAT([&] { baselineStatistics(noActions, sim::AgentConfig{}, "gt.json"); },
               ::testing::Throws<std::invalid_argument>(
                   ::testing::Property(&std::exception::what, HasSubstr("gt.json: "))));
   EXPECT_THROW(BaselineAgentAdapter("greedy", BaselineStatistics{}, 2, 0), std::invalid_argument);

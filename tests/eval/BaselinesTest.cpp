@@ -151,16 +151,34 @@ TEST(BaselinesTest, HandcraftedAgentFollowsTheRule) {
   EXPECT_NEAR(mean, 12.0, 0.5);
 }
 
+TEST(BaselinesTest, MaxTurnsCoverTheCircleForAnyTurnAngle) {
+  EXPECT_EQ(handcraftedMaxTurns(15.0), kHandcraftedMaxTurns);  // VLN-CE's 24
+  EXPECT_EQ(handcraftedMaxTurns(30.0), 12);                    // RxR-Habitat
+  EXPECT_EQ(handcraftedMaxTurns(10.0), 36);
+  EXPECT_EQ(handcraftedMaxTurns(45.0), 8);
+  EXPECT_EQ(handcraftedMaxTurns(100.0), 3);  // int(3.6)
+  EXPECT_EQ(handcraftedMaxTurns(360.0), 1);
+  for (double bad : {0.0, -15.0, 361.0})
+    EXPECT_THAT([bad] { handcraftedMaxTurns(bad); },
+                ::testing::ThrowsMessage<std::invalid_argument>(HasSubstr("turn angle")));
+}
+
 TEST(BaselinesTest, FactoryBuildsByName) {
-  auto random = makeBaseline("random", kPaperActionDistribution, 37, 1);
+  auto random = makeBaseline("random", kPaperActionDistribution, 37, 24, 1);
   EXPECT_EQ(random->name(), "random");
-  auto hand = makeBaseline("handcrafted", kPaperActionDistribution, 5, 1);
+  auto hand = makeBaseline("handcrafted", kPaperActionDistribution, 5, 24, 1);
+  // with at most 2 turns, every episode's draw is 0, 1 or 2
+  auto few = makeBaseline("handcrafted", kPaperActionDistribution, 5, 2, 1);
+  for (int e = 0; e < 50; ++e) {
+    few->reset("e" + std::to_string(e));
+    EXPECT_LE(dynamic_cast<HandcraftedAgent&>(*few).turns(), 2);
+  }
   hand->reset("e");
   const int turns = dynamic_cast<HandcraftedAgent&>(*hand).turns();
   for (int i = 0; i < turns; ++i) hand->act();
   for (int i = 0; i < 5; ++i) EXPECT_EQ(hand->act(), sim::Action::kMoveForward);
   EXPECT_EQ(hand->act(), sim::Action::kStop);
-  EXPECT_THAT([] { makeBaseline("greedy", kPaperActionDistribution, 37, 1); },
+  EXPECT_THAT([] { makeBaseline("greedy", kPaperActionDistribution, 37, 24, 1); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("unknown baseline 'greedy'")));
 }
