@@ -6,7 +6,11 @@
 //     [128,4,4]): forward in sequence mode, inflection-weighted
 //     cross-entropy plus progress MSE over the real steps, backward, Adam.
 //     Prints the median ms/update after warm-up. The Python/PyTorch peer is
-//     scripts/bench_pytorch_update.py with the same flags.
+//     scripts/bench_pytorch_update.py with the same flags. --scale cpu
+//     takes configs/main.yaml's model instead (small-CNN features RGB
+//     [64,4,4] and depth [32,4,4], hidden 128, 151 words, fine-tuned
+//     embeddings, no progress monitor), e.g. --batch 16 --steps 90
+//     --instr-len 60 for its batches.
 //   vlnce-bench act --model cma --batch 8 --threads 2
 //     one acting step (step mode, instruction cached) without gradients.
 //   vlnce-bench encode --encoder resnet50 --modality rgb --size 224
@@ -87,6 +91,7 @@ EncoderType parseEncoder(const std::string& name) {
 
 struct UpdateArgs {
   std::string model = "cma";
+  std::string scale = "paper";
   int batch = 5;
   int steps = 60;
   int instrLen = 30;
@@ -96,6 +101,17 @@ int runUpdate(const UpdateArgs& a, int threads, int warmup, int iters) {
   ModelConfig config;
   config.policy = parsePolicy(a.model);
   config.progress_monitor = true;
+  if (a.scale == "cpu") {
+    // configs/main.yaml's model (configs/vln/cpu_base.yaml)
+    config.rgb_encoder = EncoderType::kSmallCnn;
+    config.depth_encoder = EncoderType::kSmallCnn;
+    config.rgb_width = config.rgb_height = 64;
+    config.depth_width = config.depth_height = 64;
+    config.hidden_size = 128;
+    config.vocab_size = 151;
+    config.fine_tune_embeddings = true;
+    config.progress_monitor = false;
+  }
   config.validate();
   torch::manual_seed(0);
   auto policy = makePolicy(config);
@@ -115,19 +131,19 @@ int runUpdate(const UpdateArgs& a, int threads, int warmup, int iters) {
     const EncodedInstruction instr = policy->encodeInstruction(u.tokens);
     const PolicyOutputs out = policy->forwardSequence(
         instr, u.inputs, policy->initialHidden(a.batch));
-    const torch::Tensor loss =
-        weightedActionLoss(out.logits, u.actions, u.weights) +
-        progressLoss(out.progress, u.progress, u.valid);
+    torch::Tensor loss = weightedActionLoss(out.logits, u.actions, u.weights);
+    if (config.progress_monitor)
+      loss = loss + progressLoss(out.progress, u.progress, u.valid);
     loss.backward();
     adam.step();
     lastLoss = loss.item<double>();
   };
   const Timing t = timeIt(warmup, iters, update);
   std::printf(
-      "update %s batch=%d steps=%d instr_len=%d threads=%d: median %.1f "
-      "ms/update (min %.1f, mean %.1f, CPU %.1f ms/update; %d runs after %d "
-      "warm-up; last loss %.4f)\n",
-      a.model.c_str(), a.batch, a.steps, a.instrLen, threads, t.median, t.min,
+      "update %s scale=%s batch=%d steps=%d instr_len=%d threads=%d: median "
+      "%.1f ms/update (min %.1f, mean %.1f, CPU %.1f ms/update; %d runs after "
+      "%d warm-up; last loss %.4f)\n",
+      a.model.c_str(), a.scale.c_str(), a.batch, a.steps, a.instrLen, threads, t.median, t.min,
       t.mean, t.cpuMean, iters, warmup, lastLoss);
   return 0;
 }
@@ -224,6 +240,9 @@ int main(int argc, char** argv) {
     UpdateArgs update;
     CLI::App* up = app.add_subcommand("update", "One teacher-forcing update");
     up->add_option("--model", update.model, "cma or seq2seq");
+    up->add_option("--scale", update.scale,
+                   "paper (VLN-CE's sizes) or cpu (configs/main.yaml's model)")
+        ->check(CLI::IsMember({"paper", "cpu"}));
     up->add_option("--batch", update.batch, "Episodes per batch")
         ->check(CLI::Range(1, 4096));
     up->add_option("--steps", update.steps, "Steps of the longest episode")

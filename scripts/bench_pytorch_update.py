@@ -19,6 +19,10 @@ distribution as apps/BenchMain.cpp.
     /usr/bin/python3 scripts/bench_pytorch_update.py --model cma --batch 5 \
         --steps 60 --instr-len 30 --threads 2
 
+--scale cpu takes configs/main.yaml's model instead (small-CNN features,
+hidden 128, 151 words, embeddings trained, no progress monitor), as
+`vlnce-bench update --scale cpu` does.
+
 Needs only Debian's python3-torch (scripts/setup.sh installs it).
 """
 import argparse
@@ -40,13 +44,27 @@ RGB_OUT = 256
 DEPTH_OUT = 128
 POS_DIM = 64
 PREV_DIM = 32
+TRAIN_EMBEDDINGS = False
+PROGRESS_MONITOR = True
+
+
+def use_cpu_scale():
+    """configs/main.yaml's model (configs/vln/cpu_base.yaml)."""
+    global VOCAB, HIDDEN, RGB_SHAPE, DEPTH_SHAPE, TRAIN_EMBEDDINGS
+    global PROGRESS_MONITOR
+    VOCAB = 151
+    HIDDEN = 128
+    RGB_SHAPE = (64, 4, 4)  # the small CNN on 64x64 RGB
+    DEPTH_SHAPE = (32, 4, 4)  # the small CNN on 64x64 depth
+    TRAIN_EMBEDDINGS = True
+    PROGRESS_MONITOR = False
 
 
 class InstructionEncoder(nn.Module):
     def __init__(self, bidirectional, final_state_only):
         super().__init__()
         self.embedding = nn.Embedding.from_pretrained(
-            torch.randn(VOCAB, EMBED), freeze=True)
+            torch.randn(VOCAB, EMBED), freeze=not TRAIN_EMBEDDINGS)
         self.lstm = nn.LSTM(EMBED, INSTR_HIDDEN, bidirectional=bidirectional)
         self.final_state_only = final_state_only
         self.output_size = INSTR_HIDDEN * (2 if bidirectional else 1)
@@ -151,9 +169,12 @@ class CMANet(nn.Module):
         text_mask = (instruction == 0.0).all(dim=1)
         text = self._attn(self.state_q(state), self.text_k(instruction),
                           instruction, text_mask)
-        rgb_k, rgb_v = torch.split(self.rgb_kv(rgb), HIDDEN // 2, dim=1)
-        depth_k, depth_v = torch.split(self.depth_kv(depth), HIDDEN // 2,
-                                       dim=1)
+        # keys, then values (VLN-CE splits by HIDDEN // 2, the same at its
+        # hidden 512; explicit sizes also hold at hidden 128)
+        rgb_k, rgb_v = torch.split(self.rgb_kv(rgb), [HIDDEN // 2, RGB_OUT],
+                                   dim=1)
+        depth_k, depth_v = torch.split(self.depth_kv(depth),
+                                       [HIDDEN // 2, DEPTH_OUT], dim=1)
         text_q = self.text_q(text)
         rgb_att = self._attn(text_q, rgb_k, rgb_v)
         depth_att = self._attn(text_q, depth_k, depth_v)
@@ -230,6 +251,7 @@ def make_batch(args):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--model", choices=["cma", "seq2seq"], default="cma")
+    parser.add_argument("--scale", choices=["paper", "cpu"], default="paper")
     parser.add_argument("--batch", type=int, default=5)
     parser.add_argument("--steps", type=int, default=60)
     parser.add_argument("--instr-len", type=int, default=30)
@@ -237,6 +259,8 @@ def main():
     parser.add_argument("--warmup", type=int, default=3)
     parser.add_argument("--iters", type=int, default=10)
     args = parser.parse_args()
+    if args.scale == "cpu":
+        use_cpu_scale()
     torch.set_num_threads(args.threads)
     torch.manual_seed(0)
 
@@ -256,10 +280,11 @@ def main():
         ce = F.cross_entropy(logits.permute(0, 2, 1), actions,
                              reduction="none")
         action_loss = ((weights * ce).sum(0) / weights.sum(0)).mean()
-        mse = F.mse_loss(progress_hat.view(-1), progress.view(-1),
-                         reduction="none")
-        aux = torch.masked_select(mse, valid.view(-1)).mean()
-        loss = action_loss + aux
+        loss = action_loss
+        if PROGRESS_MONITOR:
+            mse = F.mse_loss(progress_hat.view(-1), progress.view(-1),
+                             reduction="none")
+            loss = loss + torch.masked_select(mse, valid.view(-1)).mean()
         loss.backward()
         optimizer.step()
         return loss.item()
@@ -273,7 +298,8 @@ def main():
         loss = update()
         times.append(1000.0 * (time.perf_counter() - start))
     cpu = 1000.0 * (time.process_time() - cpu_start) / args.iters
-    print(f"pytorch update {args.model} batch={args.batch} "
+    print(f"pytorch update {args.model} scale={args.scale} "
+          f"batch={args.batch} "
           f"steps={args.steps} instr_len={args.instr_len} "
           f"threads={args.threads}: median {statistics.median(times):.1f} "
           f"ms/update (min {min(times):.1f}, mean "
