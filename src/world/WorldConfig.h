@@ -201,6 +201,7 @@ struct SplitConfig {
   int test_per_house = 15;
   int aug_per_house = 60;
   int extra_train_houses = 0;
+  int extra_unseen_houses = 0;
 
   void visit(common::ConfigVisitor& v) {
     v.field("val_unseen_fraction", val_unseen_fraction,
@@ -228,6 +229,13 @@ struct SplitConfig {
             "(human-style instructions). The other splits, the vocabulary "
             "and GloVe stay those of the first `houses` houses (words outside "
             "that vocabulary become <unk>)",
+            common::inRange(0, 100000));
+    v.field("extra_unseen_houses", extra_unseen_houses,
+            "More held-out houses, for evaluation only: houses numbered from "
+            "1000000 on (never an extra train house), each with "
+            "val_unseen_per_house trajectories (goals and ground truth "
+            "published, as val_unseen's) forming the val_unseen_extra split. "
+            "The other splits, the vocabulary and GloVe stay unchanged",
             common::inRange(0, 100000));
   }
   void validate() const {

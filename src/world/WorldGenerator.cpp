@@ -59,6 +59,7 @@ constexpr const char* kValUnseen = "val_unseen";
 constexpr const char* kTest = "test";
 constexpr const char* kTrainAug = "train_aug";
 constexpr const char* kTrainExtra = "train_extra";
+constexpr const char* kValUnseenExtra = "val_unseen_extra";
 
 // ---------------------------------------------------------------------------
 // per house
@@ -108,6 +109,8 @@ std::vector<std::pair<std::string, int>> quotas(const WorldConfig& config,
             {kTrainAug, s.aug_per_house}};
   if (role == kValUnseen) return {{kValUnseen, s.val_unseen_per_house}};
   if (role == kTrainExtra) return {{kTrainExtra, s.train_per_house}};
+  if (role == kValUnseenExtra)
+    return {{kValUnseenExtra, s.val_unseen_per_house}};
   return {{kTest, s.test_per_house}};
 }
 
@@ -239,7 +242,16 @@ std::vector<std::string> worldHouseRoles(const WorldConfig& config) {
   // the extra houses come after, so the first `houses` keep their roles
   roles.resize(static_cast<size_t>(n + config.splits.extra_train_houses),
                kTrainExtra);
+  roles.resize(roles.size() +
+                   static_cast<size_t>(config.splits.extra_unseen_houses),
+               kValUnseenExtra);
   return roles;
+}
+
+int worldHouseIndex(const WorldConfig& config, int slot) {
+  const int extraUnseenSlot = config.houses + config.splits.extra_train_houses;
+  return slot < extraUnseenSlot ? slot
+                                : kExtraUnseenFirstIndex + (slot - extraUnseenSlot);
 }
 
 WorldHouse buildWorldHouse(const WorldConfig& config, int index) {
@@ -337,7 +349,8 @@ void forEachWorldHouse(const WorldConfig& config, int houses, int threads,
     for (int i = next++; i < houses; i = next++) {
       // errors name the house; their type (bad input or I/O) is kept
       const std::string where =
-          strCat(caller, ": house ", i, " '", worldHouseName(config, i), "': ");
+          strCat(caller, ": house ", worldHouseIndex(config, i), " '",
+                 worldHouseName(config, worldHouseIndex(config, i)), "': ");
       try {
         process(i);
       } catch (const std::invalid_argument& e) {
@@ -373,18 +386,22 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
                 "generateWorld(): the output directory is empty");
   const std::vector<std::string> roles = worldHouseRoles(config);
 
-  // the splits written: train_extra only when there are extra houses, and
-  // last, so that the trajectory ids of the others do not depend on it
+  // the splits written: train_extra and val_unseen_extra only when there
+  // are such houses, and last, so that the trajectory ids of the others do
+  // not depend on them
   std::vector<std::string> splitNames = worldSplitNames();
   if (config.splits.extra_train_houses > 0) splitNames.push_back(kTrainExtra);
+  if (config.splits.extra_unseen_houses > 0)
+    splitNames.push_back(kValUnseenExtra);
 
   // houses on a pool of threads; results land in house order
-  const int n = config.houses + config.splits.extra_train_houses;
+  const int n = static_cast<int>(roles.size());
   std::vector<std::optional<HouseResult>> houses(static_cast<size_t>(n));
   forEachWorldHouse(
       config, n, output.threads, "generate", "generateWorld()", [&](int i) {
         houses[static_cast<size_t>(i)] =
-            processHouse(config, output, i, roles[static_cast<size_t>(i)]);
+            processHouse(config, output, worldHouseIndex(config, i),
+                         roles[static_cast<size_t>(i)]);
       });
 
   // episodes of every split, merged in house order
@@ -600,6 +617,10 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
          << (summary.houses.count(kTrainExtra) != 0
                  ? strCat(", ", summary.houses[kTrainExtra].size(),
                           " extra train")
+                 : std::string())
+         << (summary.houses.count(kValUnseenExtra) != 0
+                 ? strCat(", ", summary.houses[kValUnseenExtra].size(),
+                          " extra val_unseen")
                  : std::string())
          << ") into " << output.out.string() << "\n";
     for (const std::string& split : splitNames)

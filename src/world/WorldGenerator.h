@@ -84,10 +84,22 @@ struct WorldSummary {
 /// different worlds never overwrite each other's scenes.
 std::string worldHouseName(const WorldConfig& config, int index);
 
-/// The role of every house of a world, by house index: "train",
-/// "val_unseen" or "test" for the first `houses`, "train_extra" after them.
-/// Throws std::invalid_argument when no train house is left.
+/// The first house index of splits.extra_unseen_houses: above any index
+/// `houses` + splits.extra_train_houses can reach, so that a held-out house
+/// is never a train house of the same seed in another world version.
+inline constexpr int kExtraUnseenFirstIndex = 1000000;
+
+/// The role of every house slot of a world: "train", "val_unseen" or
+/// "test" for the first `houses`, "train_extra" for the
+/// splits.extra_train_houses after them, then "val_unseen_extra" for the
+/// splits.extra_unseen_houses. Throws std::invalid_argument when no train
+/// house is left.
 std::vector<std::string> worldHouseRoles(const WorldConfig& config);
+
+/// The house index (worldHouseName(), the house seed) of house slot `slot`
+/// of worldHouseRoles(): the slot itself, except for the extra unseen
+/// houses, numbered from kExtraUnseenFirstIndex.
+int worldHouseIndex(const WorldConfig& config, int slot);
 
 /// House `index` of a world as its scene is saved (steps 1 and 2 of the
 /// file comment, before the navmesh): the reconstructed house, the nav-graph

@@ -376,6 +376,63 @@ TEST_F(WorldGeneratorTest, ExtraTrainHousesAddTrainExtraAndChangeNothingElse) {
 TEST_F(WorldGeneratorTest, NoExtraHousesNoTrainExtraSplit) {
   EXPECT_FALSE(fs::exists(datasetRoot() / "train_extra"));
   EXPECT_FALSE(summary_->houses.count("train_extra"));
+  EXPECT_FALSE(fs::exists(datasetRoot() / "val_unseen_extra"));
+  EXPECT_FALSE(summary_->houses.count("val_unseen_extra"));
+}
+
+TEST_F(WorldGeneratorTest, ExtraUnseenHousesAreNewHeldOutHousesAndChangeNothingElse) {
+  // with extra train houses too: the held-out houses must be neither those
+  // nor any house of the first `houses`
+  test::TempDir more;
+  WorldConfig config = tinyConfig();
+  config.splits.extra_train_houses = 1;
+  config.splits.extra_unseen_houses = 2;
+  std::ostringstream log;
+  const WorldSummary summary = generateWorld(
+      config, {more.path() / "data", more.path() / "scenes", 2}, &log);
+  EXPECT_THAT(log.str(), HasSubstr("2 extra val_unseen"));
+  EXPECT_THAT(log.str(), HasSubstr("val_unseen_extra: "));
+
+  // the world without extra houses is unchanged, file for file
+  auto before = readTree(datasetRoot());
+  auto after = readTree(more.path() / "data");
+  before.erase("generation_stats.json");
+  for (const auto& [name, bytes] : before) {
+    ASSERT_TRUE(after.count(name)) << name;
+    EXPECT_TRUE(after.at(name) == bytes) << name << " changed";
+  }
+
+  // the new split: val_unseen_per_house trajectories per house, published
+  // with goals and ground truth like val_unseen, in houses numbered from
+  // kExtraUnseenFirstIndex
+  const fs::path root = more.path() / "data";
+  const data::EpisodeDataset extra =
+      data::readEpisodes(data::splitEpisodesPath(root, "val_unseen_extra"));
+  const data::GroundTruth truth = data::readGroundTruth(
+      data::splitGroundTruthPath(root, "val_unseen_extra"));
+  ASSERT_EQ(summary.houses.at("val_unseen_extra").size(), 2u);
+  EXPECT_EQ(summary.trajectories.at("val_unseen_extra"),
+            2 * config.splits.val_unseen_per_house);
+  const std::set<std::string> expected = {
+      worldHouseName(config, kExtraUnseenFirstIndex),
+      worldHouseName(config, kExtraUnseenFirstIndex + 1)};
+  std::set<std::string> seen;
+  for (const data::Episode& e : extra.episodes) {
+    seen.insert(fs::path(e.scene_id).parent_path().filename().string());
+    EXPECT_TRUE(truth.count(e.episode_id)) << e.episode_id;
+    EXPECT_FALSE(e.goals.empty());
+    EXPECT_FALSE(e.reference_path.empty());
+    EXPECT_TRUE(fs::exists(more.path() / "scenes" / e.scene_id)) << e.scene_id;
+  }
+  EXPECT_EQ(seen, expected);
+  // no house of the world, its extra train house included, is held out twice
+  std::set<std::string> others;
+  for (int i = 0; i < config.houses + config.splits.extra_train_houses; ++i)
+    others.insert(worldHouseName(config, i));
+  for (const std::string& house : seen) EXPECT_FALSE(others.count(house)) << house;
+  EXPECT_EQ(worldHouseIndex(config, config.houses + 1), kExtraUnseenFirstIndex);
+  EXPECT_EQ(worldHouseIndex(config, config.houses), config.houses);
+  EXPECT_EQ(worldHouseRoles(config).back(), "val_unseen_extra");
 }
 
 TEST_F(WorldGeneratorTest, GeneratedWordsAreRoomToRoomWords) {
