@@ -31,16 +31,18 @@ EvaluationResult mergeShards(EvaluationResult mine, int own, int numShards,
                              const std::vector<std::string>& bytes,
                              const data::Split& split) {
   VLN_CHECK_IO(bytes.size() == static_cast<size_t>(numShards),
-               "evaluateSplit(): split '", split.name, "': the gather returned ",
-               bytes.size(), " shards' episodes, expected ", numShards);
+               "evaluateSplit(): split '", split.name,
+               "': the gather returned ", bytes.size(),
+               " shards' episodes, expected ", numShards);
   const size_t n = bytes.size();
   const size_t total = split.episodes.size();
   EvaluationResult all;
   all.episodes.resize(total);
   all.scored.assign(total, 0);
   for (size_t s = 0; s < n; ++s) {
-    const std::string source = strCat("evaluateSplit(): split '", split.name,
-                                      "': the episodes of shard ", s, " of ", n);
+    const std::string source =
+        strCat("evaluateSplit(): split '", split.name,
+               "': the episodes of shard ", s, " of ", n);
     std::vector<EpisodeResult> episodes;
     std::vector<uint8_t> scored;
     if (s == static_cast<size_t>(own)) {
@@ -55,8 +57,8 @@ EvaluationResult mergeShards(EvaluationResult mine, int own, int numShards,
             strCat(source, " are not readable: ", error.what()));
       }
       episodes = episodesFromJson(json, source);
-      scored = common::requireField<std::vector<uint8_t>>(json, "scored",
-                                                          source);
+      scored =
+          common::requireField<std::vector<uint8_t>>(json, "scored", source);
     }
     // every n-th episode from s on, in the split's order
     const size_t expected = s < total ? (total - s + n - 1) / n : 0;

@@ -93,9 +93,9 @@ struct SplitEvaluation {
 
 /// Runs `agent` on `split` (eval.num_envs environments on eval.threads
 /// threads, scenes from `scenes`) and writes the files of the file comment.
-/// Throws what evaluateEpisodes() throws, and std::runtime_error naming the
-/// split and shard when gathered episodes do not fit the split (the
-/// processes evaluated different splits).
+/// Throws what evaluateEpisodes() throws, and an exception naming the split
+/// and the shard when gathered episodes are unreadable or do not fit the
+/// split (the processes evaluated different splits).
 SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
                               const std::shared_ptr<SceneCache>& scenes,
                               const sim::SimConfig& sim,

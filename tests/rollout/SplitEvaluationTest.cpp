@@ -129,8 +129,7 @@ std::vector<SplitEvaluation> evaluateAsShards(const data::Split& split,
 std::map<std::string, std::string> filesIn(const fs::path& dir) {
   std::map<std::string, std::string> files;
   for (const auto& entry : fs::directory_iterator(dir))
-    files[entry.path().filename().string()] =
-        vln::test::readText(entry.path());
+    files[entry.path().filename().string()] = vln::test::readText(entry.path());
   return files;
 }
 
@@ -211,10 +210,9 @@ TEST(SplitEvaluationTest, ShardsGatheredWriteTheFilesOfOneProcess) {
         }
         // its counts are its own share's, and the summary says so
         EXPECT_EQ(e.episodes, (10 - s + n - 1) / n);
-        EXPECT_THAT(summaryLine(e),
-                    ::testing::HasSubstr(strCat(e.episodes, " episodes (shard ",
-                                                s, " of ", n,
-                                                "; the split has 10)")));
+        EXPECT_THAT(summaryLine(e), ::testing::HasSubstr(strCat(
+                                        e.episodes, " episodes (shard ", s,
+                                        " of ", n, "; the split has 10)")));
         EXPECT_EQ(e.files.empty(), s != 0);
       }
       if (rxr)
@@ -248,9 +246,10 @@ TEST(SplitEvaluationTest, GatheredBytesThatDoNotFitTheSplitAreErrors) {
     SplitEvaluationOptions options;
     options.num_shards = 2;
     options.gather = gatherReturning(wrong);
-    EXPECT_THAT([&] { evaluate(split, fs::path(), options); },
-                ::testing::ThrowsMessage<std::runtime_error>(::testing::HasSubstr(
-                    messages[static_cast<size_t>(wrong)])));
+    EXPECT_THAT(
+        [&] { evaluate(split, fs::path(), options); },
+        ::testing::ThrowsMessage<std::runtime_error>(
+            ::testing::HasSubstr(messages[static_cast<size_t>(wrong)])));
   }
   // two shards need a gather
   SplitEvaluationOptions none;
