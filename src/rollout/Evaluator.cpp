@@ -254,12 +254,16 @@ EvaluationResult evaluateEpisodes(Agent& agent, VectorEnv& envs,
   runEpisodes(envs, static_cast<int>(episodes.size()), job,
               /*render=*/agent.needsObservations());
 
-  // means over the scored episodes, in input order
-  std::vector<EpisodeMetrics> scored;
-  for (size_t i = 0; i < episodes.size(); ++i)
-    if (result.scored[i]) scored.push_back(result.episodes[i].metrics);
-  if (!scored.empty()) result.stats = aggregate(scored);
+  result.stats = scoredStats(result);
   return result;
+}
+
+SplitStats scoredStats(const EvaluationResult& result) {
+  VLN_ASSERT(result.scored.size() == result.episodes.size());
+  std::vector<EpisodeMetrics> scored;
+  for (size_t i = 0; i < result.episodes.size(); ++i)
+    if (result.scored[i]) scored.push_back(result.episodes[i].metrics);
+  return scored.empty() ? SplitStats{} : aggregate(scored);
 }
 
 }  // namespace vln::rollout

@@ -27,6 +27,10 @@ struct EvaluationResult {
   std::vector<uint8_t> scored;
 };
 
+/// Means over the episodes of `result` marked scored, in their order (what
+/// evaluateEpisodes() puts in result.stats); num_episodes 0 when none.
+SplitStats scoredStats(const EvaluationResult& result);
+
 /// Watches episodes while they run, e.g. to draw maps or write videos
 /// (EpisodePictures.h). All calls come from the thread that called
 /// evaluateEpisodes(), one episode at a time; `index` is the episode's

@@ -15,8 +15,11 @@
 //   rxr_predictions_ckpt_<i>_<split>.jsonl  RxR episodes (all with an
 //                                        instruction_id): the RxR-Habitat
 //                                        inference output of every episode
-//                                        (data/RxrPredictions.h); written
-//                                        when one process ran the split
+//                                        (data/RxrPredictions.h)
+//
+// A multi-process evaluation (the trainer's validation) shards the split
+// over the processes and gathers every shard's episodes into each process,
+// so the stats and files are those of one process running the whole split.
 
 #include <cstdint>
 #include <filesystem>
@@ -35,10 +38,11 @@
 
 namespace vln::rollout {
 
-/// Sums vectors over all processes of a multi-process run (an all-reduce);
-/// every process calls it with vectors of the same length.
-using SumOverProcesses =
-    std::function<std::vector<double>(const std::vector<double>&)>;
+/// Exchanges byte strings among the processes of a multi-process run (an
+/// all-gather): every process calls it with its own bytes and gets every
+/// process's, its own included, in shard order.
+using GatherOverProcesses =
+    std::function<std::vector<std::string>(const std::string&)>;
 
 /// How a split is evaluated and where its results go.
 struct SplitEvaluationOptions {
@@ -57,12 +61,13 @@ struct SplitEvaluationOptions {
   /// Watches the episodes (maps, videos); may be null.
   EpisodeObserver* observer = nullptr;
   /// Multi-process evaluation: this process runs episodes shard,
-  /// shard + num_shards, ... of the split, and `sum` (required when
-  /// num_shards > 1) combines the metric sums so that the stats cover the
-  /// whole split.
+  /// shard + num_shards, ... of the split, and `gather` (required when
+  /// num_shards > 1; called once per split by every process, whatever its
+  /// share) hands it every shard's episodes, so that its result, stats and
+  /// files are the whole split's, as one process's would be.
   int shard = 0;
   int num_shards = 1;
-  SumOverProcesses sum;
+  GatherOverProcesses gather;
 };
 
 /// What one split's evaluation produced.
@@ -73,17 +78,24 @@ struct SplitEvaluation {
       false;  ///< not run: its results existed (eval's directory mode)
   bool scored = false;  ///< episodes had goals (stats written)
   SplitStats stats;     ///< over the whole split (all processes)
-  /// This process's episodes, in the split's order (every num_shards-th).
+  /// The whole split's episodes in its order; in a multi-process
+  /// evaluation the other processes' records come without
+  /// waypoint_choices (drawn while episodes run, never serialised).
   EvaluationResult result;
-  int episodes = 0;      ///< episodes this process ran
-  int64_t steps = 0;     ///< actions they took
-  double seconds = 0.0;  ///< wall time of the rollouts and metrics
+  int shard = 0;       ///< SplitEvaluationOptions::shard
+  int num_shards = 1;  ///< SplitEvaluationOptions::num_shards
+  int episodes = 0;    ///< episodes this process ran (its shard's)
+  int64_t steps = 0;   ///< actions they took
+  /// Wall time of this process's rollouts and metrics (not the gather).
+  double seconds = 0.0;
   std::vector<std::filesystem::path> files;  ///< files written
 };
 
 /// Runs `agent` on `split` (eval.num_envs environments on eval.threads
 /// threads, scenes from `scenes`) and writes the files of the file comment.
-/// Throws what evaluateEpisodes() throws.
+/// Throws what evaluateEpisodes() throws, and an exception naming the split
+/// and the shard when gathered episodes are unreadable or do not fit the
+/// split (the processes evaluated different splits).
 SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
                               const std::shared_ptr<SceneCache>& scenes,
                               const sim::SimConfig& sim,
@@ -91,19 +103,15 @@ SplitEvaluation evaluateSplit(Agent& agent, const data::Split& split,
                               const EvalConfig& eval,
                               const SplitEvaluationOptions& options);
 
-/// The means of `mine` (the scored episodes of one process) combined with
-/// those of every other process by `sum`: the sums of every metric over all
-/// scored episodes divided by their count (eval::aggregate() of one
-/// process, up to the order of the additions).
-SplitStats combineStats(const EvaluationResult& mine,
-                        const SumOverProcesses& sum);
-
 /// "TL 7.12 NE 8.01 nDTW 0.412 OS 0.300 SR 0.250 SPL 0.231".
 std::string metricsText(const EpisodeMetrics& metrics);
 
 /// "ckpt 3 val_seen: 20 episodes, 1234 steps in 5.0 s (4.00 episodes/s,
 /// 247 steps/s): TL ...", or "... skipped (already evaluated): TL ...",
-/// or "...: no goals (leaderboard predictions written)".
+/// or "...: no goals (leaderboard predictions written)". In a
+/// multi-process evaluation the counts and rates are this process's
+/// ("10 episodes (shard 1 of 2; the split has 20), ..."), the metrics the
+/// whole split's.
 std::string summaryLine(const SplitEvaluation& evaluation);
 
 /// "predictions_ckpt_<checkpoint>_<split>.json".

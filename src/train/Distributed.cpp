@@ -492,6 +492,34 @@ std::string Distributed::broadcastBytes(const std::string& bytes, int root) {
                      static_cast<size_t>(n));
 }
 
+std::vector<std::string> Distributed::allGatherBytes(const std::string& mine) {
+  Impl& d = *impl_;
+  // every rank's length (each rank fills its own entry), then the bytes
+  // padded to the longest: c10d's all-gather takes equal sizes
+  std::vector<int64_t> sizes(static_cast<size_t>(d.world), 0);
+  sizes[static_cast<size_t>(d.rank)] = static_cast<int64_t>(mine.size());
+  sizes = allReduceMax(sizes);
+  const int64_t longest = *std::max_element(sizes.begin(), sizes.end());
+  std::vector<std::string> all(static_cast<size_t>(d.world));
+  if (longest == 0) return all;
+  torch::Tensor padded = torch::zeros({longest}, torch::kUInt8);
+  std::memcpy(padded.data_ptr(), mine.data(), mine.size());
+  std::vector<torch::Tensor> input = {padded.to(d.commDevice)};
+  std::vector<std::vector<torch::Tensor>> output(1);
+  for (int r = 0; r < d.world; ++r)
+    output[0].push_back(torch::empty({longest}, input[0].options()));
+  d.run("the all-gather of byte strings",
+        [&] { return d.group->allgather(output, input); });
+  for (int r = 0; r < d.world; ++r) {
+    const torch::Tensor bytes =
+        output[0][static_cast<size_t>(r)].to(torch::kCPU).contiguous();
+    all[static_cast<size_t>(r)].assign(
+        static_cast<const char*>(bytes.data_ptr()),
+        static_cast<size_t>(sizes[static_cast<size_t>(r)]));
+  }
+  return all;
+}
+
 std::vector<double> Distributed::allReduceSum(
     const std::vector<double>& values) {
   return impl_->allReduceValues(values, torch::kFloat64, c10d::ReduceOp::SUM,

@@ -148,6 +148,10 @@ class Distributed {
   /// Rank `root`'s `bytes` on every rank (other ranks' argument is ignored).
   std::string broadcastBytes(const std::string& bytes, int root = 0);
 
+  /// Every rank's `mine`, in rank order, on every rank (lengths may differ;
+  /// one all-gather padded to the longest).
+  std::vector<std::string> allGatherBytes(const std::string& mine);
+
   /// Element-wise sum over the ranks (float64). Same length on every rank.
   std::vector<double> allReduceSum(const std::vector<double>& values);
 

@@ -120,9 +120,11 @@ double PeriodicEvaluator::evaluateAgent(int index, int64_t updates,
       options.num_shards = dist_->worldSize();
       const std::string what =
           strCat("the evaluation of checkpoint ", index, " on ", split.name);
-      options.sum = [this, what](const std::vector<double>& values) {
+      // the ranks finish their shares at different times: wait on the
+      // store (waitForAll) rather than inside the collective's timeout
+      options.gather = [this, what](const std::string& mine) {
         dist_->waitForAll(what);
-        return dist_->allReduceSum(values);
+        return dist_->allGatherBytes(mine);
       };
     }
     const rollout::SplitEvaluation result = rollout::evaluateSplit(

@@ -2,8 +2,10 @@
 // The trainer's validation (trainer.eval_during_training): the policy in
 // memory, evaluated as checkpoint i on eval.splits (eval.train_eval_episodes
 // each, else eval.episodes) through rollout::evaluateSplit(), writing
-// <output.dir>/eval/stats_ckpt_<i>_<split>.json as the eval binary does, a
-// summary line per split in the log and an "eval" record in the metrics.
+// <output.dir>/eval/stats_ckpt_<i>_<split>.json (and for a split of RxR
+// episodes rxr_predictions_ckpt_<i>_<split>.jsonl) as the eval binary does,
+// a summary line per split in the log and an "eval" record in the metrics.
+// No per-episode file (eval.save_episodes is the eval binary's).
 //
 // TensorBoard media (output.tensorboard, docs/paper_scale.md): the top-down
 // maps of the first eval.tensorboard_maps episodes of each split and videos
@@ -14,9 +16,12 @@
 // the metrics. With both counts 0 (or TensorBoard off) no observer runs.
 //
 // In a multi-process run rank r evaluates episodes r, r + N, ... of each
-// split and the metric sums are all-reduced, so every rank gets the whole
-// split's stats; rank 0 writes the files and the media, which show the
-// first episodes of its own share (episodes 0, N, 2N, ... of the split).
+// split and the ranks gather each other's episodes (SplitEvaluation.h), so
+// every rank holds the whole split's episodes and stats (computed as one
+// process computes them), and rank 0 writes the whole split's files. The
+// media are rank 0's alone: they show the first episodes of its own share
+// (episodes 0, N, 2N, ... of the split). Each rank logs its own summary
+// line (its share's counts, the split's metrics).
 
 #include <cstdint>
 #include <filesystem>

@@ -1,10 +1,11 @@
 // Tests of src/train/Distributed.cpp and of the learner's multi-process
 // mode, with two ranks as two threads of this process over a c10d FileStore
 // (and over TCPStores: rank 0's and torchrun's agent's): the torchrun
-// variables and their errors, bucketed gradient averaging, broadcasts,
-// reductions, the identity check, error propagation, waits and aborts, an
-// unreachable master; then two ImitationLearners on parts of batches (even
-// and uneven) against one learner on the whole batch.
+// variables and their errors, bucketed gradient averaging, broadcasts, the
+// all-gather of byte strings, reductions, the identity check, error
+// propagation, waits and aborts, an unreachable master; then two
+// ImitationLearners on parts of batches (even and uneven) against one
+// learner on the whole batch.
 
 #include "train/Distributed.h"
 
@@ -272,6 +273,27 @@ TEST(DistributedTest, BroadcastsModulesOptimizerStateAndBytes) {
     EXPECT_EQ(received[static_cast<size_t>(r)][1], std::string("\0x\0", 3));
     EXPECT_EQ(received[static_cast<size_t>(r)][2], "");
   }
+}
+
+TEST(DistributedTest, AllGathersByteStringsOfDifferentLengthsInRankOrder) {
+  // a long string with every byte value, so padding or truncation shows
+  std::string long1(100003, '\0');
+  for (size_t i = 0; i < long1.size(); ++i)
+    long1[i] = static_cast<char>((i * 7) % 256);
+  const std::array<std::array<std::string, 2>, 3> sent = {
+      {{"from rank 0", std::string("\0x\0", 3)}, {"", ""}, {"", long1}}};
+  std::array<std::array<std::vector<std::string>, 3>, 2> received;
+  const auto errors = onTwoRanks([&](Distributed& dist) {
+    const auto r = static_cast<size_t>(dist.rank());
+    for (size_t call = 0; call < sent.size(); ++call)
+      received[r][call] = dist.allGatherBytes(sent[call][r]);
+  });
+  expectNoErrors(errors);
+  for (size_t r = 0; r < 2; ++r)
+    for (size_t call = 0; call < sent.size(); ++call)
+      EXPECT_EQ(received[r][call],
+                (std::vector<std::string>{sent[call][0], sent[call][1]}))
+          << "rank " << r << ", call " << call;
 }
 
 TEST(DistributedTest, ReducesMetricsAndDetectsDivergedTensors) {

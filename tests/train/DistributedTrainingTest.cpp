@@ -7,7 +7,9 @@
 //    identical, and equal to the one process up to float rounding (each
 //    rank's losses are weighted by its share of the episodes and steps, so
 //    the combined gradient is the 10-episode one); sharded evaluation
-//    equals the eval binary's;
+//    writes the eval binary's stats files, to the bit;
+//  - an RxR split validated by two ranks: rank 0 writes the RxR inference
+//    .jsonl of every instruction;
 //  - DAgger, then --resume on both ranks for another iteration;
 //  - the errors: missing variables, an unreachable master, different
 //    configs, more ranks than episodes, --resume on one rank only, a resume
@@ -20,15 +22,19 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
 #include <set>
 #include <thread>
 
+#include "RxrTrainTestWorld.h"
 #include "TinyWorldBinaryTest.h"
 #include "TrainTestWorld.h"
 #include "common/Json.h"
+#include "data/RxrEpisodes.h"
+#include "data/RxrPredictions.h"
 #include "models/StateDict.h"
 #include "rollout/Metrics.h"
 #include "support/TestUtil.h"
@@ -312,8 +318,12 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
                                         {"eval/val_unseen/map", 2},
                                         {"eval/val_unseen/video", 2}}));
 
-  // sharded evaluation (one episode per rank) = the eval binary on the
-  // same checkpoint in one process
+  // sharded evaluation (one episode per rank, gathered) = the eval binary
+  // on the same checkpoint in one process, to the bit; each rank's summary
+  // line counts its own share
+  EXPECT_THAT(readText(run / "train.rank1.log"),
+              HasSubstr("val_seen: 1 episodes (shard 1 of 2; the split has "
+                        "2)"));
   std::string output;
   ASSERT_EQ(
       vln::test::runCommand(
@@ -329,15 +339,56 @@ TEST_F(DistributedTrainingTest, TwoRanksTrainLikeOneProcessOnTheWholeBatch) {
     const auto alone = rollout::readStatsFile(dir_ / "evalcheck" /
                                               rollout::statsFileName(1, split));
     EXPECT_EQ(trainer.num_episodes, 2) << split;
-    EXPECT_EQ(alone.num_episodes, 2) << split;
-    EXPECT_NEAR(trainer.mean.distance_to_goal, alone.mean.distance_to_goal,
-                1e-9)
-        << split;
-    EXPECT_NEAR(trainer.mean.ndtw, alone.mean.ndtw, 1e-9) << split;
-    EXPECT_NEAR(trainer.mean.spl, alone.mean.spl, 1e-9) << split;
-    EXPECT_NEAR(trainer.mean.steps_taken, alone.mean.steps_taken, 1e-9)
+    EXPECT_EQ(trainer, alone) << split;
+    EXPECT_EQ(readText(run / "eval" / rollout::statsFileName(1, split)),
+              readText(dir_ / "evalcheck" / rollout::statsFileName(1, split)))
         << split;
   }
+}
+
+TEST_F(DistributedTrainingTest, RxrValidationWritesTheJsonlOfEveryInstruction) {
+  // an RxR split of 3 episodes validated by two ranks (2 + 1): rank 0
+  // writes the RxR inference file of all 3 from the gathered episodes
+  const test::TinyRxrWorld& w = test::tinyRxrWorld();
+  const fs::path run = dir_ / "rxr";
+  const fs::path config = vln::test::writeText(
+      dir_ / "rxr.yaml", test::rxrRunConfig(w, run,
+                                            "  dagger_iterations: 1\n"
+                                            "  dagger_episodes: 6\n"
+                                            "  dagger_epochs: 1\n"
+                                            "  evaluate_every: iteration\n"));
+  const auto ranks = runTwoRanks(
+      {"--config", config.string(), "--set", "eval.train_eval_episodes=3"},
+      "rxr");
+  for (int r = 0; r < 2; ++r)
+    ASSERT_EQ(ranks[static_cast<size_t>(r)].status, 0)
+        << "rank " << r << ":\n"
+        << ranks[static_cast<size_t>(r)].log;
+
+  // the 3 validation episodes are the trainer's (evenly spaced guide
+  // episodes of val_unseen); the file has one line per instruction, by id
+  std::vector<data::Episode> episodes =
+      data::readRxrEpisodes(w.data, "val_unseen", data::RxrFilterConfig{});
+  data::keepEvenlySpaced(episodes, 3);
+  std::vector<int64_t> ids;
+  for (const data::Episode& e : episodes)
+    ids.push_back(*e.instruction.instruction_id);
+  std::sort(ids.begin(), ids.end());
+  const auto lines = data::readRxrPredictions(
+      run / "eval" / "rxr_predictions_ckpt_0_val_unseen.jsonl");
+  std::vector<int64_t> written;
+  for (const data::RxrPrediction& line : lines) {
+    written.push_back(line.instruction_id);
+    EXPECT_FALSE(line.path.empty());
+  }
+  EXPECT_EQ(written, ids);
+  EXPECT_EQ(rollout::readStatsFile(run / "eval" /
+                                   rollout::statsFileName(0, "val_unseen"))
+                .num_episodes,
+            3);
+  EXPECT_THAT(readText(run / "train.rank1.log"),
+              HasSubstr("val_unseen: 1 episodes (shard 1 of 2; the split has "
+                        "3)"));
 }
 
 TEST_F(DistributedTrainingTest, DaggerResumesOnEveryRank) {

@@ -10,102 +10,27 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
 #include <cmath>
 
+#include "RxrTrainTestWorld.h"
 #include "TinyWorldBinaryTest.h"
-#include "common/Config.h"
-#include "common/FileIo.h"
 #include "common/Json.h"
 #include "data/RxrEpisodes.h"
 #include "data/RxrPredictions.h"
-#include "data/RxrTextFeatures.h"
-#include "data/Vocabulary.h"
 #include "rollout/Metrics.h"
 #include "support/TestPaths.h"
 #include "support/TestUtil.h"
 #include "train/Checkpoint.h"
-#include "world/RxrWorldGenerator.h"
 
 namespace vln::train {
 namespace {
 
 namespace fs = std::filesystem;
+using test::rxrRunConfig;
+using test::TinyRxrWorld;
+using test::tinyRxrWorld;
 using ::testing::HasSubstr;
 using vln::test::binary;
-
-constexpr int kFeatureDim = 16;
-
-// Features of one instruction: a row per word of data::tokenize(), each a
-// fixed function of the word (so equal words get equal rows, as a
-// context-free encoder would give).
-std::vector<float> fixtureFeatures(const std::string& text) {
-  std::vector<float> values;
-  for (const std::string& word : data::tokenize(text)) {
-    const uint64_t h = std::hash<std::string>{}(word);
-    for (int c = 0; c < kFeatureDim; ++c)
-      values.push_back(static_cast<float>(
-          std::sin(static_cast<double>((h >> (c % 48)) & 0xFFFF) * 1e-3 + c)));
-  }
-  if (values.empty()) values.assign(kFeatureDim, 0.0f);
-  return values;
-}
-
-// The RxR split of the tiny world and its feature files, made once per
-// build tree (a file lock serialises the first generation).
-struct TinyRxrWorld {
-  fs::path data;    ///< RxR_VLNCE-style root, text features under it
-  fs::path scenes;  ///< sim.scenes_dir
-};
-
-const TinyRxrWorld& tinyRxrWorld() {
-  static const TinyRxrWorld world = [] {
-    const fs::path root =
-        vln::test::binaryPath() / "tests" / "train_tiny_rxr_world";
-    fs::create_directories(root);
-    TinyRxrWorld w{root / "rxr", root / "scenes"};
-    const int fd = ::open((root / "lock").c_str(), O_CREAT | O_RDWR, 0644);
-    if (fd < 0) throw std::runtime_error("tinyRxrWorld(): no lock file");
-    ::flock(fd, LOCK_EX);
-    if (!fs::exists(root / "done")) {
-      const fs::path configs = vln::test::sourcePath() / "configs" / "world";
-      world::RxrWorldConfig config =
-          common::loadConfigFile<world::RxrWorldConfig>(configs / "rxr.yaml");
-      config.world =
-          common::loadConfigFile<world::WorldConfig>(configs / "tiny.yaml");
-      // RxrWorldGeneratorTest's quotas, which these houses meet
-      config.splits.train_per_house = 8;
-      config.splits.val_seen_per_house = 2;
-      config.splits.val_unseen_per_house = 4;
-      config.splits.test_challenge_per_house = 3;
-      world::generateRxrWorld(config, {w.data, w.scenes, 2});
-      data::RxrFilterConfig all;
-      all.roles = {"*"};
-      for (const char* split : {"train", "val_seen", "val_unseen"})
-        for (const data::Episode& e : data::readRxrEpisodes(w.data, split, all))
-          data::writeRxrTextFeatures(
-              data::rxrTextFeaturesPath(w.data / "text_features", split,
-                                        *e.instruction.instruction_id,
-                                        e.instruction.language),
-              fixtureFeatures(e.instruction.instruction_text), kFeatureDim);
-      common::writeFileAtomic(root / "done", "ok\n");
-    }
-    ::flock(fd, LOCK_UN);
-    ::close(fd);
-    return w;
-  }();
-  return world;
-}
-
-// iteration 0 is teacher forcing (beta 1), iteration 1 lets the policy act
-// (beta 0.75), reading the features while collecting
-constexpr const char* kDaggerTrainer =
-    "  dagger_iterations: 2\n"
-    "  dagger_episodes: 6\n"
-    "  dagger_epochs: 1\n"
-    "  evaluate_every: iteration\n";
 
 // A private copy of the world's feature files, for the tests that take one
 // away: the world's own files are shared by tests running in parallel.
@@ -114,66 +39,6 @@ fs::path privateFeatures(const TinyRxrWorld& w, const fs::path& dir) {
   fs::create_directories(dir);
   fs::copy(w.data / "text_features", copy, fs::copy_options::recursive);
   return copy;
-}
-
-std::string rxrRunConfig(const TinyRxrWorld& w, const fs::path& out,
-                         const std::string& trainer = kDaggerTrainer) {
-  return "_base_: " +
-         (vln::test::sourcePath() / "configs" / "rxr" / "task.yaml").string() +
-         "\n"
-         "sim:\n"
-         "  scenes_dir: " +
-         w.scenes.string() +
-         "\n"
-         "  rgb: {width: 32, height: 32}\n"
-         "  depth: {width: 32, height: 32}\n"
-         "task:\n"
-         "  max_episode_steps: 150\n"
-         "dataset:\n"
-         "  format: rxr\n"
-         "  data_path: " +
-         w.data.string() +
-         "\n"
-         "  rxr_filter: {roles: [guide]}\n"
-         "  max_instruction_length: 512\n"
-         "model:\n"
-         "  policy: cma\n"
-         "  num_actions: 6\n"
-         "  instruction_features: rxr_text\n"
-         "  text_feature_dim: " +
-         std::to_string(kFeatureDim) +
-         "\n"
-         "  rgb_encoder: small_cnn\n"
-         "  depth_encoder: small_cnn\n"
-         "  instruction_hidden_size: 8\n"
-         "  hidden_size: 16\n"
-         "  prev_action_embedding_dim: 4\n"
-         "  rgb_projection_size: 8\n"
-         "  depth_projection_size: 8\n"
-         "  spatial_embedding_dim: 4\n"
-         "  progress_monitor: true\n"
-         "  rgb_height: 32\n  rgb_width: 32\n"
-         "  depth_height: 32\n  depth_width: 32\n"
-         "trainer:\n"
-         "  torch_threads: 1\n"
-         "  num_envs: 3\n"
-         "  env_threads: 1\n"
-         "  lr: 0.002\n"
-         "  batch_size: 3\n"
-         "  store_max_gib: 0.25\n" +
-         trainer +
-         "eval:\n"
-         "  splits: [val_unseen]\n"
-         "  selection_split: val_unseen\n"
-         "  train_eval_episodes: 2\n"
-         "  num_envs: 2\n"
-         "  threads: 1\n"
-         "  map_episodes: 0\n"
-         "output:\n"
-         "  dir: " +
-         out.string() +
-         "\n"
-         "  tensorboard: false\n";
 }
 
 class RxrTrainEndToEndTest : public test::TinyWorldBinaryTest {
@@ -277,13 +142,12 @@ TEST_F(RxrTrainEndToEndTest, RecollectTrainsOnTextFeaturesWithoutSliding) {
   const TinyRxrWorld& w = tinyRxrWorld();
   const fs::path run = dir_ / "recollect";
   const fs::path config = vln::test::writeText(
-      dir_ / "rxr_recollect.yaml",
-      rxrRunConfig(w, run,
-                   "  mode: recollect\n"
-                   "  dagger_iterations: 0\n"
-                   "  epochs: 2\n"
-                   "  effective_batch_size: 6\n"
-                   "  preload_size: 6\n"));
+      dir_ / "rxr_recollect.yaml", rxrRunConfig(w, run,
+                                                "  mode: recollect\n"
+                                                "  dagger_iterations: 0\n"
+                                                "  epochs: 2\n"
+                                                "  effective_batch_size: 6\n"
+                                                "  preload_size: 6\n"));
   std::string output;
   ASSERT_EQ(
       vln::test::runCommand(
