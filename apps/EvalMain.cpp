@@ -53,10 +53,10 @@ int main(int argc, char** argv) {
                    "Episodes per report page with a map, frames and attention "
                    "(default 5)");
     app.add_option("--test-ground-truth", options.test_ground_truth,
-                   "Score the test split from its hidden goals and ground "
-                   "truth (<data>/hidden, written by vlnce-data generate; "
-                   "either file or a folder holding them); its leaderboard "
-                   "predictions are still written");
+                   "Score the test split (RxR: test_challenge) from its "
+                   "hidden goals and ground truth (<data>/hidden, written by "
+                   "vlnce-data generate; either file or a folder holding "
+                   "them); its leaderboard predictions are still written");
     auto* indexOption = app.add_option(
         "--index", index,
         "Checkpoint index in file names for an export or a baseline");

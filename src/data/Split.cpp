@@ -127,21 +127,22 @@ HiddenSplitFiles findHiddenFiles(const std::filesystem::path& given,
                                   truthName, " in ", looked, ")"));
 }
 
-void attachHiddenGoals(Split& split, const HiddenSplitFiles& files) {
-  VLN_CHECK_ARG(!split.hasGoals, "attachHiddenGoals(): split '", split.name,
-                "' already has goals; hidden goals ('", files.goals.string(),
-                "') are for a split published without them");
-  const EpisodeDataset hidden = readEpisodes(files.goals);
-  const GroundTruth truth = readGroundTruth(files.ground_truth);
+namespace {
+
+// the goals of `hidden` (read from `goalsSource`) and the ground truth
+// `truth` (from `truthSource`) given to the episodes of `split`
+void attachGoals(Split& split, const std::vector<Episode>& hidden,
+                 const GroundTruth& truth, const std::string& goalsSource,
+                 const std::string& truthSource) {
   std::map<int, const Episode*> byId;
-  for (const Episode& e : hidden.episodes) byId[e.episode_id] = &e;
+  for (const Episode& e : hidden) byId[e.episode_id] = &e;
 
   // every episode of the split, checked before any is changed
   std::vector<Episode> episodes = split.episodes;
   auto groundTruth = std::make_unique<GroundTruth>();
   for (Episode& e : episodes) {
     const std::string where =
-        strCat("attachHiddenGoals(): '", files.goals.string(), "': episode ",
+        strCat("attachHiddenGoals(): '", goalsSource, "': episode ",
                e.episode_id, " of split '", split.name, "'");
     const auto it = byId.find(e.episode_id);
     VLN_CHECK_ARG(it != byId.end(), where,
@@ -153,7 +154,7 @@ void attachHiddenGoals(Split& split, const HiddenSplitFiles& files) {
     VLN_CHECK_ARG(!h.goals.empty(), where, " has no goals");
     const auto gt = truth.find(e.episode_id);
     VLN_CHECK_ARG(gt != truth.end(), "attachHiddenGoals(): '",
-                  files.ground_truth.string(), "': episode ", e.episode_id,
+                  truthSource, "': episode ", e.episode_id,
                   " of split '", split.name,
                   "' is missing: the file does not cover the split");
     e.goals = h.goals;
@@ -165,6 +166,52 @@ void attachHiddenGoals(Split& split, const HiddenSplitFiles& files) {
   split.groundTruth = std::move(groundTruth);
   split.hasGoals = !split.episodes.empty();
   split.hiddenGoals = true;
+}
+
+}  // namespace
+
+void attachHiddenGoals(Split& split, const HiddenSplitFiles& files) {
+  VLN_CHECK_ARG(!split.hasGoals, "attachHiddenGoals(): split '", split.name,
+                "' already has goals; hidden goals ('", files.goals.string(),
+                "') are for a split published without them");
+  // the goals first: their errors are the ones to report
+  const EpisodeDataset hidden = readEpisodes(files.goals);
+  const GroundTruth truth = readGroundTruth(files.ground_truth);
+  attachGoals(split, hidden.episodes, truth, files.goals.string(),
+              files.ground_truth.string());
+}
+
+void attachHiddenRxrGoals(Split& split, const std::filesystem::path& given,
+                          const RxrFilterConfig& filter) {
+  VLN_CHECK_ARG(!split.hasGoals, "attachHiddenRxrGoals(): split '",
+                split.name, "' already has goals; hidden goals ('",
+                given.string(), "') are for a split published without them");
+  VLN_CHECK_IO(fs::exists(given), "attachHiddenRxrGoals(): '", given.string(),
+               "' does not exist");
+  const std::vector<std::string> roles = filter.resolvedRoles();
+  VLN_CHECK_ARG(!roles.empty(), "attachHiddenRxrGoals(): no roles to read");
+  // the folder whose <split>/ holds the hidden files: the dataset root's
+  // hidden/, hidden/ itself, or the parent of hidden/<split>; a folder with
+  // episodes but no ground truth is the published split, not its hidden copy
+  std::string looked;
+  for (const fs::path& root :
+       {given / "hidden", given, given.parent_path()}) {
+    if (!fs::exists(rxrEpisodesPath(root, split.name, roles.front())) ||
+        !fs::exists(rxrGroundTruthPath(root, split.name, roles.front()))) {
+      looked += (looked.empty() ? "'" : ", '") + (root / split.name).string() + "'";
+      continue;
+    }
+    const std::vector<Episode> hidden = readRxrEpisodes(root, split.name, filter);
+    const GroundTruth truth = readRxrGroundTruth(root, split.name, roles);
+    const std::string source = (root / split.name).string();
+    attachGoals(split, hidden, truth, source, source);
+    return;
+  }
+  throw std::runtime_error(strCat(
+      "attachHiddenRxrGoals(): '", given.string(),
+      "' holds no hidden RxR files of split '", split.name, "' (looked for ",
+      rxrEpisodesPath("", split.name, roles.front()).filename().string(),
+      " in ", looked, ")"));
 }
 
 }  // namespace vln::data

@@ -92,4 +92,15 @@ HiddenSplitFiles findHiddenFiles(const std::filesystem::path& given,
 /// scene, start or instruction differ: a file of another world).
 void attachHiddenGoals(Split& split, const HiddenSplitFiles& files);
 
+/// The same for an RxR split (dataset.format rxr): its hidden copy is an RxR
+/// split folder, <split>_<role>.json.gz with goals and
+/// <split>_<role>_gt.json.gz for every role of `filter`, under `given` =
+/// the dataset root, its hidden/ folder or hidden/<split> (where
+/// world::generateRxrWorld() writes test_challenge's). Throws
+/// std::runtime_error naming `given` and the folders looked at when none
+/// holds the split's files, and what attachHiddenGoals() throws for
+/// episodes that do not match.
+void attachHiddenRxrGoals(Split& split, const std::filesystem::path& given,
+                          const RxrFilterConfig& filter);
+
 }  // namespace vln::data

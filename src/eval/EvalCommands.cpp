@@ -57,9 +57,16 @@ data::Split loadSplit(const train::ExperimentConfig& config,
 // the hidden goals and ground truth of the test split (eval
 // --test-ground-truth); errors keep their type and name the option
 void attachTestGroundTruth(data::Split& split, const fs::path& given,
+                           const data::DatasetConfig& dataset,
                            std::ostream& out) {
   const std::string option = "eval --test-ground-truth: ";
   try {
+    if (dataset.isRxr()) {
+      data::attachHiddenRxrGoals(split, given, dataset.rxr_filter);
+      out << split.name << ": scored from the hidden goals and ground truth "
+          << "under " << given.string() << "\n";
+      return;
+    }
     const data::HiddenSplitFiles files =
         data::findHiddenFiles(given, split.name);
     data::attachHiddenGoals(split, files);
@@ -309,13 +316,16 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   VLN_CHECK_ARG(options.report_episodes >= 0,
                 "eval: --report-episodes must be >= 0, got ",
                 options.report_episodes);
+  // the split published without goals: R2R's test, RxR's test_challenge
+  const std::string heldOut =
+      settings.dataset.isRxr() ? "test_challenge" : "test";
   VLN_CHECK_ARG(options.test_ground_truth.empty() ||
-                    std::find(splitNames.begin(), splitNames.end(), "test") !=
+                    std::find(splitNames.begin(), splitNames.end(), heldOut) !=
                         splitNames.end(),
                 "eval: --test-ground-truth '",
-                options.test_ground_truth.string(),
-                "' scores the split 'test', which is not evaluated (add "
-                "--split test)");
+                options.test_ground_truth.string(), "' scores the split '",
+                heldOut, "', which is not evaluated (add --split ", heldOut,
+                ")");
   const int cap = options.episodes.value_or(settings.eval.episodes);
   VLN_CHECK_ARG(cap == -1 || cap >= 1,
                 "eval: --episodes must be >= 1 (or -1 "
@@ -401,11 +411,12 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
   for (const auto& name : splitNames)
     splits.push_back(loadSplit(settings, name, cap));
   if (!options.test_ground_truth.empty()) {
-    const auto test =
-        std::find_if(splits.begin(), splits.end(),
-                     [](const data::Split& s) { return s.name == "test"; });
+    const auto test = std::find_if(
+        splits.begin(), splits.end(),
+        [&](const data::Split& s) { return s.name == heldOut; });
     VLN_ASSERT(test != splits.end());  // checked with the options
-    attachTestGroundTruth(*test, options.test_ground_truth, out);
+    attachTestGroundTruth(*test, options.test_ground_truth, settings.dataset,
+                          out);
   }
   // after the hidden goals: the oracle can walk a test split that has them
   if (options.agent == "oracle") checkOracleSplits(splits);

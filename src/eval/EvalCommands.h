@@ -87,6 +87,8 @@ struct EvalCommandOptions {
   /// The test split's hidden goals and ground truth (data/Split.h: either
   /// file, hidden/test/, hidden/ or the dataset root): the split "test" is
   /// then scored (stats file) and still gets its leaderboard predictions.
+  /// RxR datasets: the split "test_challenge", from the RxR files under
+  /// hidden/test_challenge/ (data::attachHiddenRxrGoals()).
   /// Empty: the test split is run without goals, predictions only.
   std::filesystem::path test_ground_truth;
 };

@@ -17,6 +17,7 @@
 #include "data/Episode.h"
 #include "data/GroundTruth.h"
 #include "data/RxrEpisodes.h"
+#include "data/Split.h"
 #include "sim/Agent.h"
 #include "sim/Scene.h"
 #include "sim/SimConfig.h"
@@ -155,6 +156,44 @@ TEST_F(RxrWorldGeneratorTest, WritesTheRxrLayoutThatRoundTrips) {
   EXPECT_FALSE(indian.empty());
   EXPECT_LT(indian.size(),
             data::readRxrEpisodes(rxrRoot(), "train", allRoles()).size());
+}
+
+TEST_F(RxrWorldGeneratorTest, HiddenTestChallengeScoresThePublishedSplit) {
+  // eval --test-ground-truth on an RxR dataset: the published split has no
+  // goals; its hidden copy gives them, from any of the folders a user names
+  data::DatasetConfig dataset;
+  dataset.format = "rxr";
+  dataset.data_path = rxrRoot();
+  dataset.rxr_filter = allRoles();
+  for (const fs::path& given :
+       {rxrRoot(), rxrRoot() / "hidden", rxrRoot() / "hidden" / "test_challenge"}) {
+    SCOPED_TRACE(given.string());
+    data::Split split = data::loadDatasetSplit(dataset, "test_challenge", -1);
+    ASSERT_FALSE(split.episodes.empty());
+    EXPECT_FALSE(split.hasGoals);
+    data::attachHiddenRxrGoals(split, given, dataset.rxr_filter);
+    EXPECT_TRUE(split.hasGoals);
+    EXPECT_TRUE(split.hiddenGoals);
+    ASSERT_TRUE(split.groundTruth);
+    EXPECT_EQ(split.groundTruth->size(), split.episodes.size());
+    for (const data::Episode& e : split.episodes) {
+      EXPECT_FALSE(e.goals.empty()) << e.episode_id;
+      EXPECT_FALSE(e.reference_path.empty()) << e.episode_id;
+    }
+    // a second time is an error: the split has goals now
+    EXPECT_THAT([&] { data::attachHiddenRxrGoals(split, given, dataset.rxr_filter); },
+                ::testing::ThrowsMessage<std::invalid_argument>(
+                    ::testing::HasSubstr("already has goals")));
+  }
+  // a folder without the hidden files is named with where it was looked
+  data::Split split = data::loadDatasetSplit(dataset, "test_challenge", -1);
+  EXPECT_THAT([&] { data::attachHiddenRxrGoals(split, rxrRoot() / "train", dataset.rxr_filter); },
+              ::testing::ThrowsMessage<std::runtime_error>(::testing::HasSubstr(
+                  "holds no hidden RxR files of split 'test_challenge'")));
+  // a published split with goals is not a hidden one
+  data::Split val = data::loadDatasetSplit(dataset, "val_unseen", -1);
+  EXPECT_THROW(data::attachHiddenRxrGoals(val, rxrRoot(), dataset.rxr_filter),
+               std::invalid_argument);
 }
 
 TEST_F(RxrWorldGeneratorTest, SplitsUseTheWorldsHouses) {
