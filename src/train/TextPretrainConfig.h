@@ -22,6 +22,7 @@ struct TextPretrainConfig {
   std::vector<std::string> rxr_heldout_splits = {"val_seen", "val_unseen"};
   std::vector<std::string> feature_splits = {"train", "val_seen", "val_unseen"};
   std::string features_dir;
+  std::string encoder_in;
   int min_count = 1;
   int epochs = 20;
   int batch_size = 32;
@@ -55,6 +56,11 @@ struct TextPretrainConfig {
             "Where the feature files go, as rxr_{split}/{id:06}_{lang}_text_"
             "features.npz (empty: <rxr_path>/text_features, where the RxR "
             "reader looks)");
+    v.field("encoder_in", encoder_in,
+            "An encoder an earlier text_mlm run saved (pretrain.encoder_out, "
+            "its .vocab.json beside it): no training, only the feature files "
+            "of feature_splits are written with it (e.g. for a split added "
+            "later); empty: train");
     v.field("min_count", min_count,
             "Training words seen fewer times map to <unk>",
             common::inRange(1, 1000000));

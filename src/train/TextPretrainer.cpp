@@ -345,12 +345,75 @@ void validateTextPretrainConfig(const ExperimentConfig& config) {
   VLN_CHECK_ARG(!t.r2r_train_splits.empty() || !t.rxr_train_splits.empty(),
                 "text_mlm: pretrain.text.r2r_train_splits and "
                 "rxr_train_splits are both empty");
+  VLN_CHECK_ARG(t.encoder_in.empty() ||
+                    (!t.rxr_path.empty() && !t.feature_splits.empty()),
+                "text_mlm: pretrain.text.encoder_in only writes feature files: "
+                "it needs rxr_path and feature_splits");
   VLN_CHECK_ARG(
       t.feature_splits.empty() || !t.rxr_path.empty() || t.features_dir.empty(),
       "text_mlm: pretrain.text.features_dir is set but rxr_path "
       "is empty (the feature files are written for RxR-style "
       "episodes)");
 }
+
+namespace {
+
+// The feature files of every split of pretrain.text.feature_splits (with
+// rxr_path): their folder, the count per split and in all.
+struct WrittenFeatures {
+  fs::path dir;
+  nlohmann::json splits = nlohmann::json::object();
+  int64_t files = 0;
+};
+
+WrittenFeatures writeFeatureSplits(const TextPretrainConfig& t,
+                                   models::TextFeatureEncoder& encoder,
+                                   const data::Vocabulary& vocabulary) {
+  WrittenFeatures out;
+  if (t.rxr_path.empty() || t.feature_splits.empty()) return out;
+  out.dir = t.features_dir.empty() ? fs::path(t.rxr_path) / "text_features"
+                                   : fs::path(t.features_dir);
+  for (const std::string& split : t.feature_splits) {
+    const int64_t n = writeTextFeatureFiles(
+        encoder, vocabulary,
+        data::readRxrEpisodes(t.rxr_path, split, t.rxr_filter), out.dir,
+        split);
+    out.splits[split] = n;
+    out.files += n;
+    spdlog::info("{}: {} feature files in {}", kTask, n,
+                 (out.dir / ("rxr_" + split)).string());
+  }
+  return out;
+}
+
+// pretrain.text.encoder_in: the features of an encoder trained before
+void writeFeaturesOfSavedEncoder(const ExperimentConfig& config,
+                                 const fs::path& runDir) {
+  const TextPretrainConfig& t = config.pretrain.text;
+  common::Stopwatch clock;
+  PretrainRun run;
+  run.config = config;
+  run.runDir = runDir;
+  torch::set_num_threads(config.trainer.torch_threads);
+  run.openMetrics();
+  LoadedTextEncoder loaded = loadTextEncoder(t.encoder_in, t.encoder);
+  const WrittenFeatures written =
+      writeFeatureSplits(t, loaded.encoder, loaded.vocabulary);
+  nlohmann::json record = {
+      {"task", kTask},
+      {"seconds", clock.seconds()},
+      {"encoder_in", t.encoder_in},
+      {"features",
+       {{"dir", written.dir.string()},
+        {"dim", t.encoder.output_dim},
+        {"files", written.files},
+        {"splits", written.splits}}}};
+  run.finish(record, {});
+  spdlog::info("{}: {} feature files from the encoder {}, {:.1f} s", kTask,
+               written.files, t.encoder_in, clock.seconds());
+}
+
+}  // namespace
 
 void runTextMlmPretraining(const ExperimentConfig& config,
                            const fs::path& runDir) {
@@ -359,6 +422,10 @@ void runTextMlmPretraining(const ExperimentConfig& config,
                 "runTextMlmPretraining(): trainer.task must be text_mlm, got '",
                 config.trainer.task, "'");
   const TextPretrainConfig& t = config.pretrain.text;
+  if (!t.encoder_in.empty()) {
+    writeFeaturesOfSavedEncoder(config, runDir);
+    return;
+  }
   const uint64_t seed = static_cast<uint64_t>(config.trainer.seed);
   common::Stopwatch total;
   PretrainRun run;
@@ -473,24 +540,8 @@ void runTextMlmPretraining(const ExperimentConfig& config,
       encoderOutputPath(config, runDir, "text_encoder.pt");
   saveTextEncoder(encoder, vocabulary, encoderFile);
   common::Stopwatch featureClock;
-  nlohmann::json featureSplits = nlohmann::json::object();
-  int64_t files = 0;
-  fs::path featuresDir;
-  if (!t.rxr_path.empty() && !t.feature_splits.empty()) {
-    featuresDir = t.features_dir.empty()
-                      ? fs::path(t.rxr_path) / "text_features"
-                      : fs::path(t.features_dir);
-    for (const std::string& split : t.feature_splits) {
-      const int64_t n = writeTextFeatureFiles(
-          encoder, vocabulary,
-          data::readRxrEpisodes(t.rxr_path, split, t.rxr_filter), featuresDir,
-          split);
-      featureSplits[split] = n;
-      files += n;
-      spdlog::info("{}: {} feature files in {}", kTask, n,
-                   (featuresDir / ("rxr_" + split)).string());
-    }
-  }
+  const WrittenFeatures written = writeFeatureSplits(t, encoder, vocabulary);
+  const int64_t files = written.files;
 
   // pretrain_metrics.json
   nlohmann::json sources = nlohmann::json::object();
@@ -514,10 +565,10 @@ void runTextMlmPretraining(const ExperimentConfig& config,
       {"heldout", scoresJson(scores)},
       {"encoder", encoderFile.string()},
       {"features",
-       {{"dir", featuresDir.string()},
+       {{"dir", written.dir.string()},
         {"dim", t.encoder.output_dim},
         {"files", files},
-        {"splits", featureSplits}}}};
+        {"splits", written.splits}}}};
   run.finish(record,
              {{"text_mlm/heldout_accuracy", scores.accuracy},
               {"text_mlm/baseline_accuracy", scores.baseline_accuracy}});

@@ -167,6 +167,43 @@ TEST(TextPretrainerTest, TinyRunBeatsTheUnigramBaselineAndWritesRxrFiles) {
   EXPECT_EQ(readBytes(a), readBytes(b));
 }
 
+TEST(TextPretrainerTest, SavedEncoderWritesTheFeaturesWithoutTraining) {
+  vln::test::TempDir dir;
+  const test::ToyCorpus toy = test::writeToyCorpus(dir.path());
+  const ExperimentConfig config = toyConfig(toy, dir / "features");
+  runTextMlmPretraining(config, dir / "run");
+
+  // pretrain.text.encoder_in: the same files from the saved encoder
+  ExperimentConfig featuresOnly = config;
+  featuresOnly.pretrain.text.encoder_in =
+      (dir / "run" / "text_encoder.pt").string();
+  featuresOnly.pretrain.text.features_dir = (dir / "again").string();
+  runTextMlmPretraining(featuresOnly, dir / "features_run");
+  const nlohmann::json metrics =
+      common::readJsonFile(dir / "features_run" / "pretrain_metrics.json");
+  EXPECT_EQ(metrics["features"]["files"], 288);
+  EXPECT_FALSE(metrics.contains("heldout"));  // nothing trained or scored
+  for (const auto& [split, id, language] : toy.rxr_instructions)
+    EXPECT_EQ(
+        readBytes(data::rxrTextFeaturesPath(dir / "features", split, id, language)),
+        readBytes(data::rxrTextFeaturesPath(dir / "again", split, id, language)))
+        << split << " " << id;
+
+  // it only writes features: without rxr_path it is a config error
+  ExperimentConfig noRxr = featuresOnly;
+  noRxr.pretrain.text.rxr_path.clear();
+  noRxr.pretrain.text.features_dir.clear();
+  EXPECT_THAT([&] { validateTextPretrainConfig(noRxr); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("pretrain.text.encoder_in")));
+  // a missing encoder file is named
+  ExperimentConfig missing = featuresOnly;
+  missing.pretrain.text.encoder_in = (dir / "nope.pt").string();
+  EXPECT_THAT([&] { runTextMlmPretraining(missing, dir / "r3"); },
+              ::testing::Throws<std::exception>(::testing::Property(
+                  &std::exception::what, HasSubstr("nope"))));
+}
+
 TEST(TextPretrainerTest, NumpyReadsTheFeatureFiles) {
   std::string output;
   if (vln::test::runCommand("/usr/bin/python3 -c 'import numpy' 2>&1",
