@@ -22,6 +22,7 @@
 #include "data/RxrTextFeatures.h"
 #include "data/Vocabulary.h"
 #include "support/TestPaths.h"
+#include "train/TrainTestWorld.h"
 #include "world/RxrWorldGenerator.h"
 
 namespace vln::train::test {
@@ -125,26 +126,7 @@ inline std::string rxrRunConfig(const TinyRxrWorld& w, const fs::path& out,
          "  instruction_features: rxr_text\n"
          "  text_feature_dim: " +
          std::to_string(kFeatureDim) +
-         "\n"
-         "  rgb_encoder: small_cnn\n"
-         "  depth_encoder: small_cnn\n"
-         "  instruction_hidden_size: 8\n"
-         "  hidden_size: 16\n"
-         "  prev_action_embedding_dim: 4\n"
-         "  rgb_projection_size: 8\n"
-         "  depth_projection_size: 8\n"
-         "  spatial_embedding_dim: 4\n"
-         "  progress_monitor: true\n"
-         "  rgb_height: 32\n  rgb_width: 32\n"
-         "  depth_height: 32\n  depth_width: 32\n"
-         "trainer:\n"
-         "  torch_threads: 1\n"
-         "  num_envs: 3\n"
-         "  env_threads: 1\n"
-         "  lr: 0.002\n"
-         "  batch_size: 3\n"
-         "  store_max_gib: 0.25\n" +
-         trainer +
+         "\n" + kTinyModelYaml + kTinyTrainerYaml + trainer +
          "eval:\n"
          "  splits: [val_unseen]\n"
          "  selection_split: val_unseen\n"

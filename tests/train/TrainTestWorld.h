@@ -85,6 +85,30 @@ inline const TinyWorld& tinyWorld() {
   return world;
 }
 
+/// The tiny model every training test builds, as `model:` keys of a run
+/// config (sizes far below any real run's, so that a test trains in
+/// seconds), and the `trainer:` section's head: one thread, three
+/// environments, batches of three episodes.
+inline constexpr const char* kTinyModelYaml =
+    "  rgb_encoder: small_cnn\n"
+    "  depth_encoder: small_cnn\n"
+    "  instruction_hidden_size: 8\n"
+    "  hidden_size: 16\n"
+    "  prev_action_embedding_dim: 4\n"
+    "  rgb_projection_size: 8\n"
+    "  depth_projection_size: 8\n"
+    "  spatial_embedding_dim: 4\n"
+    "  progress_monitor: true\n"
+    "  rgb_height: 32\n  rgb_width: 32\n  depth_height: 32\n  depth_width: 32\n";
+inline constexpr const char* kTinyTrainerYaml =
+    "trainer:\n"
+    "  torch_threads: 1\n"
+    "  num_envs: 3\n"
+    "  env_threads: 1\n"
+    "  lr: 0.002\n"
+    "  batch_size: 3\n"
+    "  store_max_gib: 0.25\n";
+
 /// A run config (YAML) of a tiny Seq2Seq-or-CMA model in `outDir` on the
 /// tiny world; `extra` is appended (later keys of a section must not
 /// repeat earlier ones, so pass whole extra sections or use --set).
@@ -108,30 +132,12 @@ inline std::string tinyRunConfig(const TinyWorld& w,
          "  policy: " +
          policy +
          "\n"
-         "  rgb_encoder: small_cnn\n"
-         "  depth_encoder: small_cnn\n"
          "  vocab_size: " +
          std::to_string(w.vocab_size) +
          "\n"
          "  embedding_dim: " +
-         std::to_string(w.embedding_dim) +
-         "\n"
-         "  instruction_hidden_size: 8\n"
-         "  hidden_size: 16\n"
-         "  prev_action_embedding_dim: 4\n"
-         "  rgb_projection_size: 8\n"
-         "  depth_projection_size: 8\n"
-         "  spatial_embedding_dim: 4\n"
-         "  progress_monitor: true\n"
-         "  rgb_height: 32\n  rgb_width: 32\n  depth_height: 32\n  "
-         "depth_width: 32\n"
-         "trainer:\n"
-         "  torch_threads: 1\n"
-         "  num_envs: 3\n"
-         "  env_threads: 1\n"
-         "  lr: 0.002\n"
-         "  batch_size: 3\n"
-         "  store_max_gib: 0.25\n"
+         std::to_string(w.embedding_dim) + "\n" + kTinyModelYaml +
+         kTinyTrainerYaml +
          "  log_every_updates: 2\n" +
          trainer +
          "eval:\n"
