@@ -364,6 +364,14 @@ struct WrittenFeatures {
   fs::path dir;
   nlohmann::json splits = nlohmann::json::object();
   int64_t files = 0;
+
+  /// The "features" record of pretrain_metrics.json.
+  nlohmann::json record(int dim) const {
+    return {{"dir", dir.string()},
+            {"dim", dim},
+            {"files", files},
+            {"splits", splits}};
+  }
 };
 
 WrittenFeatures writeFeatureSplits(const TextPretrainConfig& t,
@@ -403,11 +411,7 @@ void writeFeaturesOfSavedEncoder(const ExperimentConfig& config,
       {"task", kTask},
       {"seconds", clock.seconds()},
       {"encoder_in", t.encoder_in},
-      {"features",
-       {{"dir", written.dir.string()},
-        {"dim", t.encoder.output_dim},
-        {"files", written.files},
-        {"splits", written.splits}}}};
+      {"features", written.record(t.encoder.output_dim)}};
   run.finish(record, {});
   spdlog::info("{}: {} feature files from the encoder {}, {:.1f} s", kTask,
                written.files, t.encoder_in, clock.seconds());
@@ -541,7 +545,6 @@ void runTextMlmPretraining(const ExperimentConfig& config,
   saveTextEncoder(encoder, vocabulary, encoderFile);
   common::Stopwatch featureClock;
   const WrittenFeatures written = writeFeatureSplits(t, encoder, vocabulary);
-  const int64_t files = written.files;
 
   // pretrain_metrics.json
   nlohmann::json sources = nlohmann::json::object();
@@ -564,16 +567,12 @@ void runTextMlmPretraining(const ExperimentConfig& config,
         {"vocabulary", vocabulary.size()}}},
       {"heldout", scoresJson(scores)},
       {"encoder", encoderFile.string()},
-      {"features",
-       {{"dir", written.dir.string()},
-        {"dim", t.encoder.output_dim},
-        {"files", files},
-        {"splits", written.splits}}}};
+      {"features", written.record(t.encoder.output_dim)}};
   run.finish(record,
              {{"text_mlm/heldout_accuracy", scores.accuracy},
               {"text_mlm/baseline_accuracy", scores.baseline_accuracy}});
   spdlog::info("{}: encoder in {}, {} feature files, {:.1f} s", kTask,
-               encoderFile.string(), files, total.seconds());
+               encoderFile.string(), written.files, total.seconds());
 }
 
 }  // namespace vln::train
