@@ -104,13 +104,7 @@ inline std::string rxrRunConfig(const TinyRxrWorld& w, const fs::path& out,
                                 const std::string& trainer = kDaggerTrainer) {
   return "_base_: " +
          (vln::test::sourcePath() / "configs" / "rxr" / "task.yaml").string() +
-         "\n"
-         "sim:\n"
-         "  scenes_dir: " +
-         w.scenes.string() +
-         "\n"
-         "  rgb: {width: 32, height: 32}\n"
-         "  depth: {width: 32, height: 32}\n"
+         "\n" + tinySimYaml(w.scenes) +
          "task:\n"
          "  max_episode_steps: 150\n"
          "dataset:\n"

@@ -100,6 +100,15 @@ inline constexpr const char* kTinyModelYaml =
     "  spatial_embedding_dim: 4\n"
     "  progress_monitor: true\n"
     "  rgb_height: 32\n  rgb_width: 32\n  depth_height: 32\n  depth_width: 32\n";
+/// The `sim:` section of a tiny run: the test world's scenes, 32x32 images.
+inline std::string tinySimYaml(const std::filesystem::path& scenes) {
+  return "sim:\n"
+         "  scenes_dir: " +
+         scenes.string() +
+         "\n"
+         "  rgb: {width: 32, height: 32}\n"
+         "  depth: {width: 32, height: 32}\n";
+}
 inline constexpr const char* kTinyTrainerYaml =
     "trainer:\n"
     "  torch_threads: 1\n"
@@ -116,12 +125,7 @@ inline std::string tinyRunConfig(const TinyWorld& w,
                                  const std::filesystem::path& outDir,
                                  const std::string& trainer,
                                  const std::string& policy = "cma") {
-  return "sim:\n"
-         "  scenes_dir: " +
-         w.scenes.string() +
-         "\n"
-         "  rgb: {width: 32, height: 32}\n"
-         "  depth: {width: 32, height: 32}\n"
+  return tinySimYaml(w.scenes) +
          "task:\n"
          "  max_episode_steps: 120\n"
          "dataset:\n"
