@@ -190,6 +190,189 @@ void emitForward(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
          "instruction, candidates, candidate_mask, prev, not_done, hidden)");
 }
 
+// heatmap_features, suppress, propose_features (and propose with an
+// encoder): WaypointPredictorImpl::forward(), waypointProbabilities() and
+// waypoint::heatmapNms(), block for block
+void emitPredictor(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
+                   WaypointPredictorImpl& predictor,
+                   const ExportedPredictor& nms,
+                   ObservationEncoderImpl* encoder) {
+  const Sizes s = sizesOf(policy);
+  const bool depth = !predictor.depth_fc.is_empty();
+  const bool rgb = !predictor.rgb_fc.is_empty();
+  const int64_t bins = kWaypointHeadings / predictor.numViews();
+  w.line(0,
+         "def heatmap_features(self, rgb_features: Tensor, depth_features: "
+         "Tensor) -> Tensor:");
+  w.line(1, std::string("b = ") + (depth ? "depth" : "rgb") +
+                "_features.size(0)");
+  if (depth)
+    w.line(1, "d = torch.relu(" +
+                  linear(w, "predictor.depth_fc.0",
+                         "depth_features.to({f32}).reshape([b, " + s.views +
+                             ", " + s.depth + "])") +
+                  ")");
+  if (rgb)
+    w.line(1, "r = torch.relu(" +
+                  linear(w, "predictor.rgb_fc.0",
+                         "rgb_features.to({f32}).reshape([b, " + s.views +
+                             ", " + s.rgb + "])") +
+                  ")");
+  if (depth && rgb)
+    w.line(1, "x = torch.relu(" +
+                  linear(w, "predictor.merge.0", "torch.cat([d, r], -1)") +
+                  ")");
+  else
+    w.line(1, std::string("x = ") + (depth ? "d" : "r"));
+  // the transformer layers, unrolled (post-norm, eval mode: no dropout)
+  for (size_t i = 0; i < predictor.layers->size(); ++i) {
+    const auto* layer = predictor.layers->ptr(i)->as<ViewAttentionLayerImpl>();
+    const std::string p = "predictor.layers." + std::to_string(i) + ".";
+    const int64_t heads = layer->offset_bias.size(0);
+    const int64_t hidden = layer->qkv->weight.size(1);
+    const std::string h = std::to_string(hidden);
+    const std::string hs = std::to_string(hidden / heads);
+    const std::string views = s.views;
+    w.line(1, "parts = " + linear(w, p + "qkv", "x") + ".view([b, " + views +
+                  ", 3, " + std::to_string(heads) + ", " + hs + "])");
+    w.line(1, "q = parts.select(2, 0).transpose(1, 2)");
+    w.line(1, "k = parts.select(2, 1).transpose(1, 2)");
+    w.line(1, "v = parts.select(2, 2).transpose(1, 2)");
+    w.line(1, "bias = " + w.ref(p + "offset_bias") + ".index_select(1, " +
+                  w.ref(p + "offsets") + ".reshape([-1])).view([" +
+                  std::to_string(heads) + ", " + views + ", " + views + "])");
+    w.line(1, "scores = torch.matmul(q, k.transpose(-2, -1)) / " +
+                  floatLiteral(std::sqrt(static_cast<double>(hidden / heads))) +
+                  " + bias.unsqueeze(0) + " + w.ref(p + "mask"));
+    w.line(1,
+           "context = torch.matmul(torch.softmax(scores, -1), "
+           "v).transpose(1, 2).reshape([b, " +
+               views + ", " + h + "])");
+    auto norm = [&](const std::string& name, const std::string& input) {
+      return "torch.layer_norm(" + input + ", [" + h + "], " +
+             w.ref(p + name + ".weight") + ", " + w.ref(p + name + ".bias") +
+             ", " + floatLiteral(layer->norm1->options.eps()) + ")";
+    };
+    w.line(1, "y = " + norm("norm1", "x + " + linear(w, p + "out", "context")));
+    w.line(1, "x = " + norm("norm2",
+                            "y + " + linear(w, p + "ff2",
+                                            "torch.gelu(" +
+                                                linear(w, p + "ff1", "y") +
+                                                ")")));
+  }
+  w.line(1, "logits = " +
+                linear(w, "predictor.head.2",
+                       "torch.relu(" + linear(w, "predictor.head.0", "x") +
+                           ")"));
+  // view k's output j sits at bin k * bins + j, rolled back by half a view
+  w.line(1, "logits = torch.roll(logits.reshape([b, " +
+                std::to_string(kWaypointHeadings) + ", " +
+                std::to_string(kWaypointDistances) + "]), [" +
+                std::to_string(-(bins / 2)) + "], [1])");
+  w.line(1, "return torch.softmax(logits.reshape([b, -1]), 1).view([b, " +
+                std::to_string(kWaypointHeadings) + ", " +
+                std::to_string(kWaypointDistances) + "])");
+  w.line(0, "");
+
+  // greedy suppression: the highest cell, then its box goes to -inf
+  const std::string k = std::to_string(nms.max_candidates);
+  const std::string last = std::to_string(kWaypointDistances - 1);
+  w.line(0,
+         "def suppress(self, probabilities: Tensor) -> Tuple[Tensor, "
+         "Tensor]:");
+  w.line(1, "b = probabilities.size(0)");
+  w.line(1, "candidates = torch.zeros([b, " + k +
+                ", 2], dtype={f32}, device=probabilities.device)");
+  w.line(1, "mask = torch.zeros([b, " + k +
+                "], dtype={bool}, device=probabilities.device)");
+  w.line(1, "for i in range(b):");
+  w.line(2, "cells = probabilities[i].to({f32}).clone()");
+  w.line(2, "taken = torch.zeros([" + std::to_string(kWaypointHeadings) +
+                "], dtype={bool})");
+  w.line(2, "slot = 0");
+  w.line(2, "for r in range(" + k + "):");
+  w.line(3, "best = int(torch.argmax(cells.reshape([-1])))");
+  w.line(3, "h = best // " + std::to_string(kWaypointDistances));
+  w.line(3, "d = best % " + std::to_string(kWaypointDistances));
+  w.line(3, "if not (float(cells[h, d]) > " + floatLiteral(nms.min_score) +
+                "):");
+  w.line(4, "break");
+  w.line(3, "if not bool(taken[h]):");
+  w.line(4, "candidates[i, slot, 0] = self.waypoint_bin_headings[h]");
+  w.line(4, "candidates[i, slot, 1] = float(d + 1) * " +
+                floatLiteral(kWaypointDistanceStep));
+  w.line(4, "mask[i, slot] = True");
+  w.line(4, "slot += 1");
+  w.line(3, "taken[h] = True");
+  w.line(3, "rows = torch.remainder(torch.arange(h - " +
+                std::to_string(nms.heading_radius) + ", h + " +
+                std::to_string(nms.heading_radius + 1) + ", device=cells.device), " +
+                std::to_string(kWaypointHeadings) + ")");
+  w.line(3, "lo = max(0, d - " + std::to_string(nms.distance_radius) + ")");
+  w.line(3, "hi = min(" + last + ", d + " +
+                std::to_string(nms.distance_radius) + ")");
+  w.line(3, "cells[:, lo:hi + 1].index_fill_(0, rows, float(\"-inf\"))");
+  w.line(1, "return candidates, mask");
+  w.line(0, "");
+
+  w.line(0,
+         "def propose_features(self, rgb_features: Tensor, depth_features: "
+         "Tensor) -> Tuple[Tensor, Tensor]:");
+  w.line(1,
+         "return self.suppress(self.heatmap_features(rgb_features, "
+         "depth_features))");
+  w.line(0, "");
+  if (encoder != nullptr) {
+    const std::string& views = s.views;
+    w.line(0,
+           "def propose(self, rgb: Tensor, depth: Tensor) -> Tuple[Tensor, "
+           "Tensor]:");
+    w.line(1, "b = rgb.size(0)");
+    w.line(1, std::string("rgb_features = ") +
+                  (encoder->rgb ? "self.encode_rgb(rgb.flatten(0, 1))"
+                                  ".reshape([b, " +
+                                      views + ", -1])"
+                                : "rgb"));
+    w.line(1, std::string("depth_features = ") +
+                  (encoder->depth ? "self.encode_depth(depth.flatten(0, 1))"
+                                    ".reshape([b, " +
+                                        views + ", -1])"
+                                  : "depth"));
+    w.line(1, "return self.propose_features(rgb_features, depth_features)");
+    w.line(0, "");
+  }
+}
+
+// the predictor must read the policy's views and features
+void checkPredictor(const WaypointCmaPolicyImpl& policy,
+                    const ExportedPredictor& exported) {
+  const WaypointPredictorImpl& predictor = *exported.predictor;
+  VLN_CHECK_ARG(predictor.numViews() == policy.numViews(), kWho,
+                ": the predictor reads ", predictor.numViews(),
+                " views, the policy ", policy.numViews());
+  VLN_CHECK_ARG(exported.max_candidates >= 0 && exported.heading_radius >= 0 &&
+                    exported.distance_radius >= 0,
+                kWho,
+                ": max_candidates, heading_radius and distance_radius must be "
+                ">= 0, got ",
+                exported.max_candidates, ", ", exported.heading_radius, ", ",
+                exported.distance_radius);
+  const ModelConfig& c = policy.config();
+  auto check = [&](const torch::nn::Sequential& fc, bool used,
+                   const torch::nn::Linear& policyLinear, const char* what) {
+    if (fc.is_empty()) return;
+    VLN_CHECK_ARG(used, kWho, ": the predictor reads ", what,
+                  " features, the policy has none");
+    const int64_t reads = fc->ptr(0)->as<torch::nn::LinearImpl>()->weight.size(1);
+    VLN_CHECK_ARG(reads == policyLinear->weight.size(1), kWho,
+                  ": the predictor reads ", reads, " ", what,
+                  " features per view, the policy ",
+                  policyLinear->weight.size(1));
+  };
+  check(predictor.depth_fc, c.usesDepth(), policy.depth_linear, "depth");
+  check(predictor.rgb_fc, c.usesRgb(), policy.rgb_linear, "RGB");
+}
+
 // the encoder's features must be what the policy's projections read
 void checkEncoder(const WaypointCmaPolicyImpl& policy,
                   const ObservationEncoderImpl& encoder) {
@@ -211,10 +394,12 @@ void checkEncoder(const WaypointCmaPolicyImpl& policy,
 
 }  // namespace
 
-torch::jit::Module buildWaypointExportModule(WaypointCmaPolicyImpl& policy,
-                                             ObservationEncoderImpl* encoder) {
+torch::jit::Module buildWaypointExportModule(
+    WaypointCmaPolicyImpl& policy, ObservationEncoderImpl* encoder,
+    const ExportedPredictor& predictor) {
   const ModelConfig& config = policy.config();
   if (encoder != nullptr) checkEncoder(policy, *encoder);
+  if (predictor.predictor != nullptr) checkPredictor(policy, predictor);
 
   torch::jit::Module root(
       c10::QualifiedName("__torch__.vln.ExportedWaypointPolicy"));
@@ -224,6 +409,26 @@ torch::jit::Module buildWaypointExportModule(WaypointCmaPolicyImpl& policy,
   root.register_attribute("model_config", c10::StringType::get(),
                           common::configToYaml(config));
   root.register_attribute("num_views", c10::IntType::get(), policy.numViews());
+  root.register_attribute("has_predictor", c10::BoolType::get(),
+                          predictor.predictor != nullptr);
+  if (predictor.predictor != nullptr) {
+    w.addTensors(root, *predictor.predictor, "predictor.");
+    root.register_attribute("max_candidates", c10::IntType::get(),
+                            predictor.max_candidates);
+    root.register_attribute("nms_heading_radius", c10::IntType::get(),
+                            predictor.heading_radius);
+    root.register_attribute("nms_distance_radius", c10::IntType::get(),
+                            predictor.distance_radius);
+    root.register_attribute("nms_min_score", c10::FloatType::get(),
+                            predictor.min_score);
+    // bin h's heading as waypoint::binHeading() computes it, in float
+    std::vector<float> headings(kWaypointHeadings);
+    for (int64_t h = 0; h < kWaypointHeadings; ++h)
+      headings[static_cast<size_t>(h)] =
+          static_cast<float>(h) * kWaypointHeadingStep;
+    root.register_buffer("waypoint_bin_headings",
+                         torch::tensor(headings, torch::kFloat32));
+  }
 
   if (encoder != nullptr && encoder->rgb) emitRgbEncoder(w, *encoder->rgb);
   if (encoder != nullptr && encoder->depth)
@@ -232,14 +437,17 @@ torch::jit::Module buildWaypointExportModule(WaypointCmaPolicyImpl& policy,
     emitInstructionEncoder(w, config, "policy.instruction_encoder");
   emitStep(w, policy);
   emitForward(w, policy, encoder);
+  if (predictor.predictor != nullptr)
+    emitPredictor(w, policy, *predictor.predictor, predictor, encoder);
   w.compileInto(root, kWho);
   return root;
 }
 
 void exportWaypointPolicy(WaypointCmaPolicyImpl& policy,
                           ObservationEncoderImpl* encoder,
-                          const std::filesystem::path& file) {
-  saveScriptModule(buildWaypointExportModule(policy, encoder), file);
+                          const std::filesystem::path& file,
+                          const ExportedPredictor& predictor) {
+  saveScriptModule(buildWaypointExportModule(policy, encoder, predictor), file);
 }
 
 }  // namespace vln::models

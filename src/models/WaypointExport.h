@@ -37,11 +37,26 @@
 // was taken; view k looks k * 2 pi / N to the left of view 0, and each
 // candidate reads the view nearest its heading.
 //
-// The candidate waypoint predictor (WaypointPredictor.h) is not part of the
-// archive: the caller supplies the candidates (its own predictor, this
-// project's after heatmap NMS, or the depth-only baseline of
-// waypoint/DepthWaypointBaseline.h) and executes the chosen one.
-// Attributes: `model_config` (the model's YAML config) and `num_views`.
+// With a predictor at export time (WaypointPredictor.h, the agent's
+// waypoint_agent.candidates: predictor), the archive also proposes the
+// candidates, as rollout::WaypointAgent does (has_predictor is true):
+//   propose(rgb, depth) -> (candidates, candidate_mask)          [encoder]
+//   propose_features(rgb_features, depth_features)
+//       -> (candidates float [B, K, 2], candidate_mask bool [B, K])
+//     K = max_candidates; the predictor's heatmap through non-maximum
+//     suppression exactly as waypoint::heatmapNms() (ordered by decreasing
+//     probability, masked slots zero), ready for forward/step_features.
+//   heatmap_features(rgb_features, depth_features) -> float [B, 120, 12]
+//     the softmax over the 1440 cells that the suppression reads
+//     (waypoint/WaypointHeatmap.h's layout: bin h at h * 3 degrees
+//     counter-clockwise, distance bin d at (d + 1) * 0.25 m).
+// Without one (has_predictor false; the depth-only baseline's agents) the
+// caller supplies the candidates (its own predictor or the depth-only
+// baseline of waypoint/DepthWaypointBaseline.h). Either way the caller
+// executes the chosen waypoint.
+// Attributes: `model_config` (the model's YAML config), `num_views`,
+// `has_predictor`, and with a predictor `max_candidates`,
+// `nms_heading_radius`, `nms_distance_radius`, `nms_min_score`.
 
 #include <torch/script.h>
 
@@ -49,21 +64,35 @@
 
 #include "models/ObservationEncoder.h"
 #include "models/WaypointCmaPolicy.h"
+#include "models/WaypointPredictor.h"
 
 namespace vln::models {
 
-/// Writes `policy` (and `encoder`, when non-null) as a TorchScript archive
-/// to `file` (atomically). The export is made on the CPU in float32; the
-/// modules themselves are not modified. Throws std::invalid_argument when
-/// the encoder's features do not fit the policy, std::runtime_error on I/O
-/// failure.
+/// The candidate predictor to include and its non-maximum suppression
+/// (waypoint::heatmapNms()'s arguments; the agent's waypoint.nms_*).
+struct ExportedPredictor {
+  WaypointPredictorImpl* predictor = nullptr;
+  int64_t max_candidates = 5;
+  int64_t heading_radius = 7;
+  int64_t distance_radius = 5;
+  double min_score = 0.0;
+};
+
+/// Writes `policy` (and `encoder` and `predictor`, when non-null) as a
+/// TorchScript archive to `file` (atomically). The export is made on the
+/// CPU in float32; the modules themselves are not modified. Throws
+/// std::invalid_argument when the encoder's features do not fit the policy
+/// or the predictor (its views, its modalities), or the suppression's
+/// settings are negative; std::runtime_error on I/O failure.
 void exportWaypointPolicy(WaypointCmaPolicyImpl& policy,
                           ObservationEncoderImpl* encoder,
-                          const std::filesystem::path& file);
+                          const std::filesystem::path& file,
+                          const ExportedPredictor& predictor = {});
 
 /// Same as exportWaypointPolicy() but returns the module instead of
 /// writing it.
-torch::jit::Module buildWaypointExportModule(WaypointCmaPolicyImpl& policy,
-                                             ObservationEncoderImpl* encoder);
+torch::jit::Module buildWaypointExportModule(
+    WaypointCmaPolicyImpl& policy, ObservationEncoderImpl* encoder,
+    const ExportedPredictor& predictor = {});
 
 }  // namespace vln::models

@@ -23,6 +23,7 @@
 #include <torch/torch.h>
 
 #include <cstdint>
+#include <numbers>
 
 #include "models/ModelConfig.h"
 #include "models/WaypointPredictorConfig.h"
@@ -33,6 +34,11 @@ namespace vln::models {
 /// kNumDistances; models does not depend on that module).
 inline constexpr int64_t kWaypointHeadings = 120;
 inline constexpr int64_t kWaypointDistances = 12;
+/// A heading bin's width (radians, float as waypoint::kHeadingStep) and a
+/// distance bin's (m; bin d is at (d + 1) * kWaypointDistanceStep).
+inline constexpr float kWaypointHeadingStep =
+    2.0f * std::numbers::pi_v<float> / kWaypointHeadings;
+inline constexpr float kWaypointDistanceStep = 0.25f;
 
 /// Places the views' outputs [Bt, N, (120/N) * 12] (view k's output j * 12
 /// + d is heading j of the view, distance d) into the heatmap layout

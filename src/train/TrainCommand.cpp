@@ -36,14 +36,23 @@ void exportCheckpoint(const fs::path& checkpoint,
                       const ExperimentConfig& config, const fs::path& out) {
   const Checkpoint ckpt = loadCheckpoint(checkpoint);
   if (config.trainer.task == "waypoint_cma") {
-    // the candidate predictor is not part of the archive
-    // (models/WaypointExport.h), so its weight file need not exist here
-    ExperimentConfig withoutPredictor = config;
-    withoutPredictor.waypoint_agent.candidates = "depth_baseline";
+    // an agent of the learned predictor's candidates carries the predictor
+    // and its suppression (models/WaypointExport.h: propose()); the
+    // depth-only baseline's leaves the candidates to the caller
     WaypointAgentModels nets =
-        makeWaypointAgentModels(withoutPredictor, /*withEmbeddings=*/false);
+        makeWaypointAgentModels(config, /*withEmbeddings=*/false);
     models::loadStateStrict(*nets.policy, ckpt.policy, checkpoint.string());
-    models::exportWaypointPolicy(*nets.policy, nets.encoder.get(), out);
+    models::ExportedPredictor predictor;
+    if (!nets.predictor.is_empty()) {
+      const WaypointPretrainConfig& w = config.waypoint;
+      predictor.predictor = nets.predictor.get();
+      predictor.max_candidates = w.nms_max_candidates;
+      predictor.heading_radius = w.nms_heading_radius;
+      predictor.distance_radius = w.nms_distance_radius;
+      predictor.min_score = w.nms_min_score;
+    }
+    models::exportWaypointPolicy(*nets.policy, nets.encoder.get(), out,
+                                 predictor);
   } else {
     auto policy = models::makePolicy(config.model);
     models::loadStateStrict(*policy, ckpt.policy, checkpoint.string());

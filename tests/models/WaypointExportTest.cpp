@@ -1,7 +1,9 @@
 // Tests src/models/WaypointExport.cpp: the exported waypoint policy, loaded
 // back by torch::jit::load (and by Python's torch.jit.load when available),
 // reproduces WaypointCmaPolicyImpl::step() on raw panoramas and on features,
-// with masked candidate slots, episode starts mid-batch and the ablations.
+// with masked candidate slots, episode starts mid-batch and the ablations;
+// an included candidate predictor gives its heatmap and suppresses it as
+// waypoint::heatmapNms() does.
 
 #include "models/WaypointExport.h"
 
@@ -11,6 +13,7 @@
 #include <torch/script.h>
 
 #include <map>
+#include <numbers>
 
 #include "ModelTestUtil.h"
 #include "models/StateDict.h"
@@ -254,6 +257,125 @@ TEST(WaypointExportTest, EncoderThatDoesNotFitIsRejected) {
                std::invalid_argument);
 }
 
+// a small predictor over `c`'s encoder features, as train::
+// makeWaypointAgentModels() builds it
+WaypointPredictor makeSmallPredictor(const ModelConfig& c) {
+  WaypointPredictorConfig p;
+  p.hidden_size = 16;
+  p.heads = 2;
+  p.ff_size = 24;
+  p.layers = 2;
+  WaypointPredictor predictor = makeWaypointPredictor(c, p, kViews);
+  predictor->eval();
+  return predictor;
+}
+
+TEST(WaypointExportTest, ExportedPredictorGivesThePredictorsHeatmap) {
+  for (const Variant& v : variants()) {
+    if (v.name == "seq2seq_instruction_encoder") continue;
+    SCOPED_TRACE(v.name);
+    torch::manual_seed(24);
+    WaypointCmaPolicy policy = makeWaypointPolicy(v.config);
+    ObservationEncoder encoder(v.config);
+    WaypointPredictor predictor = makeSmallPredictor(v.config);
+    policy->eval();
+    encoder->eval();
+    ExportedPredictor exported{predictor.get(), 4, 7, 5, 0.0};
+    torch::jit::Module m =
+        buildWaypointExportModule(*policy, encoder.get(), exported);
+    EXPECT_TRUE(m.attr("has_predictor").toBool());
+    EXPECT_EQ(m.attr("max_candidates").toInt(), 4);
+
+    const Decision d = randomDecision(v.config, {0, 0, 0}, {0, 0, 0});
+    torch::NoGradGuard noGrad;
+    const VisualFeatures f = encoder->forward(
+        v.config.usesRgb() ? d.rgb : torch::Tensor(),
+        v.config.usesDepth() ? d.depth : torch::Tensor());
+    auto views = [](const torch::Tensor& t) {
+      return t.defined() ? t.reshape({kBatch, kViews, -1}) : torch::zeros({1});
+    };
+    const torch::Tensor expected = waypointProbabilities(
+        predictor->forward(f.depth.defined() ? views(f.depth) : torch::Tensor(),
+                           f.rgb.defined() ? views(f.rgb) : torch::Tensor()));
+    const torch::Tensor heatmap =
+        m.run_method("heatmap_features", views(f.rgb), views(f.depth))
+            .toTensor();
+    ASSERT_EQ(heatmap.sizes(), (std::vector<int64_t>{kBatch, 120, 12}));
+    EXPECT_TRUE(torch::allclose(heatmap, expected, 1e-5, 1e-7));
+
+    // propose() on the raw panorama: the suppression of that heatmap
+    const auto raw = m.run_method("propose", d.rgb, d.depth).toTuple();
+    const auto fromHeatmap = m.run_method("suppress", heatmap).toTuple();
+    for (size_t i : {0u, 1u})
+      EXPECT_TRUE(torch::equal(raw->elements()[i].toTensor(),
+                               fromHeatmap->elements()[i].toTensor()));
+    const torch::Tensor mask = raw->elements()[1].toTensor();
+    ASSERT_EQ(mask.sizes(), (std::vector<int64_t>{kBatch, 4}));
+    // a softmax is positive everywhere: the first slot is always filled
+    EXPECT_TRUE(mask.select(1, 0).all().item<bool>());
+  }
+}
+
+// the suppression on a hand-made heatmap, worked out by hand from
+// waypoint::heatmapNms()'s rule (highest cell, its box of +-7 headings
+// (circular) x +-5 distances goes, one candidate per heading bin)
+TEST(WaypointExportTest, ExportedSuppressionFollowsHeatmapNms) {
+  const ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  WaypointCmaPolicy policy = makeWaypointPolicy(c);
+  WaypointPredictor predictor = makeSmallPredictor(c);
+  torch::jit::Module m = buildWaypointExportModule(
+      *policy, nullptr, ExportedPredictor{predictor.get(), 5, 7, 5, 0.0});
+  torch::Tensor heatmap = torch::zeros({2, 120, 12});
+  heatmap[0][0][3] = 0.5f;     // the first pick: 0 degrees, 1.0 m
+  heatmap[0][115][3] = 0.45f;  // 5 bins clockwise of it: inside its box
+  heatmap[0][60][11] = 0.3f;   // second: 180 degrees, 3.0 m
+  heatmap[0][60][0] = 0.2f;    // outside that box, but its heading is taken
+  heatmap[0][30][5] = 0.1f;    // third: 90 degrees, 1.5 m
+  // row 1 is all zeros: nothing above min_score 0
+  const auto out = m.run_method("suppress", heatmap).toTuple();
+  const torch::Tensor slots = out->elements()[0].toTensor();
+  const torch::Tensor mask = out->elements()[1].toTensor();
+  const float step = 2.0f * std::numbers::pi_v<float> / 120.0f;
+  EXPECT_TRUE(torch::equal(
+      mask, torch::tensor({1, 1, 1, 0, 0, 0, 0, 0, 0, 0}, torch::kBool)
+                .view({2, 5})));
+  EXPECT_FLOAT_EQ(slots[0][0][0].item<float>(), 0.0f);
+  EXPECT_FLOAT_EQ(slots[0][0][1].item<float>(), 1.0f);
+  EXPECT_FLOAT_EQ(slots[0][1][0].item<float>(), 60.0f * step);
+  EXPECT_FLOAT_EQ(slots[0][1][1].item<float>(), 3.0f);
+  EXPECT_FLOAT_EQ(slots[0][2][0].item<float>(), 30.0f * step);
+  EXPECT_FLOAT_EQ(slots[0][2][1].item<float>(), 1.5f);
+  EXPECT_TRUE(torch::equal(slots[1], torch::zeros({5, 2})));
+}
+
+TEST(WaypointExportTest, PredictorThatDoesNotFitIsRejected) {
+  const ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  WaypointCmaPolicy policy = makeWaypointPolicy(c);
+  WaypointPredictorConfig p;
+  p.hidden_size = 16;
+  p.heads = 2;
+  WaypointPredictor twelveViews = makeWaypointPredictor(c, p, 12);
+  try {
+    buildWaypointExportModule(*policy, nullptr,
+                              ExportedPredictor{twelveViews.get()});
+    ADD_FAILURE() << "a predictor of 12 views cannot serve 6";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("exportWaypointPolicy()"));
+    EXPECT_THAT(e.what(), HasSubstr("views"));
+  }
+  WaypointPredictor fits = makeSmallPredictor(c);
+  EXPECT_THROW(buildWaypointExportModule(*policy, nullptr,
+                                         ExportedPredictor{fits.get(), -1}),
+               std::invalid_argument);
+  // a predictor of the depth features the policy does not read
+  ModelConfig noDepth = c;
+  noDepth.no_depth = true;
+  WaypointCmaPolicy rgbOnly = makeWaypointPolicy(noDepth);
+  EXPECT_THROW(buildWaypointExportModule(*rgbOnly, nullptr,
+                                         ExportedPredictor{fits.get()}),
+               std::invalid_argument);
+}
+
 // Python's torch.jit.load runs the archive on a raw panorama and reproduces
 // the C++ outputs; tensors travel both ways as TorchScript tensor archives
 TEST(WaypointExportTest, PythonTorchJitLoadReproducesOutputs) {
@@ -268,7 +390,9 @@ TEST(WaypointExportTest, PythonTorchJitLoadReproducesOutputs) {
   const Decision d = randomDecision(c, {1, 3, 0}, {1, 0, 1});
   const torch::Tensor hidden = torch::randn({kBatch, 2, c.hidden_size});
   vln::test::TempDir dir;
-  exportWaypointPolicy(*policy, encoder.get(), dir / "agent.pt");
+  WaypointPredictor predictor = makeSmallPredictor(c);
+  exportWaypointPolicy(*policy, encoder.get(), dir / "agent.pt",
+                       ExportedPredictor{predictor.get()});
   writeTensorFile(dir / "inputs.pt", {{"rgb", d.rgb},
                                       {"depth", d.depth},
                                       {"instruction", tokens},
@@ -285,11 +409,14 @@ with torch.no_grad():
     logits, hidden = agent(x["rgb"], x["depth"], x["instruction"],
                            x["candidates"], x["candidate_mask"], x["prev"],
                            x["not_done"], x["hidden"])
+    candidates, candidate_mask = agent.propose(x["rgb"], x["depth"])
 class Out(torch.nn.Module):
     pass
 out = Out()
 out.register_buffer("logits", logits)
 out.register_buffer("hidden", hidden)
+out.register_buffer("candidates", candidates)
+out.register_buffer("candidate_mask", candidate_mask)
 torch.jit.script(out).save(sys.argv[3])
 )PY";
   vln::test::writeText(dir / "run.py", script);
@@ -315,6 +442,13 @@ torch.jit.script(out).save(sys.argv[3])
                    hidden);
   expectSameLogits(expected.logits, py.at("logits"), "python");
   EXPECT_TRUE(torch::allclose(py.at("hidden"), expected.hidden, 1e-4, 1e-5));
+  // the candidates Python gets are the ones C++ gets from the same archive
+  torch::jit::Module loaded = torch::jit::load((dir / "agent.pt").string());
+  const auto proposed = loaded.run_method("propose", d.rgb, d.depth).toTuple();
+  EXPECT_TRUE(
+      torch::equal(py.at("candidates"), proposed->elements()[0].toTensor()));
+  EXPECT_TRUE(torch::equal(py.at("candidate_mask"),
+                           proposed->elements()[1].toTensor()));
 }
 
 }  // namespace

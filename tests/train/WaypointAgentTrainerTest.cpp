@@ -20,6 +20,7 @@
 #include "support/TestUtil.h"
 #include "train/Checkpoint.h"
 #include "train/TinyWorldBinaryTest.h"
+#include "waypoint/WaypointHeatmap.h"
 
 namespace vln::train {
 namespace {
@@ -61,13 +62,16 @@ class WaypointAgentTrainerTest : public test::TinyWorldBinaryTest {
 
 // The TorchScript archive `file` gives the logits and recurrent state of
 // `checkpoint`'s policy (with the run's frozen encoders) on a random
-// panorama, masked candidate slots and a random instruction.
+// panorama, masked candidate slots and a random instruction; and, when
+// `withPredictor`, the candidates the agent's predictor and suppression
+// propose on that panorama.
 void expectExportActsAsCheckpoint(const fs::path& file,
                                   const fs::path& checkpoint,
-                                  const ExperimentConfig& config) {
+                                  const ExperimentConfig& config,
+                                  bool withPredictor) {
   SCOPED_TRACE(file.string());
   ExperimentConfig c = config;
-  c.waypoint_agent.candidates = "depth_baseline";  // no predictor needed
+  if (!withPredictor) c.waypoint_agent.candidates = "depth_baseline";
   WaypointAgentModels nets = makeWaypointAgentModels(c, false);
   models::loadStateStrict(*nets.policy, loadCheckpoint(checkpoint).policy,
                           checkpoint.string());
@@ -115,6 +119,35 @@ void expectExportActsAsCheckpoint(const fs::path& file,
       << expected.logits;
   EXPECT_TRUE(torch::allclose(out->elements()[1].toTensor(), expected.hidden,
                               1e-4, 1e-5));
+
+  ASSERT_EQ(exported.attr("has_predictor").toBool(), withPredictor);
+  if (!withPredictor) return;
+  // propose(): the predictor's softmax through heatmapNms(), slot by slot
+  const auto proposed = exported.run_method("propose", rgb, depth).toTuple();
+  const torch::Tensor slots = proposed->elements()[0].toTensor();
+  const torch::Tensor real = proposed->elements()[1].toTensor();
+  const int64_t k = c.waypoint.nms_max_candidates;
+  ASSERT_EQ(slots.sizes(), (std::vector<int64_t>{2, k, 2}));
+  const torch::Tensor probabilities =
+      models::waypointProbabilities(
+          nets.predictor->forward(f.depth.reshape({2, views, -1}),
+                                  f.rgb.reshape({2, views, -1})))
+          .contiguous();
+  for (int64_t b = 0; b < 2; ++b) {
+    const std::vector<waypoint::Candidate> picks = waypoint::heatmapNms(
+        std::span<const float>(probabilities[b].data_ptr<float>(),
+                               waypoint::kHeatmapSize),
+        k, c.waypoint.nms_heading_radius, c.waypoint.nms_distance_radius,
+        static_cast<float>(c.waypoint.nms_min_score));
+    ASSERT_FALSE(picks.empty());
+    for (int64_t j = 0; j < k; ++j) {
+      const auto i = static_cast<size_t>(j);
+      ASSERT_EQ(real[b][j].item<bool>(), i < picks.size()) << b << " " << j;
+      if (i >= picks.size()) continue;
+      EXPECT_EQ(slots[b][j][0].item<float>(), picks[i].heading) << b << " " << j;
+      EXPECT_EQ(slots[b][j][1].item<float>(), picks[i].distance) << b << " " << j;
+    }
+  }
 }
 
 TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
@@ -151,7 +184,7 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
   // train --export wrote the best (or else the latest) checkpoint's policy
   const ExperimentConfig runConfig = loadExperimentConfig(run / "config.yaml");
   expectExportActsAsCheckpoint(dir_ / "agent.pt", bestOrLatestCheckpoint(run),
-                               runConfig);
+                               runConfig, /*withPredictor=*/true);
 
   // eval scores the checkpoint with the waypoint agent
   if (!fs::exists(binary("eval"))) GTEST_SKIP() << "build the eval binary";
@@ -175,11 +208,11 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
             0);
   EXPECT_THAT(output, HasSubstr("cannot resume"));
 
-  // vlnce-export from a checkpoint with its embedded config; the candidate
-  // predictor is not exported, so its weight file is not needed
+  // vlnce-export from a checkpoint with its embedded config, which names
+  // the predictor; without its weight file, an error naming the key, and
+  // with a config of the depth-only baseline's candidates, the policy alone
   if (!fs::exists(binary("vlnce-export")))
     GTEST_SKIP() << "build the vlnce-export binary";
-  fs::remove(dir_ / "predictor.pt");
   ASSERT_EQ(vln::test::runCommand(binary("vlnce-export") + " --checkpoint " +
                                       checkpoints.front().string() + " --out " +
                                       (dir_ / "again.pt").string() + " 2>&1",
@@ -187,7 +220,28 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
             0)
       << output;
   expectExportActsAsCheckpoint(dir_ / "again.pt", checkpoints.front(),
-                               runConfig);
+                               runConfig, /*withPredictor=*/true);
+  fs::remove(dir_ / "predictor.pt");
+  EXPECT_NE(vln::test::runCommand(binary("vlnce-export") + " --checkpoint " +
+                                      checkpoints.front().string() + " --out " +
+                                      (dir_ / "bare.pt").string() + " 2>&1",
+                                  &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("waypoint_agent.predictor_weights"));
+  ExperimentConfig baseline = runConfig;
+  baseline.waypoint_agent.candidates = "depth_baseline";
+  const fs::path baselineConfig = dir_ / "baseline.yaml";
+  vln::test::writeText(baselineConfig, common::configToYaml(baseline));
+  ASSERT_EQ(vln::test::runCommand(binary("vlnce-export") + " --checkpoint " +
+                                      checkpoints.front().string() +
+                                      " --config " + baselineConfig.string() +
+                                      " --out " + (dir_ / "bare.pt").string() +
+                                      " 2>&1",
+                                  &output),
+            0)
+      << output;
+  expectExportActsAsCheckpoint(dir_ / "bare.pt", checkpoints.front(), baseline,
+                               /*withPredictor=*/false);
 }
 
 TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
