@@ -6,9 +6,9 @@
 #include <cstdint>
 #include <list>
 #include <map>
-#include <optional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>

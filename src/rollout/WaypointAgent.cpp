@@ -290,13 +290,13 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
                                         slot.referenceIndex, final);
       waypoint::ApproachConfig rule = config_.approach;
       if (!final) rule.success_distance = 0.0f;  // never stop short of the goal
-      int choice = waypoint::oracleChoice(navmesh, agent_, state, cands,
-                                          target, rule, config_.execution);
+      int choice = waypoint::oracleChoice(navmesh, agent_, state, cands, target,
+                                          rule, config_.execution);
       if (choice < 0 && !final && !cands.empty()) {
         // at an intermediate waypoint with nothing closer: head for the goal
-        choice = waypoint::oracleChoice(
-            navmesh, agent_, state, cands, slot.episode->goals.front().position,
-            config_.approach, config_.execution);
+        choice = waypoint::oracleChoice(navmesh, agent_, state, cands,
+                                        slot.episode->goals.front().position,
+                                        config_.approach, config_.execution);
       }
       label = choice + 1;
     }

@@ -88,7 +88,6 @@ TEST_F(VectorEnvTest, ErrorsNameTheEpisodeAndScene) {
   EXPECT_THROW(fresh.step(envs, actions), std::invalid_argument);
 }
 
-
 TEST_F(VectorEnvTest, ARequestedTeleportIsTheNextStep) {
   auto cache = std::make_shared<SceneCache>(config_);
   sim::TaskConfig task;

@@ -165,11 +165,11 @@ TEST(WaypointAgentTest, TeleportingOracleTakesOneStepPerWaypoint) {
       const sim::AgentState state{record.positions[i], record.headings[i],
                                   0.0f};
       // the label is the oracle's under teleporting (recomputed here)
-      EXPECT_EQ(d.label, 1 + waypoint::oracleChoice(
-                                 navmesh, body, state, d.candidates,
-                                 episode.goals.front().position,
-                                 t.config.approach,
-                                 waypoint::Execution::kTeleport))
+      EXPECT_EQ(d.label,
+                1 + waypoint::oracleChoice(navmesh, body, state, d.candidates,
+                                           episode.goals.front().position,
+                                           t.config.approach,
+                                           waypoint::Execution::kTeleport))
           << "decision " << i;
       if (d.taken == 0) continue;
       EXPECT_EQ(record.actions[i], static_cast<int>(sim::Action::kTeleport));
@@ -178,7 +178,8 @@ TEST(WaypointAgentTest, TeleportingOracleTakesOneStepPerWaypoint) {
       const waypoint::Candidate& c =
           d.candidates[static_cast<size_t>(d.taken - 1)];
       const sim::Teleport expected = sim::resolveTeleport(
-          navmesh, state, waypoint::teleportTarget(state, c.heading, c.distance));
+          navmesh, state,
+          waypoint::teleportTarget(state, c.heading, c.distance));
       EXPECT_EQ(record.positions[i + 1], expected.end.position);
       EXPECT_FLOAT_EQ(record.headings[i + 1], expected.end.heading);
       moved += expected.refused ? 0 : 1;

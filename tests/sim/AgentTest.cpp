@@ -410,7 +410,6 @@ TEST_F(AgentTest, EpisodesCountLookActionsAsSteps) {
   EXPECT_FALSE(episode.called_stop);
 }
 
-
 // ---------------------------------------------------------------------------
 // teleporting (a waypoint agent's waypoint_agent.execution teleport)
 // ---------------------------------------------------------------------------
@@ -434,8 +433,8 @@ TEST_F(TeleportTest, AnOpenTargetIsReachedInOneCountedStep) {
   EpisodeState episode;
   episode.agent = standing(1.0f, 1.0f, 0.0f);
   const Vec3f from = episode.agent.position;
-  const StepResult result =
-      teleportEpisode(navmesh(), TaskConfig{}, episode, target(1.0f, 5.0f, 2.0f));
+  const StepResult result = teleportEpisode(navmesh(), TaskConfig{}, episode,
+                                            target(1.0f, 5.0f, 2.0f));
   // snapped onto the floor below the target, facing its heading
   EXPECT_NEAR(episode.agent.position.x(), 1.0f, 1e-3f);
   EXPECT_NEAR(episode.agent.position.z(), 5.0f, 1e-3f);
@@ -455,7 +454,8 @@ TEST_F(TeleportTest, ATargetBeyondTheWallSnapsToTheNearestFloor) {
   const AgentState from = standing(1.0f, 3.0f, 0.0f);
   // 0.3 m beyond the west wall (x = 0): the floor's edge is within the
   // snap's 0.5 m
-  const Teleport t = resolveTeleport(navmesh(), from, target(-0.3f, 3.0f, 1.0f));
+  const Teleport t =
+      resolveTeleport(navmesh(), from, target(-0.3f, 3.0f, 1.0f));
   EXPECT_FALSE(t.refused);
   EXPECT_GT(t.end.position.x(), 0.0f);
   EXPECT_LT(t.end.position.x(), 0.5f);
@@ -467,8 +467,8 @@ TEST_F(TeleportTest, AnotherIslandOrNoNavmeshIsRefusedInPlace) {
   const AgentState from = standing(1.0f, 1.0f, 0.0f);
   ASSERT_EQ(navmesh().islandIndex(from.position), 0);
   for (const AgentState& wish :
-       {target(3.0f, 3.0f, 1.5f),      // over the table: its top, island 1
-        target(1.0f, -2.0f, 1.5f),     // 2 m beyond the north wall
+       {target(3.0f, 3.0f, 1.5f),       // over the table: its top, island 1
+        target(1.0f, -2.0f, 1.5f),      // 2 m beyond the north wall
         target(500.0f, 0.0f, 1.5f)}) {  // outside the navmesh's bounds
     const Teleport t = resolveTeleport(navmesh(), from, wish);
     EXPECT_TRUE(t.refused) << wish.position.transpose();
@@ -499,25 +499,24 @@ TEST_F(TeleportTest, TheStepLimitEndsATeleportingEpisode) {
   EXPECT_EQ(episode.steps, 3);
   EXPECT_TRUE(episode.done);
   EXPECT_FALSE(episode.called_stop);
-  EXPECT_DEATH(teleportEpisode(navmesh(), task, episode,
-                               target(1.0f, 1.0f, 0.0f)),
-               "episode.done");
+  EXPECT_DEATH(
+      teleportEpisode(navmesh(), task, episode, target(1.0f, 1.0f, 0.0f)),
+      "episode.done");
 }
 
 TEST_F(TeleportTest, BadTargetsAndTargetlessTeleportsThrow) {
   const AgentState from = standing(1.0f, 1.0f, 0.0f);
-  EXPECT_THAT([&] { resolveTeleport(navmesh(), from, target(NAN, 1.0f, 0.0f)); },
-              ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("resolveTeleport(): target pose must be finite")));
+  EXPECT_THAT(
+      [&] { resolveTeleport(navmesh(), from, target(NAN, 1.0f, 0.0f)); },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("resolveTeleport(): target pose must be finite")));
   EXPECT_THAT(
       [&] { resolveTeleport(navmesh(), from, target(1.0f, 1.0f, INFINITY)); },
       ::testing::ThrowsMessage<std::invalid_argument>(
           HasSubstr("target pose must be finite")));
   AgentState state = from;
   EXPECT_THAT(
-      [&] {
-        applyAction(navmesh(), AgentConfig{}, state, Action::kTeleport);
-      },
+      [&] { applyAction(navmesh(), AgentConfig{}, state, Action::kTeleport); },
       ::testing::ThrowsMessage<std::invalid_argument>(
           HasSubstr("TELEPORT needs a target pose")));
 }

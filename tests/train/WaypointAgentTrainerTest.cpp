@@ -221,7 +221,6 @@ TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
   EXPECT_TRUE(makeWaypointAgentModels(c, false).predictor.is_empty());
 }
 
-
 // waypoint_agent.execution teleport trains and evaluates from the binaries:
 // the teacher-forcing round's oracle (labelling by teleport ends) reaches
 // most goals; eval records one TELEPORT step per waypoint, and the same
@@ -232,10 +231,10 @@ TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {
   EXPECT_EQ(loadExperimentConfig(config).waypoint_agent.execution,
             waypoint::Execution::kTeleport);
   std::string output;
-  ASSERT_EQ(vln::test::runCommand(binary("train") + " --config " +
-                                      config.string() + " 2>&1",
-                                  &output),
-            0)
+  ASSERT_EQ(
+      vln::test::runCommand(
+          binary("train") + " --config " + config.string() + " 2>&1", &output),
+      0)
       << output;
   const fs::path run = dir_ / "run";
   const auto checkpoints = listCheckpoints(run / "checkpoints");
@@ -259,9 +258,8 @@ TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {
   ASSERT_EQ(vln::test::runCommand(
                 binary("eval") + " --config " + (run / "config.yaml").string() +
                     " --set waypoint_agent.execution=teleport --checkpoint " +
-                    checkpoints.back().string() +
-                    " --split val_unseen --out " + (dir_ / "eval").string() +
-                    " 2>&1",
+                    checkpoints.back().string() + " --split val_unseen --out " +
+                    (dir_ / "eval").string() + " 2>&1",
                 &output),
             0)
       << output;
@@ -278,9 +276,8 @@ TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {
   ASSERT_EQ(vln::test::runCommand(
                 binary("eval") + " --config " + (run / "config.yaml").string() +
                     " --set waypoint_agent.execution=walk --checkpoint " +
-                    checkpoints.back().string() +
-                    " --split val_unseen --out " + (dir_ / "walk").string() +
-                    " 2>&1",
+                    checkpoints.back().string() + " --split val_unseen --out " +
+                    (dir_ / "walk").string() + " 2>&1",
                 &output),
             0)
       << output;
@@ -293,9 +290,8 @@ TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {
   EXPECT_NE(vln::test::runCommand(
                 binary("eval") + " --config " + (run / "config.yaml").string() +
                     " --set waypoint_agent.execution=fly --checkpoint " +
-                    checkpoints.back().string() +
-                    " --split val_unseen --out " + (dir_ / "bad").string() +
-                    " 2>&1",
+                    checkpoints.back().string() + " --split val_unseen --out " +
+                    (dir_ / "bad").string() + " 2>&1",
                 &output),
             0);
   EXPECT_THAT(output, HasSubstr("waypoint_agent.execution"));
@@ -305,10 +301,9 @@ TEST_F(WaypointAgentTrainerTest, ExecutionIsWalkOrTeleport) {
   const fs::path config = writeConfig("");
   EXPECT_EQ(loadExperimentConfig(config).waypoint_agent.execution,
             waypoint::Execution::kWalk);
-  EXPECT_EQ(
-      loadExperimentConfig(config, {"waypoint_agent.execution=teleport"})
-          .waypoint_agent.execution,
-      waypoint::Execution::kTeleport);
+  EXPECT_EQ(loadExperimentConfig(config, {"waypoint_agent.execution=teleport"})
+                .waypoint_agent.execution,
+            waypoint::Execution::kTeleport);
   try {
     loadExperimentConfig(config, {"waypoint_agent.execution=fly"});
     ADD_FAILURE() << "execution fly must be refused";

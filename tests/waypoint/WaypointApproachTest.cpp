@@ -126,7 +126,6 @@ TEST_F(WaypointApproachTest, OracleStopsNearTheGoalOrWithoutProgress) {
             0);
 }
 
-
 TEST_F(WaypointApproachTest, ATeleportLandsWhereAWalkIsStopped) {
   // east (90 degrees right of -Z), 3 m from (0, 0): the walk is stopped by
   // the cube's face at x = 1.5; the teleport passes it and its target on
@@ -135,9 +134,9 @@ TEST_F(WaypointApproachTest, ATeleportLandsWhereAWalkIsStopped) {
   const sim::AgentState start = at(0.0f, 0.0f, 0.0f);
   const sim::AgentState walked = executionEnd(
       navmesh, agent_, start, degrees(-90), 3.0f, config_, Execution::kWalk);
-  EXPECT_EQ(walked,
-            planApproach(navmesh, agent_, start, degrees(-90), 3.0f, config_)
-                .end);
+  EXPECT_EQ(
+      walked,
+      planApproach(navmesh, agent_, start, degrees(-90), 3.0f, config_).end);
   EXPECT_LT(walked.position.x(), 1.5f);
   const sim::AgentState target = teleportTarget(start, degrees(-90), 3.0f);
   EXPECT_NEAR(target.position.x(), 3.0f, 1e-5f);
