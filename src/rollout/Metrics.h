@@ -87,8 +87,8 @@ struct EpisodeRecord {
   std::vector<float> pitches;
   /// Action codes taken (sim::Action values: 0 STOP, 1 MOVE_FORWARD,
   /// 2 TURN_LEFT, 3 TURN_RIGHT, and in RxR's action space 4 LOOK_UP,
-  /// 5 LOOK_DOWN), or empty when not recorded; when present
-  /// size() == steps_taken.
+  /// 5 LOOK_DOWN; 6 TELEPORT for a teleporting waypoint agent's steps), or
+  /// empty when not recorded; when present size() == steps_taken.
   std::vector<int> actions;
   /// True when the episode ended by STOP (false when it hit the step limit).
   bool called_stop = false;
@@ -114,7 +114,8 @@ struct EpisodeMetrics {
   double spl = 0.0;               ///< success * d0 / max(d0, TL)
   double ndtw = 0.0;              ///< normalised DTW to the reference path
   double sdtw = 0.0;              ///< success * ndtw
-  double path_length = 0.0;       ///< TL: sum of 3-D step lengths (m)
+  double path_length = 0.0;       ///< TL: sum of 3-D step lengths (m;
+                                  ///< a teleport's is its straight segment)
   double oracle_success = 0.0;    ///< OS: 1 when ever within the radius
   double oracle_navigation_error = 0.0;  ///< ONE: nearest to goal (m)
   double oracle_spl = 0.0;   ///< SPL had the agent stopped on first arrival

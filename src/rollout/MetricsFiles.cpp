@@ -184,11 +184,12 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
     VLN_CHECK_ARG(r.positions.size() == static_cast<size_t>(r.steps_taken) + 1,
                   ctx, ": field 'path.positions' must hold steps_taken + 1 = ",
                   r.steps_taken + 1, " entries, got ", r.positions.size());
+    // the low-level codes, and a teleporting waypoint agent's TELEPORT
+    constexpr int kLastCode = static_cast<int>(sim::Action::kTeleport);
     for (size_t k = 0; k < r.actions.size(); ++k)
-      VLN_CHECK_ARG(r.actions[k] >= 0 && r.actions[k] < sim::kNumLookActions,
-                    ctx, ": field 'actions[", k,
-                    "]' must be an action code 0..", sim::kNumLookActions - 1,
-                    ", got ", r.actions[k]);
+      VLN_CHECK_ARG(r.actions[k] >= 0 && r.actions[k] <= kLastCode, ctx,
+                    ": field 'actions[", k, "]' must be an action code 0..",
+                    kLastCode, ", got ", r.actions[k]);
     VLN_CHECK_ARG(r.pitches.empty() || r.pitches.size() == r.positions.size(),
                   ctx,
                   ": field 'path.pitches' must hold one pitch per "

@@ -69,6 +69,8 @@ struct VectorEnv::Env {
   bool started = false;                   ///< reset() at least once
   const data::Episode* episode = nullptr;  ///< null for a scene and a pose
   sim::Observation observation;
+  /// requestTeleport()'s target, taken by the next step()
+  std::optional<sim::AgentState> teleport;
 };
 
 VectorEnv::VectorEnv(int numEnvs, const sim::SimConfig& sim,
@@ -134,6 +136,7 @@ void VectorEnv::reset(std::span<const int> envs,
     }
     e.episode = episode;
     e.started = true;
+    e.teleport.reset();
     if (render) e.simulator->observe(e.observation);
   });
 }
@@ -162,10 +165,30 @@ std::vector<sim::StepResult> VectorEnv::step(
     Env& e = *envs_[static_cast<size_t>(env)];
     VLN_CHECK_ARG(e.started, "VectorEnv::step(): environment ", env,
                   " was never reset");
-    results[k] = e.simulator->step(actions[k]);
+    if (actions[k] == sim::Action::kTeleport) {
+      VLN_CHECK_ARG(e.teleport, "VectorEnv::step(): environment ", env,
+                    " was given TELEPORT without requestTeleport()");
+      results[k] = e.simulator->teleport(*e.teleport);
+      e.teleport.reset();
+    } else {
+      VLN_CHECK_ARG(!e.teleport, "VectorEnv::step(): environment ", env,
+                    " requested a teleport but was given ",
+                    sim::actionName(actions[k]));
+      results[k] = e.simulator->step(actions[k]);
+    }
     if (render) e.simulator->observe(e.observation);
   });
   return results;
+}
+
+void VectorEnv::requestTeleport(int env, const sim::AgentState& target) {
+  VLN_CHECK_ARG(env >= 0 && env < size(),
+                "VectorEnv::requestTeleport(): environment ", env,
+                " out of range [0, ", size(), ")");
+  Env& e = *envs_[static_cast<size_t>(env)];
+  VLN_CHECK_ARG(e.started, "VectorEnv::requestTeleport(): environment ", env,
+                " was never reset");
+  e.teleport = target;
 }
 
 void VectorEnv::render(std::span<const int> envs) {

@@ -8,6 +8,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -81,9 +82,21 @@ class VectorEnv {
              bool render = true);
   /// Applies actions[k] in environment envs[k] and, when `render`, renders
   /// the new observation; in parallel. Returns the step results in order.
+  /// sim::Action::kTeleport takes the environment's requested teleport
+  /// (requestTeleport()) as its one step. Throws std::invalid_argument for
+  /// kTeleport without a request, or another action with one pending.
   std::vector<sim::StepResult> step(std::span<const int> envs,
                                     std::span<const sim::Action> actions,
                                     bool render = true);
+  /// Asks environment `env` to place its agent at `target` (world frame) at
+  /// its next step(), which must then be sim::Action::kTeleport: how an
+  /// Agent's act() requests a move outside the low-level action space (a
+  /// waypoint agent with waypoint_agent.execution teleport). The step is
+  /// sim::Simulator::teleport(): snapped to the navmesh on the agent's
+  /// island or refused, counted in the episode's steps and capped by
+  /// task.max_episode_steps, and its end recorded like any step's. A reset()
+  /// drops a pending request.
+  void requestTeleport(int env, const sim::AgentState& target);
   /// Renders the current observation of the listed environments.
   void render(std::span<const int> envs);
 

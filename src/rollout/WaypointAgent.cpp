@@ -22,6 +22,7 @@ struct WaypointAgent::Slot {
   torch::Tensor hidden;  // [1, 2, H]
   std::vector<sim::Action> queue;
   size_t next = 0;
+  sim::AgentState teleport;  // the target of a queued kTeleport
   int decisions = 0;
   float prevHeading = 0.0f;
   float prevDistance = 0.0f;
@@ -115,6 +116,9 @@ std::vector<sim::Action> WaypointAgent::act(VectorEnv& envs,
   for (int env : active) {
     Slot& slot = *slots_[static_cast<size_t>(env)];
     actions.push_back(slot.queue[slot.next++]);
+    // the environment executes the teleport as this step
+    if (actions.back() == sim::Action::kTeleport)
+      envs.requestTeleport(env, slot.teleport);
   }
   return actions;
 }
@@ -286,13 +290,13 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
                                         slot.referenceIndex, final);
       waypoint::ApproachConfig rule = config_.approach;
       if (!final) rule.success_distance = 0.0f;  // never stop short of the goal
-      int choice =
-          waypoint::oracleChoice(navmesh, agent_, state, cands, target, rule);
+      int choice = waypoint::oracleChoice(navmesh, agent_, state, cands, target,
+                                          rule, config_.execution);
       if (choice < 0 && !final && !cands.empty()) {
         // at an intermediate waypoint with nothing closer: head for the goal
         choice = waypoint::oracleChoice(navmesh, agent_, state, cands,
                                         slot.episode->goals.front().position,
-                                        config_.approach);
+                                        config_.approach, config_.execution);
       }
       label = choice + 1;
     }
@@ -312,6 +316,10 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     slot.choices.push_back(std::move(mark));
     if (choice == 0) {
       slot.queue.push_back(sim::Action::kStop);
+    } else if (config_.execution == waypoint::Execution::kTeleport) {
+      const waypoint::Candidate& c = cands.at(static_cast<size_t>(choice - 1));
+      slot.teleport = waypoint::teleportTarget(state, c.heading, c.distance);
+      slot.queue.push_back(sim::Action::kTeleport);
     } else {
       const waypoint::Candidate& c = cands.at(static_cast<size_t>(choice - 1));
       slot.queue = waypoint::planApproach(navmesh, agent_, state, c.heading,

@@ -3,12 +3,17 @@
 // renders a panorama (sim/Panorama.h), encodes its views with the frozen
 // encoders, asks the candidate source (the learned predictor or the
 // depth-only baseline) for up to waypoint_agent.max_candidates waypoints,
-// and the waypoint CMA (models/WaypointCmaPolicy.h) picks one or STOP. The
-// chosen waypoint is executed with low-level actions (waypoint::
-// planApproach(): turns, then 0.25 m forward steps with collisions and
-// sliding), one per act(), so the evaluator, its metrics, the step limit
-// (task.max_episode_steps) and the maps see an ordinary low-level agent.
-// After waypoint_agent.max_decisions decisions the agent STOPs.
+// and the waypoint CMA (models/WaypointCmaPolicy.h) picks one or STOP. By
+// default (waypoint_agent.execution walk) the chosen waypoint is executed
+// with low-level actions (waypoint::planApproach(): turns, then 0.25 m
+// forward steps with collisions and sliding), one per act(), so the
+// evaluator, its metrics, the step limit (task.max_episode_steps) and the
+// maps see an ordinary low-level agent. With execution teleport, act()
+// returns sim::Action::kTeleport once per chosen waypoint and asks the
+// environment to place the agent at it (VectorEnv::requestTeleport()):
+// one step, snapped to the navmesh on the agent's island or refused, and
+// recorded like any other step. After waypoint_agent.max_decisions
+// decisions the agent STOPs.
 //
 // For training (train/WaypointAgentTrainer.h) the agent also labels every
 // decision with the oracle (waypoint::oracleChoice()), follows it with

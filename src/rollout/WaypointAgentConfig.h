@@ -23,6 +23,10 @@ struct WaypointAgentConfig {
   int max_candidates = 5;
   /// Decisions per episode; the agent STOPs at the next one.
   int max_decisions = 15;
+  /// How a chosen waypoint is executed: walked with low-level actions
+  /// (waypoint::planApproach()), or one teleport step
+  /// (waypoint::teleportTarget(), sim::resolveTeleport()).
+  waypoint::Execution execution = waypoint::Execution::kWalk;
   /// What the training oracle aims for: the episode's goal, or the next
   /// reference-path waypoint not yet within stop_distance (then the goal).
   std::string oracle = "goal";
@@ -42,6 +46,13 @@ struct WaypointAgentConfig {
     v.field("max_decisions", max_decisions,
             "Waypoint decisions per episode; then the agent STOPs",
             common::inRange(1, 10000));
+    v.enumeration("execution", execution,
+                  {{"walk", waypoint::Execution::kWalk},
+                   {"teleport", waypoint::Execution::kTeleport}},
+                  "A chosen waypoint is walked (turns, then forward steps "
+                  "with collisions and sliding) or teleported to (one step: "
+                  "snapped to the navmesh on the agent's island, else the "
+                  "agent stays)");
     v.choice("oracle", oracle, {"goal", "reference_path"},
              "The training oracle picks the candidate whose approach ends "
              "nearest the goal, or nearest the next reference-path waypoint "

@@ -1,6 +1,8 @@
 #include "sim/Agent.h"
 
 #include <cmath>
+#include <optional>
+#include <stdexcept>
 
 #include "common/Check.h"
 #include "sim/GeometryCheck.h"
@@ -36,6 +38,8 @@ std::string_view actionName(Action action) {
       return "LOOK_UP";
     case Action::kLookDown:
       return "LOOK_DOWN";
+    case Action::kTeleport:
+      return "TELEPORT";
   }
   // only a cast from an unchecked integer gets here
   VLN_ASSERT(false);
@@ -85,6 +89,10 @@ StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
           wrapAngle(state.pitch + (action == Action::kLookUp ? tilt : -tilt));
       return result;
     }
+    case Action::kTeleport:
+      throw std::invalid_argument(
+          "applyAction(): TELEPORT needs a target pose (teleportEpisode(), "
+          "rollout::VectorEnv::requestTeleport())");
     case Action::kMoveForward:
       break;
   }
@@ -117,6 +125,51 @@ StepResult stepEpisode(const NavMesh& navmesh, const AgentConfig& agent,
     episode.called_stop = true;
     episode.done = true;
   }
+  if (episode.steps >= task.max_episode_steps) episode.done = true;
+  return result;
+}
+
+Teleport resolveTeleport(const NavMesh& navmesh, const AgentState& from,
+                         const AgentState& target) {
+  checkPosition("resolveTeleport()", "agent position", from.position,
+                navmesh.queryBounds());
+  VLN_CHECK_ARG(std::isfinite(from.heading) && std::isfinite(from.pitch),
+                "resolveTeleport(): agent heading and pitch must be finite, "
+                "got ",
+                from.heading, ", ", from.pitch);
+  VLN_CHECK_ARG(target.position.allFinite() && std::isfinite(target.heading) &&
+                    std::isfinite(target.pitch),
+                "resolveTeleport(): target pose must be finite, got (",
+                target.position.transpose(), "), heading ", target.heading,
+                ", pitch ", target.pitch);
+  Teleport out;
+  out.end = target;
+  out.end.position = from.position;
+  // a waypoint predicted beyond the house is a wish the navmesh cannot
+  // grant, not an error: it is refused like any non-navigable one
+  out.refused = true;
+  if (!navmesh.queryBounds().contains(target.position)) return out;
+  const std::optional<Vec3f> snapped = navmesh.snapPoint(target.position);
+  if (!snapped) return out;
+  // the island test keeps the agent on the floor it can walk: a snap onto
+  // a table top or a disconnected mezzanine would be a place no walk leads
+  const int island = navmesh.islandIndex(from.position);
+  if (island < 0 || navmesh.islandIndex(*snapped) != island) return out;
+  out.end.position = *snapped;
+  out.refused = false;
+  return out;
+}
+
+StepResult teleportEpisode(const NavMesh& navmesh, const TaskConfig& task,
+                           EpisodeState& episode, const AgentState& target) {
+  VLN_ASSERT(!episode.done);
+  const Teleport teleport = resolveTeleport(navmesh, episode.agent, target);
+  StepResult result;
+  result.collided = teleport.refused;
+  result.distance = (teleport.end.position - episode.agent.position).norm();
+  episode.agent = teleport.end;
+  ++episode.steps;
+  episode.last_collided = result.collided;
   if (episode.steps >= task.max_episode_steps) episode.done = true;
   return result;
 }

@@ -22,6 +22,11 @@ enum class Action : int {
   kTurnRight = 3,
   kLookUp = 4,
   kLookDown = 5,
+  /// Not a low-level action: a waypoint agent's request to be placed at a
+  /// pose (teleportEpisode(); rollout::VectorEnv::requestTeleport()). Outside
+  /// both action spaces, so actionFromInt() never returns it and no policy
+  /// can choose it; recorded as code 6 in episode files.
+  kTeleport = 6,
 };
 /// Size of the R2R_VLNCE action space (codes 0..3).
 inline constexpr int kNumActions = 4;
@@ -34,7 +39,7 @@ inline constexpr int kNumLookActions = 6;
 int numActions(const AgentConfig& config);
 
 /// "STOP", "MOVE_FORWARD", "TURN_LEFT", "TURN_RIGHT", "LOOK_UP",
-/// "LOOK_DOWN".
+/// "LOOK_DOWN", "TELEPORT".
 std::string_view actionName(Action action);
 /// Action from its integer code in an action space of `numActions` actions
 /// (kNumActions or kNumLookActions); throws std::invalid_argument outside
@@ -70,9 +75,32 @@ struct StepResult {
 /// like Habitat's v1 look actions (no actuation constraint), wrapped to
 /// (-pi, pi]. Throws std::invalid_argument when the heading or pitch is not
 /// finite, the position is not finite or outside navmesh.queryBounds(), or
-/// a look action is taken without config.look_actions.
+/// a look action is taken without config.look_actions or the action is
+/// kTeleport (which needs a target: resolveTeleport()).
 StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
                        AgentState& state, Action action);
+
+/// Where a teleport of an agent at `from` towards the pose `target` ends.
+struct Teleport {
+  AgentState end;
+  /// The target was refused: the agent stays at from.position.
+  bool refused = false;
+};
+
+/// Resolves a teleport (a waypoint agent's execution: waypoint_agent.execution
+/// teleport): target.position snapped to the navmesh (NavMesh::snapPoint()
+/// with its default extents, 0.5 m horizontally, 2 m vertically) when the
+/// snapped point lies on the island under from.position; otherwise the
+/// teleport is refused and the agent keeps its position (a target outside
+/// queryBounds(), with no navmesh near it, or on another island: furniture
+/// tops, disconnected floors). Heading and pitch become target's either way,
+/// so a refused agent still faces where it wanted to go (as VLN-CE's
+/// GoTowardPoint turns an agent that cannot move). Walls between the two
+/// points do not matter: a teleport is not a walk. Throws
+/// std::invalid_argument when `from` fails applyAction()'s checks or
+/// `target` is not finite.
+Teleport resolveTeleport(const NavMesh& navmesh, const AgentState& from,
+                         const AgentState& target);
 
 /// Per-episode bookkeeping on top of the agent state.
 struct EpisodeState {
@@ -88,5 +116,13 @@ struct EpisodeState {
 StepResult stepEpisode(const NavMesh& navmesh, const AgentConfig& agent,
                        const TaskConfig& task, EpisodeState& episode,
                        Action action);
+
+/// Takes one teleport step in an episode: the agent ends where
+/// resolveTeleport() puts it, the step count grows by one like any action
+/// and the episode is done at task.max_episode_steps (a teleport never
+/// calls STOP). The result's collided is the refusal, distance the straight
+/// 3-D distance moved (0 when refused). Teleporting when done is a bug.
+StepResult teleportEpisode(const NavMesh& navmesh, const TaskConfig& task,
+                           EpisodeState& episode, const AgentState& target);
 
 }  // namespace vln::sim

@@ -95,6 +95,11 @@ StepResult Simulator::step(Action action) {
   return stepEpisode(scene_->navmesh(), sim_.agent, task_, episode_, action);
 }
 
+StepResult Simulator::teleport(const AgentState& target) {
+  VLN_ASSERT(hasEpisode_);
+  return teleportEpisode(scene_->navmesh(), task_, episode_, target);
+}
+
 void Simulator::observe(Observation& out) {
   VLN_ASSERT(hasEpisode_);
   const CameraConfig& rgbCamera = sim_.rgb;

@@ -40,6 +40,10 @@ class Simulator {
   /// Takes one action (see stepEpisode()). Calling it before reset() or
   /// after the episode is done is a bug (aborts).
   StepResult step(Action action);
+  /// Takes one teleport step towards `target` (teleportEpisode(): snapped
+  /// to the navmesh on the agent's island or refused, counted as a step).
+  /// Same preconditions as step().
+  StepResult teleport(const AgentState& target);
   /// Renders RGB and depth at the current pose (the agent's heading and the
   /// cameras' pitch) into `out` (resized as needed). RGB and depth share one
   /// pass when their cameras are equal.

@@ -41,19 +41,39 @@ Approach planApproach(const sim::NavMesh& navmesh,
   return approach;
 }
 
+sim::AgentState teleportTarget(const sim::AgentState& start, float heading,
+                               float distance) {
+  sim::AgentState target = start;
+  target.position = fromPolar(start, heading, distance);
+  target.heading = wrapAngle(start.heading + heading);
+  return target;
+}
+
+sim::AgentState executionEnd(const sim::NavMesh& navmesh,
+                             const sim::AgentConfig& agent,
+                             const sim::AgentState& start, float heading,
+                             float distance, const ApproachConfig& config,
+                             Execution execution) {
+  if (execution == Execution::kTeleport)
+    return sim::resolveTeleport(navmesh, start,
+                                teleportTarget(start, heading, distance))
+        .end;
+  return planApproach(navmesh, agent, start, heading, distance, config).end;
+}
+
 int oracleChoice(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
                  const sim::AgentState& state,
                  std::span<const Candidate> candidates, const Vec3f& goal,
-                 const ApproachConfig& config) {
+                 const ApproachConfig& config, Execution execution) {
   const float here = navmesh.geodesicDistance(state.position, goal);
   if (here <= config.stop_distance) return -1;
   int best = -1;
   float bestDistance = std::numeric_limits<float>::infinity();
   for (size_t i = 0; i < candidates.size(); ++i) {
-    const Approach approach =
-        planApproach(navmesh, agent, state, candidates[i].heading,
-                     candidates[i].distance, config);
-    const float d = navmesh.geodesicDistance(approach.end.position, goal);
+    const sim::AgentState end =
+        executionEnd(navmesh, agent, state, candidates[i].heading,
+                     candidates[i].distance, config, execution);
+    const float d = navmesh.geodesicDistance(end.position, goal);
     if (d < bestDistance) {
       bestDistance = d;
       best = static_cast<int>(i);

@@ -1,15 +1,18 @@
 #pragma once
-// Executing a candidate waypoint with the low-level actions (issue 18): the
+// Executing a candidate waypoint (issue 18). Walking (the default): the
 // agent turns towards it in task turns (sim.agent.turn_angle) and walks in
 // forward steps (sim.agent.forward_step_size) with the navmesh's collisions
 // and sliding, as a real robot would; an approach that runs into an
 // obstacle ends where the agent got stuck (its consequence, as Hong et al.
-// argue). And the oracle that labels a panorama's candidates: the one whose
-// approach ends nearest the goal by geodesic distance, or STOP.
+// argue). Teleporting (the option they compare): the agent is placed at the
+// waypoint in one step, snapped to the navmesh on its island, or stays where
+// it is when that is refused (sim::resolveTeleport()). And the oracle that
+// labels a panorama's candidates: the one whose execution ends nearest the
+// goal by geodesic distance, or STOP.
 //
-// Both simulate with sim::applyAction() on the navmesh, exactly what the
-// environment does when it takes the same actions, so a planned approach
-// is the one the agent will live through (up to the episode's step limit).
+// Both simulate with the environment's own functions (sim::applyAction(),
+// sim::resolveTeleport()) on the navmesh, so a planned execution is the one
+// the agent will live through (up to the episode's step limit).
 // Heading convention: waypoint/WaypointHeatmap.h.
 
 #include <span>
@@ -25,6 +28,12 @@ class NavMesh;
 }
 
 namespace vln::waypoint {
+
+/// How a chosen waypoint is executed (waypoint_agent.execution).
+enum class Execution {
+  kWalk,      ///< planApproach()'s low-level actions
+  kTeleport,  ///< one teleport step to teleportTarget()
+};
 
 struct ApproachConfig {
   /// A forward step that collides and moves less than this (m) ends the
@@ -81,16 +90,34 @@ Approach planApproach(const sim::NavMesh& navmesh,
                       const sim::AgentState& start, float heading,
                       float distance, const ApproachConfig& config);
 
+/// The pose a teleport to the waypoint at relative `heading` (radians) and
+/// horizontal `distance` (m) from `start` asks for: fromPolar()'s point (at
+/// the agent's height), facing away from `start` along the waypoint's
+/// direction (start.heading + heading, wrapped), start's pitch.
+sim::AgentState teleportTarget(const sim::AgentState& start, float heading,
+                               float distance);
+
+/// Where executing the waypoint at relative `heading` and `distance` from
+/// `start` leaves the agent: planApproach()'s end when walking, where
+/// sim::resolveTeleport() puts a teleport to teleportTarget() when
+/// teleporting.
+sim::AgentState executionEnd(const sim::NavMesh& navmesh,
+                             const sim::AgentConfig& agent,
+                             const sim::AgentState& start, float heading,
+                             float distance, const ApproachConfig& config,
+                             Execution execution);
+
 /// The oracle's choice among `candidates` for an agent at `state` heading
 /// for `goal` (world frame): -1 for STOP, else the index of the candidate
-/// whose planned approach ends at the smallest geodesic distance to the
-/// goal. STOP when the agent is within config.stop_distance, or within
-/// config.success_distance and no candidate ends config.min_progress
-/// closer, or when there is no candidate (or none reaches the goal's
-/// island) at all.
+/// whose execution (executionEnd() under `execution`) ends at the smallest
+/// geodesic distance to the goal. STOP when the agent is within
+/// config.stop_distance, or within config.success_distance and no candidate
+/// ends config.min_progress closer, or when there is no candidate (or none
+/// reaches the goal's island) at all.
 int oracleChoice(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
                  const sim::AgentState& state,
                  std::span<const Candidate> candidates, const Vec3f& goal,
-                 const ApproachConfig& config);
+                 const ApproachConfig& config,
+                 Execution execution = Execution::kWalk);
 
 }  // namespace vln::waypoint

@@ -468,18 +468,21 @@ TEST(MetricsTest, EpisodesFileKeepsRxrPitchesAndLookActions) {
   EXPECT_FALSE(plain["episodes"][0]["path"].contains("pitches"));
   EXPECT_TRUE(episodesFromJson(plain, "r2r.json")[0].record.pitches.empty());
 
-  // a pitch list of the wrong length and an action code beyond LOOK_DOWN
-  // are named
+  // a pitch list of the wrong length and an action code beyond TELEPORT
+  // (6, a teleporting waypoint agent's step) are named
   nlohmann::json bad = json;
   bad["episodes"][0]["path"]["pitches"].erase(0);
   EXPECT_THAT([&] { episodesFromJson(bad, "rxr.json"); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("'path.pitches'")));
   bad = json;
-  bad["episodes"][0]["actions"][0] = 6;
+  bad["episodes"][0]["actions"][0] = 7;
   EXPECT_THAT([&] { episodesFromJson(bad, "rxr.json"); },
               ::testing::ThrowsMessage<std::invalid_argument>(
-                  HasSubstr("must be an action code 0..5, got 6")));
+                  HasSubstr("must be an action code 0..6, got 7")));
+  nlohmann::json teleport = json;
+  teleport["episodes"][0]["actions"][0] = 6;
+  EXPECT_EQ(episodesFromJson(teleport, "rxr.json")[0].record.actions[0], 6);
 }
 
 TEST(MetricsTest, EpisodesFileRoundTrips) {

@@ -88,5 +88,52 @@ TEST_F(VectorEnvTest, ErrorsNameTheEpisodeAndScene) {
   EXPECT_THROW(fresh.step(envs, actions), std::invalid_argument);
 }
 
+TEST_F(VectorEnvTest, ARequestedTeleportIsTheNextStep) {
+  auto cache = std::make_shared<SceneCache>(config_);
+  sim::TaskConfig task;
+  task.max_episode_steps = 2;
+  VectorEnv envs(2, config_, task, cache, 2);
+  const std::vector<int> both = {0, 1};
+  std::vector<const data::Episode*> eps = {&episodes_[0], &episodes_[1]};
+  envs.reset(both, eps, /*render=*/false);
+  // environment 0 teleports to episode 2's start, environment 1 walks
+  const sim::AgentState walker = envs.state(1).agent;
+  sim::AgentState wish{episodes_[2].start_position, 0.75f, 0.0f};
+  envs.requestTeleport(0, wish);
+  const std::vector<sim::Action> actions = {sim::Action::kTeleport,
+                                            sim::Action::kTurnLeft};
+  const auto results = envs.step(both, actions, /*render=*/false);
+  EXPECT_FALSE(results[0].collided);
+  EXPECT_LT((envs.state(0).agent.position - wish.position).norm(), 1e-3f);
+  EXPECT_FLOAT_EQ(envs.state(0).agent.heading, 0.75f);
+  EXPECT_EQ(envs.state(0).steps, 1);
+  EXPECT_EQ(envs.state(1).agent.position, walker.position);
+  EXPECT_EQ(envs.state(1).steps, 1);
+
+  // the request is used up: another TELEPORT needs another request, and a
+  // pending request must be taken by the next step
+  const std::vector<int> first = {0};
+  const std::vector<sim::Action> teleport = {sim::Action::kTeleport};
+  EXPECT_THAT([&] { envs.step(first, teleport, false); },
+              ::testing::Throws<std::invalid_argument>(::testing::Property(
+                  &std::exception::what,
+                  ::testing::HasSubstr("TELEPORT without requestTeleport()"))));
+  envs.requestTeleport(0, wish);
+  const std::vector<sim::Action> forward = {sim::Action::kMoveForward};
+  EXPECT_THAT([&] { envs.step(first, forward, false); },
+              ::testing::Throws<std::invalid_argument>(::testing::Property(
+                  &std::exception::what,
+                  ::testing::HasSubstr("requested a teleport but was given "
+                                       "MOVE_FORWARD"))));
+  // a reset drops it; the second step of a two-step episode ends it
+  envs.reset(first, std::vector<const data::Episode*>{&episodes_[0]}, false);
+  envs.step(first, forward, false);
+  envs.requestTeleport(0, wish);
+  envs.step(first, teleport, false);
+  EXPECT_EQ(envs.state(0).steps, 2);
+  EXPECT_TRUE(envs.state(0).done);
+  EXPECT_FALSE(envs.state(0).called_stop);
+}
+
 }  // namespace
 }  // namespace vln::rollout

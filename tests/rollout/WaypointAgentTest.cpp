@@ -1,6 +1,8 @@
 // WaypointAgent: the oracle-driven agent reaches the goals and records
 // consistent decisions, batching never changes an episode, the decision cap
-// STOPs, and recorded decisions batch into padded training tensors.
+// STOPs, teleporting (waypoint_agent.execution) takes one recorded step per
+// waypoint with teleport labels and the caps, and recorded decisions batch
+// into padded training tensors.
 
 #include "rollout/WaypointAgent.h"
 
@@ -9,6 +11,8 @@
 #include "rollout/Evaluator.h"
 #include "rollout/RolloutTestPolicy.h"
 #include "rollout/RolloutTestWorld.h"
+#include "sim/NavMesh.h"
+#include "waypoint/WaypointApproach.h"
 
 namespace vln::rollout {
 namespace {
@@ -129,6 +133,121 @@ TEST(WaypointAgentTest, StopsAfterMaxDecisions) {
     // two approaches of at most 12 turns and 12 steps each, then STOP
     EXPECT_LE(e.record.actions.size(), 2u * 24u + 1u);
   }
+}
+
+// waypoint_agent.execution teleport: each chosen waypoint is one TELEPORT
+// step that ends where sim::resolveTeleport() puts the agent, and the
+// oracle labels by those ends
+TEST(WaypointAgentTest, TeleportingOracleTakesOneStepPerWaypoint) {
+  const auto& w = rolloutTestWorld();
+  TinyWaypointAgent t = tinyWaypointAgent(1);
+  t.config.execution = waypoint::Execution::kTeleport;
+  SceneCache scenes(w.sim);
+  const sim::AgentConfig& body = w.sim.agent;
+  int successes = 0, teleports = 0, moved = 0;
+  for (const data::Episode& episode : w.episodes) {
+    auto agent = makeAgent(t, 1, false);
+    agent->collect({/*beta=*/1.0, /*sample=*/true, /*seed=*/3});
+    const EvaluationResult r = run(*agent, {episode}, 1, 1);
+    const EpisodeRecord& record = r.episodes.front().record;
+    successes += r.episodes.front().metrics.success > 0.5 ? 1 : 0;
+    const std::vector<WaypointDecision> decisions = agent->takeDecisions(0);
+    // one step per decision: a TELEPORT per waypoint, STOP last
+    ASSERT_EQ(record.actions.size(), decisions.size());
+    ASSERT_EQ(record.positions.size(), decisions.size() + 1);
+    EXPECT_EQ(record.steps_taken, static_cast<int>(decisions.size()));
+    EXPECT_EQ(record.actions.back(), static_cast<int>(sim::Action::kStop));
+    const auto scene = scenes.get(episode.scene_id);
+    const sim::NavMesh& navmesh = scene->navmesh();
+    double pathLength = 0.0;
+    for (size_t i = 0; i < decisions.size(); ++i) {
+      const WaypointDecision& d = decisions[i];
+      const sim::AgentState state{record.positions[i], record.headings[i],
+                                  0.0f};
+      // the label is the oracle's under teleporting (recomputed here)
+      EXPECT_EQ(d.label,
+                1 + waypoint::oracleChoice(navmesh, body, state, d.candidates,
+                                           episode.goals.front().position,
+                                           t.config.approach,
+                                           waypoint::Execution::kTeleport))
+          << "decision " << i;
+      if (d.taken == 0) continue;
+      EXPECT_EQ(record.actions[i], static_cast<int>(sim::Action::kTeleport));
+      ++teleports;
+      // the recorded position is the resolved teleport's end
+      const waypoint::Candidate& c =
+          d.candidates[static_cast<size_t>(d.taken - 1)];
+      const sim::Teleport expected = sim::resolveTeleport(
+          navmesh, state,
+          waypoint::teleportTarget(state, c.heading, c.distance));
+      EXPECT_EQ(record.positions[i + 1], expected.end.position);
+      EXPECT_FLOAT_EQ(record.headings[i + 1], expected.end.heading);
+      moved += expected.refused ? 0 : 1;
+      pathLength += (record.positions[i + 1] - record.positions[i]).norm();
+    }
+    // path length: the straight segments between consecutive positions
+    EXPECT_NEAR(r.episodes.front().metrics.path_length, pathLength, 1e-3);
+  }
+  EXPECT_GT(moved, teleports / 2);
+  EXPECT_GE(successes, 8) << "of " << w.episodes.size();
+}
+
+TEST(WaypointAgentTest, TeleportingRespectsTheDecisionAndStepCaps) {
+  const auto& w = rolloutTestWorld();
+  TinyWaypointAgent t = tinyWaypointAgent(3);
+  t.config.execution = waypoint::Execution::kTeleport;
+  t.config.max_decisions = 2;
+  auto agent = makeAgent(t, 2, /*sample=*/true);
+  const EvaluationResult r = run(*agent, w.episodes, 2, 2);
+  for (const auto& e : r.episodes) {
+    // at most two teleports, then STOP
+    EXPECT_LE(e.record.actions.size(), 3u);
+    EXPECT_EQ(e.record.actions.back(), static_cast<int>(sim::Action::kStop));
+    for (size_t i = 0; i + 1 < e.record.actions.size(); ++i)
+      EXPECT_EQ(e.record.actions[i], static_cast<int>(sim::Action::kTeleport));
+  }
+  // task.max_episode_steps caps teleports like any step: the oracle needs
+  // more than one waypoint for most episodes, and the cap ends them first
+  t.config.max_decisions = 15;
+  sim::TaskConfig task = rolloutTestWorld().task;
+  task.max_episode_steps = 1;
+  VectorEnv envs(2, w.sim, task, std::make_shared<SceneCache>(w.sim), 2);
+  auto capped = makeAgent(t, 2, /*sample=*/false);
+  capped->collect({/*beta=*/1.0, /*sample=*/false, /*seed=*/3});
+  const EvaluationResult c =
+      evaluateEpisodes(*capped, envs, w.episodes, nullptr, EvalConfig{});
+  int unstopped = 0;
+  for (const auto& e : c.episodes) {
+    EXPECT_EQ(e.record.steps_taken, 1);
+    EXPECT_EQ(e.record.positions.size(), 2u);
+    if (!e.record.called_stop) {
+      ++unstopped;
+      EXPECT_EQ(e.record.actions.front(),
+                static_cast<int>(sim::Action::kTeleport));
+    }
+  }
+  EXPECT_GT(unstopped, 0);
+}
+
+// the default execution walks: low-level actions only, as before the
+// teleport option, and the same episodes teleported take other steps
+TEST(WaypointAgentTest, WalkingIsTheDefaultAndUsesLowLevelActionsOnly) {
+  const auto& w = rolloutTestWorld();
+  TinyWaypointAgent t = tinyWaypointAgent(2);
+  EXPECT_EQ(t.config.execution, waypoint::Execution::kWalk);
+  auto walker = makeAgent(t, 2, /*sample=*/true);
+  const EvaluationResult walked = run(*walker, w.episodes, 2, 2);
+  t.config.execution = waypoint::Execution::kTeleport;
+  auto teleporter = makeAgent(t, 2, /*sample=*/true);
+  const EvaluationResult teleported = run(*teleporter, w.episodes, 2, 2);
+  size_t walkedSteps = 0, teleportedSteps = 0;
+  for (size_t i = 0; i < walked.episodes.size(); ++i) {
+    for (int a : walked.episodes[i].record.actions)
+      EXPECT_LT(a, sim::kNumActions) << "episode " << i;
+    walkedSteps += walked.episodes[i].record.actions.size();
+    teleportedSteps += teleported.episodes[i].record.actions.size();
+  }
+  EXPECT_GT(walkedSteps, 2 * teleportedSteps);
 }
 
 TEST(WaypointAgentTest, DecisionsBatchIntoPaddedSequences) {

@@ -410,5 +410,116 @@ TEST_F(AgentTest, EpisodesCountLookActionsAsSteps) {
   EXPECT_FALSE(episode.called_stop);
 }
 
+// ---------------------------------------------------------------------------
+// teleporting (a waypoint agent's waypoint_agent.execution teleport)
+// ---------------------------------------------------------------------------
+
+// roomWithTable(): the floor (island 0) and the table top (island 1) over
+// x, z in [2.25, 3.75] at 0.75 m
+class TeleportTest : public test::NavMeshSuite<test::roomWithTable> {
+ protected:
+  static AgentState target(float x, float z, float heading) {
+    return {Vec3f(x, 0.0f, z), heading, 0.0f};
+  }
+};
+
+TEST(ActionTest, TeleportIsOutsideBothActionSpaces) {
+  EXPECT_EQ(actionName(Action::kTeleport), "TELEPORT");
+  EXPECT_EQ(static_cast<int>(Action::kTeleport), kNumLookActions);
+  EXPECT_THROW(actionFromInt(6, kNumLookActions), std::invalid_argument);
+}
+
+TEST_F(TeleportTest, AnOpenTargetIsReachedInOneCountedStep) {
+  EpisodeState episode;
+  episode.agent = standing(1.0f, 1.0f, 0.0f);
+  const Vec3f from = episode.agent.position;
+  const StepResult result = teleportEpisode(navmesh(), TaskConfig{}, episode,
+                                            target(1.0f, 5.0f, 2.0f));
+  // snapped onto the floor below the target, facing its heading
+  EXPECT_NEAR(episode.agent.position.x(), 1.0f, 1e-3f);
+  EXPECT_NEAR(episode.agent.position.z(), 5.0f, 1e-3f);
+  EXPECT_TRUE(navmesh().isNavigable(episode.agent.position));
+  EXPECT_FLOAT_EQ(episode.agent.heading, 2.0f);
+  EXPECT_EQ(episode.steps, 1);
+  EXPECT_FALSE(episode.done);
+  EXPECT_FALSE(episode.called_stop);
+  EXPECT_FALSE(result.collided);
+  EXPECT_FALSE(episode.last_collided);
+  // the straight segment, whatever lies between
+  EXPECT_NEAR(result.distance, (episode.agent.position - from).norm(), 1e-5f);
+  EXPECT_NEAR(result.distance, 4.0f, 1e-2f);
+}
+
+TEST_F(TeleportTest, ATargetBeyondTheWallSnapsToTheNearestFloor) {
+  const AgentState from = standing(1.0f, 3.0f, 0.0f);
+  // 0.3 m beyond the west wall (x = 0): the floor's edge is within the
+  // snap's 0.5 m
+  const Teleport t =
+      resolveTeleport(navmesh(), from, target(-0.3f, 3.0f, 1.0f));
+  EXPECT_FALSE(t.refused);
+  EXPECT_GT(t.end.position.x(), 0.0f);
+  EXPECT_LT(t.end.position.x(), 0.5f);
+  EXPECT_NEAR(t.end.position.z(), 3.0f, 1e-2f);
+  EXPECT_EQ(navmesh().islandIndex(t.end.position), 0);
+}
+
+TEST_F(TeleportTest, AnotherIslandOrNoNavmeshIsRefusedInPlace) {
+  const AgentState from = standing(1.0f, 1.0f, 0.0f);
+  ASSERT_EQ(navmesh().islandIndex(from.position), 0);
+  for (const AgentState& wish :
+       {target(3.0f, 3.0f, 1.5f),       // over the table: its top, island 1
+        target(1.0f, -2.0f, 1.5f),      // 2 m beyond the north wall
+        target(500.0f, 0.0f, 1.5f)}) {  // outside the navmesh's bounds
+    const Teleport t = resolveTeleport(navmesh(), from, wish);
+    EXPECT_TRUE(t.refused) << wish.position.transpose();
+    EXPECT_EQ(t.end.position, from.position);
+    EXPECT_FLOAT_EQ(t.end.heading, 1.5f);  // it turns to face its wish
+  }
+  // a refused teleport is still a step, flagged as a collision
+  EpisodeState episode;
+  episode.agent = from;
+  const StepResult result = teleportEpisode(navmesh(), TaskConfig{}, episode,
+                                            target(3.0f, 3.0f, 1.5f));
+  EXPECT_TRUE(result.collided);
+  EXPECT_TRUE(episode.last_collided);
+  EXPECT_EQ(result.distance, 0.0f);
+  EXPECT_EQ(episode.steps, 1);
+  EXPECT_EQ(episode.agent.position, from.position);
+}
+
+TEST_F(TeleportTest, TheStepLimitEndsATeleportingEpisode) {
+  EpisodeState episode;
+  episode.agent = standing(1.0f, 1.0f, 0.0f);
+  TaskConfig task;
+  task.max_episode_steps = 3;
+  stepEpisode(navmesh(), AgentConfig{}, task, episode, Action::kTurnLeft);
+  teleportEpisode(navmesh(), task, episode, target(1.0f, 4.0f, 0.0f));
+  EXPECT_FALSE(episode.done);
+  teleportEpisode(navmesh(), task, episode, target(5.0f, 4.0f, 0.0f));
+  EXPECT_EQ(episode.steps, 3);
+  EXPECT_TRUE(episode.done);
+  EXPECT_FALSE(episode.called_stop);
+  EXPECT_DEATH(
+      teleportEpisode(navmesh(), task, episode, target(1.0f, 1.0f, 0.0f)),
+      "episode.done");
+}
+
+TEST_F(TeleportTest, BadTargetsAndTargetlessTeleportsThrow) {
+  const AgentState from = standing(1.0f, 1.0f, 0.0f);
+  EXPECT_THAT(
+      [&] { resolveTeleport(navmesh(), from, target(NAN, 1.0f, 0.0f)); },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("resolveTeleport(): target pose must be finite")));
+  EXPECT_THAT(
+      [&] { resolveTeleport(navmesh(), from, target(1.0f, 1.0f, INFINITY)); },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("target pose must be finite")));
+  AgentState state = from;
+  EXPECT_THAT(
+      [&] { applyAction(navmesh(), AgentConfig{}, state, Action::kTeleport); },
+      ::testing::ThrowsMessage<std::invalid_argument>(
+          HasSubstr("TELEPORT needs a target pose")));
+}
+
 }  // namespace
 }  // namespace vln::sim

@@ -4,7 +4,7 @@
 // stats and the best checkpoint; `eval` scores a checkpoint like any other;
 // `train --export` and `vlnce-export` write the policy as TorchScript that
 // acts as the checkpoint does; --resume and bad configs are refused with the
-// key named.
+// key named; waypoint_agent.execution teleport trains and evaluates.
 
 #include "train/WaypointAgentTrainer.h"
 
@@ -273,6 +273,99 @@ TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
   c.waypoint_agent.candidates = "depth_baseline";
   EXPECT_NO_THROW(validateWaypointAgentConfig(c));
   EXPECT_TRUE(makeWaypointAgentModels(c, false).predictor.is_empty());
+}
+
+// waypoint_agent.execution teleport trains and evaluates from the binaries:
+// the teacher-forcing round's oracle (labelling by teleport ends) reaches
+// most goals; eval records one TELEPORT step per waypoint, and the same
+// checkpoint walks when the command line says so
+TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {
+  const fs::path config =
+      writeConfig("  max_decisions: 6\n  execution: teleport\n");
+  EXPECT_EQ(loadExperimentConfig(config).waypoint_agent.execution,
+            waypoint::Execution::kTeleport);
+  std::string output;
+  ASSERT_EQ(
+      vln::test::runCommand(
+          binary("train") + " --config " + config.string() + " 2>&1", &output),
+      0)
+      << output;
+  const fs::path run = dir_ / "run";
+  const auto checkpoints = listCheckpoints(run / "checkpoints");
+  ASSERT_EQ(checkpoints.size(), 2u) << output;
+  const auto records = vln::test::readJsonLines(run / "metrics.jsonl");
+  int collects = 0;
+  for (const auto& r : records)
+    if (r["type"] == "collect") {
+      ++collects;
+      if (r["iteration"] == 0) {
+        EXPECT_GE(r["success"].get<double>(), 0.5);
+      }
+    }
+  EXPECT_EQ(collects, 2);
+  const rollout::SplitStats trained = rollout::readStatsFile(
+      run / "eval" / rollout::statsFileName(1, "val_unseen"));
+  // a teleport is one step: at most max_decisions of them and a STOP
+  EXPECT_LE(trained.mean.steps_taken, 7.0);
+
+  if (!fs::exists(binary("eval"))) GTEST_SKIP() << "build the eval binary";
+  ASSERT_EQ(vln::test::runCommand(
+                binary("eval") + " --config " + (run / "config.yaml").string() +
+                    " --set waypoint_agent.execution=teleport --checkpoint " +
+                    checkpoints.back().string() + " --split val_unseen --out " +
+                    (dir_ / "eval").string() + " 2>&1",
+                &output),
+            0)
+      << output;
+  const auto episodes = rollout::readEpisodesFile(
+      dir_ / "eval" / rollout::episodesFileName(1, "val_unseen"));
+  ASSERT_FALSE(episodes.empty());
+  for (const rollout::EpisodeResult& e : episodes) {
+    const auto& actions = e.record.actions;
+    ASSERT_FALSE(actions.empty());
+    EXPECT_LE(actions.size(), 7u);
+    for (size_t k = 0; k + 1 < actions.size(); ++k)
+      EXPECT_EQ(actions[k], static_cast<int>(sim::Action::kTeleport));
+  }
+  ASSERT_EQ(vln::test::runCommand(
+                binary("eval") + " --config " + (run / "config.yaml").string() +
+                    " --set waypoint_agent.execution=walk --checkpoint " +
+                    checkpoints.back().string() + " --split val_unseen --out " +
+                    (dir_ / "walk").string() + " 2>&1",
+                &output),
+            0)
+      << output;
+  const auto walked = rollout::readEpisodesFile(
+      dir_ / "walk" / rollout::episodesFileName(1, "val_unseen"));
+  ASSERT_EQ(walked.size(), episodes.size());
+  for (const rollout::EpisodeResult& e : walked)
+    for (int action : e.record.actions) EXPECT_LT(action, sim::kNumActions);
+  // a bad execution is refused with the key named
+  EXPECT_NE(vln::test::runCommand(
+                binary("eval") + " --config " + (run / "config.yaml").string() +
+                    " --set waypoint_agent.execution=fly --checkpoint " +
+                    checkpoints.back().string() + " --split val_unseen --out " +
+                    (dir_ / "bad").string() + " 2>&1",
+                &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("waypoint_agent.execution"));
+}
+
+TEST_F(WaypointAgentTrainerTest, ExecutionIsWalkOrTeleport) {
+  const fs::path config = writeConfig("");
+  EXPECT_EQ(loadExperimentConfig(config).waypoint_agent.execution,
+            waypoint::Execution::kWalk);
+  EXPECT_EQ(loadExperimentConfig(config, {"waypoint_agent.execution=teleport"})
+                .waypoint_agent.execution,
+            waypoint::Execution::kTeleport);
+  try {
+    loadExperimentConfig(config, {"waypoint_agent.execution=fly"});
+    ADD_FAILURE() << "execution fly must be refused";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("waypoint_agent.execution"));
+    EXPECT_THAT(e.what(), HasSubstr("fly"));
+    EXPECT_THAT(e.what(), HasSubstr("teleport"));
+  }
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // Tests src/waypoint/WaypointApproach.cpp: the turns towards a heading, the
 // approach of a waypoint (turns, forward steps, stopped by an obstacle),
-// and the oracle's choice among candidates, in a room of known geometry.
+// a teleport's end, and the oracle's choice among candidates under either
+// execution, in a room of known geometry.
 
 #include "waypoint/WaypointApproach.h"
 
@@ -122,6 +123,47 @@ TEST_F(WaypointApproachTest, OracleStopsNearTheGoalOrWithoutProgress) {
   const Vec3f distant = *scene_->navmesh().snapPoint({-1.0f, 0.0f, 2.8f});
   EXPECT_EQ(oracleChoice(scene_->navmesh(), agent_, at(-1.0f, -2.0f, 0.0f),
                          ahead, distant, config_),
+            0);
+}
+
+TEST_F(WaypointApproachTest, ATeleportLandsWhereAWalkIsStopped) {
+  // east (90 degrees right of -Z), 3 m from (0, 0): the walk is stopped by
+  // the cube's face at x = 1.5; the teleport passes it and its target on
+  // the wall (x = 3) snaps to the floor's edge behind the cube
+  const sim::NavMesh& navmesh = scene_->navmesh();
+  const sim::AgentState start = at(0.0f, 0.0f, 0.0f);
+  const sim::AgentState walked = executionEnd(
+      navmesh, agent_, start, degrees(-90), 3.0f, config_, Execution::kWalk);
+  EXPECT_EQ(
+      walked,
+      planApproach(navmesh, agent_, start, degrees(-90), 3.0f, config_).end);
+  EXPECT_LT(walked.position.x(), 1.5f);
+  const sim::AgentState target = teleportTarget(start, degrees(-90), 3.0f);
+  EXPECT_NEAR(target.position.x(), 3.0f, 1e-5f);
+  EXPECT_NEAR(target.position.z(), 0.0f, 1e-5f);
+  EXPECT_NEAR(wrapAngle(target.heading - degrees(-90)), 0.0f, 1e-5f);
+  const sim::AgentState teleported =
+      executionEnd(navmesh, agent_, start, degrees(-90), 3.0f, config_,
+                   Execution::kTeleport);
+  EXPECT_EQ(teleported, sim::resolveTeleport(navmesh, start, target).end);
+  EXPECT_GT(teleported.position.x(), 2.5f);
+  EXPECT_LT(teleported.position.x(), 3.0f);
+  EXPECT_NEAR(teleported.position.z(), 0.0f, 0.05f);
+
+  // so the oracle labels differently: for a goal just behind the cube the
+  // walker's best is to go round it south-east, the teleporter jumps east
+  const Vec3f goal = *navmesh.snapPoint({2.75f, 0.0f, 0.0f});
+  const std::vector<Candidate> candidates = {
+      candidateAt(90, 11, 1.0f),  // 270 degrees = 90 right (+X), 3 m
+      candidateAt(75, 7, 1.0f),   // 225 degrees: south-east, 2 m
+  };
+  EXPECT_EQ(oracleChoice(navmesh, agent_, start, candidates, goal, config_,
+                         Execution::kWalk),
+            1);
+  EXPECT_EQ(oracleChoice(navmesh, agent_, start, candidates, goal, config_),
+            1);  // walking is the default
+  EXPECT_EQ(oracleChoice(navmesh, agent_, start, candidates, goal, config_,
+                         Execution::kTeleport),
             0);
 }
 
