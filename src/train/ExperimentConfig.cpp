@@ -33,6 +33,12 @@ void ExperimentConfig::validate() const {
                 "config: trainer.fine_tune_dagger (DA*) needs trainer.init_checkpoint");
   VLN_CHECK_ARG(!(trainer.fine_tune_dagger && trainer.dagger_iterations == 0),
                 "config: trainer.fine_tune_dagger needs trainer.dagger_iterations > 0");
+  // only the waypoint trainer replays decisions with another instruction
+  VLN_CHECK_ARG(trainer.instruction_contrast_weight == 0.0 ||
+                    trainer.task == "waypoint_cma",
+                "config: trainer.instruction_contrast_weight applies to "
+                "trainer.task waypoint_cma only (task is '",
+                trainer.task, "')");
   // the recollect trainer's keys mean nothing to the store's trainer, and
   // it trains by teacher forcing only (VLN-CE's recollect_trainer)
   const bool recollect = trainer.mode == "recollect";

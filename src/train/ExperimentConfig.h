@@ -37,6 +37,7 @@ struct TrainerConfig {
   int batch_size = 5;
   double inflection_weight = 3.2;
   double progress_loss_weight = 1.0;
+  double instruction_contrast_weight = 0.0;
   double grad_clip = 0.0;
 
   int epochs = 30;
@@ -113,6 +114,12 @@ struct TrainerConfig {
     v.field("progress_loss_weight", progress_loss_weight,
             "Weight alpha of the progress-monitor MSE (with "
             "model.progress_monitor)",
+            common::inRange(0.0, 1000.0));
+    v.field("instruction_contrast_weight", instruction_contrast_weight,
+            "Weight of the instruction-contrast loss (trainer.task "
+            "waypoint_cma): the oracle's choice must be more likely under the "
+            "episode's instruction than under another episode's of the batch "
+            "(0: off)",
             common::inRange(0.0, 1000.0));
     v.field("grad_clip", grad_clip,
             "Clip the gradient norm to this value (0: no clipping)",

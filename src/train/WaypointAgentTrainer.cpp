@@ -85,10 +85,43 @@ class DecisionCollection : public rollout::EpisodeJob {
 
 }  // namespace
 
+torch::Tensor instructionContrastLoss(
+    models::WaypointCmaPolicyImpl& policy,
+    const models::WaypointPolicyInputs& inputs, const torch::Tensor& logits,
+    const torch::Tensor& labels,
+    const std::vector<const data::Episode*>& instructions, int maxLength,
+    const torch::Device& device) {
+  std::vector<const data::Episode*> others(instructions.size());
+  for (size_t i = 0; i < instructions.size(); ++i)
+    others[i] = instructions[(i + 1) % instructions.size()];
+  const models::EncodedInstruction swapped = policy.encodeInstruction(
+      rollout::batchInstructions(others, maxLength).to(device));
+  const torch::Tensor swappedLogits =
+      policy
+          .forwardSequence(swapped, inputs,
+                           policy.initialHidden(
+                               static_cast<int64_t>(instructions.size())))
+          .logits.reshape({labels.size(0), -1});
+  const torch::Tensor valid = labels.ge(0);
+  const torch::Tensor index = labels.clamp_min(0).unsqueeze(1);
+  const torch::Tensor own =
+      torch::log_softmax(logits, 1).gather(1, index).squeeze(1);
+  const torch::Tensor other =
+      torch::log_softmax(swappedLogits, 1).gather(1, index).squeeze(1);
+  const torch::Tensor perDecision =
+      torch::nn::functional::softplus(other - own) * valid;
+  return perDecision.sum() / valid.sum().clamp_min(1);
+}
+
 void validateWaypointAgentConfig(const ExperimentConfig& config) {
   checkWaypointPanorama(config, kTask);
   VLN_CHECK_ARG(!config.model.usesTextFeatures(), kTask,
                 ": model.instruction_features must be tokens");
+  VLN_CHECK_ARG(config.trainer.instruction_contrast_weight == 0.0 ||
+                    config.model.usesInstruction(),
+                kTask,
+                ": trainer.instruction_contrast_weight needs the instruction "
+                "(model.no_instruction is true)");
   VLN_CHECK_ARG(config.trainer.mode == "dagger", kTask,
                 ": trainer.mode must be dagger (the agent's rounds are "
                 "collected by the waypoint oracle)");
@@ -248,7 +281,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       std::vector<size_t> order(collected.size());
       std::iota(order.begin(), order.end(), size_t{0});
       common::deterministicShuffle(order, orderRng);
-      double lossSum = 0.0;
+      double lossSum = 0.0, contrastSum = 0.0;
       int64_t correct = 0, labelled = 0, batches = 0;
       policy->train();
       for (size_t start = 0; start < order.size(); start += tc.batch_size) {
@@ -274,9 +307,16 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
             instruction, in,
             policy->initialHidden(static_cast<int64_t>(rows.size())));
         const torch::Tensor logits = out.logits.reshape({labels.size(0), -1});
-        const torch::Tensor loss = torch::nn::functional::cross_entropy(
+        torch::Tensor loss = torch::nn::functional::cross_entropy(
             logits, labels,
             torch::nn::functional::CrossEntropyFuncOptions().ignore_index(-1));
+        if (tc.instruction_contrast_weight > 0.0 && rows.size() > 1) {
+          const torch::Tensor contrast = instructionContrastLoss(
+              *policy, in, logits, labels, instructions,
+              config.dataset.max_instruction_length, device);
+          contrastSum += contrast.item<double>();
+          loss = loss + tc.instruction_contrast_weight * contrast;
+        }
         optimizer.zero_grad();
         loss.backward();
         optimizer.step();
@@ -302,18 +342,20 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                         progress.updates);
       }
       const double meanLoss = batches > 0 ? lossSum / batches : 0.0;
+      const double meanContrast = batches > 0 ? contrastSum / batches : 0.0;
       const double accuracy =
           labelled > 0 ? static_cast<double>(correct) / labelled : 0.0;
       spdlog::info(
-          "{}: iteration {} epoch {}: {} updates, loss {:.4f}, label accuracy "
-          "{:.3f} over {} decisions, {:.1f} s",
-          kTask, iteration.iteration, epoch.epoch, batches, meanLoss, accuracy,
-          labelled, epochClock.seconds());
+          "{}: iteration {} epoch {}: {} updates, loss {:.4f} (instruction "
+          "contrast {:.4f}), label accuracy {:.3f} over {} decisions, {:.1f} s",
+          kTask, iteration.iteration, epoch.epoch, batches, meanLoss,
+          meanContrast, accuracy, labelled, epochClock.seconds());
       metrics.write(
           "epoch",
           {{"iteration", iteration.iteration},
            {"epoch", epoch.epoch},
            {"loss", meanLoss},
+           {"instruction_contrast", meanContrast},
            {"accuracy", accuracy},
            {"updates", progress.updates},
            {"seconds", epochClock.seconds()}},

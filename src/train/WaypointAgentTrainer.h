@@ -16,7 +16,8 @@
 //    N * (F_rgb + F_depth) * 2 bytes per decision) and are aggregated.
 //  - Learning: cross-entropy of the policy's logits (STOP and the
 //    candidates) against the labels over whole decision sequences,
-//    batches of trainer.batch_size episodes, Adam at trainer.lr.
+//    batches of trainer.batch_size episodes, Adam at trainer.lr; plus
+//    trainer.instruction_contrast_weight times instructionContrastLoss().
 //  - After each epoch: a checkpoint (ckpt.<i>.pth, the policy's tensors
 //    only; the encoders and the predictor are frozen files named by the
 //    config) and, as the schedule says, an evaluation on eval.splits
@@ -28,6 +29,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <vector>
 
 #include "models/ObservationEncoder.h"
 #include "models/WaypointCmaPolicy.h"
@@ -62,6 +64,25 @@ WaypointAgentModels makeWaypointAgentModels(const ExperimentConfig& config,
 std::unique_ptr<rollout::WaypointAgent> makeWaypointAgent(
     const ExperimentConfig& config, const WaypointAgentModels& models,
     int numEnvs, bool sampleActions, uint64_t seed);
+
+/// The instruction-contrast loss of one batch: its decisions (`inputs`,
+/// [T, B] as forwardSequence() takes them) replayed with each episode's
+/// instruction swapped for the next one's in `instructions` (B episodes,
+/// cyclically); with `logits` [T * B, 1 + K] the policy's outputs under the
+/// episodes' own instructions and `labels` [T * B] the oracle's choices (-1
+/// where unlabelled), softplus(log p_swapped(label) - log p_own(label))
+/// averaged over the labelled decisions. ln 2 when the choices do not
+/// depend on the words; lower only when the episode's own words make the
+/// oracle's choice more likely than another episode's do. Only a policy
+/// that reads the instruction can lower it, which the cross-entropy alone
+/// does not demand when most labels can be guessed from the views
+/// (docs/waypoints.md).
+torch::Tensor instructionContrastLoss(
+    models::WaypointCmaPolicyImpl& policy,
+    const models::WaypointPolicyInputs& inputs, const torch::Tensor& logits,
+    const torch::Tensor& labels,
+    const std::vector<const data::Episode*>& instructions, int maxLength,
+    const torch::Device& device);
 
 /// trainer.task = waypoint_cma. Expects logging set up.
 void runWaypointAgentTraining(const ExperimentConfig& config,

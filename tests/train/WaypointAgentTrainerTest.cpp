@@ -13,8 +13,10 @@
 
 #include <torch/script.h>
 
+#include "models/ModelTestUtil.h"
 #include "models/StateDict.h"
 #include "models/WaypointPredictor.h"
+#include "rollout/ObservationBatch.h"
 #include "rollout/SplitEvaluation.h"
 #include "support/TestPaths.h"
 #include "support/TestUtil.h"
@@ -153,10 +155,12 @@ void expectExportActsAsCheckpoint(const fs::path& file,
 TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
   const fs::path config = writeConfig("  max_decisions: 6\n");
   std::string output;
-  ASSERT_EQ(vln::test::runCommand(binary("train") + " --config " +
-                                      config.string() + " --export " +
-                                      (dir_ / "agent.pt").string() + " 2>&1",
-                                  &output),
+  // with the instruction-contrast loss on (trainer.instruction_contrast_weight)
+  ASSERT_EQ(vln::test::runCommand(
+                binary("train") + " --config " + config.string() +
+                    " --set trainer.instruction_contrast_weight=0.5 --export " +
+                    (dir_ / "agent.pt").string() + " 2>&1",
+                &output),
             0)
       << output;
   const fs::path run = dir_ / "run";
@@ -172,14 +176,22 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
           << i << " " << split;
   // the teacher-forcing round follows the oracle, which reaches most goals
   const auto records = vln::test::readJsonLines(run / "metrics.jsonl");
-  int collects = 0;
-  for (const auto& r : records)
+  int collects = 0, epochs = 0;
+  for (const auto& r : records) {
+    if (r["type"] == "epoch") {
+      ++epochs;
+      // a batch of different instructions: a positive, finite contrast
+      EXPECT_GT(r["instruction_contrast"].get<double>(), 0.0);
+      EXPECT_LT(r["instruction_contrast"].get<double>(), 10.0);
+    }
     if (r["type"] == "collect") {
       ++collects;
       if (r["iteration"] == 0) EXPECT_GE(r["success"].get<double>(), 0.5);
       EXPECT_GT(r["decisions"].get<int>(), 0);
     }
+  }
   EXPECT_EQ(collects, 2);
+  EXPECT_EQ(epochs, 2);
 
   // train --export wrote the best (or else the latest) checkpoint's policy
   const ExperimentConfig runConfig = loadExperimentConfig(run / "config.yaml");
@@ -203,7 +215,10 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
 
   // a second run into the directory cannot resume
   EXPECT_NE(vln::test::runCommand(binary("train") + " --config " +
-                                      config.string() + " --resume 2>&1",
+                                      config.string() +
+                                      " --set "
+                                      "trainer.instruction_contrast_weight=0.5"
+                                      " --resume 2>&1",
                                   &output),
             0);
   EXPECT_THAT(output, HasSubstr("cannot resume"));
@@ -273,6 +288,77 @@ TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
   c.waypoint_agent.candidates = "depth_baseline";
   EXPECT_NO_THROW(validateWaypointAgentConfig(c));
   EXPECT_TRUE(makeWaypointAgentModels(c, false).predictor.is_empty());
+  // the instruction contrast needs an instruction, and a waypoint run
+  c = good;
+  c.trainer.instruction_contrast_weight = 0.5;
+  EXPECT_NO_THROW(validateWaypointAgentConfig(c));
+  EXPECT_NO_THROW(c.validate());
+  c.model.no_instruction = true;
+  try {
+    validateWaypointAgentConfig(c);
+    ADD_FAILURE() << "no words to contrast";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("trainer.instruction_contrast_weight"));
+  }
+  c = good;
+  c.trainer.instruction_contrast_weight = 0.5;
+  c.trainer.task = "vln";
+  try {
+    c.validate();
+    ADD_FAILURE() << "the low-level trainer has no instruction contrast";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("trainer.instruction_contrast_weight"));
+    EXPECT_THAT(e.what(), HasSubstr("waypoint_cma"));
+  }
+}
+
+// instructionContrastLoss() on a tiny policy: ln 2 when every episode of
+// the batch has the same words (swapping changes nothing), something else
+// when they differ, and a gradient that reaches the instruction encoder
+TEST(InstructionContrastLossTest, MeasuresHowMuchTheWordsDecide) {
+  torch::manual_seed(31);
+  const models::ModelConfig c = models::test::tinyConfig(models::PolicyType::kCma);
+  constexpr int64_t kViews = 4, kSteps = 3, kBatch = 3, kSlots = 2;
+  models::WaypointCmaPolicyImpl policy(c, kViews, 11, 13);
+  models::WaypointPolicyInputs in;
+  in.rgb = torch::randn({kSteps, kBatch, kViews, 11});
+  in.depth = torch::rand({kSteps, kBatch, kViews, 13});
+  in.candidates = torch::stack({torch::rand({kSteps, kBatch, kSlots}) * 6.0,
+                                torch::rand({kSteps, kBatch, kSlots}) * 3.0},
+                               -1);
+  in.candidate_mask = torch::ones({kSteps, kBatch, kSlots}, torch::kBool);
+  in.prev = torch::rand({kSteps, kBatch, 2});
+  in.not_done = torch::ones({kSteps, kBatch});
+  in.not_done[0] = 0;
+  // every decision labelled but one (-1 is ignored)
+  const torch::Tensor labels =
+      torch::tensor({1, 0, 2, 2, 1, -1, 0, 1, 1}, torch::kInt64);
+
+  std::vector<data::Episode> episodes(kBatch);
+  episodes[0].instruction.instruction_tokens = {3, 4, 5, 6};
+  episodes[1].instruction.instruction_tokens = {7, 8, 9, 10, 11, 12};
+  episodes[2].instruction.instruction_tokens = {13, 2};
+  auto lossOf = [&](const std::vector<const data::Episode*>& batch) {
+    const models::EncodedInstruction own = policy.encodeInstruction(
+        rollout::batchInstructions(batch, 20));
+    const torch::Tensor logits =
+        policy.forwardSequence(own, in, policy.initialHidden(kBatch))
+            .logits.reshape({kSteps * kBatch, -1});
+    return instructionContrastLoss(policy, in, logits, labels, batch, 20,
+                                   torch::kCPU);
+  };
+  const std::vector<const data::Episode*> same(kBatch, &episodes[1]);
+  EXPECT_NEAR(lossOf(same).item<double>(), std::log(2.0), 1e-6);
+
+  const std::vector<const data::Episode*> differ{&episodes[0], &episodes[1],
+                                                 &episodes[2]};
+  const torch::Tensor loss = lossOf(differ);
+  EXPECT_GT(std::abs(loss.item<double>() - std::log(2.0)), 1e-4);
+  loss.backward();
+  double encoderGradient = 0.0;
+  for (const auto& p : policy.instruction_encoder->parameters())
+    if (p.grad().defined()) encoderGradient += p.grad().abs().sum().item<double>();
+  EXPECT_GT(encoderGradient, 0.0);
 }
 
 // waypoint_agent.execution teleport trains and evaluates from the binaries:
