@@ -159,6 +159,24 @@ void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
   w.line(0, "");
 }
 
+// the lines that turn a panorama's raw views (rgb, depth: [b, N, h, w, C])
+// into per-view features with the included CNNs (a modality without a CNN
+// passes its argument through); `b` must be defined before
+void emitPanoramaFeatures(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
+                          const ObservationEncoderImpl& encoder) {
+  const std::string views = std::to_string(policy.numViews());
+  w.line(1, std::string("rgb_features = ") +
+                (encoder.rgb ? "self.encode_rgb(rgb.flatten(0, 1))"
+                               ".reshape([b, " +
+                                   views + ", -1])"
+                             : "rgb"));
+  w.line(1, std::string("depth_features = ") +
+                (encoder.depth ? "self.encode_depth(depth.flatten(0, 1))"
+                                 ".reshape([b, " +
+                                     views + ", -1])"
+                               : "depth"));
+}
+
 // forward: the panorama's raw views through the included CNNs, view by view
 void emitForward(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
                  ObservationEncoderImpl* encoder) {
@@ -167,19 +185,9 @@ void emitForward(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
       "prev: Tensor, not_done: Tensor, hidden: Tensor) -> Tuple[Tensor, "
       "Tensor]:";
   if (encoder != nullptr) {
-    const std::string views = std::to_string(policy.numViews());
     w.line(0, "def forward(self, rgb: Tensor, depth: Tensor, " + arguments);
     w.line(1, "b = not_done.size(0)");
-    w.line(1, std::string("rgb_features = ") +
-                  (encoder->rgb ? "self.encode_rgb(rgb.flatten(0, 1))"
-                                  ".reshape([b, " +
-                                      views + ", -1])"
-                                : "rgb"));
-    w.line(1, std::string("depth_features = ") +
-                  (encoder->depth ? "self.encode_depth(depth.flatten(0, 1))"
-                                    ".reshape([b, " +
-                                        views + ", -1])"
-                                  : "depth"));
+    emitPanoramaFeatures(w, policy, *encoder);
   } else {
     w.line(0,
            "def forward(self, rgb_features: Tensor, depth_features: Tensor, " +
@@ -323,21 +331,11 @@ void emitPredictor(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
          "depth_features))");
   w.line(0, "");
   if (encoder != nullptr) {
-    const std::string& views = s.views;
     w.line(0,
            "def propose(self, rgb: Tensor, depth: Tensor) -> Tuple[Tensor, "
            "Tensor]:");
     w.line(1, "b = rgb.size(0)");
-    w.line(1, std::string("rgb_features = ") +
-                  (encoder->rgb ? "self.encode_rgb(rgb.flatten(0, 1))"
-                                  ".reshape([b, " +
-                                      views + ", -1])"
-                                : "rgb"));
-    w.line(1, std::string("depth_features = ") +
-                  (encoder->depth ? "self.encode_depth(depth.flatten(0, 1))"
-                                    ".reshape([b, " +
-                                        views + ", -1])"
-                                  : "depth"));
+    emitPanoramaFeatures(w, policy, *encoder);
     w.line(1, "return self.propose_features(rgb_features, depth_features)");
     w.line(0, "");
   }
