@@ -165,16 +165,14 @@ void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
 void emitPanoramaFeatures(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
                           const ObservationEncoderImpl& encoder) {
   const std::string views = std::to_string(policy.numViews());
-  w.line(1, std::string("rgb_features = ") +
-                (encoder.rgb ? "self.encode_rgb(rgb.flatten(0, 1))"
-                               ".reshape([b, " +
-                                   views + ", -1])"
-                             : "rgb"));
-  w.line(1, std::string("depth_features = ") +
-                (encoder.depth ? "self.encode_depth(depth.flatten(0, 1))"
-                                 ".reshape([b, " +
-                                     views + ", -1])"
-                               : "depth"));
+  for (const auto& [name, hasCnn] :
+       {std::pair<std::string, bool>{"rgb", !encoder.rgb.is_empty()},
+        std::pair<std::string, bool>{"depth", !encoder.depth.is_empty()}})
+    w.line(1, name + "_features = " +
+                  (hasCnn ? "self.encode_" + name + "(" + name +
+                                ".flatten(0, 1)).reshape([b, " + views +
+                                ", -1])"
+                          : name));
 }
 
 // forward: the panorama's raw views through the included CNNs, view by view
