@@ -316,12 +316,13 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     slot.choices.push_back(std::move(mark));
     if (choice == 0) {
       slot.queue.push_back(sim::Action::kStop);
-    } else if (config_.execution == waypoint::Execution::kTeleport) {
-      const waypoint::Candidate& c = cands.at(static_cast<size_t>(choice - 1));
+      return;
+    }
+    const waypoint::Candidate& c = cands.at(static_cast<size_t>(choice - 1));
+    if (config_.execution == waypoint::Execution::kTeleport) {
       slot.teleport = waypoint::teleportTarget(state, c.heading, c.distance);
       slot.queue.push_back(sim::Action::kTeleport);
     } else {
-      const waypoint::Candidate& c = cands.at(static_cast<size_t>(choice - 1));
       slot.queue = waypoint::planApproach(navmesh, agent_, state, c.heading,
                                           c.distance, config_.approach)
                        .actions;

@@ -55,18 +55,33 @@ Action actionFromInt(int code, int numActions) {
   return static_cast<Action>(code);
 }
 
+namespace {
+
+// the public entries of every step check a pose from a file or a caller
+// here, before Detour sees it
+void checkAgentPose(const char* who, const NavMesh& navmesh,
+                    const AgentState& state) {
+  checkPosition(who, "agent position", state.position, navmesh.queryBounds());
+  VLN_CHECK_ARG(std::isfinite(state.heading), who,
+                ": agent heading must be finite, got ", state.heading);
+  VLN_CHECK_ARG(std::isfinite(state.pitch), who,
+                ": camera pitch must be finite, got ", state.pitch);
+}
+
+// what every step of an episode does after moving the agent: count it,
+// remember the collision, end the episode at the step limit
+void countStep(const TaskConfig& task, EpisodeState& episode,
+               const StepResult& result) {
+  ++episode.steps;
+  episode.last_collided = result.collided;
+  if (episode.steps >= task.max_episode_steps) episode.done = true;
+}
+
+}  // namespace
+
 StepResult applyAction(const NavMesh& navmesh, const AgentConfig& config,
                        AgentState& state, Action action) {
-  // the public entry of every step: a pose from a file or a caller is
-  // checked here, before Detour sees it
-  checkPosition("applyAction()", "agent position", state.position,
-                navmesh.queryBounds());
-  VLN_CHECK_ARG(std::isfinite(state.heading),
-                "applyAction(): agent heading must be finite, got ",
-                state.heading);
-  VLN_CHECK_ARG(std::isfinite(state.pitch),
-                "applyAction(): camera pitch must be finite, got ",
-                state.pitch);
+  checkAgentPose("applyAction()", navmesh, state);
   StepResult result;
   switch (action) {
     case Action::kStop:
@@ -119,24 +134,17 @@ StepResult stepEpisode(const NavMesh& navmesh, const AgentConfig& agent,
                        Action action) {
   VLN_ASSERT(!episode.done);
   const StepResult result = applyAction(navmesh, agent, episode.agent, action);
-  ++episode.steps;
-  episode.last_collided = result.collided;
   if (action == Action::kStop) {
     episode.called_stop = true;
     episode.done = true;
   }
-  if (episode.steps >= task.max_episode_steps) episode.done = true;
+  countStep(task, episode, result);
   return result;
 }
 
 Teleport resolveTeleport(const NavMesh& navmesh, const AgentState& from,
                          const AgentState& target) {
-  checkPosition("resolveTeleport()", "agent position", from.position,
-                navmesh.queryBounds());
-  VLN_CHECK_ARG(std::isfinite(from.heading) && std::isfinite(from.pitch),
-                "resolveTeleport(): agent heading and pitch must be finite, "
-                "got ",
-                from.heading, ", ", from.pitch);
+  checkAgentPose("resolveTeleport()", navmesh, from);
   VLN_CHECK_ARG(target.position.allFinite() && std::isfinite(target.heading) &&
                     std::isfinite(target.pitch),
                 "resolveTeleport(): target pose must be finite, got (",
@@ -168,9 +176,7 @@ StepResult teleportEpisode(const NavMesh& navmesh, const TaskConfig& task,
   result.collided = teleport.refused;
   result.distance = (teleport.end.position - episode.agent.position).norm();
   episode.agent = teleport.end;
-  ++episode.steps;
-  episode.last_collided = result.collided;
-  if (episode.steps >= task.max_episode_steps) episode.done = true;
+  countStep(task, episode, result);
   return result;
 }
 
