@@ -29,8 +29,10 @@
 #include "rollout/ObservationBatch.h"
 #include "rollout/PolicyAgent.h"
 #include "rollout/ScriptedPolicyAgent.h"
-#include "train/WaypointAgentTrainer.h"
+#include "rollout/ScriptedWaypointModel.h"
 #include "rollout/VectorEnv.h"
+#include "train/WaypointAgentTrainer.h"
+#include "train/WaypointPretrainer.h"
 #include "train/Checkpoint.h"
 #include "viz/EpisodePictures.h"
 #include "viz/EpisodeReport.h"
@@ -117,6 +119,42 @@ std::unique_ptr<rollout::Agent> policyAgent(
       config.dataset.max_instruction_length);
 }
 
+// an exported archive: a low-level policy, or a waypoint agent whose
+// model, views and suppression come from the archive and whose panorama,
+// candidates and execution come from `config` (waypoint_agent.*), as for
+// the checkpoint it was exported from
+std::unique_ptr<rollout::Agent> scriptedAgent(
+    const train::ExperimentConfig& config, const fs::path& file) {
+  const rollout::EvalConfig& ec = config.eval;
+  const std::string who = "eval";
+  torch::jit::Module module =
+      rollout::loadExportedArchive(file, config.model.device, who);
+  const torch::Device device = rollout::parseDevice(config.model.device, who);
+  if (!rollout::isWaypointExport(module))
+    return std::make_unique<rollout::ScriptedPolicyAgent>(
+        std::move(module), file, ec.num_envs, ec.sample_actions,
+        static_cast<uint64_t>(ec.seed), config.dataset.max_instruction_length,
+        device);
+  auto model = std::make_unique<rollout::ScriptedWaypointModel>(
+      std::move(module), file, config.dataset.max_instruction_length, device);
+  train::ExperimentConfig checked = config;
+  checked.model = model->config();
+  train::checkWaypointPanorama(checked, "eval of '" + file.string() + "'");
+  VLN_CHECK_ARG(config.panorama.num_views == model->numViews(), "eval: '",
+                file.string(), "' reads ", model->numViews(),
+                " views, panorama.num_views is ", config.panorama.num_views);
+  VLN_CHECK_ARG(config.waypoint_agent.candidates != "predictor" ||
+                    model->proposes(),
+                "eval: '", file.string(),
+                "' was exported without the candidate predictor; set "
+                "waypoint_agent.candidates: depth_baseline to run it on the "
+                "depth-only baseline's candidates");
+  return std::make_unique<rollout::WaypointAgent>(
+      std::move(model), config.waypoint_agent, config.panorama,
+      config.sim.agent, ec.num_envs, ec.sample_actions,
+      static_cast<uint64_t>(ec.seed));
+}
+
 std::unique_ptr<rollout::Agent> makeAgent(
     const Candidate& candidate, const train::ExperimentConfig& config,
     const BaselineStatistics* baselineStats) {
@@ -131,10 +169,7 @@ std::unique_ptr<rollout::Agent> makeAgent(
         static_cast<uint64_t>(ec.seed));
   }
   if (!candidate.scripted.empty())
-    return std::make_unique<rollout::ScriptedPolicyAgent>(
-        candidate.scripted, ec.num_envs, ec.sample_actions,
-        static_cast<uint64_t>(ec.seed), config.dataset.max_instruction_length,
-        config.model.device);
+    return scriptedAgent(config, candidate.scripted);
   return policyAgent(config, candidate.checkpoint);
 }
 

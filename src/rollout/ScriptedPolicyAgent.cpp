@@ -1,14 +1,8 @@
 #include "rollout/ScriptedPolicyAgent.h"
 
-#include <algorithm>
-#include <sstream>
 #include <string>
 
 #include "common/Check.h"
-#include "common/Config.h"
-#include "common/FileIo.h"
-#include "common/ZipIntegrity.h"
-#include "data/Vocabulary.h"
 #include "rollout/ObservationBatch.h"
 #include "rollout/PolicyAgent.h"
 #include "rollout/RecurrentState.h"
@@ -20,26 +14,25 @@ struct ScriptedPolicyAgent::EnvState : EpisodeDraws {
   std::vector<int64_t> tokens;  // real tokens, capped at the max length
 };
 
-models::ModelConfig exportedModelConfig(const torch::jit::Module& module,
-                                        const std::filesystem::path& file) {
-  VLN_CHECK_ARG(module.hasattr("model_config"), "ScriptedPolicyAgent: '",
-                file.string(),
-                "' has no 'model_config' attribute (not written by "
-                "models::exportPolicy?)");
-  const c10::IValue value = module.attr("model_config");
-  VLN_CHECK_ARG(value.isString(), "ScriptedPolicyAgent: '", file.string(),
-                "': attribute 'model_config' is not a string");
-  return common::loadConfigText<models::ModelConfig>(
-      value.toStringRef(), file.string() + " model_config");
-}
-
 ScriptedPolicyAgent::ScriptedPolicyAgent(const std::filesystem::path& file,
                                          int numEnvs, bool sampleActions,
                                          uint64_t seed,
                                          int maxInstructionLength,
                                          const std::string& device)
+    : ScriptedPolicyAgent(
+          loadExportedArchive(file, device, "ScriptedPolicyAgent"), file,
+          numEnvs, sampleActions, seed, maxInstructionLength,
+          parseDevice(device, "ScriptedPolicyAgent")) {}
+
+ScriptedPolicyAgent::ScriptedPolicyAgent(torch::jit::Module module,
+                                         const std::filesystem::path& file,
+                                         int numEnvs, bool sampleActions,
+                                         uint64_t seed,
+                                         int maxInstructionLength,
+                                         torch::Device device)
     : file_(file),
-      device_(torch::kCPU),
+      module_(std::move(module)),
+      device_(device),
       sample_(sampleActions),
       seed_(seed),
       maxInstructionLength_(maxInstructionLength) {
@@ -49,63 +42,15 @@ ScriptedPolicyAgent::ScriptedPolicyAgent(const std::filesystem::path& file,
                 "ScriptedPolicyAgent: dataset.max_instruction_length must be "
                 ">= 1, got ",
                 maxInstructionLength);
-  VLN_CHECK_IO(std::filesystem::is_regular_file(file), "ScriptedPolicyAgent: '",
-               file.string(), "' does not exist");
-  try {
-    device_ = torch::Device(device);
-  } catch (const c10::Error&) {
-    throw std::invalid_argument(
-        strCat("ScriptedPolicyAgent: device '", device, "' cannot be parsed"));
-  }
-  // checked first: LibTorch reads damaged archives without checking their
-  // CRCs, and its TorchScript parser can crash on them
-  const std::string bytes = common::readFile(file);
-  try {
-    common::verifyZipIntegrity(bytes, file.string());
-  } catch (const std::runtime_error& error) {
-    throw std::runtime_error(strCat("ScriptedPolicyAgent: ", error.what()));
-  }
-  try {
-    std::istringstream in(bytes);
-    module_ = torch::jit::load(in, device_);
-  } catch (const c10::Error& error) {
-    throw std::runtime_error(strCat(
-        "ScriptedPolicyAgent: '", file.string(),
-        "' is not a TorchScript archive: ", error.what_without_backtrace()));
-  } catch (const std::exception& error) {
-    throw std::runtime_error(
-        strCat("ScriptedPolicyAgent: '", file.string(),
-               "' is not a TorchScript archive: ", error.what()));
-  }
-  module_.eval();
   config_ = exportedModelConfig(module_, file);
   // a waypoint policy (models::exportWaypointPolicy()) takes panoramas and
   // candidate waypoints, not one view, and chooses a waypoint
   VLN_CHECK_ARG(!module_.hasattr("num_views"), "ScriptedPolicyAgent: '",
                 file.string(),
                 "' is a waypoint policy export (it chooses among candidate "
-                "waypoints); evaluate the waypoint_cma run's checkpoints "
-                "instead");
-  // the agent feeds the archive token ids; text features would need a
-  // feature source (PolicyStepper::setInstructionFeatures) here
-  VLN_CHECK_ARG(!config_.usesInstruction() || !config_.usesTextFeatures(),
-                "ScriptedPolicyAgent: '", file.string(),
-                "' reads text features (model.instruction_features: "
-                "rxr_text); the scripted agent feeds instruction tokens only");
-
-  // the archive must encode images itself; an export without encoders
-  // takes feature maps in forward and cannot run on observations
-  auto hasMethod = [&](const char* name) {
-    return module_.find_method(name).has_value();
-  };
-  VLN_CHECK_ARG(!config_.usesRgb() || hasMethod("encode_rgb"),
-                "ScriptedPolicyAgent: '", file.string(),
-                "' was exported without its RGB encoder (forward takes "
-                "features); export it with the encoders");
-  VLN_CHECK_ARG(!config_.usesDepth() || hasMethod("encode_depth"),
-                "ScriptedPolicyAgent: '", file.string(),
-                "' was exported without its depth encoder (forward takes "
-                "features); export it with the encoders");
+                "waypoints): run it with rollout::ScriptedWaypointModel "
+                "(eval does)");
+  checkRunsOnObservations(module_, config_, file, "ScriptedPolicyAgent");
   states_.resize(static_cast<size_t>(numEnvs));
 }
 
@@ -113,18 +58,9 @@ ScriptedPolicyAgent::~ScriptedPolicyAgent() = default;
 
 void ScriptedPolicyAgent::reset(int env, const data::Episode& episode) {
   EnvState& s = stateAt(states_, env, "ScriptedPolicyAgent", "reset");
-  // the archive re-encodes the instruction at every call; keep its tokens
-  // (real ones only: the encoder packs by length, so padding is free)
-  s.tokens.clear();
-  if (config_.usesInstruction()) {
-    const auto& source = episode.instruction.instruction_tokens;
-    const int length =
-        std::min(maxInstructionLength_, data::unpaddedLength(source));
-    VLN_CHECK_ARG(length >= 1, "ScriptedPolicyAgent::reset(): episode ",
-                  episode.episode_id, " has no instruction tokens");
-    for (int j = 0; j < length; ++j)
-      s.tokens.push_back(source[static_cast<size_t>(j)]);
-  }
+  // the archive re-encodes the instruction at every call
+  s.tokens = archiveTokens(episode, config_, maxInstructionLength_,
+                           "ScriptedPolicyAgent");
   s.recurrent.restart(
       torch::zeros({config_.numRecurrentLayers(), config_.hidden_size},
                    torch::TensorOptions(device_).dtype(torch::kFloat32)));
@@ -154,18 +90,9 @@ std::vector<sim::Action> ScriptedPolicyAgent::act(VectorEnv& envs,
   const torch::Tensor depth =
       obs.depth.defined() ? obs.depth.to(device_) : placeholder;
 
-  // instruction tokens [n, longest] with PAD 0 on the right
-  size_t longest = 1;
-  for (const EnvState* s : states)
-    longest = std::max(longest, s->tokens.size());
-  torch::Tensor tokens =
-      torch::zeros({n, static_cast<int64_t>(longest)}, torch::kInt64);
-  if (!config_.usesInstruction()) tokens.fill_(1);
-  for (int64_t k = 0; k < n; ++k) {
-    const auto& row = states[static_cast<size_t>(k)]->tokens;
-    for (size_t j = 0; j < row.size(); ++j)
-      tokens[k][static_cast<int64_t>(j)] = row[j];
-  }
+  std::vector<const std::vector<int64_t>*> rows;
+  for (const EnvState* s : states) rows.push_back(&s->tokens);
+  const torch::Tensor tokens = tokenBatch(rows, config_);
 
   const RecurrentInputs inputs = recurrentInputs(recurrent, device_);
   const c10::IValue output =

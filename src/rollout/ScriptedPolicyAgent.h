@@ -18,6 +18,7 @@
 
 #include "models/ModelConfig.h"
 #include "rollout/Agent.h"
+#include "rollout/ExportedArchive.h"
 
 namespace vln::rollout {
 
@@ -34,6 +35,12 @@ class ScriptedPolicyAgent : public Agent {
                       bool sampleActions, uint64_t seed,
                       int maxInstructionLength,
                       const std::string& device = "cpu");
+  /// The same over an archive already loaded (loadExportedArchive()) onto
+  /// `device`; `file` names it in errors.
+  ScriptedPolicyAgent(torch::jit::Module module,
+                      const std::filesystem::path& file, int numEnvs,
+                      bool sampleActions, uint64_t seed,
+                      int maxInstructionLength, torch::Device device);
   ~ScriptedPolicyAgent() override;
 
   void reset(int env, const data::Episode& episode) override;
@@ -55,10 +62,5 @@ class ScriptedPolicyAgent : public Agent {
   int maxInstructionLength_;
   std::vector<EnvState> states_;
 };
-
-/// The ModelConfig stored in an exported archive's `model_config` attribute;
-/// `file` names it in errors.
-models::ModelConfig exportedModelConfig(const torch::jit::Module& module,
-                                        const std::filesystem::path& file);
 
 }  // namespace vln::rollout

@@ -18,8 +18,6 @@ namespace vln::rollout {
 
 struct WaypointAgent::Slot {
   const data::Episode* episode = nullptr;
-  models::EncodedInstruction instruction;
-  torch::Tensor hidden;  // [1, 2, H]
   std::vector<sim::Action> queue;
   size_t next = 0;
   sim::AgentState teleport;  // the target of a queued kTeleport
@@ -33,28 +31,38 @@ struct WaypointAgent::Slot {
   sim::Panorama panorama;
 };
 
+WaypointAgent::WaypointAgent(std::unique_ptr<WaypointDecisionModel> model,
+                             const WaypointAgentConfig& config,
+                             const sim::PanoramaConfig& panorama,
+                             const sim::AgentConfig& agent, int numEnvs,
+                             bool sampleActions, uint64_t seed)
+    : model_(std::move(model)),
+      config_(config),
+      panorama_(panorama),
+      agent_(agent),
+      sample_(sampleActions),
+      seed_(seed) {
+  VLN_CHECK_ARG(model_ != nullptr, "WaypointAgent: no model");
+  VLN_CHECK_ARG(numEnvs >= 1, "WaypointAgent: numEnvs must be >= 1");
+  VLN_CHECK_ARG(config.candidates != "predictor" || model_->proposes(),
+                "WaypointAgent: waypoint_agent.candidates is predictor but no "
+                "predictor was given");
+  VLN_CHECK_ARG(panorama.num_views == model_->numViews(),
+                "WaypointAgent: panorama.num_views is ", panorama.num_views,
+                ", the policy reads ", model_->numViews(), " views");
+  for (int i = 0; i < numEnvs; ++i) slots_.push_back(std::make_unique<Slot>());
+}
+
 WaypointAgent::WaypointAgent(
     std::shared_ptr<models::WaypointCmaPolicyImpl> policy,
     models::ObservationEncoder encoder, models::WaypointPredictor predictor,
     CandidateNms nms, const WaypointAgentConfig& config,
     const sim::PanoramaConfig& panorama, const sim::AgentConfig& agent,
     int numEnvs, bool sampleActions, uint64_t seed, int maxInstructionLength)
-    : policy_(std::move(policy)),
-      encoder_(std::move(encoder)),
-      predictor_(std::move(predictor)),
-      nms_(nms),
-      config_(config),
-      panorama_(panorama),
-      agent_(agent),
-      sample_(sampleActions),
-      seed_(seed),
-      maxInstructionLength_(maxInstructionLength) {
-  VLN_CHECK_ARG(numEnvs >= 1, "WaypointAgent: numEnvs must be >= 1");
-  VLN_CHECK_ARG(config.candidates != "predictor" || !predictor_.is_empty(),
-                "WaypointAgent: waypoint_agent.candidates is predictor but no "
-                "predictor was given");
-  for (int i = 0; i < numEnvs; ++i) slots_.push_back(std::make_unique<Slot>());
-}
+    : WaypointAgent(std::make_unique<NativeWaypointModel>(
+                        std::move(policy), std::move(encoder),
+                        std::move(predictor), nms, maxInstructionLength),
+                    config, panorama, agent, numEnvs, sampleActions, seed) {}
 
 WaypointAgent::~WaypointAgent() = default;
 
@@ -79,13 +87,7 @@ void WaypointAgent::reset(int env, const data::Episode& episode) {
   if (collecting_)
     VLN_CHECK_ARG(!episode.goals.empty(), "WaypointAgent: episode ",
                   episode.episode_id, " has no goal for the oracle");
-  torch::NoGradGuard noGrad;
-  policy_->eval();
-  const data::Episode* one[] = {&episode};
-  const torch::Device device = policy_->view_linear->weight.device();
-  slot.instruction = policy_->encodeInstruction(
-      batchInstructions(one, maxInstructionLength_).to(device));
-  slot.hidden = policy_->initialHidden(1);
+  model_->reset(env, episode);
 }
 
 int WaypointAgent::decisions(int env) const {
@@ -172,10 +174,8 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
   });
 
   torch::NoGradGuard noGrad;
-  policy_->eval();
-  const torch::Device device = policy_->view_linear->weight.device();
   const int64_t views = panorama_.num_views;
-  const models::ModelConfig& model = policy_->config();
+  const models::ModelConfig& model = model_->config();
   torch::Tensor rgb, depth;
   if (model.usesRgb()) {
     const int64_t h = panorama_.rgb.height, w = panorama_.rgb.width;
@@ -184,7 +184,6 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
       const auto& p = slots_[static_cast<size_t>(envList[i])]->panorama;
       std::memcpy(rgb[i].data_ptr(), p.rgb.data(), p.rgb.size());
     }
-    rgb = rgb.to(device);
   }
   if (model.usesDepth()) {
     const int64_t h = panorama_.depth.camera.height,
@@ -195,35 +194,15 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
       std::memcpy(depth[i].data_ptr(), p.depth.data(),
                   p.depth.size() * sizeof(float));
     }
-    depth = depth.to(device);
   }
-  encoder_->eval();
-  const models::VisualFeatures features = encoder_->forward(rgb, depth);
-  const torch::Tensor rgbFeatures = features.rgb.defined()
-                                        ? features.rgb.reshape({n, views, -1})
-                                        : torch::Tensor();
-  const torch::Tensor depthFeatures =
-      features.depth.defined() ? features.depth.reshape({n, views, -1})
-                               : torch::Tensor();
+  const PanoramaFeatures features = model_->encode(rgb, depth);
 
   // candidates
-  std::vector<std::vector<waypoint::Candidate>> candidates(
-      static_cast<size_t>(n));
+  std::vector<std::vector<waypoint::Candidate>> candidates;
   if (config_.candidates == "predictor") {
-    predictor_->eval();
-    const torch::Tensor probabilities =
-        models::waypointProbabilities(
-            predictor_->forward(depthFeatures, rgbFeatures))
-            .to(torch::kCPU)
-            .contiguous();
-    for (int64_t i = 0; i < n; ++i) {
-      const float* row = probabilities[i].data_ptr<float>();
-      candidates[static_cast<size_t>(i)] = waypoint::heatmapNms(
-          std::span<const float>(row, waypoint::kHeatmapSize),
-          nms_.max_candidates, nms_.heading_radius, nms_.distance_radius,
-          nms_.min_score);
-    }
+    candidates = model_->propose(features);
   } else {
+    candidates.resize(static_cast<size_t>(n));
     envs.forEach(envList, [&](int env) {
       const auto i = static_cast<size_t>(rowOf[static_cast<size_t>(env)]);
       candidates[i] = waypoint::depthBaselineCandidates(
@@ -241,8 +220,6 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
   auto mask = torch::zeros({n, K}, torch::kBool);
   auto prev = torch::zeros({n, 2});
   auto notDone = torch::zeros({n});
-  std::vector<const models::EncodedInstruction*> instructions;
-  std::vector<torch::Tensor> hiddens;
   for (int64_t i = 0; i < n; ++i) {
     const Slot& slot = *slots_[static_cast<size_t>(envList[i])];
     for (size_t j = 0; j < candidates[static_cast<size_t>(i)].size(); ++j) {
@@ -255,28 +232,14 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     prev[i][0] = slot.prevHeading;
     prev[i][1] = slot.prevDistance;
     notDone[i] = slot.decisions > 0 ? 1.0f : 0.0f;
-    instructions.push_back(&slot.instruction);
-    hiddens.push_back(slot.hidden);
   }
-  models::WaypointPolicyInputs inputs{rgbFeatures,      depthFeatures,
-                                      polar.to(device), mask.to(device),
-                                      prev.to(device),  notDone.to(device)};
-  const models::EncodedInstruction instruction =
-      model.usesInstruction() ? stackInstructions(instructions)
-                              : models::EncodedInstruction{};
-  const models::WaypointPolicyOutputs out =
-      policy_->step(instruction, inputs, torch::cat(hiddens, 0));
   const torch::Tensor logits =
-      out.logits.to(torch::kCPU, torch::kFloat64).contiguous();
+      model_->step(envList, features, polar, mask, prev, notDone);
 
   // choices (and the oracle's labels), per environment in parallel: the
   // approaches and the oracle plan on the navmesh
   std::vector<int> taken(static_cast<size_t>(n)),
       labels(static_cast<size_t>(n));
-  for (int64_t i = 0; i < n; ++i) {
-    Slot& slot = *slots_[static_cast<size_t>(envList[i])];
-    slot.hidden = out.hidden.slice(0, i, i + 1).clone();
-  }
   envs.forEach(envList, [&](int env) {
     const int64_t i = rowOf[static_cast<size_t>(env)];
     Slot& slot = *slots_[static_cast<size_t>(env)];
@@ -334,10 +297,10 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     const int choice = taken[static_cast<size_t>(i)];
     if (collecting_) {
       WaypointDecision d;
-      if (rgbFeatures.defined())
-        d.rgb = rgbFeatures[i].to(torch::kCPU, torch::kHalf).clone();
-      if (depthFeatures.defined())
-        d.depth = depthFeatures[i].to(torch::kCPU, torch::kHalf).clone();
+      if (features.rgb.defined())
+        d.rgb = features.rgb[i].to(torch::kCPU, torch::kHalf).clone();
+      if (features.depth.defined())
+        d.depth = features.depth[i].to(torch::kCPU, torch::kHalf).clone();
       d.candidates = candidates[static_cast<size_t>(i)];
       d.prev_heading = slot.prevHeading;
       d.prev_distance = slot.prevDistance;

@@ -3,7 +3,10 @@
 // renders a panorama (sim/Panorama.h), encodes its views with the frozen
 // encoders, asks the candidate source (the learned predictor or the
 // depth-only baseline) for up to waypoint_agent.max_candidates waypoints,
-// and the waypoint CMA (models/WaypointCmaPolicy.h) picks one or STOP. By
+// and the waypoint CMA (models/WaypointCmaPolicy.h) picks one or STOP. The
+// networks are a WaypointDecisionModel: the project's modules, or an
+// exported archive (rollout/ScriptedWaypointModel.h) that runs exactly
+// where a checkpoint would. By
 // default (waypoint_agent.execution walk) the chosen waypoint is executed
 // with low-level actions (waypoint::planApproach(): turns, then 0.25 m
 // forward steps with collisions and sliding), one per act(), so the
@@ -32,25 +35,14 @@
 #include <span>
 #include <vector>
 
-#include "models/ObservationEncoder.h"
 #include "models/Policy.h"
-#include "models/WaypointCmaPolicy.h"
-#include "models/WaypointPredictor.h"
 #include "rollout/Agent.h"
 #include "rollout/WaypointAgentConfig.h"
+#include "rollout/WaypointDecisionModel.h"
 #include "sim/Panorama.h"
 #include "waypoint/WaypointHeatmap.h"
 
 namespace vln::rollout {
-
-/// How the learned predictor's heatmap becomes candidates
-/// (waypoint::heatmapNms()).
-struct CandidateNms {
-  int max_candidates = 5;
-  int heading_radius = 7;
-  int distance_radius = 5;
-  float min_score = 0.0f;
-};
 
 /// One decision as the policy saw it, with the oracle's label.
 struct WaypointDecision {
@@ -72,9 +64,16 @@ struct WaypointCollection {
 
 class WaypointAgent : public Agent {
  public:
-  /// `predictor` may be null with candidates: depth_baseline. The policy,
-  /// encoder and predictor run in eval mode under NoGradGuard. `agent` is
-  /// the low-level action space (sim.agent).
+  /// `agent` is the low-level action space (sim.agent). Throws
+  /// std::invalid_argument when waypoint_agent.candidates is predictor and
+  /// `model` proposes none, or `panorama` has other views than it reads.
+  WaypointAgent(std::unique_ptr<WaypointDecisionModel> model,
+                const WaypointAgentConfig& config,
+                const sim::PanoramaConfig& panorama,
+                const sim::AgentConfig& agent, int numEnvs, bool sampleActions,
+                uint64_t seed);
+  /// The project's modules (NativeWaypointModel); `predictor` may be null
+  /// with candidates: depth_baseline.
   WaypointAgent(std::shared_ptr<models::WaypointCmaPolicyImpl> policy,
                 models::ObservationEncoder encoder,
                 models::WaypointPredictor predictor, CandidateNms nms,
@@ -104,16 +103,12 @@ class WaypointAgent : public Agent {
   struct Slot;
   void decide(VectorEnv& envs, std::span<const int> deciding);
 
-  std::shared_ptr<models::WaypointCmaPolicyImpl> policy_;
-  models::ObservationEncoder encoder_;
-  models::WaypointPredictor predictor_;
-  CandidateNms nms_;
+  std::unique_ptr<WaypointDecisionModel> model_;
   WaypointAgentConfig config_;
   sim::PanoramaConfig panorama_;
   sim::AgentConfig agent_;
   bool sample_;
   uint64_t seed_;
-  int maxInstructionLength_;
   bool collecting_ = false;
   WaypointCollection collection_;
   std::vector<std::unique_ptr<Slot>> slots_;

@@ -213,6 +213,36 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
   EXPECT_GT(stats.num_episodes, 0);
   EXPECT_GT(stats.mean.path_length, 0.0);
 
+  // eval scores the export as the checkpoint it came from: the archive
+  // proposes, the config's waypoint_agent executes, action for action
+  const fs::path exportedFrom = bestOrLatestCheckpoint(run);
+  const int exportedIndex = *checkpointIndex(exportedFrom);
+  for (const auto& [what, out] :
+       {std::pair{exportedFrom, dir_ / "from_checkpoint"},
+        std::pair{dir_ / "agent.pt", dir_ / "from_export"}})
+    ASSERT_EQ(vln::test::runCommand(
+                  binary("eval") + " --config " +
+                      (run / "config.yaml").string() + " --checkpoint " +
+                      what.string() + " --index " +
+                      std::to_string(exportedIndex) +
+                      " --split val_unseen --out " + out.string() + " 2>&1",
+                  &output),
+              0)
+        << output;
+  const auto fromCheckpoint = rollout::readEpisodesFile(
+      dir_ / "from_checkpoint" /
+      rollout::episodesFileName(exportedIndex, "val_unseen"));
+  const auto fromExport = rollout::readEpisodesFile(
+      dir_ / "from_export" /
+      rollout::episodesFileName(exportedIndex, "val_unseen"));
+  ASSERT_FALSE(fromExport.empty());
+  ASSERT_EQ(fromExport.size(), fromCheckpoint.size());
+  for (size_t i = 0; i < fromExport.size(); ++i) {
+    EXPECT_EQ(fromExport[i].record.actions, fromCheckpoint[i].record.actions)
+        << "episode " << i;
+    EXPECT_EQ(fromExport[i].metrics.success, fromCheckpoint[i].metrics.success);
+  }
+
   // a second run into the directory cannot resume
   EXPECT_NE(vln::test::runCommand(binary("train") + " --config " +
                                       config.string() +
@@ -257,6 +287,26 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
       << output;
   expectExportActsAsCheckpoint(dir_ / "bare.pt", checkpoints.front(), baseline,
                                /*withPredictor=*/false);
+  // eval runs that archive on the depth-only baseline's candidates, and
+  // refuses to ask it for the predictor's
+  ASSERT_EQ(vln::test::runCommand(binary("eval") + " --config " +
+                                      baselineConfig.string() +
+                                      " --checkpoint " +
+                                      (dir_ / "bare.pt").string() +
+                                      " --split val_unseen --out " +
+                                      (dir_ / "bare_eval").string() + " 2>&1",
+                                  &output),
+            0)
+      << output;
+  EXPECT_NE(vln::test::runCommand(binary("eval") + " --config " +
+                                      (run / "config.yaml").string() +
+                                      " --checkpoint " +
+                                      (dir_ / "bare.pt").string() +
+                                      " --split val_unseen --out " +
+                                      (dir_ / "bare_eval").string() + " 2>&1",
+                                  &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("waypoint_agent.candidates: depth_baseline"));
 }
 
 TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
