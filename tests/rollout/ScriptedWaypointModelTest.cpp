@@ -174,14 +174,15 @@ TEST(ScriptedWaypointModelTest, ArchivesItCannotRunAreNamed) {
                   HasSubstr("exported without its RGB encoder"))));
   // without the predictor it cannot be asked for candidates
   models::exportWaypointPolicy(*t.policy, t.encoder.get(), dir / "bare.pt");
+  auto agentOverBare = [&] {
+    WaypointAgent a(std::make_unique<ScriptedWaypointModel>(dir / "bare.pt",
+                                                            200),
+                    t.config, t.panorama, rolloutTestWorld().sim.agent, 1,
+                    false, 0);
+  };
   t.config.candidates = "predictor";
   EXPECT_THAT(
-      [&] {
-        WaypointAgent a(std::make_unique<ScriptedWaypointModel>(
-                            dir / "bare.pt", 200),
-                        t.config, t.panorama, rolloutTestWorld().sim.agent, 1,
-                        false, 0);
-      },
+      agentOverBare,
       ::testing::Throws<std::invalid_argument>(::testing::Property(
           &std::exception::what,
           HasSubstr("waypoint_agent.candidates is predictor"))));
@@ -189,12 +190,7 @@ TEST(ScriptedWaypointModelTest, ArchivesItCannotRunAreNamed) {
   t.config.candidates = "depth_baseline";
   t.panorama.num_views = 6;
   EXPECT_THAT(
-      [&] {
-        WaypointAgent a(std::make_unique<ScriptedWaypointModel>(
-                            dir / "bare.pt", 200),
-                        t.config, t.panorama, rolloutTestWorld().sim.agent, 1,
-                        false, 0);
-      },
+      agentOverBare,
       ::testing::Throws<std::invalid_argument>(::testing::Property(
           &std::exception::what, HasSubstr("reads 12 views"))));
 }
