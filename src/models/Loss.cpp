@@ -52,4 +52,27 @@ torch::Tensor progressLoss(const torch::Tensor& progress,
          mask.sum().clamp_min(1.0);
 }
 
+torch::Tensor instructionContrast(const torch::Tensor& ownLogits,
+                                  const torch::Tensor& swappedLogits,
+                                  const torch::Tensor& labels,
+                                  const torch::Tensor& valid) {
+  TORCH_CHECK(ownLogits.sizes() == swappedLogits.sizes() &&
+                  ownLogits.dim() == labels.dim() + 1 &&
+                  labels.sizes() == valid.sizes() &&
+                  ownLogits.sizes().slice(0, labels.dim()) == labels.sizes(),
+              "instructionContrast(): expected logits [..., A] of one shape "
+              "and labels and valid of their leading shape, got ",
+              ownLogits.sizes(), ", ", swappedLogits.sizes(), ", ",
+              labels.sizes(), ", ", valid.sizes());
+  const torch::Tensor index =
+      torch::where(valid, labels, torch::zeros_like(labels)).unsqueeze(-1);
+  const torch::Tensor own =
+      torch::log_softmax(ownLogits, -1).gather(-1, index).squeeze(-1);
+  const torch::Tensor other =
+      torch::log_softmax(swappedLogits, -1).gather(-1, index).squeeze(-1);
+  const torch::Tensor mask = valid.to(ownLogits.scalar_type());
+  return (torch::nn::functional::softplus(other - own) * mask).sum() /
+         mask.sum().clamp_min(1.0);
+}
+
 }  // namespace vln::models

@@ -31,4 +31,17 @@ at::Tensor progressLoss(const at::Tensor& progress,
                            const at::Tensor& target,
                            const at::Tensor& valid);
 
+/// The instruction contrast of decisions labelled `labels` (int64, any
+/// value where `valid` is false): for each valid decision
+/// softplus(log p_swapped(label) - log p_own(label)), with `ownLogits` the
+/// policy's logits under the episode's own instruction and `swappedLogits`
+/// under another episode's, averaged over the valid decisions. ln 2 when
+/// the words change nothing; below it only when the episode's own words
+/// make the label likelier than another's do. Logits [..., A] float,
+/// labels and valid (bool) of their leading shape. Returns a scalar.
+at::Tensor instructionContrast(const at::Tensor& ownLogits,
+                               const at::Tensor& swappedLogits,
+                               const at::Tensor& labels,
+                               const at::Tensor& valid);
+
 }  // namespace vln::models

@@ -33,12 +33,11 @@ void ExperimentConfig::validate() const {
                 "config: trainer.fine_tune_dagger (DA*) needs trainer.init_checkpoint");
   VLN_CHECK_ARG(!(trainer.fine_tune_dagger && trainer.dagger_iterations == 0),
                 "config: trainer.fine_tune_dagger needs trainer.dagger_iterations > 0");
-  // only the waypoint trainer replays decisions with another instruction
+  // the swapped instruction must be one
   VLN_CHECK_ARG(trainer.instruction_contrast_weight == 0.0 ||
-                    trainer.task == "waypoint_cma",
-                "config: trainer.instruction_contrast_weight applies to "
-                "trainer.task waypoint_cma only (task is '",
-                trainer.task, "')");
+                    model.usesInstruction(),
+                "config: trainer.instruction_contrast_weight needs the "
+                "instruction (model.no_instruction is true)");
   // the recollect trainer's keys mean nothing to the store's trainer, and
   // it trains by teacher forcing only (VLN-CE's recollect_trainer)
   const bool recollect = trainer.mode == "recollect";

@@ -116,10 +116,9 @@ struct TrainerConfig {
             "model.progress_monitor)",
             common::inRange(0.0, 1000.0));
     v.field("instruction_contrast_weight", instruction_contrast_weight,
-            "Weight of the instruction-contrast loss (trainer.task "
-            "waypoint_cma): the oracle's choice must be more likely under the "
-            "episode's instruction than under another episode's of the batch "
-            "(0: off)",
+            "Weight of the instruction-contrast loss: the oracle's action "
+            "(or waypoint) must be more likely under the episode's "
+            "instruction than under another episode's of the batch (0: off)",
             common::inRange(0.0, 1000.0));
     v.field("grad_clip", grad_clip,
             "Clip the gradient norm to this value (0: no clipping)",

@@ -105,6 +105,19 @@ ImitationLearner::BatchLosses ImitationLearner::batchLosses(
   if (model.progress_monitor)
     losses.progress =
         models::progressLoss(out.progress, to(batch.progress), valid);
+  // the same steps replayed with episode b's instruction swapped for
+  // episode b + 1's (cyclically): only words that make the oracle's
+  // actions likelier for their own episode lower it
+  if (config_.trainer.instruction_contrast_weight > 0.0 && B > 1) {
+    const torch::Tensor swappedLogits =
+        policy_
+            ->forwardSequence(
+                policy_->encodeInstruction(instructionInput.roll(-1, 0)),
+                inputs, policy_->initialHidden(B))
+            .logits;
+    losses.contrast =
+        models::instructionContrast(out.logits, swappedLogits, actions, valid);
+  }
   return losses;
 }
 
@@ -113,6 +126,7 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   BatchLosses losses = batchLosses(batch);
   torch::Tensor& actionLoss = losses.action;
   torch::Tensor& progressLoss = losses.progress;
+  torch::Tensor& contrast = losses.contrast;
   const int64_t B = losses.episodes;
   // multi-process: the update is that of the union of the ranks' batches.
   // The action loss is a mean over episodes and the progress loss one over
@@ -124,13 +138,16 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
         {static_cast<double>(B), static_cast<double>(batch.steps)});
     const auto world = static_cast<double>(dist_->worldSize());
     actionLoss = actionLoss * (world * static_cast<double>(B) / counts[0]);
-    if (progressLoss.defined())
-      progressLoss = progressLoss * (world * static_cast<double>(batch.steps) /
-                                     std::max(counts[1], 1.0));
+    const double stepShare =
+        world * static_cast<double>(batch.steps) / std::max(counts[1], 1.0);
+    if (progressLoss.defined()) progressLoss = progressLoss * stepShare;
+    if (contrast.defined()) contrast = contrast * stepShare;
   }
   torch::Tensor loss = actionLoss;
   if (progressLoss.defined())
     loss = loss + config_.trainer.progress_loss_weight * progressLoss;
+  if (contrast.defined())
+    loss = loss + config_.trainer.instruction_contrast_weight * contrast;
   if (lossHook_) loss = lossHook_(loss);
 
   UpdateResult result;
@@ -140,6 +157,8 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
   result.action_loss = actionLoss.item<double>();
   result.progress_loss =
       progressLoss.defined() ? progressLoss.item<double>() : 0.0;
+  result.instruction_contrast =
+      contrast.defined() ? contrast.item<double>() : 0.0;
   const bool finiteHere = std::isfinite(result.loss);
   bool skip = !finiteHere;
   if (dist_) {
@@ -150,13 +169,15 @@ UpdateResult ImitationLearner::update(const EpisodeBatch& batch) {
         {skip ? 1.0 : 0.0, skip ? 0.0 : result.loss,
          skip ? 0.0 : result.action_loss, skip ? 0.0 : result.progress_loss,
          static_cast<double>(result.steps),
-         static_cast<double>(result.episodes)});
+         static_cast<double>(result.episodes),
+         skip ? 0.0 : result.instruction_contrast});
     skip = sums[0] > 0.0;
     if (!skip) {
       const auto world = static_cast<double>(dist_->worldSize());
       result.loss = sums[1] / world;
       result.action_loss = sums[2] / world;
       result.progress_loss = sums[3] / world;
+      result.instruction_contrast = sums[6] / world;
     }
     result.steps = static_cast<int64_t>(sums[4]);
     result.episodes = static_cast<int64_t>(sums[5]);
@@ -215,15 +236,22 @@ UpdateResult ImitationLearner::updateAccumulated(
     if (losses.progress.defined())
       progressLoss =
           losses.progress * (static_cast<double>(batch.steps) / steps);
+    torch::Tensor contrast;
+    if (losses.contrast.defined())
+      contrast = losses.contrast * (static_cast<double>(batch.steps) / steps);
     torch::Tensor loss = actionLoss;
     if (progressLoss.defined())
       loss = loss + config_.trainer.progress_loss_weight * progressLoss;
+    if (contrast.defined())
+      loss = loss + config_.trainer.instruction_contrast_weight * contrast;
     if (lossHook_) loss = lossHook_(loss);
     const double value = loss.item<double>();
     result.loss += value;
     result.action_loss += actionLoss.item<double>();
     if (progressLoss.defined())
       result.progress_loss += progressLoss.item<double>();
+    if (contrast.defined())
+      result.instruction_contrast += contrast.item<double>();
     if (!std::isfinite(value)) return skipUpdate(result, /*finiteHere=*/false);
     loss.backward();
   }
@@ -299,6 +327,7 @@ void ImitationLearner::addToEpoch(const UpdateResult& u, int epoch,
     result.mean.loss += u.loss;
     result.mean.action_loss += u.action_loss;
     result.mean.progress_loss += u.progress_loss;
+    result.mean.instruction_contrast += u.instruction_contrast;
     result.mean.grad_norm += u.grad_norm;
   }
   result.mean.steps += u.steps;
@@ -311,6 +340,7 @@ void ImitationLearner::finishEpoch(EpochResult& result) {
   result.mean.loss /= n;
   result.mean.action_loss /= n;
   result.mean.progress_loss /= n;
+  result.mean.instruction_contrast /= n;
   result.mean.grad_norm /= n;
 }
 
@@ -370,6 +400,7 @@ void logEpoch(const EpochResult& r, int64_t epoch, int iteration,
                     {"loss", r.mean.loss},
                     {"action_loss", r.mean.action_loss},
                     {"progress_loss", r.mean.progress_loss},
+                    {"instruction_contrast", r.mean.instruction_contrast},
                     {"store_episodes", storeEpisodes},
                     {"inflection_coef", inflectionCoef}},
                    {{"epoch/loss", r.mean.loss},

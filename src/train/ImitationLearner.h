@@ -30,9 +30,13 @@ class Distributed;
 
 /// The losses of one update (or their means over an epoch).
 struct UpdateResult {
-  double loss = 0.0;           ///< action_loss + alpha * progress_loss
+  double loss = 0.0;  ///< action_loss + alpha * progress_loss + contrast term
   double action_loss = 0.0;    ///< inflection-weighted cross-entropy
   double progress_loss = 0.0;  ///< progress MSE (0 without progress monitor)
+  /// models::instructionContrast() of the batch's oracle actions with each
+  /// episode's instruction swapped for the next episode's (0 when
+  /// trainer.instruction_contrast_weight is 0)
+  double instruction_contrast = 0.0;
   double grad_norm = 0.0;      ///< total gradient norm before clipping
   int64_t steps = 0;           ///< real steps in the batch
   int64_t episodes = 0;        ///< episodes in the batch
@@ -151,6 +155,7 @@ class ImitationLearner {
   struct BatchLosses {
     torch::Tensor action;    ///< mean over the batch's episodes
     torch::Tensor progress;  ///< mean over its steps; undefined without PM
+    torch::Tensor contrast;  ///< mean over its steps; undefined when off
     int64_t episodes = 0;
   };
   BatchLosses batchLosses(const EpisodeBatch& batch);

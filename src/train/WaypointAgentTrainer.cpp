@@ -10,6 +10,7 @@
 #include "common/Check.h"
 #include "common/Progress.h"
 #include "common/Random.h"
+#include "models/Loss.h"
 #include "models/StateDict.h"
 #include "rollout/EpisodeScheduler.h"
 #include "rollout/ObservationBatch.h"
@@ -102,15 +103,8 @@ torch::Tensor instructionContrastLoss(
                            policy.initialHidden(
                                static_cast<int64_t>(instructions.size())))
           .logits.reshape({labels.size(0), -1});
-  const torch::Tensor valid = labels.ge(0);
-  const torch::Tensor index = labels.clamp_min(0).unsqueeze(1);
-  const torch::Tensor own =
-      torch::log_softmax(logits, 1).gather(1, index).squeeze(1);
-  const torch::Tensor other =
-      torch::log_softmax(swappedLogits, 1).gather(1, index).squeeze(1);
-  const torch::Tensor perDecision =
-      torch::nn::functional::softplus(other - own) * valid;
-  return perDecision.sum() / valid.sum().clamp_min(1);
+  return models::instructionContrast(logits, swappedLogits, labels,
+                                     labels.ge(0));
 }
 
 void validateWaypointAgentConfig(const ExperimentConfig& config) {

@@ -60,3 +60,35 @@ TEST(LossTest, ProgressLossIgnoresPaddedSteps) {
 
 }  // namespace
 }  // namespace vln::models
+
+namespace vln::models {
+namespace {
+
+// softplus(log p_swapped(label) - log p_own(label)) by hand: equal logits
+// give ln 2; own p = 0.8 and swapped p = 0.2 give ln(1 + 0.2 / 0.8); invalid
+// entries count for nothing, whatever their label
+TEST(LossTest, InstructionContrastByHand) {
+  const torch::Tensor own =
+      torch::log(torch::tensor({0.8f, 0.2f, 0.5f, 0.5f, 0.1f, 0.9f}))
+          .view({3, 2});
+  const torch::Tensor swapped =
+      torch::log(torch::tensor({0.2f, 0.8f, 0.5f, 0.5f, 0.9f, 0.1f}))
+          .view({3, 2});
+  const torch::Tensor labels = torch::tensor({0, 1, 7}, torch::kInt64);
+  const torch::Tensor valid = torch::tensor({1, 1, 0}, torch::kBool);
+  const double expected = (std::log(1.0 + 0.2 / 0.8) + std::log(2.0)) / 2.0;
+  EXPECT_NEAR(instructionContrast(own, swapped, labels, valid).item<double>(),
+              expected, 1e-6);
+  EXPECT_NEAR(instructionContrast(own, own, labels, valid).item<double>(),
+              std::log(2.0), 1e-6);
+  // the [T, B] layout of the low-level trainer reduces the same way
+  EXPECT_NEAR(instructionContrast(own.view({3, 1, 2}), swapped.view({3, 1, 2}),
+                                  labels.view({3, 1}), valid.view({3, 1}))
+                  .item<double>(),
+              expected, 1e-6);
+  EXPECT_THROW(instructionContrast(own, swapped.view({2, 3}), labels, valid),
+               c10::Error);
+}
+
+}  // namespace
+}  // namespace vln::models

@@ -182,6 +182,70 @@ TEST(ImitationLearnerTest, TextFeatureModelTrainsOnTheBatchsFeatures) {
   EXPECT_LT(last, 0.5 * first) << "first " << first << " last " << last;
 }
 
+// trainer.instruction_contrast_weight: with every episode's words alike
+// the contrast is exactly ln 2 and adds weight x ln 2 to the loss; on
+// episodes whose actions only the words tell apart (blank features)
+// training with it lowers it far below ln 2 (not to 0: a partner in the
+// batch may be of the same kind), and the epochs report it
+TEST(ImitationLearnerTest, InstructionContrastMeasuresHowMuchTheWordsDecide) {
+  ExperimentConfig c = tinyLearnerConfig(4);
+  c.trainer.instruction_contrast_weight = 0.5;
+  vln::test::TempDir dir;
+  const auto r = models::rgbFeatureShape(c.model);
+  const auto d = models::depthFeatureShape(c.model);
+  FeatureStore alike(dir / "alike", layoutOf(c), 0.05);
+  FeatureStore told(dir / "told", layoutOf(c), 0.05);
+  torch::manual_seed(5);
+  for (int i = 0; i < 12; ++i) {
+    const int kind = i % 3;  // the episode's one action, named by its words
+    StoredEpisode e;
+    e.key.episode_id = i;
+    e.key.slot = i;
+    // lengths independent of the kind: batches group similar lengths
+    const int T = 4 + (i / 3) % 3;
+    e.rgb = torch::zeros({T, r[0], r[1], r[2]});
+    e.depth = torch::zeros({T, d[0], d[1], d[2]});
+    for (int t = 0; t < T; ++t) {
+      const int action = t == T - 1 ? 0 : 1 + kind;
+      e.oracle_actions.push_back(static_cast<uint8_t>(action));
+      e.prev_actions.push_back(0);  // else it would tell the kind from t = 1
+      e.progress.push_back(static_cast<float>(t + 1) / static_cast<float>(T));
+    }
+    e.tokens = {4, 5, 6};
+    alike.append(e);
+    e.tokens = {1 + kind, 5, 6};
+    told.append(e);
+  }
+
+  torch::manual_seed(3);
+  ImitationLearner first(models::makePolicy(c.model), c);
+  const std::vector<int64_t> four = {0, 1, 2, 3};
+  const UpdateResult same = first.update(alike.loadBatch(four));
+  EXPECT_NEAR(same.instruction_contrast, std::log(2.0), 1e-6);
+  EXPECT_NEAR(same.loss,
+              same.action_loss + c.trainer.progress_loss_weight *
+                                     same.progress_loss +
+                  0.5 * std::log(2.0),
+              1e-5);
+
+  torch::manual_seed(3);
+  ImitationLearner learner(models::makePolicy(c.model), c);
+  const EpochResult start = learner.trainEpoch(told, 1, 0);
+  EpochResult end;
+  for (int epoch = 1; epoch < 40; ++epoch)
+    end = learner.trainEpoch(told, 1, epoch);
+  EXPECT_GT(start.mean.instruction_contrast, 0.5);
+  EXPECT_LT(end.mean.instruction_contrast, 0.45)
+      << "from " << start.mean.instruction_contrast << " action loss "
+      << start.mean.action_loss << " -> " << end.mean.action_loss;
+
+  // off: nothing is computed or reported
+  c.trainer.instruction_contrast_weight = 0.0;
+  torch::manual_seed(3);
+  ImitationLearner off(models::makePolicy(c.model), c);
+  EXPECT_EQ(off.update(told.loadBatch(four)).instruction_contrast, 0.0);
+}
+
 // One accumulated update over `groups` (store indices per batch) against
 // one update on their concatenation, from the same initial weights: the
 // losses, every gradient and the weights after the step agree to float

@@ -194,7 +194,13 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
       "  dagger_iterations: 2\n  dagger_episodes: 4\n  dagger_epochs: 1\n"
       "  eval_during_training: false\n");
   std::string output;
-  ASSERT_EQ(vln::test::runCommand(trainCommand(config), &output), 0) << output;
+  // with the instruction-contrast loss on, which every epoch reports
+  ASSERT_EQ(vln::test::runCommand(
+                trainCommand(config,
+                             "--set trainer.instruction_contrast_weight=0.5"),
+                &output),
+            0)
+      << output;
   const fs::path run = dir_ / "run";
   auto store = FeatureStore::openExisting(run / "store");
   ASSERT_EQ(store->size(), 8);
@@ -207,10 +213,19 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
   EXPECT_EQ(last.progress.stage, "dagger");
   EXPECT_EQ(last.progress.episodes_collected, 8);
   std::vector<double> betas;
-  for (const auto& record : readJsonLines(run / "metrics.jsonl"))
+  int epochs = 0;
+  for (const auto& record : readJsonLines(run / "metrics.jsonl")) {
     if (record["type"] == "collect")
       betas.push_back(record["beta"].get<double>());
+    if (record["type"] == "epoch") {
+      ++epochs;
+      // batches of different instructions: positive, finite
+      EXPECT_GT(record["instruction_contrast"].get<double>(), 0.0);
+      EXPECT_LT(record["instruction_contrast"].get<double>(), 10.0);
+    }
+  }
   EXPECT_EQ(betas, (std::vector<double>{1.0, 0.75}));
+  EXPECT_EQ(epochs, 2);
   EXPECT_FALSE(fs::exists(run / "eval"));
 }
 
