@@ -140,9 +140,6 @@ std::unique_ptr<rollout::Agent> scriptedAgent(
   train::ExperimentConfig checked = config;
   checked.model = model->config();
   train::checkWaypointPanorama(checked, "eval of '" + file.string() + "'");
-  VLN_CHECK_ARG(config.panorama.num_views == model->numViews(), "eval: '",
-                file.string(), "' reads ", model->numViews(),
-                " views, panorama.num_views is ", config.panorama.num_views);
   VLN_CHECK_ARG(config.waypoint_agent.candidates != "predictor" ||
                     model->proposes(),
                 "eval: '", file.string(),

@@ -2,8 +2,6 @@
 
 #include <torch/torch.h>
 
-#include <cmath>
-
 #include "common/Check.h"
 #include "rollout/ExportedArchive.h"
 
@@ -37,19 +35,21 @@ ScriptedWaypointModel::ScriptedWaypointModel(torch::jit::Module module,
                 "' is not a waypoint policy export (no num_views attribute); "
                 "a low-level policy's export runs as ScriptedPolicyAgent");
   const c10::IValue views = module_.attr("num_views");
-  VLN_CHECK_ARG(views.isInt() && views.toInt() >= 1, kWho, ": '",
-                file.string(), "': attribute num_views is not a positive int");
+  VLN_CHECK_ARG(views.isInt() && views.toInt() >= 1, kWho, ": '", file.string(),
+                "': attribute num_views is not a positive int");
   numViews_ = static_cast<int>(views.toInt());
   hasPredictor_ = module_.hasattr("has_predictor") &&
                   module_.attr("has_predictor").isBool() &&
                   module_.attr("has_predictor").toBool();
   checkRunsOnObservations(module_, config_, file, kWho);
-  for (const char* method : {"step_features", "propose_features"}) {
-    if (std::string(method) == "propose_features" && !hasPredictor_) continue;
+  // the methods step() and propose() call
+  std::vector<const char*> methods = {"step_features"};
+  if (hasPredictor_)
+    methods.insert(methods.end(), {"heatmap_features", "suppress"});
+  for (const char* method : methods)
     VLN_CHECK_ARG(module_.find_method(method).has_value(), kWho, ": '",
                   file.string(), "' has no method ", method,
                   " (not written by models::exportWaypointPolicy?)");
-  }
 }
 
 ScriptedWaypointModel::~ScriptedWaypointModel() = default;
@@ -81,8 +81,7 @@ PanoramaFeatures ScriptedWaypointModel::encode(const at::Tensor& rgb,
   PanoramaFeatures out;
   auto run = [&](const char* method, const at::Tensor& views) {
     const int64_t n = views.size(0);
-    return module_
-        .run_method(method, views.to(device_).flatten(0, 1))
+    return module_.run_method(method, views.to(device_).flatten(0, 1))
         .toTensor()
         .reshape({n, views.size(1), -1});
   };
@@ -103,8 +102,8 @@ std::vector<std::vector<waypoint::Candidate>> ScriptedWaypointModel::propose(
                 "' was exported without the predictor (has_predictor is "
                 "false): it cannot propose candidates");
   torch::NoGradGuard noGrad;
-  const int64_t n = (features.rgb.defined() ? features.rgb : features.depth)
-                        .size(0);
+  const int64_t n =
+      (features.rgb.defined() ? features.rgb : features.depth).size(0);
   // the heatmap, then the archive's suppression of it: each candidate's
   // cell gives its bins and score, as waypoint::heatmapNms() reports them
   const at::Tensor heatmap =
@@ -113,32 +112,40 @@ std::vector<std::vector<waypoint::Candidate>> ScriptedWaypointModel::propose(
                       orPlaceholder(features.depth, n))
           .toTensor();
   const auto proposed = module_.run_method("suppress", heatmap).toTuple();
-  const at::Tensor polar =
-      proposed->elements()[0].toTensor().to(torch::kCPU).contiguous();
-  const at::Tensor mask =
-      proposed->elements()[1].toTensor().to(torch::kCPU).contiguous();
-  const at::Tensor cells = heatmap.to(torch::kCPU).contiguous();
-  VLN_CHECK_ARG(polar.dim() == 3 && polar.size(0) == n && mask.dim() == 2 &&
-                    cells.dim() == 3 && cells.size(1) == waypoint::kNumHeadings &&
+  const at::Tensor polar = proposed->elements()[0]
+                               .toTensor()
+                               .to(torch::kCPU, torch::kFloat32)
+                               .contiguous();
+  const at::Tensor mask = proposed->elements()[1]
+                              .toTensor()
+                              .to(torch::kCPU, torch::kBool)
+                              .contiguous();
+  const at::Tensor cells =
+      heatmap.to(torch::kCPU, torch::kFloat32).contiguous();
+  VLN_CHECK_ARG(polar.dim() == 3 && polar.size(0) == n && polar.size(2) == 2 &&
+                    mask.dim() == 2 && mask.size(0) == n &&
+                    mask.size(1) == polar.size(1) && cells.dim() == 3 &&
+                    cells.size(0) == n &&
+                    cells.size(1) == waypoint::kNumHeadings &&
                     cells.size(2) == waypoint::kNumDistances,
                 kWho, ": '", file_.string(),
                 "' proposed candidates of unexpected shapes ", polar.sizes(),
                 ", ", mask.sizes(), " (heatmap ", cells.sizes(), ")");
+  const auto polarAt = polar.accessor<float, 3>();
+  const auto maskAt = mask.accessor<bool, 2>();
+  const auto cellAt = cells.accessor<float, 3>();
   std::vector<std::vector<waypoint::Candidate>> out(static_cast<size_t>(n));
   for (int64_t i = 0; i < n; ++i)
     for (int64_t j = 0; j < mask.size(1); ++j) {
-      if (!mask[i][j].item<bool>()) continue;
-      const double heading = polar[i][j][0].item<double>();
-      const double distance = polar[i][j][1].item<double>();
-      const int h = static_cast<int>(std::lround(heading / waypoint::kHeadingStep)) %
-                    waypoint::kNumHeadings;
-      const int d = static_cast<int>(
-                        std::lround(distance / waypoint::kDistanceStep)) - 1;
-      VLN_CHECK_ARG(h >= 0 && d >= 0 && d < waypoint::kNumDistances, kWho,
-                    ": '", file_.string(), "' proposed a candidate at ",
-                    heading, " rad, ", distance, " m, off the heatmap's bins");
+      if (!maskAt[i][j]) continue;
+      const float heading = polarAt[i][j][0], distance = polarAt[i][j][1];
+      const int h = waypoint::headingBin(heading);
+      const int d = waypoint::distanceBin(distance);
+      VLN_CHECK_ARG(d >= 0, kWho, ": '", file_.string(),
+                    "' proposed a candidate at ", distance,
+                    " m, off the heatmap's distance bins");
       out[static_cast<size_t>(i)].push_back(
-          waypoint::candidateAt(h, d, cells[i][h][d].item<float>()));
+          waypoint::candidateAt(h, d, cellAt[i][h][d]));
     }
   return out;
 }
@@ -180,8 +187,8 @@ at::Tensor ScriptedWaypointModel::step(std::span<const int> envs,
   VLN_CHECK_ARG(logits.dim() == 2 && logits.size(0) == n &&
                     logits.size(1) == candidates.size(1) + 1,
                 kWho, ": '", file_.string(), "' step_features returned logits ",
-                logits.sizes(), ", expected [", n, ", ",
-                candidates.size(1) + 1, "]");
+                logits.sizes(), ", expected [", n, ", ", candidates.size(1) + 1,
+                "]");
   for (int64_t i = 0; i < n; ++i)
     state(envs[static_cast<size_t>(i)]).hidden = hidden[i].clone();
   return logits;
