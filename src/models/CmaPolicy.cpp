@@ -132,7 +132,7 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
   if (config_.usesRgb()) {
     const int64_t channels = rgbShape_[0];
     const int64_t positions = rgbShape_[1] * rgbShape_[2];
-    rgbFeats = inputs.rgb.reshape({n, channels, positions});
+    rgbFeats = trainingDropout(inputs.rgb.reshape({n, channels, positions}));
     rgbPos = rgb_spatial_embedding->weight.view({posDim, positions});
     const torch::Tensor& w = rgb_linear->weight;
     const torch::Tensor bias =
@@ -144,7 +144,8 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
   if (config_.usesDepth()) {
     const int64_t channels = depthShape_[0];
     const int64_t positions = depthShape_[1] * depthShape_[2];
-    depthFeats = inputs.depth.reshape({n, channels, positions});
+    depthFeats =
+        trainingDropout(inputs.depth.reshape({n, channels, positions}));
     depthPos = depth_spatial_embedding->weight.view({posDim, positions});
     const torch::Tensor& w = depth_linear->weight;
     const int64_t split = channels * positions;
@@ -198,7 +199,7 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
       second_state_encoder(x, hidden.select(1, 1), inputs.not_done);
 
   PolicyOutputs out;
-  out.logits = action_head(actionState);
+  out.logits = action_head(trainingDropout(actionState));
   if (progress_monitor)
     out.progress = torch::tanh(progress_monitor(actionState)).squeeze(-1);
   out.hidden = torch::stack({lastState, lastAction}, /*dim=*/1);

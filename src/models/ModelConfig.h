@@ -79,6 +79,7 @@ struct ModelConfig {
   int depth_projection_size = 128;
   int spatial_embedding_dim = 64;
   bool progress_monitor = false;
+  double dropout = 0.0;
   int depth_resnet_base_planes = 32;
   int rgb_height = 224;
   int rgb_width = 224;
@@ -174,6 +175,13 @@ struct ModelConfig {
     v.field("progress_monitor", progress_monitor,
             "Add the progress-monitor head (tanh of a linear map of the action "
             "GRU state)");
+    v.field("dropout", dropout,
+            "Dropout probability while training (0: none; VLN-CE has none): "
+            "on the instruction's encoded states, on the visual feature maps "
+            "and on the state the action head reads, as R2R agents regularise "
+            "(EnvDrop's feature and hidden dropout). Collection and "
+            "evaluation run without it",
+            common::inRange(0.0, 0.9));
     v.field("depth_resnet_base_planes", depth_resnet_base_planes,
             "Base width of DD-PPO's depth ResNet (even: GroupNorm groups are "
             "half of it)",

@@ -27,7 +27,16 @@ PolicyImpl::PolicyImpl(const ModelConfig& config) : config_(config) {
 EncodedInstruction PolicyImpl::encodeInstruction(
     const torch::Tensor& instruction) {
   if (!instruction_encoder) return {};
-  return prepareInstruction(instruction_encoder->forward(instruction));
+  InstructionStates states = instruction_encoder->forward(instruction);
+  // padding stays zero: dropout only scales or zeroes values
+  states.states = trainingDropout(states.states);
+  states.last = trainingDropout(states.last);
+  return prepareInstruction(states);
+}
+
+torch::Tensor PolicyImpl::trainingDropout(const torch::Tensor& x) {
+  if (!x.defined() || config_.dropout <= 0.0 || !is_training()) return x;
+  return torch::dropout(x, config_.dropout, /*train=*/true);
 }
 
 PolicyOutputs PolicyImpl::step(const EncodedInstruction& instruction,

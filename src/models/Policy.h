@@ -111,6 +111,9 @@ class PolicyImpl : public torch::nn::Module {
                                           const torch::Tensor& hidden) const;
   /// Embedding indices (prev_action + 1) * not_done, int64 [T, B].
   static torch::Tensor prevActionIndex(const PolicyInputs& inputs);
+  /// `x` with model.dropout applied in training mode; `x` itself in eval
+  /// mode, with dropout 0 or when `x` is undefined.
+  torch::Tensor trainingDropout(const torch::Tensor& x);
   /// Initialises an action head (orthogonal, gain 0.01, zero bias; habitat's
   /// CategoricalNet) and a progress head (Kaiming normal for tanh, zero
   /// bias; VLN-CE).

@@ -67,17 +67,18 @@ PolicyOutputs Seq2SeqPolicyImpl::forwardSequence(
         {steps, batch, instruction.summary.size(1)}));
   }
   if (config_.usesDepth())
-    parts.push_back(torch::relu(depth_linear(inputs.depth.flatten(2))));
-  if (config_.usesRgb())
     parts.push_back(
-        torch::relu(rgb_linear(inputs.rgb.flatten(3).mean(/*dim=*/-1))));
+        torch::relu(depth_linear(trainingDropout(inputs.depth.flatten(2)))));
+  if (config_.usesRgb())
+    parts.push_back(torch::relu(rgb_linear(
+        trainingDropout(inputs.rgb.flatten(3)).mean(/*dim=*/-1))));
   if (prev_action_embedding)
     parts.push_back(prev_action_embedding(prevActionIndex(inputs)));
 
   auto [states, last] = state_encoder(torch::cat(parts, /*dim=*/-1),
                                       hidden.select(1, 0), inputs.not_done);
   PolicyOutputs out;
-  out.logits = action_head(states);
+  out.logits = action_head(trainingDropout(states));
   if (progress_monitor)
     out.progress = torch::tanh(progress_monitor(states)).squeeze(-1);
   out.hidden = last.unsqueeze(1);

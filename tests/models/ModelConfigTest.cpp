@@ -111,6 +111,10 @@ TEST(ModelConfigTest, ValidateNamesFieldAndValue) {
         common::loadConfigText<Root>("model:\n  depth_resnet_base_planes: 5\n");
       }),
       HasSubstr("depth_resnet_base_planes must be even"));
+  EXPECT_THAT(errorOf([] {
+                common::loadConfigText<Root>("model:\n  dropout: 1.0\n");
+              }),
+              HasSubstr("model.dropout"));
   // small depth images are fine for the small CNN or without depth
   EXPECT_NO_THROW(common::loadConfigText<Root>(
       "model:\n  depth_height: 32\n  depth_encoder: small_cnn\n"));

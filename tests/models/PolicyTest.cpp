@@ -250,6 +250,42 @@ TEST_P(PolicyTest, SaveLoadRoundTripReproducesOutputs) {
   EXPECT_TRUE(torch::equal(run(*a), run(*b)));
 }
 
+TEST_P(PolicyTest, DropoutActsOnlyWhileTraining) {
+  ModelConfig c = config();
+  c.dropout = 0.5;
+  auto policy = makePolicy(c);
+  c.dropout = 0.0;
+  auto plain = makePolicy(c);
+  {
+    torch::NoGradGuard noGrad;
+    auto target = plain->named_parameters();
+    for (const auto& p : policy->named_parameters())
+      target[p.key()].copy_(p.value());
+  }
+  const torch::Tensor tokens = randomTokens({4, 7, 2}, 9, 23);
+  const PolicyInputs in = randomInputs(c, 5, 3);
+  auto run = [&](PolicyImpl& p) {
+    return p
+        .forwardSequence(p.encodeInstruction(tokens), in, p.initialHidden(3))
+        .logits;
+  };
+  // acting (collection, evaluation) sees the weights without dropout
+  policy->eval();
+  const torch::Tensor acting = run(*policy);
+  plain->train();
+  EXPECT_TRUE(torch::equal(acting, run(*plain)));
+  // training draws masks from the default generator, which checkpoints
+  // save: the same seed gives the same masks (bit-exact resume)
+  policy->train();
+  torch::manual_seed(3);
+  const torch::Tensor first = run(*policy);
+  const torch::Tensor second = run(*policy);
+  torch::manual_seed(3);
+  EXPECT_TRUE(torch::equal(first, run(*policy)));
+  EXPECT_FALSE(torch::allclose(first, second));
+  EXPECT_FALSE(torch::allclose(first, acting));
+}
+
 TEST_P(PolicyTest, FrozenEmbeddingsGetNoGradient) {
   ModelConfig c = config();
   const torch::Tensor glove = torch::randn({c.vocab_size, c.embedding_dim});

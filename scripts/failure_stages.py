@@ -1,0 +1,201 @@
+#!/usr/bin/env python3
+"""Where along the reference path agents go wrong, per agent.
+
+Success rate says how often an agent arrives, not where the others fail.
+This sorts every episode of a split into one outcome:
+
+  success            stopped within the success distance of the goal
+  stopped near goal  came within it at some step (oracle success) but
+                     stopped elsewhere: the route was right, the stop not
+  lost in 1st third  left the reference path before passing a third of its
+  lost in 2nd third  nodes, before two thirds, or later: "passing" node k
+  lost in 3rd third  means coming within --radius metres of it after the
+                     nodes before it, in order
+
+and reports, separately, how often the agent's first forward step heads
+within 45 degrees of the path's first leg (the direction from the start to
+the first reference node more than --radius away): how well it reads the
+instruction's opening turn.
+
+    /usr/bin/python3 scripts/failure_stages.py --split val_unseen \\
+        --agent cma 'results/x/main_ft/seed*' \\
+        --agent no-instruction 'results/x/main_noinstr/seed*'
+
+Reads <dir>/episodes_ckpt_*_<split>.json.gz (eval's per-episode files,
+one per directory: actions, positions, headings, metrics) and the split's
+episodes file (reference paths). Fractions are means over an agent's
+directories (seeds). Needs only the Python standard library.
+"""
+import argparse
+import glob
+import gzip
+import json
+import math
+import os
+import statistics
+import sys
+
+OUTCOMES = ["success", "stopped near goal", "lost in 1st third",
+            "lost in 2nd third", "lost in 3rd third"]
+MOVE_FORWARD = 1
+
+
+def fail(message):
+    sys.exit(f"failure_stages.py: {message}")
+
+
+def load_json_gz(path):
+    try:
+        with gzip.open(path, "rt") as f:
+            return json.load(f)
+    except (OSError, ValueError) as e:
+        fail(f"cannot read '{path}': {e}")
+
+
+def reference_paths(data, split):
+    path = os.path.join(data, split, f"{split}.json.gz")
+    episodes = load_json_gz(path).get("episodes")
+    if not isinstance(episodes, list):
+        fail(f"'{path}' has no 'episodes' list")
+    out = {}
+    for e in episodes:
+        ref = e.get("reference_path")
+        if not isinstance(ref, list) or len(ref) < 2:
+            fail(f"'{path}': episode {e.get('episode_id')} has no "
+                 "reference_path of two or more points")
+        out[str(e["episode_id"])] = ref
+    return out
+
+
+def planar_distance(a, b):
+    return math.hypot(a[0] - b[0], a[2] - b[2])
+
+
+def nodes_passed(positions, ref, radius):
+    """Index of the last reference node passed in order."""
+    k = 0
+    for p in positions:
+        while k + 1 < len(ref) and math.dist(p, ref[k + 1]) < radius:
+            k += 1
+    return k
+
+
+def first_leg_heading(ref, radius):
+    start = ref[0]
+    for node in ref[1:]:
+        if planar_distance(node, start) > radius:
+            # Habitat's convention: heading h faces (-sin h, 0, -cos h)
+            return math.atan2(-(node[0] - start[0]), -(node[2] - start[2]))
+    return None
+
+
+def angle_between(a, b):
+    return abs((a - b + math.pi) % (2 * math.pi) - math.pi)
+
+
+def classify(episode, ref, radius, where):
+    metrics = episode.get("metrics", {})
+    path = episode.get("path", {})
+    positions = path.get("positions")
+    headings = path.get("headings")
+    actions = episode.get("actions")
+    if not (isinstance(positions, list) and positions and
+            isinstance(headings, list) and len(headings) == len(positions) and
+            isinstance(actions, list) and "success" in metrics and
+            "oracle_success" in metrics):
+        fail(f"{where}: episode {episode.get('episode_id')} lacks "
+             "metrics.success/oracle_success, path.positions/headings of "
+             "equal length or actions")
+    if metrics["success"]:
+        outcome = "success"
+    elif metrics["oracle_success"]:
+        outcome = "stopped near goal"
+    else:
+        fraction = nodes_passed(positions, ref, radius) / (len(ref) - 1)
+        third = min(2, int(fraction * 3))
+        outcome = OUTCOMES[2 + third]
+    want = first_leg_heading(ref, radius)
+    first_forward = next((i for i, a in enumerate(actions)
+                          if a == MOVE_FORWARD and i < len(headings)), None)
+    if want is None or first_forward is None:
+        opening = None  # no leg to compare, or the agent never moved
+    else:
+        opening = angle_between(headings[first_forward], want) < math.pi / 4
+    return outcome, opening
+
+
+def agent_rates(pattern, split, refs, radius):
+    dirs = sorted(d for d in glob.glob(pattern) if os.path.isdir(d))
+    if not dirs:
+        fail(f"no directory matches '{pattern}'")
+    per_run = []
+    for d in dirs:
+        files = glob.glob(os.path.join(d, f"episodes_ckpt_*_{split}.json.gz"))
+        if len(files) != 1:
+            fail(f"'{d}' must hold exactly one "
+                 f"episodes_ckpt_*_{split}.json.gz, found {len(files)}")
+        episodes = load_json_gz(files[0]).get("episodes")
+        if not isinstance(episodes, list) or not episodes:
+            fail(f"'{files[0]}' has no episodes")
+        counts = dict.fromkeys(OUTCOMES, 0)
+        opening_right, opening_judged = 0, 0
+        for e in episodes:
+            episode = str(e.get("episode_id"))
+            if episode not in refs:
+                fail(f"'{files[0]}': episode {episode} is not in split {split}")
+            outcome, opening = classify(e, refs[episode], radius, files[0])
+            counts[outcome] += 1
+            if opening is not None:
+                opening_judged += 1
+                opening_right += opening
+        rates = {k: v / len(episodes) for k, v in counts.items()}
+        rates["opening"] = (opening_right / opening_judged
+                            if opening_judged else float("nan"))
+        rates["episodes"] = len(episodes)
+        per_run.append(rates)
+    keys = OUTCOMES + ["opening"]
+    return ({k: statistics.mean(r[k] for r in per_run) for k in keys},
+            len(dirs), per_run[0]["episodes"])
+
+
+def main():
+    parser = argparse.ArgumentParser(
+        description=__doc__.split("\n\n")[0],
+        formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--split", required=True)
+    parser.add_argument("--data", default="data/datasets/procedural",
+                        help="the dataset directory (default: %(default)s)")
+    parser.add_argument("--radius", type=float, default=1.0,
+                        help="metres within which a reference node counts "
+                             "as passed (default: %(default)s)")
+    parser.add_argument("--agent", nargs=2, action="append", required=True,
+                        metavar=("NAME", "GLOB"),
+                        help="an agent and its result directories (seeds)")
+    parser.add_argument("--json", action="store_true",
+                        help="print the fractions as JSON")
+    args = parser.parse_args()
+    if not args.radius > 0:
+        fail(f"--radius must be positive, got {args.radius}")
+
+    refs = reference_paths(args.data, args.split)
+    results = {}
+    for name, pattern in args.agent:
+        rates, runs, episodes = agent_rates(pattern, args.split, refs,
+                                            args.radius)
+        results[name] = dict(rates, runs=runs, episodes=episodes)
+    if args.json:
+        print(json.dumps(results, indent=2, sort_keys=True))
+        return
+    print(f"{args.split}: fraction of episodes by outcome (mean over each "
+          f"agent's runs; reference nodes passed within {args.radius:g} m)")
+    columns = OUTCOMES + ["opening leg right"]
+    print("| agent (runs x episodes) | " + " | ".join(columns) + " |")
+    print("| --- |" + " ---: |" * len(columns))
+    for name, r in results.items():
+        cells = [f"{r[k]:.3f}" for k in OUTCOMES + ["opening"]]
+        print(f"| {name} ({r['runs']} x {r['episodes']}) | "
+              + " | ".join(cells) + " |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,163 @@
+// scripts/failure_stages.py: each episode sorted into success, stopped near
+// the goal, or lost in a third of the reference path, and how often the
+// first forward step follows the path's first leg, as means over an agent's
+// runs. Checked on hand-made episodes whose outcomes are worked out by
+// hand, and on the inputs it must refuse. Skipped without /usr/bin/python3.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "common/Json.h"
+#include "support/TestPaths.h"
+
+namespace vln::eval {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+bool havePython() {
+  static const bool have =
+      vln::test::runCommand("/usr/bin/python3 -c 'import json' 2>&1") == 0;
+  return have;
+}
+
+int runScript(const std::string& args, std::string* log) {
+  const fs::path script =
+      vln::test::sourcePath() / "scripts" / "failure_stages.py";
+  return vln::test::runCommand(
+      "/usr/bin/python3 " + script.string() + " " + args + " 2>&1", log);
+}
+
+// four episodes on the same straight path along +x: nodes every 2 m
+void writeSplit(const fs::path& data) {
+  nlohmann::json episodes = nlohmann::json::array();
+  for (int i = 1; i <= 4; ++i)
+    episodes.push_back(
+        {{"episode_id", i},
+         {"reference_path", {{0, 0, 0}, {2, 0, 0}, {4, 0, 0}, {6, 0, 0}}}});
+  common::writeJsonFile(data / "val_unseen" / "val_unseen.json.gz",
+                        {{"episodes", episodes}});
+}
+
+// Habitat's heading that faces +x (forward is (-sin h, 0, -cos h)), and
+// the opposite one
+const double kAlongPath = -M_PI / 2;
+const double kAgainstPath = M_PI / 2;
+
+nlohmann::json episode(int id, int success, int oracleSuccess,
+                       const std::vector<std::vector<double>>& positions,
+                       double heading, const std::vector<int>& actions) {
+  return {{"episode_id", std::to_string(id)},
+          {"actions", actions},
+          {"path",
+           {{"positions", positions},
+            {"headings", std::vector<double>(positions.size(), heading)}}},
+          {"metrics",
+           {{"success", success}, {"oracle_success", oracleSuccess}}}};
+}
+
+void writeRun(const fs::path& dir, const std::vector<nlohmann::json>& episodes) {
+  common::writeJsonFile(dir / "episodes_ckpt_2_val_unseen.json.gz",
+                        {{"episodes", nlohmann::json(episodes)}});
+}
+
+TEST(FailureStagesScriptTest, OutcomesAndOpeningLegByHand) {
+  if (!havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  vln::test::TempDir dir;
+  writeSplit(dir / "data");
+  const std::vector<std::vector<double>> walked{
+      {0, 0, 0}, {1, 0, 0}, {2.2, 0, 0}, {2.2, 0, 3}};
+  // seed 0: a success along the path; the goal area reached but the stop
+  // elsewhere, first step against the path; node 1 of 3 passed (a third:
+  // lost in the second third); never moved (lost in the first, opening
+  // not judged)
+  writeRun(dir / "a" / "seed0",
+           {episode(1, 1, 1, walked, kAlongPath, {1, 1, 1, 0}),
+            episode(2, 0, 1, walked, kAgainstPath, {1, 1, 1, 0}),
+            episode(3, 0, 0, walked, kAlongPath, {3, 1, 1, 0}),
+            episode(4, 0, 0, {{0, 0, 0}}, kAlongPath, {0})});
+  // seed 1: all four succeed; the last one never moved
+  writeRun(dir / "a" / "seed1",
+           {episode(1, 1, 1, walked, kAlongPath, {1, 1, 1, 0}),
+            episode(2, 1, 1, walked, kAlongPath, {1, 1, 1, 0}),
+            episode(3, 1, 1, walked, kAlongPath, {1, 1, 1, 0}),
+            episode(4, 1, 1, {{0, 0, 0}}, kAlongPath, {0})});
+  std::string log;
+  ASSERT_EQ(runScript("--json --data " + (dir / "data").string() +
+                          " --split val_unseen --agent A '" +
+                          (dir / "a" / "seed*").string() + "'",
+                      &log),
+            0)
+      << log;
+  const nlohmann::json a = nlohmann::json::parse(log).at("A");
+  EXPECT_EQ(a.at("runs"), 2);
+  EXPECT_EQ(a.at("episodes"), 4);
+  EXPECT_DOUBLE_EQ(a.at("success").get<double>(), (0.25 + 1.0) / 2);
+  EXPECT_DOUBLE_EQ(a.at("stopped near goal").get<double>(), 0.125);
+  EXPECT_DOUBLE_EQ(a.at("lost in 1st third").get<double>(), 0.125);
+  EXPECT_DOUBLE_EQ(a.at("lost in 2nd third").get<double>(), 0.125);
+  EXPECT_DOUBLE_EQ(a.at("lost in 3rd third").get<double>(), 0.0);
+  // seed 0: 2 of 3 judged openings along the path; seed 1: 3 of 3
+  EXPECT_NEAR(a.at("opening").get<double>(), (2.0 / 3 + 1.0) / 2, 1e-12);
+
+  // the table form names the columns and the runs
+  ASSERT_EQ(runScript("--data " + (dir / "data").string() +
+                          " --split val_unseen --agent A '" +
+                          (dir / "a" / "seed*").string() + "'",
+                      &log),
+            0)
+      << log;
+  EXPECT_THAT(log, HasSubstr("| A (2 x 4) | 0.625 | 0.125 | 0.125 | 0.125 | "
+                             "0.000 | 0.833 |"));
+}
+
+TEST(FailureStagesScriptTest, InputsItCannotUseAreNamed) {
+  if (!havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  vln::test::TempDir dir;
+  writeSplit(dir / "data");
+  const std::vector<std::vector<double>> walked{{0, 0, 0}, {1, 0, 0}};
+  const std::string common =
+      "--data " + (dir / "data").string() + " --split val_unseen --agent A ";
+  std::string log;
+  EXPECT_NE(runScript(common + "'" + (dir / "nothing*").string() + "'", &log),
+            0);
+  EXPECT_THAT(log, HasSubstr("no directory matches"));
+  // an episode the split does not have
+  writeRun(dir / "extra", {episode(9, 1, 1, walked, kAlongPath, {1, 0})});
+  EXPECT_NE(runScript(common + "'" + (dir / "extra").string() + "'", &log), 0);
+  EXPECT_THAT(log, HasSubstr("episode 9 is not in split val_unseen"));
+  // headings that do not match the positions
+  nlohmann::json bad = episode(1, 1, 1, walked, kAlongPath, {1, 0});
+  bad["path"]["headings"] = {0.0};
+  writeRun(dir / "bad", {bad});
+  EXPECT_NE(runScript(common + "'" + (dir / "bad").string() + "'", &log), 0);
+  EXPECT_THAT(log, HasSubstr("episode 1 lacks"));
+  EXPECT_THAT(log, HasSubstr((dir / "bad").string()));
+  // a radius that passes nothing
+  EXPECT_NE(runScript("--radius 0 " + common + "'" + (dir / "extra").string() +
+                          "'",
+                      &log),
+            0);
+  EXPECT_THAT(log, HasSubstr("--radius must be positive"));
+  // a split whose reference path is a single point
+  const nlohmann::json onePoint = {
+      {"episode_id", 1},
+      {"reference_path", nlohmann::json::array({{0, 0, 0}})}};
+  common::writeJsonFile(dir / "short" / "val_unseen" / "val_unseen.json.gz",
+                        {{"episodes", nlohmann::json::array({onePoint})}});
+  EXPECT_NE(runScript("--data " + (dir / "short").string() +
+                          " --split val_unseen --agent A '" +
+                          (dir / "bad").string() + "'",
+                      &log),
+            0);
+  EXPECT_THAT(log, HasSubstr("episode 1 has no reference_path"));
+}
+
+}  // namespace
+}  // namespace vln::eval
