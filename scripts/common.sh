@@ -58,6 +58,16 @@ vln_train() {
   shift
   run=$(vln_config_value "$config" output dir "$@")
   if [[ -f $run/finished.json ]]; then
+    # a finished run of an older recipe must not pass for this one
+    local changes
+    changes=$(diff <("$vln_bin/train" --config "$run/config.yaml" --dry-run) \
+                   <("$vln_bin/train" --config "$config" --dry-run "$@")) || {
+      echo "$run was trained with another config than $config $* now gives" \
+           "(< the run, > now):" >&2
+      echo "$changes" | grep '^[<>]' >&2
+      echo "Start over with VLN_FRESH=1 $0, or move $run away." >&2
+      exit 1
+    }
     vln_stamp "training: $run already finished"
   elif [[ -f $run/config.yaml ]]; then
     vln_stamp "training: resuming $run ($config $*)"

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "common/Json.h"
+#include "support/ProjectScripts.h"
 #include "support/TestPaths.h"
 
 namespace vln::eval {
@@ -21,17 +22,8 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-bool havePython() {
-  static const bool have =
-      vln::test::runCommand("/usr/bin/python3 -c 'import json' 2>&1") == 0;
-  return have;
-}
-
 int runScript(const std::string& args, std::string* log) {
-  const fs::path script =
-      vln::test::sourcePath() / "scripts" / "failure_stages.py";
-  return vln::test::runCommand(
-      "/usr/bin/python3 " + script.string() + " " + args + " 2>&1", log);
+  return vln::test::runProjectScript("failure_stages.py", args, log);
 }
 
 // four episodes on the same straight path along +x: nodes every 2 m
@@ -68,7 +60,7 @@ void writeRun(const fs::path& dir, const std::vector<nlohmann::json>& episodes) 
 }
 
 TEST(FailureStagesScriptTest, OutcomesAndOpeningLegByHand) {
-  if (!havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  if (!vln::test::havePython()) GTEST_SKIP() << "no /usr/bin/python3";
   vln::test::TempDir dir;
   writeSplit(dir / "data");
   const std::vector<std::vector<double>> walked{
@@ -118,7 +110,7 @@ TEST(FailureStagesScriptTest, OutcomesAndOpeningLegByHand) {
 }
 
 TEST(FailureStagesScriptTest, InputsItCannotUseAreNamed) {
-  if (!havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  if (!vln::test::havePython()) GTEST_SKIP() << "no /usr/bin/python3";
   vln::test::TempDir dir;
   writeSplit(dir / "data");
   const std::vector<std::vector<double>> walked{{0, 0, 0}, {1, 0, 0}};

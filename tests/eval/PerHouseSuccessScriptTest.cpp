@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "common/Json.h"
+#include "support/ProjectScripts.h"
 #include "support/TestPaths.h"
 
 namespace vln::eval {
@@ -21,17 +22,8 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-bool havePython() {
-  static const bool have =
-      vln::test::runCommand("/usr/bin/python3 -c 'import json' 2>&1") == 0;
-  return have;
-}
-
 int runScript(const std::string& args, std::string* log) {
-  const fs::path script =
-      vln::test::sourcePath() / "scripts" / "per_house_success.py";
-  return vln::test::runCommand(
-      "/usr/bin/python3 " + script.string() + " " + args + " 2>&1", log);
+  return vln::test::runProjectScript("per_house_success.py", args, log);
 }
 
 // episodes 1-2 in house_a, 3-4 in house_b, 5-6 in house_c
@@ -60,7 +52,7 @@ void writeRun(const fs::path& dir, const std::vector<int>& success) {
 }
 
 TEST(PerHouseSuccessScriptTest, PerHouseMeansAndTheHouseInterval) {
-  if (!havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  if (!vln::test::havePython()) GTEST_SKIP() << "no /usr/bin/python3";
   vln::test::TempDir dir;
   writeSplit(dir / "data");
   writeRun(dir / "a" / "seed0", {1, 0, 1, 1, 0, 0});  // a 0.5, b 1, c 0
@@ -86,7 +78,7 @@ TEST(PerHouseSuccessScriptTest, PerHouseMeansAndTheHouseInterval) {
 }
 
 TEST(PerHouseSuccessScriptTest, InputsItCannotUseAreNamed) {
-  if (!havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  if (!vln::test::havePython()) GTEST_SKIP() << "no /usr/bin/python3";
   vln::test::TempDir dir;
   writeSplit(dir / "data");
   writeRun(dir / "a", {1, 0, 1, 1, 0, 0});
