@@ -27,13 +27,13 @@ episodes file (reference paths). Fractions are means over an agent's
 directories (seeds). Needs only the Python standard library.
 """
 import argparse
-import glob
-import gzip
 import json
 import math
-import os
 import statistics
-import sys
+
+import result_files
+
+TOOL = "failure_stages.py"
 
 OUTCOMES = ["success", "stopped near goal", "lost in 1st third",
             "lost in 2nd third", "lost in 3rd third"]
@@ -41,22 +41,11 @@ MOVE_FORWARD = 1
 
 
 def fail(message):
-    sys.exit(f"failure_stages.py: {message}")
-
-
-def load_json_gz(path):
-    try:
-        with gzip.open(path, "rt") as f:
-            return json.load(f)
-    except (OSError, ValueError) as e:
-        fail(f"cannot read '{path}': {e}")
+    result_files.fail(TOOL, message)
 
 
 def reference_paths(data, split):
-    path = os.path.join(data, split, f"{split}.json.gz")
-    episodes = load_json_gz(path).get("episodes")
-    if not isinstance(episodes, list):
-        fail(f"'{path}' has no 'episodes' list")
+    episodes, path = result_files.split_episodes(data, split, TOOL)
     out = {}
     for e in episodes:
         ref = e.get("reference_path")
@@ -125,25 +114,18 @@ def classify(episode, ref, radius, where):
 
 
 def agent_rates(pattern, split, refs, radius):
-    dirs = sorted(d for d in glob.glob(pattern) if os.path.isdir(d))
-    if not dirs:
-        fail(f"no directory matches '{pattern}'")
+    runs = result_files.run_episodes(pattern, split, TOOL)
     per_run = []
-    for d in dirs:
-        files = glob.glob(os.path.join(d, f"episodes_ckpt_*_{split}.json.gz"))
-        if len(files) != 1:
-            fail(f"'{d}' must hold exactly one "
-                 f"episodes_ckpt_*_{split}.json.gz, found {len(files)}")
-        episodes = load_json_gz(files[0]).get("episodes")
-        if not isinstance(episodes, list) or not episodes:
-            fail(f"'{files[0]}' has no episodes")
+    for file, episodes in runs:
+        if not episodes:
+            fail(f"'{file}' has no episodes")
         counts = dict.fromkeys(OUTCOMES, 0)
         opening_right, opening_judged = 0, 0
         for e in episodes:
             episode = str(e.get("episode_id"))
             if episode not in refs:
-                fail(f"'{files[0]}': episode {episode} is not in split {split}")
-            outcome, opening = classify(e, refs[episode], radius, files[0])
+                fail(f"'{file}': episode {episode} is not in split {split}")
+            outcome, opening = classify(e, refs[episode], radius, file)
             counts[outcome] += 1
             if opening is not None:
                 opening_judged += 1
@@ -155,7 +137,7 @@ def agent_rates(pattern, split, refs, radius):
         per_run.append(rates)
     keys = OUTCOMES + ["opening"]
     return ({k: statistics.mean(r[k] for r in per_run) for k in keys},
-            len(dirs), per_run[0]["episodes"])
+            len(runs), per_run[0]["episodes"])
 
 
 def main():

@@ -18,13 +18,13 @@ per directory) and the split's episodes file for each episode's scene.
 Needs only the Python standard library.
 """
 import argparse
-import glob
-import gzip
-import json
 import math
 import os
 import statistics
-import sys
+
+import result_files
+
+TOOL = "per_house_success.py"
 
 # two-sided 95% Student t quantiles for 1..30 degrees of freedom
 T95 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262,
@@ -33,44 +33,27 @@ T95 = [12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262,
        2.042]
 
 
-def load_json_gz(path):
-    try:
-        with gzip.open(path, "rt") as f:
-            return json.load(f)
-    except (OSError, ValueError) as e:
-        sys.exit(f"per_house_success.py: cannot read '{path}': {e}")
-
-
 def house_of(scene_id):
     # "house_003_57ea68a3/house_003_57ea68a3.glb" -> "house_003_57ea68a3"
     return os.path.basename(os.path.dirname(scene_id)) or scene_id
 
 
 def scenes(data, split):
-    path = os.path.join(data, split, f"{split}.json.gz")
-    episodes = load_json_gz(path).get("episodes")
-    if not isinstance(episodes, list):
-        sys.exit(f"per_house_success.py: '{path}' has no 'episodes' list")
+    episodes, _ = result_files.split_episodes(data, split, TOOL)
     return {str(e["episode_id"]): house_of(e["scene_id"]) for e in episodes}
 
 
 def per_house(pattern, split, scene_of):
     """{house: [mean success over the runs], ...} and the same for SPL."""
-    dirs = sorted(d for d in glob.glob(pattern) if os.path.isdir(d))
-    if not dirs:
-        sys.exit(f"per_house_success.py: no directory matches '{pattern}'")
+    runs = result_files.run_episodes(pattern, split, TOOL)
     success, spl = {}, {}
-    for d in dirs:
-        files = glob.glob(os.path.join(d, f"episodes_ckpt_*_{split}.json.gz"))
-        if len(files) != 1:
-            sys.exit(f"per_house_success.py: '{d}' must hold exactly one "
-                     f"episodes_ckpt_*_{split}.json.gz, found {len(files)}")
+    for file, episodes in runs:
         by_house_s, by_house_p = {}, {}
-        for e in load_json_gz(files[0])["episodes"]:
+        for e in episodes:
             episode = str(e["episode_id"])
             if episode not in scene_of:
-                sys.exit(f"per_house_success.py: '{files[0]}': episode "
-                         f"{episode} is not in split {split}")
+                result_files.fail(TOOL, f"'{file}': episode {episode} is not "
+                                        f"in split {split}")
             h = scene_of[episode]
             by_house_s.setdefault(h, []).append(e["metrics"]["success"])
             by_house_p.setdefault(h, []).append(e["metrics"]["spl"])
@@ -78,7 +61,7 @@ def per_house(pattern, split, scene_of):
             success.setdefault(h, []).append(statistics.mean(by_house_s[h]))
             spl.setdefault(h, []).append(statistics.mean(by_house_p[h]))
     return ({h: statistics.mean(v) for h, v in success.items()},
-            {h: statistics.mean(v) for h, v in spl.items()}, len(dirs))
+            {h: statistics.mean(v) for h, v in spl.items()}, len(runs))
 
 
 def interval(values):
