@@ -5,17 +5,22 @@
 //                           world: episodes/min and frames/s, batched or
 //                           one environment at a time (exact_resume)
 //   BM_StoreAppend          feature-store appends; bytes per step
+//   BM_Crc32c               the record checksum the store verifies on every
+//                           read (arg 1: the CPU's CRC32 instruction, 0: the
+//                           portable table), bytes/s over a 200 KB record
 // Every benchmark reports the process's peak RSS (getrusage, MiB). The
 // world is generated once into $TMPDIR/vlnce_trainer_bench_world.
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 
 #include <filesystem>
+#include <string>
 
 #include "common/Config.h"
 #include "common/FileIo.h"
 #include "data/Glove.h"
 #include "train/Collector.h"
+#include "train/Crc32c.h"
 #include "train/ImitationLearner.h"
 #include "world/WorldGenerator.h"
 
@@ -219,5 +224,21 @@ void BM_StoreAppend(benchmark::State& state) {
   fs::remove_all(dir);
 }
 BENCHMARK(BM_StoreAppend)->Iterations(200);
+
+// a record the size of a 61-step episode at 64x64 (3 KB per step)
+void BM_Crc32c(benchmark::State& state) {
+  std::string record(200 * 1024, '\0');
+  for (size_t i = 0; i < record.size(); ++i)
+    record[i] = static_cast<char>((i * 2654435761u) >> 24);
+  const bool instruction = state.range(0) != 0;
+  uint32_t crc = 0;
+  for (auto _ : state) {
+    crc ^= instruction ? train::crc32c(record) : train::crc32cPortable(record);
+    benchmark::DoNotOptimize(crc);
+  }
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations()) *
+                          static_cast<int64_t>(record.size()));
+}
+BENCHMARK(BM_Crc32c)->Arg(1)->Arg(0);
 
 }  // namespace
