@@ -17,6 +17,13 @@ within 45 degrees of the path's first leg (the direction from the start to
 the first reference node more than --radius away): how well it reads the
 instruction's opening turn.
 
+For a waypoint agent (files with "waypoint_choices") two more columns say
+whether its first decision was offered a candidate within 45 degrees of the
+first leg ("opening offered"), and how often, when it was, the agent's
+opening was right ("right when offered", among episodes where it moved):
+a wrong opening is then the predictor's miss or the policy's choice. Other
+agents show "-".
+
     /usr/bin/python3 scripts/failure_stages.py --split val_unseen \\
         --agent cma 'results/x/main_ft/seed*' \\
         --agent no-instruction 'results/x/main_noinstr/seed*'
@@ -113,6 +120,29 @@ def classify(episode, ref, radius, where):
     return outcome, opening
 
 
+def opening_offered(episode, ref, radius, where):
+    """Whether the first waypoint decision offered a candidate within 45
+    degrees of the first leg; None for low-level agents or no leg."""
+    choices = episode.get("waypoint_choices")
+    if choices is None:
+        return None
+    want = first_leg_heading(ref, radius)
+    if want is None or not choices:
+        return None
+    first = choices[0]
+    position, candidates = first.get("position"), first.get("candidates")
+    if not (isinstance(position, list) and len(position) == 3 and
+            isinstance(candidates, list) and
+            all(isinstance(c, list) and len(c) == 3 for c in candidates)):
+        fail(f"{where}: episode {episode.get('episode_id')} has a "
+             "waypoint_choices[0] without position and candidates [x, y, z]")
+    for c in candidates:
+        heading = math.atan2(-(c[0] - position[0]), -(c[2] - position[2]))
+        if angle_between(heading, want) < math.pi / 4:
+            return True
+    return False
+
+
 def agent_rates(pattern, split, refs, radius):
     runs = result_files.run_episodes(pattern, split, TOOL)
     per_run = []
@@ -121,6 +151,8 @@ def agent_rates(pattern, split, refs, radius):
             fail(f"'{file}' has no episodes")
         counts = dict.fromkeys(OUTCOMES, 0)
         opening_right, opening_judged = 0, 0
+        offered, offer_judged = 0, 0
+        right_when_offered, offered_judged = 0, 0
         for e in episodes:
             episode = str(e.get("episode_id"))
             if episode not in refs:
@@ -130,12 +162,23 @@ def agent_rates(pattern, split, refs, radius):
             if opening is not None:
                 opening_judged += 1
                 opening_right += opening
+            offer = opening_offered(e, refs[episode], radius, file)
+            if offer is not None:
+                offer_judged += 1
+                offered += offer
+                if offer and opening is not None:
+                    offered_judged += 1
+                    right_when_offered += opening
         rates = {k: v / len(episodes) for k, v in counts.items()}
         rates["opening"] = (opening_right / opening_judged
                             if opening_judged else float("nan"))
+        rates["offered"] = (offered / offer_judged if offer_judged
+                            else float("nan"))
+        rates["right when offered"] = (right_when_offered / offered_judged
+                                       if offered_judged else float("nan"))
         rates["episodes"] = len(episodes)
         per_run.append(rates)
-    keys = OUTCOMES + ["opening"]
+    keys = OUTCOMES + ["opening", "offered", "right when offered"]
     return ({k: statistics.mean(r[k] for r in per_run) for k in keys},
             len(runs), per_run[0]["episodes"])
 
@@ -166,15 +209,23 @@ def main():
                                             args.radius)
         results[name] = dict(rates, runs=runs, episodes=episodes)
     if args.json:
-        print(json.dumps(results, indent=2, sort_keys=True))
+        # NaN (not a waypoint agent) as null: strict JSON
+        print(json.dumps({n: {k: (None if isinstance(v, float) and
+                                  math.isnan(v) else v)
+                              for k, v in r.items()}
+                          for n, r in results.items()},
+                         indent=2, sort_keys=True))
         return
     print(f"{args.split}: fraction of episodes by outcome (mean over each "
           f"agent's runs; reference nodes passed within {args.radius:g} m)")
-    columns = OUTCOMES + ["opening leg right"]
+    columns = OUTCOMES + ["opening leg right", "opening offered",
+                          "right when offered"]
     print("| agent (runs x episodes) | " + " | ".join(columns) + " |")
     print("| --- |" + " ---: |" * len(columns))
     for name, r in results.items():
-        cells = [f"{r[k]:.3f}" for k in OUTCOMES + ["opening"]]
+        cells = [("-" if math.isnan(r[k]) else f"{r[k]:.3f}")
+                 for k in OUTCOMES + ["opening", "offered",
+                                      "right when offered"]]
         print(f"| {name} ({r['runs']} x {r['episodes']}) | "
               + " | ".join(cells) + " |")
 

@@ -103,7 +103,9 @@ struct EpisodeRecord {
   /// (Habitat's SPL takes DistanceToGoal at reset).
   double start_distance = 0.0;
   /// A waypoint agent's decisions in order (Agent::waypointChoices());
-  /// empty for low-level agents. Drawn on maps, not written to files.
+  /// empty for low-level agents. Drawn on maps, and written to the
+  /// episodes file as "waypoint_choices" (position, candidates, chosen:
+  /// -1 for STOP) when not empty.
   std::vector<WaypointChoice> waypoint_choices;
 };
 

@@ -131,15 +131,27 @@ nlohmann::json episodesToJson(std::span<const EpisodeResult> episodes) {
                            {"headings", r.headings}};
     // R2R records have no pitches, and their files stay as they were
     if (!r.pitches.empty()) path["pitches"] = r.pitches;
-    list.push_back({{"episode_id", r.episode_id},
-                    {"metrics", metricsToJson(m)},
-                    {"called_stop", r.called_stop},
-                    {"steps_taken", r.steps_taken},
-                    {"goal", vecToJson(r.goal)},
-                    {"start_distance", r.start_distance},
-                    {"path", std::move(path)},
-                    {"actions", r.actions},
-                    {"reference_path", pointsToJson(r.reference_path)}});
+    nlohmann::json episode = {
+        {"episode_id", r.episode_id},
+        {"metrics", metricsToJson(m)},
+        {"called_stop", r.called_stop},
+        {"steps_taken", r.steps_taken},
+        {"goal", vecToJson(r.goal)},
+        {"start_distance", r.start_distance},
+        {"path", std::move(path)},
+        {"actions", r.actions},
+        {"reference_path", pointsToJson(r.reference_path)}};
+    // a waypoint agent's decisions, for analyses of what it was offered;
+    // low-level agents' files stay as they were
+    if (!r.waypoint_choices.empty()) {
+      nlohmann::json choices = nlohmann::json::array();
+      for (const WaypointChoice& c : r.waypoint_choices)
+        choices.push_back({{"position", vecToJson(c.position)},
+                           {"candidates", pointsToJson(c.candidates)},
+                           {"chosen", c.chosen}});
+      episode["waypoint_choices"] = std::move(choices);
+    }
+    list.push_back(std::move(episode));
   }
   return {{"episodes", std::move(list)}};
 }
@@ -181,6 +193,31 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
     r.reference_path = pointsFromJson(
         common::requireField<nlohmann::json>(e, "reference_path", ctx),
         ctx + ": field 'reference_path'");
+    if (e.contains("waypoint_choices")) {
+      const auto choices =
+          common::requireField<nlohmann::json>(e, "waypoint_choices", ctx);
+      VLN_CHECK_ARG(choices.is_array(), ctx,
+                    ": field 'waypoint_choices' must be an array, got ",
+                    choices.type_name());
+      for (size_t k = 0; k < choices.size(); ++k) {
+        const std::string at = strCat(ctx, ": field 'waypoint_choices[", k, "]");
+        WaypointChoice c;
+        c.position = vecFromJson(
+            common::requireField<nlohmann::json>(choices[k], "position", at),
+            at + ".position'");
+        c.candidates = pointsFromJson(
+            common::requireField<nlohmann::json>(choices[k], "candidates", at),
+            at + ".candidates'");
+        c.chosen = common::requireField<int>(choices[k], "chosen", at);
+        // -1: STOP; otherwise an index into the candidates
+        VLN_CHECK_ARG(c.chosen >= -1 &&
+                          c.chosen < static_cast<int>(c.candidates.size()),
+                      at, ".chosen' must be -1 (STOP) or a candidate index "
+                      "0..", static_cast<int>(c.candidates.size()) - 1,
+                      ", got ", c.chosen);
+        r.waypoint_choices.push_back(std::move(c));
+      }
+    }
     VLN_CHECK_ARG(r.positions.size() == static_cast<size_t>(r.steps_taken) + 1,
                   ctx, ": field 'path.positions' must hold steps_taken + 1 = ",
                   r.steps_taken + 1, " entries, got ", r.positions.size());

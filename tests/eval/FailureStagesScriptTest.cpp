@@ -106,7 +106,57 @@ TEST(FailureStagesScriptTest, OutcomesAndOpeningLegByHand) {
             0)
       << log;
   EXPECT_THAT(log, HasSubstr("| A (2 x 4) | 0.625 | 0.125 | 0.125 | 0.125 | "
-                             "0.000 | 0.833 |"));
+                             "0.000 | 0.833 | - | - |"));
+}
+
+// a waypoint agent's files carry its decisions: was a candidate along the
+// first leg (+x) offered at the first one, and did the agent take it
+TEST(FailureStagesScriptTest, OpeningOfferedToAWaypointAgent) {
+  if (!vln::test::havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  vln::test::TempDir dir;
+  writeSplit(dir / "data");
+  const std::vector<std::vector<double>> walked{{0, 0, 0}, {1, 0, 0}};
+  auto offeredTo = [](nlohmann::json e,
+                      const std::vector<std::vector<double>>& candidates) {
+    e["waypoint_choices"] = {
+        {{"position", {0, 0, 0}}, {"candidates", candidates}, {"chosen", 0}}};
+    return e;
+  };
+  // 1: offered (+x, 6 degrees off) and taken; 2: only +z offered (90
+  // degrees off); 3: offered, walked against the path; 4: offered, never
+  // moved (not judged)
+  writeRun(dir / "w",
+           {offeredTo(episode(1, 0, 0, walked, kAlongPath, {1, 0}),
+                      {{2, 0, 0.2}, {0, 0, 2}}),
+            offeredTo(episode(2, 0, 0, walked, kAlongPath, {1, 0}),
+                      {{0, 0, 2}}),
+            offeredTo(episode(3, 0, 0, walked, kAgainstPath, {1, 0}),
+                      {{2, 0, 0}}),
+            offeredTo(episode(4, 0, 0, {{0, 0, 0}}, kAlongPath, {0}),
+                      {{2, 0, 0}})});
+  std::string log;
+  ASSERT_EQ(runScript("--json --data " + (dir / "data").string() +
+                          " --split val_unseen --agent W '" +
+                          (dir / "w").string() + "'",
+                      &log),
+            0)
+      << log;
+  const nlohmann::json w = nlohmann::json::parse(log).at("W");
+  EXPECT_DOUBLE_EQ(w.at("offered").get<double>(), 0.75);
+  EXPECT_DOUBLE_EQ(w.at("right when offered").get<double>(), 0.5);
+  EXPECT_NEAR(w.at("opening").get<double>(), 2.0 / 3, 1e-12);
+
+  // a decision without candidates' coordinates is named
+  nlohmann::json bad = offeredTo(episode(1, 0, 0, walked, kAlongPath, {1, 0}),
+                                 {{2, 0, 0}});
+  bad["waypoint_choices"][0]["candidates"] = {{2, 0}};
+  writeRun(dir / "bad", {bad});
+  EXPECT_NE(runScript("--data " + (dir / "data").string() +
+                          " --split val_unseen --agent W '" +
+                          (dir / "bad").string() + "'",
+                      &log),
+            0);
+  EXPECT_THAT(log, HasSubstr("episode 1 has a waypoint_choices[0] without"));
 }
 
 TEST(FailureStagesScriptTest, InputsItCannotUseAreNamed) {

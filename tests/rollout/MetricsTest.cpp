@@ -485,6 +485,38 @@ TEST(MetricsTest, EpisodesFileKeepsRxrPitchesAndLookActions) {
   EXPECT_EQ(episodesFromJson(teleport, "rxr.json")[0].record.actions[0], 6);
 }
 
+TEST(MetricsTest, EpisodesFileKeepsWaypointChoices) {
+  EpisodeRecord r = straightEpisode(3, /*stop=*/true);
+  r.waypoint_choices = {{{0, 0, 0}, {{0, 0, -1}, {1, 0, 0}}, 0},
+                        {{0, 0, -1}, {{0, 0, -2}}, -1}};
+  const std::vector<EpisodeResult> results = {{r, {}}};
+  const nlohmann::json json = episodesToJson(results);
+  const auto back = episodesFromJson(json, "wp.json");
+  ASSERT_EQ(back[0].record.waypoint_choices.size(), 2u);
+  for (size_t k = 0; k < 2; ++k) {
+    const WaypointChoice& got = back[0].record.waypoint_choices[k];
+    EXPECT_EQ(got.position, r.waypoint_choices[k].position);
+    EXPECT_EQ(got.candidates, r.waypoint_choices[k].candidates);
+    EXPECT_EQ(got.chosen, r.waypoint_choices[k].chosen);
+  }
+  // low-level agents' files have no such key
+  EXPECT_FALSE(episodesToJson(std::vector<EpisodeResult>{
+                                  {straightEpisode(3, true), {}}})["episodes"][0]
+                   .contains("waypoint_choices"));
+  // a choice beyond the candidates, and a malformed candidate, are named
+  nlohmann::json bad = json;
+  bad["episodes"][0]["waypoint_choices"][1]["chosen"] = 1;
+  EXPECT_THAT([&] { episodesFromJson(bad, "wp.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
+                  HasSubstr("wp.json"), HasSubstr("'waypoint_choices[1].chosen'"),
+                  HasSubstr("got 1"))));
+  bad = json;
+  bad["episodes"][0]["waypoint_choices"][0]["candidates"][1] = "x";
+  EXPECT_THAT([&] { episodesFromJson(bad, "wp.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("'waypoint_choices[0].candidates'")));
+}
+
 TEST(MetricsTest, EpisodesFileRoundTrips) {
   test::TempDir dir;
   std::vector<EpisodeResult> results;
