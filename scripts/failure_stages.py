@@ -89,7 +89,8 @@ def angle_between(a, b):
     return abs((a - b + math.pi) % (2 * math.pi) - math.pi)
 
 
-def classify(episode, ref, radius, where):
+def classify(episode, ref, radius, want, where):
+    """`want`: the first leg's heading (first_leg_heading()), or None."""
     metrics = episode.get("metrics", {})
     path = episode.get("path", {})
     positions = path.get("positions")
@@ -110,7 +111,6 @@ def classify(episode, ref, radius, where):
         fraction = nodes_passed(positions, ref, radius) / (len(ref) - 1)
         third = min(2, int(fraction * 3))
         outcome = OUTCOMES[2 + third]
-    want = first_leg_heading(ref, radius)
     first_forward = next((i for i, a in enumerate(actions)
                           if a == MOVE_FORWARD and i < len(headings)), None)
     if want is None or first_forward is None:
@@ -120,14 +120,11 @@ def classify(episode, ref, radius, where):
     return outcome, opening
 
 
-def opening_offered(episode, ref, radius, where):
+def opening_offered(episode, want, where):
     """Whether the first waypoint decision offered a candidate within 45
     degrees of the first leg; None for low-level agents or no leg."""
     choices = episode.get("waypoint_choices")
-    if choices is None:
-        return None
-    want = first_leg_heading(ref, radius)
-    if want is None or not choices:
+    if not choices or want is None:
         return None
     first = choices[0]
     position, candidates = first.get("position"), first.get("candidates")
@@ -157,12 +154,14 @@ def agent_rates(pattern, split, refs, radius):
             episode = str(e.get("episode_id"))
             if episode not in refs:
                 fail(f"'{file}': episode {episode} is not in split {split}")
-            outcome, opening = classify(e, refs[episode], radius, file)
+            ref = refs[episode]
+            want = first_leg_heading(ref, radius)
+            outcome, opening = classify(e, ref, radius, want, file)
             counts[outcome] += 1
             if opening is not None:
                 opening_judged += 1
                 opening_right += opening
-            offer = opening_offered(e, refs[episode], radius, file)
+            offer = opening_offered(e, want, file)
             if offer is not None:
                 offer_judged += 1
                 offered += offer
