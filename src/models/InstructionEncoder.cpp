@@ -1,5 +1,7 @@
 #include "models/InstructionEncoder.h"
 
+#include <ATen/CPUGeneratorImpl.h>
+
 #include "common/Check.h"
 
 namespace vln::models {
@@ -120,6 +122,16 @@ void InstructionEncoderImpl::setWordEmbeddings(const torch::Tensor& matrix) {
                 matrix.defined() ? matrix.sizes() : torch::IntArrayRef{});
   torch::NoGradGuard noGrad;
   embedding->weight.copy_(matrix);
+}
+
+torch::Tensor randomWordEmbeddings(int64_t vocab, int64_t dim, uint64_t seed) {
+  VLN_CHECK_ARG(vocab >= 1 && dim >= 1,
+                "randomWordEmbeddings(): vocab and dim must be >= 1, got ",
+                vocab, " x ", dim);
+  at::Generator generator = at::make_generator<at::CPUGeneratorImpl>(seed);
+  torch::Tensor matrix = torch::randn({vocab, dim}, generator);
+  matrix[0].zero_();
+  return matrix;
 }
 
 }  // namespace vln::models

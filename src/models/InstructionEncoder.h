@@ -72,4 +72,10 @@ class InstructionEncoderImpl : public torch::nn::Module {
 };
 TORCH_MODULE(InstructionEncoder);
 
+/// A random [vocab, dim] word-embedding matrix for setWordEmbeddings():
+/// rows N(0, 1) (nn.Embedding's own initialisation) from a generator seeded
+/// with `seed` alone, so the draw leaves the global torch RNG untouched; PAD
+/// (row 0) zero. The same seed gives the same matrix.
+torch::Tensor randomWordEmbeddings(int64_t vocab, int64_t dim, uint64_t seed);
+
 }  // namespace vln::models

@@ -28,6 +28,13 @@ enum class InstructionFeatures { kTokens, kRxrText };
 /// small_cnn is a three-layer CNN for fast CPU runs.
 enum class EncoderType { kResNet50, kResNet18, kSmallCnn };
 
+/// Where a token model's word embeddings start: the dataset's GloVe
+/// (VLN-CE) or random vectors (randomWordEmbeddings() in
+/// InstructionEncoder.h). Our GloVe is fitted on the world's templated
+/// instructions and gives words that share every context nearly the same
+/// vector (left/right: cosine 0.997), which training must first pull apart.
+enum class WordEmbeddings { kGlove, kRandom };
+
 /// YAML names of the policy types (policyName()).
 inline constexpr common::EnumNames<PolicyType, 2> kPolicyNames = {
     {{"seq2seq", PolicyType::kSeq2Seq}, {"cma", PolicyType::kCma}}};
@@ -35,6 +42,9 @@ inline constexpr common::EnumNames<PolicyType, 2> kPolicyNames = {
 inline constexpr common::EnumNames<InstructionFeatures, 2>
     kInstructionFeaturesNames = {{{"tokens", InstructionFeatures::kTokens},
                                   {"rxr_text", InstructionFeatures::kRxrText}}};
+/// YAML names of the word-embedding initialisations.
+inline constexpr common::EnumNames<WordEmbeddings, 2> kWordEmbeddingsNames = {
+    {{"glove", WordEmbeddings::kGlove}, {"random", WordEmbeddings::kRandom}}};
 /// YAML names of the encoder types (encoderName()).
 inline constexpr common::EnumNames<EncoderType, 3> kEncoderNames = {
     {{"resnet50", EncoderType::kResNet50},
@@ -71,6 +81,7 @@ struct ModelConfig {
   int vocab_size = 2504;
   int embedding_dim = 50;
   bool fine_tune_embeddings = false;
+  WordEmbeddings word_embeddings = WordEmbeddings::kGlove;
   int instruction_hidden_size = 128;
   int hidden_size = 512;
   int prev_action_embedding_dim = 32;
@@ -149,6 +160,10 @@ struct ModelConfig {
             common::atLeast(1));
     v.field("fine_tune_embeddings", fine_tune_embeddings,
             "Train the word embeddings (VLN-CE keeps GloVe frozen)");
+    v.enumeration("word_embeddings", word_embeddings, kWordEmbeddingsNames,
+                  "Initial word embeddings of a token model: glove (the "
+                  "dataset's embeddings file, VLN-CE) or random (N(0, 1) "
+                  "drawn from trainer.seed, PAD zero; no file read)");
     v.field("instruction_hidden_size", instruction_hidden_size,
             "Instruction LSTM hidden size per direction (CMA is bidirectional, "
             "so its instruction states are twice this wide)",

@@ -6,10 +6,16 @@
 #include <unordered_map>
 
 #include "common/Check.h"
+#include "common/Random.h"
 #include "data/Glove.h"
+#include "models/InstructionEncoder.h"
 #include "train/FeatureStore.h"
 
 namespace vln::train {
+namespace {
+// the trainer seed's stream of model.word_embeddings: random
+constexpr uint64_t kRandomEmbeddingStream = 0x776f7264;  // "word"
+}  // namespace
 
 TrainingData TrainingData::load(const ExperimentConfig& config) {
   const std::filesystem::path root = config.dataset.data_path;
@@ -157,6 +163,11 @@ torch::Tensor TrainingData::batchTextFeatures(
 }
 
 torch::Tensor embeddingTensor(const ExperimentConfig& config) {
+  if (config.model.word_embeddings == models::WordEmbeddings::kRandom)
+    return models::randomWordEmbeddings(
+        config.model.vocab_size, config.model.embedding_dim,
+        common::deriveSeed(static_cast<uint64_t>(config.trainer.seed),
+                           kRandomEmbeddingStream));
   const std::filesystem::path file = config.dataset.embeddingsPath();
   data::EmbeddingMatrix matrix = data::readEmbeddingsJson(file);
   VLN_CHECK_ARG(matrix.rows == config.model.vocab_size &&

@@ -76,9 +76,11 @@ struct TrainingData {
                                std::span<const StoredEpisodeKey> keys) const;
 };
 
-/// The GloVe rows of dataset.embeddings as a [vocab, dim] tensor. Throws
+/// The initial word embeddings as a [vocab, dim] tensor: with
+/// model.word_embeddings glove the rows of dataset.embeddings (throws
 /// std::invalid_argument when their shape is not model.vocab_size x
-/// model.embedding_dim.
+/// model.embedding_dim), with random models::randomWordEmbeddings() drawn
+/// from trainer.seed.
 at::Tensor embeddingTensor(const ExperimentConfig& config);
 
 }  // namespace vln::train

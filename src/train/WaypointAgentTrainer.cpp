@@ -277,6 +277,9 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       common::deterministicShuffle(order, orderRng);
       double lossSum = 0.0, contrastSum = 0.0;
       int64_t correct = 0, labelled = 0, batches = 0;
+      // the first decision of each episode, where the instruction's opening
+      // ("turn left ...") is all that tells the candidates apart
+      int64_t firstCorrect = 0, firstLabelled = 0;
       policy->train();
       for (size_t start = 0; start < order.size(); start += tc.batch_size) {
         const size_t end = std::min(order.size(), start + tc.batch_size);
@@ -326,6 +329,16 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                          .sum()
                          .item<int64_t>();
           labelled += valid.sum().item<int64_t>();
+          // labels are [T, B] flattened: t = 0 is the first B entries
+          const auto B = static_cast<int64_t>(rows.size());
+          const torch::Tensor firstValid = valid.slice(0, 0, B);
+          firstCorrect += logits.slice(0, 0, B)
+                              .argmax(1)
+                              .eq(labels.slice(0, 0, B))
+                              .logical_and(firstValid)
+                              .sum()
+                              .item<int64_t>();
+          firstLabelled += firstValid.sum().item<int64_t>();
         }
         if (progress.updates % tc.log_every_updates == 0)
           metrics.write("train",
@@ -339,11 +352,16 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       const double meanContrast = batches > 0 ? contrastSum / batches : 0.0;
       const double accuracy =
           labelled > 0 ? static_cast<double>(correct) / labelled : 0.0;
+      const double firstAccuracy =
+          firstLabelled > 0 ? static_cast<double>(firstCorrect) / firstLabelled
+                            : 0.0;
       spdlog::info(
           "{}: iteration {} epoch {}: {} updates, loss {:.4f} (instruction "
-          "contrast {:.4f}), label accuracy {:.3f} over {} decisions, {:.1f} s",
+          "contrast {:.4f}), label accuracy {:.3f} over {} decisions ({:.3f} "
+          "at the first decision), {:.1f} s",
           kTask, iteration.iteration, epoch.epoch, batches, meanLoss,
-          meanContrast, accuracy, labelled, epochClock.seconds());
+          meanContrast, accuracy, labelled, firstAccuracy,
+          epochClock.seconds());
       metrics.write(
           "epoch",
           {{"iteration", iteration.iteration},
@@ -351,9 +369,12 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
            {"loss", meanLoss},
            {"instruction_contrast", meanContrast},
            {"accuracy", accuracy},
+           {"first_decision_accuracy", firstAccuracy},
            {"updates", progress.updates},
            {"seconds", epochClock.seconds()}},
-          {{"train/epoch_loss", meanLoss}, {"train/label_accuracy", accuracy}},
+          {{"train/epoch_loss", meanLoss},
+           {"train/label_accuracy", accuracy},
+           {"train/first_decision_accuracy", firstAccuracy}},
           progress.updates);
 
       ++progress.checkpoint_index;

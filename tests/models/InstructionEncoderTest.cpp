@@ -144,6 +144,28 @@ TEST(InstructionEncoderTest, WordEmbeddingsLoadAndFreeze) {
   EXPECT_TRUE(tuned->embedding->weight.requires_grad());
 }
 
+TEST(InstructionEncoderTest, RandomWordEmbeddingsAreSeededAndSpareTheGlobalRng) {
+  torch::manual_seed(7);
+  const torch::Tensor expectedNext = torch::rand({4});
+  torch::manual_seed(7);
+  const torch::Tensor a = randomWordEmbeddings(23, 6, 11);
+  // the draw has its own generator: the global stream is where it was
+  EXPECT_TRUE(torch::equal(torch::rand({4}), expectedNext));
+  EXPECT_EQ(a.sizes(), (std::vector<int64_t>{23, 6}));
+  EXPECT_TRUE(torch::equal(a, randomWordEmbeddings(23, 6, 11)));
+  EXPECT_FALSE(torch::equal(a, randomWordEmbeddings(23, 6, 12)));
+  EXPECT_EQ(a[0].abs().sum().item<float>(), 0.0f);  // PAD
+  // N(0, 1) rows: words start far apart, unlike a GloVe fitted on templates
+  const torch::Tensor rows = a.slice(0, 1);
+  EXPECT_NEAR(rows.mean().item<float>(), 0.0f, 0.3f);
+  EXPECT_NEAR(rows.std().item<float>(), 1.0f, 0.2f);
+  const torch::Tensor cosine = torch::cosine_similarity(
+      rows.slice(0, 0, 11), rows.slice(0, 11, 22), /*dim=*/1);
+  EXPECT_LT(cosine.abs().max().item<float>(), 0.99f);
+  EXPECT_THAT(errorOf([] { randomWordEmbeddings(0, 6, 1); }),
+              HasSubstr("vocab and dim must be >= 1"));
+}
+
 TEST(InstructionEncoderTest, RealGloveAndR2rTokensAtPaperSize) {
   const auto dir =
       vln::test::sharedFixturesPath() / "r2r_vlnce_v1-3_preprocessed";

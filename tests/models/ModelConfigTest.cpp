@@ -24,6 +24,7 @@ TEST(ModelConfigTest, DefaultsAreVlnCePaperSizes) {
   EXPECT_EQ(c.vocab_size, 2504);
   EXPECT_EQ(c.embedding_dim, 50);
   EXPECT_FALSE(c.fine_tune_embeddings);
+  EXPECT_EQ(c.word_embeddings, WordEmbeddings::kGlove);
   EXPECT_EQ(c.instruction_hidden_size, 128);
   EXPECT_EQ(c.instructionStateSize(), 256);
   EXPECT_EQ(c.hidden_size, 512);
@@ -58,6 +59,14 @@ TEST(ModelConfigTest, YamlRoundTripAndStrictEnums) {
                 common::loadConfigText<Root>("model:\n  rgb_encoder: vgg\n");
               }),
               HasSubstr("expected one of {resnet50, resnet18, small_cnn}"));
+  EXPECT_EQ(common::loadConfigText<Root>("model:\n  word_embeddings: random\n")
+                .model.word_embeddings,
+            WordEmbeddings::kRandom);
+  EXPECT_THAT(errorOf([] {
+                common::loadConfigText<Root>(
+                    "model:\n  word_embeddings: bert\n");
+              }),
+              HasSubstr("expected one of {glove, random}, got 'bert'"));
 }
 
 TEST(ModelConfigTest, RxrKeysRoundTripWithR2rDefaults) {

@@ -6,6 +6,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <torch/torch.h>
 
 #include <filesystem>
 #include <string>
@@ -86,6 +87,21 @@ TEST(TrainingDataTest, NoExtraSplitsIsTheOldPool) {
   const TrainingData data = TrainingData::load(configFor(dir.path()));
   EXPECT_TRUE(data.extra.empty());
   EXPECT_THAT(data.sources, ElementsAre(0, 0, 1));
+}
+
+TEST(TrainingDataTest, RandomWordEmbeddingsNeedNoFileAndFollowTheSeed) {
+  test::TempDir dir;  // no embeddings file: GloVe would fail to load
+  ExperimentConfig config = configFor(dir.path());
+  config.model.vocab_size = 9;
+  config.model.embedding_dim = 4;
+  EXPECT_THROW(embeddingTensor(config), std::exception);
+  config.model.word_embeddings = models::WordEmbeddings::kRandom;
+  config.trainer.seed = 3;
+  const torch::Tensor a = embeddingTensor(config);
+  EXPECT_EQ(a.sizes(), (std::vector<int64_t>{9, 4}));
+  EXPECT_TRUE(torch::equal(a, embeddingTensor(config)));
+  config.trainer.seed = 4;
+  EXPECT_FALSE(torch::equal(a, embeddingTensor(config)));
 }
 
 TEST(TrainingDataTest, EmptyOrMissingExtraSplitIsAnErrorNamingIt) {

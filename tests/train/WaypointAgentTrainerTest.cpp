@@ -183,6 +183,12 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
       // a batch of different instructions: a positive, finite contrast
       EXPECT_GT(r["instruction_contrast"].get<double>(), 0.0);
       EXPECT_LT(r["instruction_contrast"].get<double>(), 10.0);
+      // accuracy over all decisions and over each episode's first one
+      for (const char* key : {"accuracy", "first_decision_accuracy"}) {
+        ASSERT_TRUE(r.contains(key)) << key;
+        EXPECT_GE(r[key].get<double>(), 0.0) << key;
+        EXPECT_LE(r[key].get<double>(), 1.0) << key;
+      }
     }
     if (r["type"] == "collect") {
       ++collects;
