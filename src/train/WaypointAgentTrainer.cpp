@@ -323,22 +323,14 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
         {
           torch::NoGradGuard noGrad;
           const torch::Tensor valid = labels.ge(0);
-          correct += logits.argmax(1)
-                         .eq(labels)
-                         .logical_and(valid)
-                         .sum()
-                         .item<int64_t>();
+          const torch::Tensor hits =
+              logits.argmax(1).eq(labels).logical_and(valid);
+          correct += hits.sum().item<int64_t>();
           labelled += valid.sum().item<int64_t>();
           // labels are [T, B] flattened: t = 0 is the first B entries
           const auto B = static_cast<int64_t>(rows.size());
-          const torch::Tensor firstValid = valid.slice(0, 0, B);
-          firstCorrect += logits.slice(0, 0, B)
-                              .argmax(1)
-                              .eq(labels.slice(0, 0, B))
-                              .logical_and(firstValid)
-                              .sum()
-                              .item<int64_t>();
-          firstLabelled += firstValid.sum().item<int64_t>();
+          firstCorrect += hits.slice(0, 0, B).sum().item<int64_t>();
+          firstLabelled += valid.slice(0, 0, B).sum().item<int64_t>();
         }
         if (progress.updates % tc.log_every_updates == 0)
           metrics.write("train",
