@@ -459,9 +459,11 @@ INSTANTIATE_TEST_SUITE_P(BothPolicies, PolicyTest,
                            return std::string(policyName(info.param));
                          });
 
-// The R2R models (model.num_actions 4, token instructions) give exactly the
-// outputs they gave before num_actions and instruction_features existed:
-// values printed by this test's body built on main at 7cb4972.
+// The R2R models (model.num_actions 4, token instructions) give the outputs
+// they gave before num_actions and instruction_features existed (first
+// printed at 7cb4972 on a machine with AVX-512); values printed by this
+// test's body with the kernels pinned to AVX2 (support/TestMain.cpp) on
+// 2026-11-27, which is what CI's machines without AVX-512 compute.
 TEST(PolicyGoldenTest, R2rOutputsUnchangedAtFixedSeed) {
   struct Golden {
     PolicyType policy;
@@ -473,43 +475,43 @@ TEST(PolicyGoldenTest, R2rOutputsUnchangedAtFixedSeed) {
   const std::vector<Golden> goldens = {
       {PolicyType::kSeq2Seq,
        /*prevAction=*/false,
-       {-5.233332049e-04f, 3.639625502e-04f,  1.070608851e-03f,
-        4.231448984e-04f,  1.840883924e-04f,  1.375789638e-03f,
-        1.394670340e-03f,  2.102537983e-04f,  -8.372357115e-04f,
-        3.947735240e-04f,  1.196096768e-03f,  3.904789628e-04f,
-        7.921495853e-05f,  2.240037313e-03f,  1.998669701e-03f,
-        8.046798175e-04f,  -7.731197402e-04f, 2.119955170e-04f,
-        1.636771834e-03f,  6.527335499e-04f,  -7.267043111e-04f,
-        1.671644626e-03f,  1.908235834e-03f,  -7.805121277e-05f},
-       {-1.571561098e-01f, -2.889718488e-02f, -2.433652133e-01f,
-        -5.094777420e-02f, -2.840751410e-01f, -1.188256443e-01f},
-       -1.419512033e+00},
+       {-5.233333795e-04f, 3.639626957e-04f,  1.070608734e-03f,
+        4.231448402e-04f,  1.840883197e-04f,  1.375789987e-03f,
+        1.394670922e-03f,  2.102541039e-04f,  -8.372360608e-04f,
+        3.947739606e-04f,  1.196097117e-03f,  3.904789628e-04f,
+        7.921442011e-05f,  2.240037546e-03f,  1.998670865e-03f,
+        8.046799921e-04f,  -7.731194491e-04f, 2.119960991e-04f,
+        1.636772067e-03f,  6.527336664e-04f,  -7.267043111e-04f,
+        1.671644626e-03f,  1.908235950e-03f,  -7.805086352e-05f},
+       {-1.571560949e-01f, -2.889722399e-02f, -2.433652282e-01f,
+        -5.094786361e-02f, -2.840750813e-01f, -1.188256964e-01f},
+       -1.419512272e+00},
       {PolicyType::kSeq2Seq,
        /*prevAction=*/true,
-       {6.892103702e-04f,  7.058546180e-04f,  -1.945937518e-03f,
-        -5.470325123e-04f, 5.492357886e-04f,  8.396399789e-04f,
-        -2.861871384e-03f, 1.138944863e-04f,  -1.667242730e-03f,
-        -3.472383600e-03f, -1.956142019e-03f, -7.707127952e-04f,
-        1.276213909e-03f,  -3.676089400e-04f, -2.230267273e-03f,
-        -3.462504596e-03f, 2.085901069e-04f,  -1.819767640e-03f,
-        -1.826891908e-03f, -3.192406846e-03f, 5.898735835e-04f,
-        1.135579892e-03f,  -2.751978114e-03f, 4.022851936e-04f},
-       {1.750028580e-01f, 6.532257795e-02f, 4.541071653e-01f, 1.241822615e-01f,
-        3.931051493e-01f, 1.943007112e-02f},
-       -1.175289512e+00},
+       {6.892103120e-04f,  7.058540941e-04f,  -1.945937518e-03f,
+        -5.470326287e-04f, 5.492358468e-04f,  8.396396297e-04f,
+        -2.861871617e-03f, 1.138942316e-04f,  -1.667243778e-03f,
+        -3.472384298e-03f, -1.956142718e-03f, -7.707132027e-04f,
+        1.276213676e-03f,  -3.676088818e-04f, -2.230267040e-03f,
+        -3.462505527e-03f, 2.085891319e-04f,  -1.819767524e-03f,
+        -1.826891908e-03f, -3.192408010e-03f, 5.898732343e-04f,
+        1.135579194e-03f,  -2.751978114e-03f, 4.022849025e-04f},
+       {1.750028431e-01f, 6.532263011e-02f, 4.541070759e-01f, 1.241823286e-01f,
+        3.931051493e-01f, 1.943016984e-02f},
+       -1.175289631e+00},
       {PolicyType::kCma,
        /*prevAction=*/false,
-       {2.278301254e-04f,  -1.241717138e-03f, 5.645787460e-04f,
-        -7.799803861e-04f, 3.309207095e-04f,  -1.238322933e-03f,
-        4.796522262e-04f,  -8.300653426e-04f, -3.180736094e-04f,
-        -1.493447926e-03f, 6.954062846e-04f,  -5.906770821e-04f,
-        4.204729339e-04f,  -1.435967977e-03f, -1.355679560e-04f,
-        -6.308374577e-04f, -7.032811118e-05f, -1.632143860e-03f,
-        -1.038832357e-03f, -7.648298633e-04f, 2.860568929e-04f,
-        -1.196160913e-03f, 4.686328466e-04f,  -7.762577152e-04f},
+       {2.278302272e-04f,  -1.241716905e-03f, 5.645786878e-04f,
+        -7.799802697e-04f, 3.309206222e-04f,  -1.238322933e-03f,
+        4.796523426e-04f,  -8.300653426e-04f, -3.180735512e-04f,
+        -1.493447693e-03f, 6.954061682e-04f,  -5.906770821e-04f,
+        4.204728757e-04f,  -1.435967861e-03f, -1.355679415e-04f,
+        -6.308374577e-04f, -7.032803842e-05f, -1.632143278e-03f,
+        -1.038832706e-03f, -7.648299215e-04f, 2.860568638e-04f,
+        -1.196161029e-03f, 4.686328757e-04f,  -7.762577152e-04f},
        {-1.831374913e-01f, -1.828593165e-01f, -2.574456334e-01f,
-        -7.971960306e-02f, -5.305172130e-02f, -1.854407638e-01f},
-       -1.423878372e-01},
+        -7.971959561e-02f, -5.305172876e-02f, -1.854407638e-01f},
+       -1.423876286e-01},
   };
   for (const Golden& g : goldens) {
     torch::manual_seed(11);
@@ -524,14 +526,21 @@ TEST(PolicyGoldenTest, R2rOutputsUnchangedAtFixedSeed) {
     const torch::Tensor progress = out.progress.flatten().contiguous();
     ASSERT_EQ(logits.numel(), static_cast<int64_t>(g.logits.size()));
     ASSERT_EQ(progress.numel(), static_cast<int64_t>(g.progress.size()));
-    // bit-identical: each value printed with 9 significant digits
-    for (size_t i = 0; i < g.logits.size(); ++i)
-      EXPECT_EQ(logits[static_cast<int64_t>(i)].item<float>(), g.logits[i])
-          << policyName(g.policy) << " logit " << i;
-    for (size_t i = 0; i < g.progress.size(); ++i)
-      EXPECT_EQ(progress[static_cast<int64_t>(i)].item<float>(), g.progress[i])
-          << policyName(g.policy) << " progress " << i;
-    EXPECT_NEAR(out.hidden.sum().item<double>(), g.hiddenSum, 1e-7)
+    // the same to 1e-5 of the largest output: on other vector units (AVX-512
+    // against AVX2, without the pin) the values moved by up to 5.2e-7 of it;
+    // a changed model moves them by about the whole of it
+    const auto near = [&](const torch::Tensor& actual,
+                          const std::vector<float>& golden, const char* what) {
+      float scale = 0;
+      for (float v : golden) scale = std::max(scale, std::abs(v));
+      for (size_t i = 0; i < golden.size(); ++i)
+        EXPECT_NEAR(actual[static_cast<int64_t>(i)].item<float>(), golden[i],
+                    1e-5 * scale)
+            << policyName(g.policy) << " " << what << " " << i;
+    };
+    near(logits, g.logits, "logit");
+    near(progress, g.progress, "progress");
+    EXPECT_NEAR(out.hidden.sum().item<double>(), g.hiddenSum, 1e-5)
         << policyName(g.policy);
   }
 }

@@ -11,15 +11,9 @@ file(GLOB reliability_sources CONFIGURE_DEPENDS
 foreach(source IN LISTS reliability_sources)
   get_filename_component(test_name ${source} NAME_WE)
   if(test_name MATCHES "^(KillResume|Determinism)Test$")
-    # vln_add_test() with a 1 h timeout (sanitized builds run 2-5x slower)
-    add_executable(${test_name} ${source})
-    target_link_libraries(${test_name} PRIVATE vln::train vln_test_support
-      GTest::gtest_main GTest::gmock vln_warnings)
-    set_target_properties(${test_name} PROPERTIES
-      RUNTIME_OUTPUT_DIRECTORY ${PROJECT_BINARY_DIR}/tests)
-    vln_use_torch_pch(${test_name})
-    gtest_discover_tests(${test_name} DISCOVERY_MODE PRE_TEST
-      DISCOVERY_TIMEOUT 120 PROPERTIES LABELS slow TIMEOUT 3600)
+    # a 1 h timeout (sanitized builds run 2-5x slower)
+    vln_add_test(${test_name} SOURCES ${source} LIBS vln::train
+      LABEL slow TORCH TIMEOUT 3600)
   elseif(test_name STREQUAL "FrozenWorldTest")
     # drives bin/vlnce-data only: no LibTorch; one generation of the default
     # world, about 9 s on 2 cores, so not labelled slow
