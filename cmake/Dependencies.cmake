@@ -42,14 +42,20 @@ add_library(vln_torch_pch STATIC ${PROJECT_SOURCE_DIR}/cmake/TorchPch.cpp)
 target_link_libraries(vln_torch_pch PRIVATE vln_torch vln_warnings)
 target_precompile_headers(vln_torch_pch PRIVATE <torch/torch.h>)
 
-function(vln_use_torch_pch target)
-  target_precompile_headers(${target} REUSE_FROM vln_torch_pch)
+# vln_reuse_pch(<target> <pch target>): <target> compiles with the precompiled
+# header of <pch target> (a static library that owns it).
+function(vln_reuse_pch target pch)
+  target_precompile_headers(${target} REUSE_FROM ${pch})
   get_target_property(type ${target} TYPE)
   if(type STREQUAL "EXECUTABLE")
-    # The shared PCH is compiled -fPIC (it belongs to a static library);
-    # gcc refuses it in translation units compiled -fPIE, which CMake uses for
-    # executables. -fPIC objects link into a PIE executable just as well.
+    # A static library's PCH is compiled -fPIC; gcc refuses it in
+    # translation units compiled -fPIE, which CMake uses for executables.
+    # -fPIC objects link into a PIE executable just as well.
     set_target_properties(${target} PROPERTIES POSITION_INDEPENDENT_CODE OFF)
     target_compile_options(${target} PRIVATE -fPIC)
   endif()
+endfunction()
+
+function(vln_use_torch_pch target)
+  vln_reuse_pch(${target} vln_torch_pch)
 endfunction()

@@ -19,6 +19,8 @@ packages=(
 
 source scripts/packages.sh
 vln_install_missing setup "${packages[@]}"
+# the phases' times tell where CI's minutes go (.ci/run prints the total)
+echo "setup: packages ready after ${SECONDS} s"
 
 # Debian's LibTorch links the reference BLAS unless OpenBLAS is the selected
 # alternative (matrix multiply ~25x slower otherwise): insist on it.
@@ -38,4 +40,4 @@ fi
 # binaries scripts/run.sh needs; the rest builds when scripts/test.sh runs
 # shellcheck disable=SC2086
 cmake --build "$build_dir" -j "$jobs" ${VLN_BUILD_TARGETS:+--target $VLN_BUILD_TARGETS}
-echo "setup: built into $build_dir/ (binaries in $build_dir/bin)"
+echo "setup: built into $build_dir/ (binaries in $build_dir/bin) after ${SECONDS} s"

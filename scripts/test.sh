@@ -8,4 +8,6 @@ vln_install_missing test chromium strace
 scripts/setup.sh
 build_dir=${VLN_BUILD_DIR:-build}
 cd "$build_dir"
+started=$SECONDS
 ctest --output-on-failure -j "${VLN_JOBS:-$(nproc)}" "$@"
+echo "test: ctest took $((SECONDS - started)) s"

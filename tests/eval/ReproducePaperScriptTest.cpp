@@ -94,8 +94,9 @@ TEST(ReproducePaperScriptTest, SeedsRunSeedMajor) {
               baseline ? "-" : "runs/experiments/" + step.name + seedDir);
     EXPECT_THAT(step.results,
                 ::testing::AnyOf("-", "results/paper/" + step.name + seedDir));
-    if (baseline || step.name == "seq2seq" || step.name == "cma")
+    if (baseline || step.name == "seq2seq" || step.name == "cma") {
       EXPECT_NE(step.results, "-") << step.name;
+    }
   }
 
   // every experiment config and both baselines, each once per seed

@@ -215,11 +215,12 @@ TEST(SplitEvaluationTest, ShardsGatheredWriteTheFilesOfOneProcess) {
                                         " of ", n, "; the split has 10)")));
         EXPECT_EQ(e.files.empty(), s != 0);
       }
-      if (rxr)
+      if (rxr) {
         EXPECT_EQ(data::readRxrPredictions(
                       dir.path() / rxrPredictionsFileName(4, "val_unseen"))
                       .size(),
                   split.episodes.size());
+      }
     }
   }
 }

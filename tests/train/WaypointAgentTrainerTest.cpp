@@ -192,7 +192,9 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
     }
     if (r["type"] == "collect") {
       ++collects;
-      if (r["iteration"] == 0) EXPECT_GE(r["success"].get<double>(), 0.5);
+      if (r["iteration"] == 0) {
+        EXPECT_GE(r["success"].get<double>(), 0.5);
+      }
       EXPECT_GT(r["decisions"].get<int>(), 0);
     }
   }

@@ -1,0 +1,1 @@
+// Translation unit that owns a test precompiled header (tests/CMakeLists.txt).
