@@ -97,21 +97,29 @@ EncodedInstruction WaypointCmaPolicyImpl::encodeInstruction(
   EncodedInstruction out;
   if (!config_.usesInstruction()) return out;
   const InstructionStates states = instruction_encoder(tokens);
-  out.states = states.states;
+  // padding stays zero: dropout only scales or zeroes values
+  out.states = trainingDropout(states.states);
   out.mask = states.mask;
-  out.keys = text_k(states.states);
+  out.keys = text_k(out.states);
   return out;
+}
+
+torch::Tensor WaypointCmaPolicyImpl::trainingDropout(const torch::Tensor& x) {
+  if (config_.dropout <= 0.0 || !is_training()) return x;
+  return torch::dropout(x, config_.dropout, /*train=*/true);
 }
 
 torch::Tensor WaypointCmaPolicyImpl::encodeViews(
     const WaypointPolicyInputs& inputs, int64_t n) {
+  // dropout on the frozen encoders' features reaches the views the state
+  // reads and the candidates' keys alike
   std::vector<torch::Tensor> parts;
   if (config_.usesRgb())
-    parts.push_back(torch::relu(
-        rgb_linear(inputs.rgb.reshape({n, numViews_, rgbFeatures_}))));
+    parts.push_back(torch::relu(rgb_linear(trainingDropout(
+        inputs.rgb.reshape({n, numViews_, rgbFeatures_})))));
   if (config_.usesDepth())
-    parts.push_back(torch::relu(
-        depth_linear(inputs.depth.reshape({n, numViews_, depthFeatures_}))));
+    parts.push_back(torch::relu(depth_linear(trainingDropout(
+        inputs.depth.reshape({n, numViews_, depthFeatures_})))));
   const torch::Tensor angles =
       torch::arange(numViews_, parts[0].options()) * (kTwoPi / numViews_);
   parts.push_back(torch::stack({torch::sin(angles), torch::cos(angles)}, 1)
@@ -176,7 +184,8 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
       compressed.view({steps, batch, H}), hidden.select(1, 1), inputs.not_done);
   const torch::Tensor h2 = h2Seq.reshape({n, H});
   context[0] = h2;
-  const torch::Tensor query = query_linear(torch::cat(context, 1));  // [n, H]
+  const torch::Tensor query =
+      query_linear(trainingDropout(torch::cat(context, 1)));  // [n, H]
 
   // each candidate reads the view nearest its heading
   const torch::Tensor polar = inputs.candidates.reshape({n, K, 2});

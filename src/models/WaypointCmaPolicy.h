@@ -23,6 +23,9 @@
 // heading when the panorama was taken (waypoint/WaypointHeatmap.h); view k
 // looks k * 2*pi/N to the left. Index 0 of the logits is STOP, index j >= 1
 // candidate j - 1.
+//
+// model.dropout (training only, as PolicyImpl's): on the encoded
+// instruction, on the encoders' view features and on the query's input.
 
 #include <torch/torch.h>
 
@@ -93,6 +96,8 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
   torch::nn::Linear query_linear{nullptr};
 
  private:
+  // x, or x with model.dropout applied while training
+  torch::Tensor trainingDropout(const torch::Tensor& x);
   // views [n, N, H] from the features of n steps
   torch::Tensor encodeViews(const WaypointPolicyInputs& inputs, int64_t n);
 

@@ -1,6 +1,7 @@
 // Tests src/models/WaypointCmaPolicy.cpp: shapes, the candidate mask, that
 // stepping equals the sequence, that candidates read the view at their
-// heading, the no-instruction ablation, and that it can fit labels.
+// heading, the no-instruction ablation, training-only dropout, and that it
+// can fit labels.
 
 #include "models/WaypointCmaPolicy.h"
 
@@ -136,6 +137,34 @@ TEST(WaypointCmaPolicyTest, WithoutTheInstructionThereIsNoEncoder) {
   const WaypointPolicyOutputs out = policy->forwardSequence(
       none, randomInputs(2, {3, 2}), policy->initialHidden(2));
   EXPECT_EQ(out.logits.sizes(), (std::vector<int64_t>{2, 2, kSlots + 1}));
+}
+
+// model.dropout: each training pass draws new masks; evaluation and a zero
+// rate are deterministic and agree with each other
+TEST(WaypointCmaPolicyTest, DropoutActsOnlyWhileTraining) {
+  torch::manual_seed(4);
+  ModelConfig c = config();
+  c.dropout = 0.3;
+  WaypointCmaPolicy policy(c, kViews, kRgb, kDepth);
+  torch::manual_seed(4);
+  WaypointCmaPolicy plain(config(), kViews, kRgb, kDepth);
+  const torch::Tensor tokens = test::randomTokens({5, 3}, 6, 23);
+  const WaypointPolicyInputs in = randomInputs(3, {4, 2});
+  torch::NoGradGuard noGrad;
+  auto logits = [&](WaypointCmaPolicy& p) {
+    const torch::Tensor l =
+        p->forwardSequence(p->encodeInstruction(tokens), in,
+                           p->initialHidden(2))
+            .logits;
+    return l.masked_fill(torch::isinf(l), 0);
+  };
+  policy->train();
+  EXPECT_FALSE(torch::allclose(logits(policy), logits(policy)));
+  policy->eval();
+  plain->train();
+  const torch::Tensor evaluated = logits(policy);
+  EXPECT_TRUE(torch::equal(evaluated, logits(policy)));
+  EXPECT_TRUE(torch::allclose(evaluated, logits(plain), 1e-6, 1e-6));
 }
 
 TEST(WaypointCmaPolicyTest, LearnsToFollowLabels) {
