@@ -233,8 +233,12 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     prev[i][1] = slot.prevDistance;
     notDone[i] = slot.decisions > 0 ? 1.0f : 0.0f;
   }
-  const torch::Tensor logits =
+  torch::Tensor logits =
       model_->step(envList, features, polar, mask, prev, notDone);
+  if (config_.stop_bias != 0.0) {
+    logits = logits.clone();
+    logits.select(1, 0).add_(config_.stop_bias);
+  }
 
   // choices (and the oracle's labels), per environment in parallel: the
   // approaches and the oracle plan on the navmesh

@@ -30,6 +30,10 @@ struct WaypointAgentConfig {
   /// What the training oracle aims for: the episode's goal, or the next
   /// reference-path waypoint not yet within stop_distance (then the goal).
   std::string oracle = "goal";
+  /// Added to the policy's STOP logit before it chooses (greedy or
+  /// sampled): a decision threshold, not a weight. Positive values stop
+  /// sooner. The oracle's labels and the training loss do not see it.
+  double stop_bias = 0.0;
   waypoint::ApproachConfig approach;
   waypoint::DepthBaselineConfig depth_baseline;
 
@@ -57,6 +61,10 @@ struct WaypointAgentConfig {
              "The training oracle picks the candidate whose approach ends "
              "nearest the goal, or nearest the next reference-path waypoint "
              "not yet reached");
+    v.field("stop_bias", stop_bias,
+            "Added to the policy's STOP logit when it chooses (positive "
+            "stops sooner; labels and loss are unchanged)",
+            common::inRange(-20.0, 20.0));
     v.section("approach", approach,
               "Executing a waypoint and the oracle's stopping rule");
     v.section("depth_baseline", depth_baseline,

@@ -1,6 +1,6 @@
 // WaypointAgent: the oracle-driven agent reaches the goals and records
 // consistent decisions, batching never changes an episode, the decision cap
-// STOPs, teleporting (waypoint_agent.execution) takes one recorded step per
+// STOPs, the STOP bias moves the policy's stops, teleporting (waypoint_agent.execution) takes one recorded step per
 // waypoint with teleport labels and the caps, and recorded decisions batch
 // into padded training tensors.
 
@@ -132,6 +132,34 @@ TEST(WaypointAgentTest, StopsAfterMaxDecisions) {
     EXPECT_EQ(e.record.actions.back(), static_cast<int>(sim::Action::kStop));
     // two approaches of at most 12 turns and 12 steps each, then STOP
     EXPECT_LE(e.record.actions.size(), 2u * 24u + 1u);
+  }
+}
+
+// waypoint_agent.stop_bias: a large bias makes the policy STOP at its first
+// decision, a large negative one never (until the decision cap)
+TEST(WaypointAgentTest, StopBiasMovesThePolicysStops) {
+  const auto& w = rolloutTestWorld();
+  TinyWaypointAgent t = tinyWaypointAgent(4);
+  t.config.max_decisions = 3;
+  t.config.stop_bias = 20.0;
+  auto eager = makeAgent(t, 2, /*sample=*/false);
+  for (const auto& e : run(*eager, w.episodes, 2, 2).episodes) {
+    EXPECT_EQ(e.record.actions,
+              std::vector<int>{static_cast<int>(sim::Action::kStop)});
+    ASSERT_EQ(e.record.waypoint_choices.size(), 1u);
+    EXPECT_EQ(e.record.waypoint_choices.front().chosen, -1);
+  }
+  t.config.stop_bias = -20.0;
+  auto reluctant = makeAgent(t, 2, /*sample=*/false);
+  for (const auto& e : run(*reluctant, w.episodes, 2, 2).episodes) {
+    // every decision the policy took moved (one without candidates can
+    // only STOP); the cap's STOP is not a decision
+    for (const auto& choice : e.record.waypoint_choices) {
+      if (!choice.candidates.empty()) {
+        EXPECT_GE(choice.chosen, 0);
+      }
+    }
+    EXPECT_GT(e.record.actions.size(), 1u);
   }
 }
 
