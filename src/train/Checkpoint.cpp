@@ -275,6 +275,15 @@ std::string serializeOptimizer(const torch::optim::Optimizer& optimizer) {
   return bytes;
 }
 
+void setAdamLearningRate(torch::optim::Optimizer& optimizer, double lr) {
+  for (auto& group : optimizer.param_groups()) {
+    auto* options = dynamic_cast<torch::optim::AdamOptions*>(&group.options());
+    VLN_CHECK_ARG(options != nullptr,
+                  "setAdamLearningRate(): only Adam is supported");
+    options->lr(lr);
+  }
+}
+
 void loadOptimizerState(torch::optim::Optimizer& optimizer,
                         std::string_view bytes, const std::string& source) {
   try {

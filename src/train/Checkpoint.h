@@ -64,6 +64,10 @@ std::string serializeCheckpoint(const Checkpoint& checkpoint);
 /// as bytes for Checkpoint::optimizer_state.
 std::string serializeOptimizer(const torch::optim::Optimizer& optimizer);
 
+/// Sets every parameter group's learning rate (Adam's options; the
+/// optimizer's moments are kept).
+void setAdamLearningRate(torch::optim::Optimizer& optimizer, double lr);
+
 /// Restores serializeOptimizer() bytes into an optimizer over the same
 /// parameters. Throws std::runtime_error naming `source` when they do not
 /// fit (other parameters, corrupt bytes).

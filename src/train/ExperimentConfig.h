@@ -34,6 +34,8 @@ struct TrainerConfig {
   bool exact_resume = false;
 
   double lr = 2.5e-4;
+  /// Multiplier of the learning rate per DAgger iteration (1: constant).
+  double lr_decay = 1.0;
   int batch_size = 5;
   double inflection_weight = 3.2;
   double progress_loss_weight = 1.0;
@@ -105,6 +107,11 @@ struct TrainerConfig {
             "rounding, ~1e-4)");
     v.field("lr", lr, "Adam learning rate (paper: 2.5e-4)",
             common::inRange(0.0, 1.0));
+    v.field("lr_decay", lr_decay,
+            "Learning-rate multiplier per DAgger iteration: iteration n's "
+            "epochs train at lr * lr_decay^n (1: constant, as VLN-CE; "
+            "teacher forcing is iteration 0)",
+            common::inRange(1e-6, 1.0));
     v.field("batch_size", batch_size, "Whole episodes per update (paper: 5)",
             common::inRange(1, 100000));
     v.field("inflection_weight", inflection_weight,

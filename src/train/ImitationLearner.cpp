@@ -295,6 +295,7 @@ EpochResult ImitationLearner::trainEpoch(
   }
 
   EpochResult result;
+  result.lr = learningRate();
   common::Stopwatch clock;
   common::ProgressLine line(strCat("epoch ", epoch),
                             static_cast<int64_t>(batches.size()), "updates");
@@ -309,6 +310,12 @@ EpochResult ImitationLearner::trainEpoch(
   finishEpoch(result);
   result.seconds = clock.seconds();
   return result;
+}
+
+double ImitationLearner::learningRate() const {
+  return static_cast<const torch::optim::AdamOptions&>(
+             optimizer_->param_groups().front().options())
+      .lr();
 }
 
 void ImitationLearner::addToEpoch(const UpdateResult& u, int epoch,
@@ -397,6 +404,7 @@ void logEpoch(const EpochResult& r, int64_t epoch, int iteration,
                     {"skipped", r.skipped},
                     {"seconds", r.seconds},
                     {"updates_per_second", rate},
+                    {"lr", r.lr},
                     {"loss", r.mean.loss},
                     {"action_loss", r.mean.action_loss},
                     {"progress_loss", r.mean.progress_loss},

@@ -49,6 +49,7 @@ struct EpochResult {
   int64_t updates = 0;  ///< applied updates
   int64_t skipped = 0;  ///< updates skipped for non-finite losses
   double seconds = 0.0;
+  double lr = 0.0;  ///< the learning rate the epoch trained at
 };
 
 /// VLN-CE's inflection coefficient: the inverse frequency of inflections
@@ -132,6 +133,8 @@ class ImitationLearner {
   static void finishEpoch(EpochResult& result);
 
   torch::optim::Adam& optimizer() { return *optimizer_; }
+  /// The learning rate of the optimizer's (first) parameter group.
+  double learningRate() const;
   models::PolicyImpl& policy() { return *policy_; }
   /// Applied updates so far (restored from checkpoints with setUpdates()).
   int64_t updates() const { return updates_; }

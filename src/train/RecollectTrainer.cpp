@@ -187,6 +187,7 @@ struct RecollectTrainer::Impl {
   void trainEpoch(int epoch) {
     const std::vector<Update> updates = epochUpdates(epoch);
     EpochResult result;
+    result.lr = learner->learningRate();
     ReplayStats replayed;
     const common::Stopwatch clock;
     common::ProgressLine line(strCat("recollect epoch ", epoch),

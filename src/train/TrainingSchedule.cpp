@@ -32,6 +32,10 @@ double TrainingSchedule::beta(int iteration) const {
   return std::pow(p, iteration + (trainer_.fine_tune_dagger ? 1 : 0));
 }
 
+double TrainingSchedule::learningRate(int iteration) const {
+  return trainer_.lr * std::pow(trainer_.lr_decay, iteration);
+}
+
 std::vector<size_t> TrainingSchedule::roundEpisodes(int iteration,
                                                     size_t poolSize) const {
   std::vector<size_t> order(poolSize);

@@ -58,6 +58,9 @@ class TrainingSchedule {
   int epochsPerIteration() const;
   /// The probability that round `iteration` takes the oracle's action.
   double beta(int iteration) const;
+  /// The learning rate of iteration `iteration`'s epochs:
+  /// trainer.lr * trainer.lr_decay^iteration.
+  double learningRate(int iteration) const;
 
   /// The episodes of round `iteration` as indices into a pool of
   /// `poolSize` episodes, slot by slot (see the file comment).

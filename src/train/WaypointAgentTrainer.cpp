@@ -281,6 +281,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       // ("turn left ...") is all that tells the candidates apart
       int64_t firstCorrect = 0, firstLabelled = 0;
       policy->train();
+      setAdamLearningRate(optimizer, schedule.learningRate(iteration.iteration));
       for (size_t start = 0; start < order.size(); start += tc.batch_size) {
         const size_t end = std::min(order.size(), start + tc.batch_size);
         std::vector<const std::vector<rollout::WaypointDecision>*> rows;
@@ -362,6 +363,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
            {"instruction_contrast", meanContrast},
            {"accuracy", accuracy},
            {"first_decision_accuracy", firstAccuracy},
+           {"lr", schedule.learningRate(iteration.iteration)},
            {"updates", progress.updates},
            {"seconds", epochClock.seconds()}},
           {{"train/epoch_loss", meanLoss},

@@ -194,10 +194,12 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
       "  dagger_iterations: 2\n  dagger_episodes: 4\n  dagger_epochs: 1\n"
       "  eval_during_training: false\n");
   std::string output;
-  // with the instruction-contrast loss on, which every epoch reports
+  // with the instruction-contrast loss on, which every epoch reports, and
+  // the learning rate halved per iteration
   ASSERT_EQ(vln::test::runCommand(
                 trainCommand(config,
-                             "--set trainer.instruction_contrast_weight=0.5"),
+                             "--set trainer.instruction_contrast_weight=0.5 "
+                             "--set trainer.lr_decay=0.5"),
                 &output),
             0)
       << output;
@@ -212,13 +214,14 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
   EXPECT_EQ(last.progress.dagger_iteration, 2);
   EXPECT_EQ(last.progress.stage, "dagger");
   EXPECT_EQ(last.progress.episodes_collected, 8);
-  std::vector<double> betas;
+  std::vector<double> betas, rates;
   int epochs = 0;
   for (const auto& record : readJsonLines(run / "metrics.jsonl")) {
     if (record["type"] == "collect")
       betas.push_back(record["beta"].get<double>());
     if (record["type"] == "epoch") {
       ++epochs;
+      rates.push_back(record["lr"].get<double>());
       // batches of different instructions: positive, finite
       EXPECT_GT(record["instruction_contrast"].get<double>(), 0.0);
       EXPECT_LT(record["instruction_contrast"].get<double>(), 10.0);
@@ -226,6 +229,9 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
   }
   EXPECT_EQ(betas, (std::vector<double>{1.0, 0.75}));
   EXPECT_EQ(epochs, 2);
+  ASSERT_EQ(rates.size(), 2u);
+  EXPECT_GT(rates[0], 0.0);
+  EXPECT_DOUBLE_EQ(rates[1], rates[0] * 0.5);
   EXPECT_FALSE(fs::exists(run / "eval"));
 }
 

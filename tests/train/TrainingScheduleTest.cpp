@@ -125,6 +125,18 @@ TEST(TrainingScheduleTest, BetaIsTheBasesPowerAsVlnCe) {
   EXPECT_EQ(TrainingSchedule(dagger(2, 1, 10, 0.0)).beta(0), 0.0);
 }
 
+TEST(TrainingScheduleTest, LearningRateDecaysPerIteration) {
+  TrainerConfig t = dagger(3, 1, 10, 0.75);
+  t.lr = 1e-3;
+  EXPECT_EQ(TrainingSchedule(t).learningRate(0), 1e-3);
+  EXPECT_EQ(TrainingSchedule(t).learningRate(2), 1e-3);  // constant
+  t.lr_decay = 0.5;
+  const TrainingSchedule decaying(t);
+  EXPECT_EQ(decaying.learningRate(0), 1e-3);
+  EXPECT_DOUBLE_EQ(decaying.learningRate(1), 5e-4);
+  EXPECT_DOUBLE_EQ(decaying.learningRate(2), 2.5e-4);
+}
+
 TEST(TrainingScheduleTest, TeacherForcingRunsThePoolInOrder) {
   EXPECT_THAT(TrainingSchedule(teacherForcing(1)).roundEpisodes(0, 4),
               ElementsAre(0u, 1u, 2u, 3u));

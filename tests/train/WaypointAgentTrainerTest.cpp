@@ -156,9 +156,11 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
   const fs::path config = writeConfig("  max_decisions: 6\n");
   std::string output;
   // with the instruction-contrast loss on (trainer.instruction_contrast_weight)
+  // and the learning rate halved per iteration
   ASSERT_EQ(vln::test::runCommand(
                 binary("train") + " --config " + config.string() +
-                    " --set trainer.instruction_contrast_weight=0.5 --export " +
+                    " --set trainer.instruction_contrast_weight=0.5"
+                    " --set trainer.lr_decay=0.5 --export " +
                     (dir_ / "agent.pt").string() + " 2>&1",
                 &output),
             0)
@@ -177,9 +179,11 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
   // the teacher-forcing round follows the oracle, which reaches most goals
   const auto records = vln::test::readJsonLines(run / "metrics.jsonl");
   int collects = 0, epochs = 0;
+  std::vector<double> rates;
   for (const auto& r : records) {
     if (r["type"] == "epoch") {
       ++epochs;
+      rates.push_back(r["lr"].get<double>());
       // a batch of different instructions: a positive, finite contrast
       EXPECT_GT(r["instruction_contrast"].get<double>(), 0.0);
       EXPECT_LT(r["instruction_contrast"].get<double>(), 10.0);
@@ -200,6 +204,9 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
   }
   EXPECT_EQ(collects, 2);
   EXPECT_EQ(epochs, 2);
+  ASSERT_EQ(rates.size(), 2u);
+  EXPECT_EQ(rates[0], loadExperimentConfig(run / "config.yaml").trainer.lr);
+  EXPECT_DOUBLE_EQ(rates[1], rates[0] * 0.5);
 
   // train --export wrote the best (or else the latest) checkpoint's policy
   const ExperimentConfig runConfig = loadExperimentConfig(run / "config.yaml");
@@ -256,6 +263,7 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
                                       config.string() +
                                       " --set "
                                       "trainer.instruction_contrast_weight=0.5"
+                                      " --set trainer.lr_decay=0.5"
                                       " --resume 2>&1",
                                   &output),
             0);
