@@ -34,9 +34,14 @@ EncodedInstruction PolicyImpl::encodeInstruction(
   return prepareInstruction(states);
 }
 
+torch::Tensor dropoutWhileTraining(const torch::Tensor& x, double p,
+                                   bool training) {
+  if (!x.defined() || p <= 0.0 || !training) return x;
+  return torch::dropout(x, p, /*train=*/true);
+}
+
 torch::Tensor PolicyImpl::trainingDropout(const torch::Tensor& x) {
-  if (!x.defined() || config_.dropout <= 0.0 || !is_training()) return x;
-  return torch::dropout(x, config_.dropout, /*train=*/true);
+  return dropoutWhileTraining(x, config_.dropout, is_training());
 }
 
 PolicyOutputs PolicyImpl::step(const EncodedInstruction& instruction,

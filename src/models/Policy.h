@@ -133,4 +133,10 @@ std::shared_ptr<PolicyImpl> makePolicy(
 /// naming model.device when it cannot be parsed.
 torch::Device modelDevice(const ModelConfig& config);
 
+/// `x` with dropout of probability `p` when `training`; `x` itself
+/// otherwise, with p 0 or when `x` is undefined (model.dropout's rule for
+/// every policy).
+torch::Tensor dropoutWhileTraining(const torch::Tensor& x, double p,
+                                   bool training);
+
 }  // namespace vln::models

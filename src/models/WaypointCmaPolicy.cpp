@@ -105,8 +105,7 @@ EncodedInstruction WaypointCmaPolicyImpl::encodeInstruction(
 }
 
 torch::Tensor WaypointCmaPolicyImpl::trainingDropout(const torch::Tensor& x) {
-  if (config_.dropout <= 0.0 || !is_training()) return x;
-  return torch::dropout(x, config_.dropout, /*train=*/true);
+  return dropoutWhileTraining(x, config_.dropout, is_training());
 }
 
 torch::Tensor WaypointCmaPolicyImpl::encodeViews(
