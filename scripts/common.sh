@@ -17,6 +17,13 @@ vln_ensure_world() {
     rm -rf "$world" data/scene_datasets/procedural
     "$vln_bin/vlnce-data" generate --config configs/world/default.yaml --out "$world" \
       --threads "$(nproc)"
+  elif [[ ! -f $world/train_extra/train_extra.json.gz ]]; then
+    # a world from before the 112 extra train houses: the same frozen files
+    # plus train_extra (the generator replaces what it writes, and keeps
+    # other worlds' scenes)
+    vln_stamp "adding the 112 extra train houses to $world"
+    "$vln_bin/vlnce-data" generate --config configs/world/default.yaml --out "$world" \
+      --threads "$(nproc)"
   fi
 }
 

@@ -6,7 +6,8 @@
 // generated world is byte-identical for a seed, whatever --threads;
 // (d) training does not depend on the vector units the CPU offers
 // (common::pinNumericalRuntime), and does without the pin where the CPU has
-// AVX-512, so the comparison can fail.
+// AVX-512, so the comparison can fail; (e) nor does the waypoint agent's
+// training, its predictor's included.
 // Label "slow": these drive the train, eval and vlnce-data binaries.
 
 #include <gmock/gmock.h>
@@ -193,6 +194,84 @@ TEST_F(DeterminismTest, TrainingDoesNotDependOnTheCpusVectorUnits) {
   for (size_t i = 0; i < a.policy.size() && i < b.policy.size(); ++i)
     anyDifference = anyDifference || !torch::equal(a.policy[i].second, b.policy[i].second);
   EXPECT_TRUE(anyDifference) << "AVX-512 kernels trained the same weights: this test "
+                                "no longer shows that the pin matters";
+}
+
+// (e) the waypoint agent's path (issue 18) under the same pin: the candidate
+// waypoint predictor's training, then the waypoint CMA's collection over its
+// candidates and training, asked for AVX-512 kernels, write the same bytes;
+// with VLN_NATIVE_DISPATCH=1 on an AVX-512 CPU the agent's weights differ.
+// (An AVX-512 machine's waypoint run once validated other numbers than an
+// AVX2 machine's; docs/reliability.md, "Across machines".)
+TEST_F(DeterminismTest, WaypointTrainingDoesNotDependOnTheCpusVectorUnits) {
+  if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma"))
+    GTEST_SKIP() << "the pin needs AVX2 and FMA";
+  const std::string avx512 =
+      "ATEN_CPU_CAPABILITY=avx512 DNNL_MAX_CPU_ISA=AVX512_CORE "
+      "ONEDNN_MAX_CPU_ISA=AVX512_CORE OPENBLAS_CORETYPE=SkylakeX";
+  const std::string waypointSections =
+      "panorama:\n"
+      "  rgb: {width: 32, height: 32}\n"
+      "  depth: {width: 32, height: 32}\n"
+      "waypoint:\n"
+      "  predictor: {hidden_size: 32, ff_size: 32}\n"
+      "  headings_per_node: 1\n"
+      "  max_nodes_per_house: 3\n"
+      "  epochs: 2\n";
+  auto run = [&](const std::string& name, const std::string& yaml, const std::string& env) {
+    const fs::path config = vln::test::writeText(dir_ / (name + ".yaml"), yaml);
+    std::string output;
+    EXPECT_EQ(vln::test::runCommand(
+                  "env " + env + " " + binary("train") + " --config " + config.string(), &output),
+              0)
+        << name << ": " << output;
+    return dir_ / name;
+  };
+  auto predictor = [&](const std::string& name, const std::string& env) {
+    return run(name,
+               train::test::tinyRunConfig(reliabilityWorld(), dir_ / name,
+                                          "  task: waypoint_predictor\n") +
+                   waypointSections,
+               env) /
+           "waypoint_predictor.pt";
+  };
+  auto agent = [&](const std::string& name, const fs::path& weights, const std::string& env) {
+    return run(name,
+               train::test::tinyRunConfig(reliabilityWorld(), dir_ / name,
+                                          "  task: waypoint_cma\n"
+                                          "  dagger_iterations: 2\n"
+                                          "  dagger_episodes: 6\n"
+                                          "  dagger_epochs: 1\n") +
+                   waypointSections + "waypoint_agent:\n  max_decisions: 6\n  predictor_weights: " +
+                   weights.string() + "\n",
+               env);
+  };
+  const fs::path pinnedWeights = predictor("predictor_pinned", "");
+  const fs::path askedWeights = predictor("predictor_asked", avx512);
+  ASSERT_TRUE(fs::exists(pinnedWeights));
+  EXPECT_TRUE(fileBytes(pinnedWeights) == fileBytes(askedWeights))
+      << "the predictor's weights depend on the kernels asked for";
+  const fs::path pinned = agent("agent_pinned", pinnedWeights, "");
+  const fs::path asked = agent("agent_asked", askedWeights, avx512);
+  const auto checkpoints = train::listCheckpoints(pinned / "checkpoints");
+  ASSERT_FALSE(checkpoints.empty());
+  const fs::path last = checkpoints.back().filename();
+  expectSameCheckpoint(pinned / "checkpoints" / last, asked / "checkpoints" / last);
+  const auto ma = metrics(pinned), mb = metrics(asked);
+  ASSERT_EQ(ma.size(), mb.size());
+  for (size_t i = 0; i < ma.size(); ++i) EXPECT_EQ(ma[i], mb[i]) << "metrics record " << i;
+
+  if (!__builtin_cpu_supports("avx512f"))
+    GTEST_SKIP() << "no AVX-512 here: native dispatch would pick AVX2 too";
+  const std::string nativeEnv = "VLN_NATIVE_DISPATCH=1 " + avx512;
+  const fs::path native =
+      agent("agent_native", predictor("predictor_native", nativeEnv), nativeEnv);
+  const train::Checkpoint a = train::loadCheckpoint(pinned / "checkpoints" / last);
+  const train::Checkpoint b = train::loadCheckpoint(native / "checkpoints" / last);
+  bool anyDifference = false;
+  for (size_t i = 0; i < a.policy.size() && i < b.policy.size(); ++i)
+    anyDifference = anyDifference || !torch::equal(a.policy[i].second, b.policy[i].second);
+  EXPECT_TRUE(anyDifference) << "AVX-512 kernels trained the same waypoint agent: this test "
                                 "no longer shows that the pin matters";
 }
 
