@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job, on the embedded default world, from a fresh checkout:
 #   1. setup (Debian packages, build of the binaries used here);
-#   2. the default world (40 procedural houses -> R2R_VLNCE splits);
+#   2. the default world (40 procedural houses -> R2R_VLNCE splits, and
+#      112 more train houses for the DAgger pool);
 #   3. the frozen encoders, pretrained in our own simulator (RGB: what the
 #      houses contain; depth: point-goal navigation), unless present;
 #   4. the default Cross-Modal Attention policy (configs/main.yaml);
