@@ -1,7 +1,8 @@
 // scripts/reproduce_paper.sh and the shell functions it shares with
 // scripts/run.sh (scripts/common.sh): syntax, the order in which the seeds
 // of the experiments run (--plan, which runs nothing), and the helpers that
-// read the resolved config and splice generated text into docs/results.md.
+// read the resolved config, complete the default world and splice generated
+// text into docs/results.md.
 // None of this trains anything.
 #include <algorithm>
 #include <map>
@@ -168,6 +169,56 @@ TEST(ReproducePaperScriptTest, ConfigValueReadsTheResolvedConfig) {
             0)
       << output;
   EXPECT_EQ(output, "[4][runs/x/seed4][][]\n");
+}
+
+// vln_ensure_world generates the default world where there is none, adds
+// train_extra in place to a world from before the 112 extra train houses
+// (keeping what is there: other worlds' scenes, the world's own files), and
+// leaves a complete world alone. A stub vlnce-data records its calls.
+TEST(ReproducePaperScriptTest, EnsureWorldGeneratesOrCompletesTheDefaultWorld) {
+  test::TempDir dir;
+  const std::string d = dir.path().string();
+  test::writeText(dir / "bin" / "vlnce-data",
+                  "#!/bin/sh\necho \"$*\" >> " + d + "/calls\n"
+                  "mkdir -p data/datasets/procedural/train_extra\n"
+                  "touch data/datasets/procedural/generation_stats.json "
+                  "data/datasets/procedural/train_extra/train_extra.json.gz\n");
+  std::string output;
+  ASSERT_EQ(test::runCommand("chmod +x " + d + "/bin/vlnce-data", &output), 0);
+  const std::string ensure = "cd " + d + " && vln_bin=" + d +
+                             "/bin; source " + script("common.sh") +
+                             "; vln_ensure_world";
+  auto calls = [&] {
+    return std::filesystem::exists(dir / "calls") ? common::readFile(dir / "calls")
+                                                  : std::string();
+  };
+
+  // none: generated, and a stale scenes directory of the default world is
+  // cleared first
+  test::writeText(dir / "data" / "scene_datasets" / "procedural" / "stale", "x");
+  ASSERT_EQ(bash(ensure, &output), 0) << output;
+  EXPECT_THAT(calls(), HasSubstr("generate --config configs/world/default.yaml "
+                                 "--out data/datasets/procedural"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "data" / "scene_datasets" /
+                                       "procedural" / "stale"));
+
+  // complete: left alone
+  std::filesystem::remove(dir / "calls");
+  ASSERT_EQ(bash(ensure, &output), 0) << output;
+  EXPECT_EQ(calls(), "");
+
+  // from before the extra houses: completed in place, nothing removed
+  std::filesystem::remove_all(dir / "data" / "datasets" / "procedural" /
+                              "train_extra");
+  test::writeText(dir / "data" / "scene_datasets" / "procedural" / "other", "x");
+  test::writeText(dir / "data" / "datasets" / "procedural" / "mine", "x");
+  ASSERT_EQ(bash(ensure, &output), 0) << output;
+  EXPECT_THAT(output, HasSubstr("adding the 112 extra train houses"));
+  EXPECT_THAT(calls(), HasSubstr("generate --config configs/world/default.yaml"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "data" / "scene_datasets" /
+                                      "procedural" / "other"));
+  EXPECT_TRUE(
+      std::filesystem::exists(dir / "data" / "datasets" / "procedural" / "mine"));
 }
 
 // vln_splice replaces one marked block, keeps the prose and the other
