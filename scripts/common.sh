@@ -15,16 +15,16 @@ vln_ensure_world() {
   if [[ ! -f $world/generation_stats.json ]]; then
     vln_stamp "generating the default world into $world"
     rm -rf "$world" data/scene_datasets/procedural
-    "$vln_bin/vlnce-data" generate --config configs/world/default.yaml --out "$world" \
-      --threads "$(nproc)"
   elif [[ ! -f $world/train_extra/train_extra.json.gz ]]; then
     # a world from before the 112 extra train houses: the same frozen files
     # plus train_extra (the generator replaces what it writes, and keeps
     # other worlds' scenes)
     vln_stamp "adding the 112 extra train houses to $world"
-    "$vln_bin/vlnce-data" generate --config configs/world/default.yaml --out "$world" \
-      --threads "$(nproc)"
+  else
+    return 0
   fi
+  "$vln_bin/vlnce-data" generate --config configs/world/default.yaml --out "$world" \
+    --threads "$(nproc)"
 }
 
 # The frozen encoders of the VLN configs (runs/pretrain/*_encoder.pt),
