@@ -119,19 +119,23 @@ class DeterminismTest : public ::testing::Test {
     for (const char* name : {"train", "eval", "vlnce-data"})
       if (!fs::exists(binary(name))) GTEST_SKIP() << "build the " << name << " binary first";
   }
-  // trains the tiny DAgger run into <dir>/<name> with the environment
-  // variables `env` ("A=1 B=2"); returns the run directory
-  fs::path train(const std::string& name, const std::string& env = "") {
-    const fs::path run = dir_ / name;
-    const fs::path config =
-        vln::test::writeText(dir_ / (name + ".yaml"), daggerRunConfig(run, 2, 3));
+  // runs the train binary on the config `yaml` (whose output.dir is
+  // <dir>/<name>) with the environment variables `env` ("A=1 B=2");
+  // returns the run directory
+  fs::path trainConfig(const std::string& name, const std::string& yaml,
+                       const std::string& env) {
+    const fs::path config = vln::test::writeText(dir_ / (name + ".yaml"), yaml);
     std::string output;
     EXPECT_EQ(vln::test::runCommand("env " + env + " " + binary("train") + " --config " +
                                         config.string(),
                                     &output),
               0)
-        << output;
-    return run;
+        << name << ": " << output;
+    return dir_ / name;
+  }
+  // the tiny DAgger run
+  fs::path train(const std::string& name, const std::string& env = "") {
+    return trainConfig(name, daggerRunConfig(dir_ / name, 2, 3), env);
   }
   vln::test::TempDir dir_;
 };
@@ -221,33 +225,23 @@ TEST_F(DeterminismTest, WaypointTrainingDoesNotDependOnTheCpusVectorUnits) {
       "  headings_per_node: 1\n"
       "  max_nodes_per_house: 3\n"
       "  epochs: 2\n";
-  auto run = [&](const std::string& name, const std::string& yaml, const std::string& env) {
-    const fs::path config = vln::test::writeText(dir_ / (name + ".yaml"), yaml);
-    std::string output;
-    EXPECT_EQ(vln::test::runCommand(
-                  "env " + env + " " + binary("train") + " --config " + config.string(), &output),
-              0)
-        << name << ": " << output;
-    return dir_ / name;
-  };
   auto predictor = [&](const std::string& name, const std::string& env) {
-    return run(name,
-               train::test::tinyRunConfig(reliabilityWorld(), dir_ / name,
-                                          "  task: waypoint_predictor\n") +
-                   waypointSections,
-               env) /
-           "waypoint_predictor.pt";
+    const std::string yaml =
+        train::test::tinyRunConfig(reliabilityWorld(), dir_ / name,
+                                   "  task: waypoint_predictor\n") +
+        waypointSections;
+    return trainConfig(name, yaml, env) / "waypoint_predictor.pt";
   };
   auto agent = [&](const std::string& name, const fs::path& weights, const std::string& env) {
-    return run(name,
-               train::test::tinyRunConfig(reliabilityWorld(), dir_ / name,
-                                          "  task: waypoint_cma\n"
-                                          "  dagger_iterations: 2\n"
-                                          "  dagger_episodes: 6\n"
-                                          "  dagger_epochs: 1\n") +
-                   waypointSections + "waypoint_agent:\n  max_decisions: 6\n  predictor_weights: " +
-                   weights.string() + "\n",
-               env);
+    const std::string yaml =
+        train::test::tinyRunConfig(reliabilityWorld(), dir_ / name,
+                                   "  task: waypoint_cma\n"
+                                   "  dagger_iterations: 2\n"
+                                   "  dagger_episodes: 6\n"
+                                   "  dagger_epochs: 1\n") +
+        waypointSections + "waypoint_agent:\n  max_decisions: 6\n  predictor_weights: " +
+        weights.string() + "\n";
+    return trainConfig(name, yaml, env);
   };
   const fs::path pinnedWeights = predictor("predictor_pinned", "");
   const fs::path askedWeights = predictor("predictor_asked", kAskForAvx512);
