@@ -107,10 +107,16 @@ const std::string kAskForAvx512 =
     "ATEN_CPU_CAPABILITY=avx512 DNNL_MAX_CPU_ISA=AVX512_CORE "
     "ONEDNN_MAX_CPU_ISA=AVX512_CORE OPENBLAS_CORETYPE=SkylakeX";
 
-std::vector<nlohmann::json> metrics(const fs::path& run) {
-  std::vector<nlohmann::json> records;
-  for (auto& r : readJsonLines(run / "metrics.jsonl")) records.push_back(withoutTimings(r));
-  return records;
+// the two runs' metrics.jsonl record for record, timings aside
+void expectSameMetrics(const fs::path& a, const fs::path& b) {
+  auto records = [](const fs::path& run) {
+    std::vector<nlohmann::json> out;
+    for (auto& r : readJsonLines(run / "metrics.jsonl")) out.push_back(withoutTimings(r));
+    return out;
+  };
+  const auto ma = records(a), mb = records(b);
+  ASSERT_EQ(ma.size(), mb.size());
+  for (size_t i = 0; i < ma.size(); ++i) EXPECT_EQ(ma[i], mb[i]) << "metrics record " << i;
 }
 
 class DeterminismTest : public ::testing::Test {
@@ -148,9 +154,7 @@ TEST_F(DeterminismTest, TrainingAndEvaluationAreReproducible) {
   for (const auto& file : checkpoints)
     expectSameCheckpoint(file, b / "checkpoints" / file.filename());
   expectSameStore(a / "store", b / "store");
-  const auto ma = metrics(a), mb = metrics(b);
-  ASSERT_EQ(ma.size(), mb.size());
-  for (size_t i = 0; i < ma.size(); ++i) EXPECT_EQ(ma[i], mb[i]) << "metrics record " << i;
+  expectSameMetrics(a, b);
   EXPECT_EQ(fileBytes(a / "checkpoints" / "best.json"), fileBytes(b / "checkpoints" / "best.json"));
 
   // (b) one checkpoint evaluated three times: again, and with more threads
@@ -254,9 +258,7 @@ TEST_F(DeterminismTest, WaypointTrainingDoesNotDependOnTheCpusVectorUnits) {
   ASSERT_FALSE(checkpoints.empty());
   const fs::path last = checkpoints.back().filename();
   expectSameCheckpoint(pinned / "checkpoints" / last, asked / "checkpoints" / last);
-  const auto ma = metrics(pinned), mb = metrics(asked);
-  ASSERT_EQ(ma.size(), mb.size());
-  for (size_t i = 0; i < ma.size(); ++i) EXPECT_EQ(ma[i], mb[i]) << "metrics record " << i;
+  expectSameMetrics(pinned, asked);
 
   if (!__builtin_cpu_supports("avx512f"))
     GTEST_SKIP() << "no AVX-512 here: native dispatch would pick AVX2 too";
