@@ -23,6 +23,13 @@ CmaPolicyImpl::CmaPolicyImpl(const ModelConfig& config)
   // with each modality the model keeps
   int64_t gru1In = prevDim;
   int64_t compressIn = hidden + prevDim;
+  if (config_.countsTurns()) {
+    turn_count_embedding = register_module(
+        "turn_count_embedding",
+        nn::Embedding(2 * kMaxTurnCount + 1, config_.turn_count_embedding_dim));
+    gru1In += config_.turn_count_embedding_dim;
+    compressIn += config_.turn_count_embedding_dim;
+  }
   if (config_.usesRgb()) {
     const int64_t channels = rgbShape_[0];
     const int64_t positions = rgbShape_[1] * rgbShape_[2];
@@ -156,6 +163,14 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
     gru1Parts.push_back(depthIn.view({steps, batch, -1}));
   }
   gru1Parts.push_back(prev);
+  torch::Tensor counts, turns;
+  if (turn_count_embedding) {
+    counts = turnCounts(inputs.prev_actions, inputs.not_done,
+                        hidden.select(1, 2).select(1, 0));
+    turns = turn_count_embedding(
+        (counts + static_cast<double>(kMaxTurnCount)).to(torch::kInt64));
+    gru1Parts.push_back(turns);
+  }
   auto [state, lastState] = state_encoder(torch::cat(gru1Parts, /*dim=*/-1),
                                           hidden.select(1, 0), inputs.not_done);
 
@@ -192,6 +207,7 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
         attendVisual(visualQuery, depthFeats, depthPos, depth_kv)
             .view({steps, batch, -1}));
   compressParts.push_back(prev);
+  if (turns.defined()) compressParts.push_back(turns);
 
   const torch::Tensor x =
       torch::relu(second_state_compress(torch::cat(compressParts, /*dim=*/-1)));
@@ -202,9 +218,38 @@ PolicyOutputs CmaPolicyImpl::forwardSequence(
   out.logits = action_head(trainingDropout(actionState));
   if (progress_monitor)
     out.progress = torch::tanh(progress_monitor(actionState)).squeeze(-1);
-  out.hidden = torch::stack({lastState, lastAction}, /*dim=*/1);
+  if (counts.defined()) {
+    // the last count in column 0 of the state's third row
+    const torch::Tensor countRow = torch::cat(
+        {counts[steps - 1].unsqueeze(1),
+         torch::zeros({batch, config_.hidden_size - 1}, counts.options())},
+        /*dim=*/1);
+    out.hidden = torch::stack({lastState, lastAction, countRow}, /*dim=*/1);
+  } else {
+    out.hidden = torch::stack({lastState, lastAction}, /*dim=*/1);
+  }
   out.instruction_attention = textAttention;
   return out;
+}
+
+torch::Tensor turnCounts(const torch::Tensor& prevActions,
+                         const torch::Tensor& notDone,
+                         const torch::Tensor& start) {
+  const auto max = static_cast<double>(kMaxTurnCount);
+  torch::Tensor count = start.detach().round().clamp(-max, max);
+  const torch::Tensor zero = torch::zeros_like(count);
+  std::vector<torch::Tensor> counts;
+  counts.reserve(static_cast<size_t>(prevActions.size(0)));
+  for (int64_t t = 0; t < prevActions.size(0); ++t) {
+    const torch::Tensor a = prevActions[t];
+    const torch::Tensor turned = count + (a == kTurnLeftAction).to(count.dtype()) -
+                                 (a == kTurnRightAction).to(count.dtype());
+    count = torch::where(notDone[t] != 0,
+                         torch::where(a == kMoveForwardAction, zero, turned), zero)
+                .clamp(-max, max);
+    counts.push_back(count);
+  }
+  return torch::stack(counts);
 }
 
 }  // namespace vln::models

@@ -8,6 +8,8 @@
 //              (keys and values from a linear map of [feature, position])
 //   h^a_t = GRU2(ReLU(W [h^attn_t, s^_t, v^_t, d^_t, a_{t-1}]))
 //   logits = W_a h^a_t + b_a
+// With model.turn_count_embedding_dim, an embedding of the turn count c_t
+// (turnCounts()) joins a_{t-1} in both GRUs' inputs.
 // Attn(X, q) = sum_i softmax_i((W_k x_i + b_k) . q / sqrt(hidden/2)) (W_v x_i
 // + b_v). Defaults: GRUs 512, keys 256, RGB value 256, depth value 128,
 // previous action 32.
@@ -43,6 +45,8 @@ class CmaPolicyImpl : public PolicyImpl {
   torch::nn::Linear rgb_linear{nullptr};
   torch::nn::Linear depth_linear{nullptr};
   torch::nn::Embedding prev_action_embedding{nullptr};  ///< [5, 32]
+  /// With model.turn_count_embedding_dim: [2 * kMaxTurnCount + 1, dim].
+  torch::nn::Embedding turn_count_embedding{nullptr};
   MaskedGru state_encoder{nullptr};                     ///< GRU1
   torch::nn::Linear state_q{nullptr};  ///< GRU1 state -> text query
   torch::nn::Linear text_k{nullptr};   ///< instruction state -> key
@@ -70,5 +74,14 @@ class CmaPolicyImpl : public PolicyImpl {
   double scale_;
 };
 TORCH_MODULE(CmaPolicy);
+
+/// The net turns since the last MOVE_FORWARD at each step, float [T, B]:
+/// c_t = 0 on an episode's first step (not_done 0), after MOVE_FORWARD 0,
+/// after TURN_LEFT c_{t-1} + 1, after TURN_RIGHT c_{t-1} - 1, after any
+/// other action c_{t-1}; clamped to [-kMaxTurnCount, kMaxTurnCount].
+/// prevActions and notDone [T, B]; start [B], the count before step 0.
+torch::Tensor turnCounts(const torch::Tensor& prevActions,
+                         const torch::Tensor& notDone,
+                         const torch::Tensor& start);
 
 }  // namespace vln::models

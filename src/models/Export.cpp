@@ -117,6 +117,26 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
                "[:, " + split + ":], depth_pos.flatten()))))");
   }
   w.line(1, "gru1_in.append(prev)");
+  if (config.countsTurns()) {
+    // turnCounts() for one step; the count rides in hidden[:, 2, 0]
+    const std::string max = std::to_string(kMaxTurnCount);
+    w.line(1, "count = torch.round(hidden[:, 2, 0]).clamp(-" + max + ", " +
+                  max + ")");
+    w.line(1, "turned = count + (prev_action == " +
+                  std::to_string(kTurnLeftAction) + ").to({f32}) - (prev_action == " +
+                  std::to_string(kTurnRightAction) + ").to({f32})");
+    w.line(1, "count = torch.where(prev_action == " +
+                  std::to_string(kMoveForwardAction) +
+                  ", torch.zeros_like(count), turned)");
+    w.line(1,
+           "count = torch.where(not_done != 0, count, "
+           "torch.zeros_like(count)).clamp(-" +
+               max + ", " + max + ")");
+    w.line(1, "turns = torch.embedding(" +
+                  w.ref("policy.turn_count_embedding.weight") + ", (count + " +
+                  max + ").to({i64}))");
+    w.line(1, "gru1_in.append(turns)");
+  }
   w.line(1, "h1 = " + gruStep(w, "policy.state_encoder",
                               "torch.cat(gru1_in, 1)", "hidden[:, 0]", "mask"));
   w.line(1, "compress_in: List[Tensor] = [h1]");
@@ -149,6 +169,7 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
                   w.ref("policy.depth_kv.bias") + ", " +
                   std::to_string(depthFeatureShape(config)[0]) + "))");
   w.line(1, "compress_in.append(prev)");
+  if (config.countsTurns()) w.line(1, "compress_in.append(turns)");
   w.line(1, "x = torch.relu(" +
                 linear(w, "policy.second_state_compress",
                        "torch.cat(compress_in, 1)") +
@@ -156,7 +177,14 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
   w.line(1, "h2 = " + gruStep(w, "policy.second_state_encoder", "x",
                               "hidden[:, 1]", "mask"));
   emitHeads(w, "h2");
-  w.line(1, "return logits, progress, torch.stack([h1, h2], 1)");
+  if (config.countsTurns()) {
+    w.line(1, "count_row = torch.cat([count.unsqueeze(1), torch.zeros([n, " +
+                  std::to_string(config.hidden_size - 1) +
+                  "], dtype={f32}, device=count.device)], 1)");
+    w.line(1, "return logits, progress, torch.stack([h1, h2, count_row], 1)");
+  } else {
+    w.line(1, "return logits, progress, torch.stack([h1, h2], 1)");
+  }
   w.line(0, "");
 }
 

@@ -54,6 +54,11 @@ void ModelConfig::validate() const {
                 "ModelConfig::validate(): model.num_actions must be ",
                 kNumActions, " (R2R_VLNCE) or ", kNumLookActions,
                 " (RxR_VLNCE, with LOOK_UP and LOOK_DOWN), got ", num_actions);
+  VLN_CHECK_ARG(turn_count_embedding_dim == 0 || policy == PolicyType::kCma,
+                "ModelConfig::validate(): model.turn_count_embedding_dim needs "
+                "model.policy cma, got policy ",
+                policyName(policy), " with turn_count_embedding_dim ",
+                turn_count_embedding_dim);
   VLN_CHECK_ARG(hidden_size % 2 == 0,
                 "ModelConfig::validate(): model.hidden_size must be even (CMA "
                 "attention keys are hidden_size / 2 wide), got ",

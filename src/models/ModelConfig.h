@@ -56,6 +56,13 @@ inline constexpr common::EnumNames<EncoderType, 3> kEncoderNames = {
 inline constexpr int64_t kNumActions = 4;
 /// RxR_VLNCE's number of actions: those four, LOOK_UP (4) and LOOK_DOWN (5).
 inline constexpr int64_t kNumLookActions = 6;
+/// The action ids the turn count reads (sim::Action's, Habitat's).
+inline constexpr int64_t kMoveForwardAction = 1;
+inline constexpr int64_t kTurnLeftAction = 2;
+inline constexpr int64_t kTurnRightAction = 3;
+/// The turn count (model.turn_count_embedding_dim) saturates at this many
+/// turns either way: 180 degrees at VLN-CE's 15-degree turns.
+inline constexpr int64_t kMaxTurnCount = 12;
 
 /// Shape of one observation's feature map, [channels, height, width].
 using FeatureShape = std::array<int64_t, 3>;
@@ -86,6 +93,7 @@ struct ModelConfig {
   int hidden_size = 512;
   int prev_action_embedding_dim = 32;
   bool seq2seq_prev_action = false;
+  int turn_count_embedding_dim = 0;
   int rgb_projection_size = 256;
   int depth_projection_size = 128;
   int spatial_embedding_dim = 64;
@@ -177,6 +185,14 @@ struct ModelConfig {
     v.field("seq2seq_prev_action", seq2seq_prev_action,
             "Seq2Seq also receives the previous-action embedding (VLN-CE "
             "SEQ2SEQ.use_prev_action, off in the paper)");
+    v.field("turn_count_embedding_dim", turn_count_embedding_dim,
+            "CMA only; 0: off. Width of a learned embedding of the net number "
+            "of turns since the last MOVE_FORWARD (TURN_LEFT +1, TURN_RIGHT "
+            "-1, clamped to +-kMaxTurnCount), fed to both GRUs beside the "
+            "previous action. The count is a function of the agent's own "
+            "actions, carried as a third row of the recurrent state; it lets "
+            "the agent turn by the amount the words ask",
+            common::atLeast(0));
     v.field("rgb_projection_size", rgb_projection_size,
             "Width of the RGB projection (and of CMA's attended RGB value)",
             common::atLeast(1));
@@ -239,8 +255,16 @@ struct ModelConfig {
     return policy == PolicyType::kCma ? 2 * instruction_hidden_size
                                       : instruction_hidden_size;
   }
-  /// Number of stacked recurrent states: 1 (Seq2Seq) or 2 (CMA).
-  int numRecurrentLayers() const { return policy == PolicyType::kCma ? 2 : 1; }
+  /// True when the CMA reads its turn count (turn_count_embedding_dim).
+  bool countsTurns() const {
+    return policy == PolicyType::kCma && turn_count_embedding_dim > 0;
+  }
+  /// Rows of the recurrent state [rows, hidden_size]: 1 (Seq2Seq's GRU),
+  /// 2 (CMA's two GRUs), 3 (CMA with the turn count in row 2, column 0).
+  int recurrentStateRows() const {
+    if (policy != PolicyType::kCma) return 1;
+    return countsTurns() ? 3 : 2;
+  }
 };
 
 /// Shape [C, h, w] of the RGB encoder's output for `config`'s RGB image size:

@@ -66,7 +66,7 @@ PolicyOutputs PolicyImpl::step(const EncodedInstruction& instruction,
 torch::Tensor PolicyImpl::initialHidden(int64_t batch) const {
   torch::Tensor any = parameters().front();
   return torch::zeros(
-      {batch, config_.numRecurrentLayers(), config_.hidden_size},
+      {batch, config_.recurrentStateRows(), config_.hidden_size},
       any.options().requires_grad(false));
 }
 
@@ -100,10 +100,10 @@ std::pair<int64_t, int64_t> PolicyImpl::checkInputs(
   if (config_.usesDepth()) checkFeatures(inputs.depth, depthShape_, "depth");
   TORCH_CHECK(
       hidden.defined() && hidden.dim() == 3 && hidden.size(0) == batch &&
-          hidden.size(1) == config_.numRecurrentLayers() &&
+          hidden.size(1) == config_.recurrentStateRows() &&
           hidden.size(2) == config_.hidden_size,
       "Policy::forwardSequence(): expected hidden [", batch, ", ",
-      config_.numRecurrentLayers(), ", ", config_.hidden_size, "], got ",
+      config_.recurrentStateRows(), ", ", config_.hidden_size, "], got ",
       hidden.defined() ? hidden.sizes() : torch::IntArrayRef{});
   return {steps, batch};
 }

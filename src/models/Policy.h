@@ -58,7 +58,7 @@ struct PolicyOutputs {
                            ///< (unnormalised)
   torch::Tensor progress;  ///< [..] in (-1, 1); undefined unless
                            ///< model.progress_monitor
-  torch::Tensor hidden;    ///< [B, numRecurrentLayers, hidden_size] after the
+  torch::Tensor hidden;    ///< [B, recurrentStateRows, hidden_size] after the
                            ///< last step
   /// [.., B, L] the CMA's attention over the instruction's tokens (softmax
   /// weights, 0 on padding); undefined for policies that do not attend to
@@ -89,7 +89,7 @@ class PolicyImpl : public torch::nn::Module {
   PolicyOutputs step(const EncodedInstruction& instruction,
                      const PolicyInputs& inputs, const torch::Tensor& hidden);
 
-  /// Zeros [batch, numRecurrentLayers, hidden_size] on the policy's device.
+  /// Zeros [batch, recurrentStateRows, hidden_size] on the policy's device.
   torch::Tensor initialHidden(int64_t batch) const;
 
   /// Copies a [vocab_size, embedding_dim] word-embedding matrix (GloVe) into

@@ -62,7 +62,7 @@ void ScriptedPolicyAgent::reset(int env, const data::Episode& episode) {
   s.tokens = archiveTokens(episode, config_, maxInstructionLength_,
                            "ScriptedPolicyAgent");
   s.recurrent.restart(
-      torch::zeros({config_.numRecurrentLayers(), config_.hidden_size},
+      torch::zeros({config_.recurrentStateRows(), config_.hidden_size},
                    torch::TensorOptions(device_).dtype(torch::kFloat32)));
   s.restart(seed_, episode);
 }

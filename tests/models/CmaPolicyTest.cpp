@@ -130,6 +130,69 @@ TEST(CmaPolicyTest, WithoutInstructionVisualQueryIsLearnedConstant) {
                 c.prev_action_embedding_dim);
 }
 
+TEST(CmaPolicyTest, TurnCountsFollowTheActions) {
+  // one row: STOP id 0 at the start (not_done 0), then left, left, right,
+  // left, forward, right, right, look up (id 4: no turn), then a reset
+  const torch::Tensor actions =
+      torch::tensor({0, 2, 2, 3, 2, 1, 3, 3, 4, 2}, torch::kInt64)
+          .unsqueeze(1);
+  torch::Tensor notDone = torch::ones({10, 1});
+  notDone[0] = 0;
+  notDone[9] = 0;
+  const torch::Tensor counts = turnCounts(actions, notDone, torch::full({1}, 5.0));
+  EXPECT_TRUE(torch::equal(
+      counts.squeeze(1),
+      torch::tensor({0.f, 1.f, 2.f, 1.f, 2.f, 0.f, -1.f, -2.f, -2.f, 0.f})))
+      << counts;
+
+  // a carried count continues; it saturates at kMaxTurnCount either way
+  const torch::Tensor lefts = torch::full({15, 2}, kTurnLeftAction);
+  lefts.select(1, 1).fill_(kTurnRightAction);
+  const torch::Tensor carried =
+      turnCounts(lefts, torch::ones({15, 2}), torch::tensor({3.f, -3.f}));
+  EXPECT_EQ(carried[0][0].item<float>(), 4.f);
+  EXPECT_EQ(carried[0][1].item<float>(), -4.f);
+  EXPECT_EQ(carried[14][0].item<float>(), static_cast<float>(kMaxTurnCount));
+  EXPECT_EQ(carried[14][1].item<float>(), -static_cast<float>(kMaxTurnCount));
+}
+
+TEST(CmaPolicyTest, TurnCountChangesTheActionAndRidesInTheState) {
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  c.turn_count_embedding_dim = 8;
+  CmaPolicy policy(c);
+  policy->eval();
+  torch::NoGradGuard noGrad;
+  const auto instr = policy->encodeInstruction(randomTokens({4, 6}, 6, 23));
+  // two rows that see the same observations and the same last action
+  // (TURN_LEFT) after different histories: 3 lefts against 1 right, 3 lefts
+  PolicyInputs in = randomInputs(c, 4, 2);
+  in.rgb.select(1, 1).copy_(in.rgb.select(1, 0));
+  in.depth.select(1, 1).copy_(in.depth.select(1, 0));
+  in.prev_actions.select(1, 0).copy_(torch::tensor({0, 2, 2, 2}));
+  in.prev_actions.select(1, 1).copy_(torch::tensor({0, 3, 2, 2}));
+  const auto out = policy->forwardSequence(instr, in, policy->initialHidden(2));
+  EXPECT_EQ(out.hidden[0][2][0].item<float>(), 3.f);
+  EXPECT_EQ(out.hidden[1][2][0].item<float>(), 1.f);
+  // the second GRU input widens by the embedding, as the first's does
+  EXPECT_EQ(policy->second_state_compress->weight.size(1),
+            c.hidden_size + c.instructionStateSize() + c.rgb_projection_size +
+                c.depth_projection_size + c.prev_action_embedding_dim + 8);
+  EXPECT_FALSE(torch::allclose(out.logits[3][0], out.logits[3][1]));
+}
+
+TEST(CmaPolicyTest, TurnCountNeedsCma) {
+  ModelConfig c = tinyConfig(PolicyType::kSeq2Seq);
+  c.turn_count_embedding_dim = 8;
+  try {
+    c.validate();
+    FAIL() << "expected a refusal";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("turn_count_embedding_dim"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(CmaPolicyTest, RejectsSeq2SeqConfig) {
   EXPECT_THROW(CmaPolicy(tinyConfig(PolicyType::kSeq2Seq)),
                std::invalid_argument);

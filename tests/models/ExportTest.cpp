@@ -67,7 +67,7 @@ Outputs runScript(torch::jit::Module& m, const ModelConfig& c,
                   const std::vector<StepData>& data) {
   torch::NoGradGuard g;
   Outputs out;
-  torch::Tensor h = torch::zeros({2, c.numRecurrentLayers(), c.hidden_size});
+  torch::Tensor h = torch::zeros({2, c.recurrentStateRows(), c.hidden_size});
   for (const auto& s : data) {
     const auto tuple =
         m.forward({s.rgb, s.depth, tokens, s.prevAction, s.notDone, h})
@@ -115,6 +115,10 @@ std::vector<Variant> variants() {
     c.no_depth = true;
     out.push_back({base + "_no_depth", c});
   }
+  // the turn count carried in the state's third row
+  ModelConfig turns = tinyConfig(PolicyType::kCma);
+  turns.turn_count_embedding_dim = 8;
+  out.push_back({"cma_turn_count", turns});
   // the ResNet emitters (BatchNorm and GroupNorm paths) on 64 px images
   ModelConfig r = tinyConfig(PolicyType::kCma);
   r.rgb_encoder = EncoderType::kResNet18;
@@ -200,7 +204,7 @@ TEST(ExportTest, RxrTextFeaturesAndSixActionsRoundTrip) {
     in.not_done[0].fill_(1);
     const torch::Tensor features = test::randomTextFeatures({4, 6}, 6, 8);
     const torch::Tensor h =
-        torch::randn({2, c.numRecurrentLayers(), c.hidden_size});
+        torch::randn({2, c.recurrentStateRows(), c.hidden_size});
     torch::NoGradGuard g;
     const auto expected = policy->step(policy->encodeInstruction(features),
                                        test::stepOf(in, 0), h);
@@ -253,7 +257,7 @@ TEST(ExportTest, PythonTorchJitLoadReproducesOutputs) {
     const torch::Tensor tokens = randomTokens({3, 5}, 6, c.vocab_size);
     const auto data = rollout(c, 1);
     const torch::Tensor h =
-        torch::randn({2, c.numRecurrentLayers(), c.hidden_size});
+        torch::randn({2, c.recurrentStateRows(), c.hidden_size});
     const torch::Tensor notDone = torch::ones({2});
     const std::string name = policyName(p);
     exportPolicy(*policy, encoder.get(), dir / (name + "_agent.pt"));

@@ -32,7 +32,7 @@ TEST(ModelConfigTest, DefaultsAreVlnCePaperSizes) {
   EXPECT_EQ(c.rgb_projection_size, 256);
   EXPECT_EQ(c.depth_projection_size, 128);
   EXPECT_EQ(c.spatial_embedding_dim, 64);
-  EXPECT_EQ(c.numRecurrentLayers(), 2);
+  EXPECT_EQ(c.recurrentStateRows(), 2);
   EXPECT_EQ(rgbFeatureShape(c), (FeatureShape{2048, 4, 4}));
   EXPECT_EQ(depthFeatureShape(c), (FeatureShape{128, 4, 4}));
   EXPECT_NO_THROW(c.validate());

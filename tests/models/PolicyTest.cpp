@@ -21,10 +21,23 @@ using test::stepOf;
 using test::tinyConfig;
 using ::testing::HasSubstr;
 
-class PolicyTest : public ::testing::TestWithParam<PolicyType> {
+// Seq2Seq, CMA, and CMA with the turn count (a third recurrent row)
+struct PolicyVariant {
+  PolicyType policy;
+  bool countsTurns;
+};
+
+class PolicyTest : public ::testing::TestWithParam<PolicyVariant> {
  protected:
   void SetUp() override { torch::manual_seed(7); }
-  ModelConfig config() const { return tinyConfig(GetParam()); }
+  ModelConfig withVariant(ModelConfig c) const {
+    if (GetParam().countsTurns) c.turn_count_embedding_dim = 8;
+    return c;
+  }
+  ModelConfig config() const { return withVariant(tinyConfig(GetParam().policy)); }
+  ModelConfig rxrConfig() const {
+    return withVariant(test::tinyRxrConfig(GetParam().policy));
+  }
 };
 
 TEST_P(PolicyTest, SequenceOutputsHaveDocumentedShapes) {
@@ -36,7 +49,7 @@ TEST_P(PolicyTest, SequenceOutputsHaveDocumentedShapes) {
   EXPECT_EQ(out.logits.sizes(), (std::vector<int64_t>{5, 3, kNumActions}));
   EXPECT_EQ(out.progress.sizes(), (std::vector<int64_t>{5, 3}));
   EXPECT_EQ(out.hidden.sizes(),
-            (std::vector<int64_t>{3, c.numRecurrentLayers(), c.hidden_size}));
+            (std::vector<int64_t>{3, c.recurrentStateRows(), c.hidden_size}));
   EXPECT_TRUE(out.logits.isfinite().all().item<bool>());
   EXPECT_TRUE((out.progress.abs() < 1).all().item<bool>());
 }
@@ -61,7 +74,7 @@ TEST_P(PolicyTest, StepModeEqualsSequenceModeWithResetsMidBatch) {
   const torch::Tensor tokens = randomTokens({5, 3, 8}, 8, 23);
   // a non-zero initial state makes the t = 0 reset observable
   const torch::Tensor h0 =
-      torch::randn({batch, c.numRecurrentLayers(), c.hidden_size});
+      torch::randn({batch, c.recurrentStateRows(), c.hidden_size});
 
   const auto instr = policy->encodeInstruction(tokens);
   const auto seq = policy->forwardSequence(instr, in, h0);
@@ -190,7 +203,7 @@ TEST_P(PolicyTest, GradientsMatchFiniteDifferences) {
   const torch::Tensor tokens = randomTokens({4, 3}, 4, 23);
   const PolicyInputs in = randomInputs(c, 4, 2, {{2, 1}}, torch::kDouble);
   const torch::Tensor h0 =
-      torch::randn({2, c.numRecurrentLayers(), c.hidden_size}, torch::kDouble);
+      torch::randn({2, c.recurrentStateRows(), c.hidden_size}, torch::kDouble);
   const torch::Tensor probe = torch::randn({4, 2, kNumActions}, torch::kDouble);
   const torch::Tensor probeP = torch::randn({4, 2}, torch::kDouble);
   auto loss = [&] {
@@ -351,7 +364,7 @@ TEST_P(PolicyTest, SixActionsWidenHeadAndPreviousActionEmbedding) {
 }
 
 TEST_P(PolicyTest, TextFeaturePaddingNeverChangesOutputs) {
-  const ModelConfig c = test::tinyRxrConfig(GetParam());
+  const ModelConfig c = rxrConfig();
   auto policy = makePolicy(c);
   policy->eval();
   EXPECT_TRUE(policy->instruction_encoder->embedding.is_empty());
@@ -362,7 +375,7 @@ TEST_P(PolicyTest, TextFeaturePaddingNeverChangesOutputs) {
   const PolicyInputs in = randomInputs(c, 4, 3);
   const EncodedInstruction a = policy->encodeInstruction(features);
   const EncodedInstruction b = policy->encodeInstruction(padded);
-  if (GetParam() == PolicyType::kCma) {
+  if (GetParam().policy == PolicyType::kCma) {
     // the mask covers the real rows; the padded encoding is trimmed
     EXPECT_TRUE(torch::equal(a.mask.sum(1).to(torch::kInt64),
                              torch::tensor({3, 6, 1}, torch::kInt64)));
@@ -394,7 +407,7 @@ TEST_P(PolicyTest, TextFeaturePaddingNeverChangesOutputs) {
 TEST_P(PolicyTest, TextFeatureTrainingLowersTheLoss) {
   // a few Adam steps teacher-forced on synthetic RxR-like episodes (text
   // features, all six actions as labels)
-  const ModelConfig c = test::tinyRxrConfig(GetParam());
+  const ModelConfig c = rxrConfig();
   auto policy = makePolicy(c);
   const int64_t steps = 6, batch = 4;
   const torch::Tensor features = test::randomTextFeatures({5, 9, 3, 7}, 9, 8);
@@ -430,7 +443,7 @@ TEST_P(PolicyTest, TextFeatureTrainingLowersTheLoss) {
 }
 
 TEST_P(PolicyTest, TextFeatureModelRefusesTokensAndGlove) {
-  const ModelConfig c = test::tinyRxrConfig(GetParam());
+  const ModelConfig c = rxrConfig();
   auto policy = makePolicy(c);
   try {
     policy->encodeInstruction(randomTokens({3}, 3, 23));
@@ -453,10 +466,13 @@ TEST_P(PolicyTest, TextFeatureModelRefusesTokensAndGlove) {
 }
 
 INSTANTIATE_TEST_SUITE_P(BothPolicies, PolicyTest,
-                         ::testing::Values(PolicyType::kSeq2Seq,
-                                           PolicyType::kCma),
+                         ::testing::Values(
+                             PolicyVariant{PolicyType::kSeq2Seq, false},
+                             PolicyVariant{PolicyType::kCma, false},
+                             PolicyVariant{PolicyType::kCma, true}),
                          [](const auto& info) {
-                           return std::string(policyName(info.param));
+                           return std::string(policyName(info.param.policy)) +
+                                  (info.param.countsTurns ? "_turn_count" : "");
                          });
 
 // The R2R models (model.num_actions 4, token instructions) give the outputs

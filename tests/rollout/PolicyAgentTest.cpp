@@ -125,7 +125,7 @@ TEST(PolicyAgentTest, StackedInstructionsMatchABatchedEncoding) {
     in.prev_actions = torch::tensor({0, 2, 1}, torch::kInt64);
     in.not_done = torch::tensor({0.0f, 1.0f, 1.0f});
     const torch::Tensor hidden =
-        torch::randn({3, c.numRecurrentLayers(), c.hidden_size});
+        torch::randn({3, c.recurrentStateRows(), c.hidden_size});
     const auto x = model.policy->step(batched, in, hidden);
     const auto y = model.policy->step(stacked, in, hidden);
     EXPECT_TRUE(torch::allclose(x.logits, y.logits, 1e-5, 1e-6));

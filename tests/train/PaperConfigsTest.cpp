@@ -343,7 +343,7 @@ TEST(PaperConfigsTest, EveryModelBuildsAndActsOnTheCpu) {
       EXPECT_EQ(sizesOf(out.progress), (Shape{batch}));
     }
     EXPECT_EQ(sizesOf(out.hidden),
-              (Shape{batch, m.numRecurrentLayers(), m.hidden_size}));
+              (Shape{batch, m.recurrentStateRows(), m.hidden_size}));
   }
 }
 
