@@ -194,12 +194,14 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
       "  dagger_iterations: 2\n  dagger_episodes: 4\n  dagger_epochs: 1\n"
       "  eval_during_training: false\n");
   std::string output;
-  // with the instruction-contrast loss on, which every epoch reports, and
-  // the learning rate halved per iteration
+  // with the instruction-contrast loss on, which every epoch reports, the
+  // learning rate halved per iteration, and the CMA counting its turns
+  // (collected with the count in the recurrent state's third row)
   ASSERT_EQ(vln::test::runCommand(
                 trainCommand(config,
                              "--set trainer.instruction_contrast_weight=0.5 "
-                             "--set trainer.lr_decay=0.5"),
+                             "--set trainer.lr_decay=0.5 "
+                             "--set model.turn_count_embedding_dim=4"),
                 &output),
             0)
       << output;
@@ -214,6 +216,11 @@ TEST_F(TrainEndToEndTest, DaggerRunAggregatesRounds) {
   EXPECT_EQ(last.progress.dagger_iteration, 2);
   EXPECT_EQ(last.progress.stage, "dagger");
   EXPECT_EQ(last.progress.episodes_collected, 8);
+  bool countsTurns = false;
+  for (const auto& [name, tensor] : last.policy)
+    if (name == "turn_count_embedding.weight")
+      countsTurns = tensor.sizes() == torch::IntArrayRef{25, 4};
+  EXPECT_TRUE(countsTurns);
   std::vector<double> betas, rates;
   int epochs = 0;
   for (const auto& record : readJsonLines(run / "metrics.jsonl")) {
