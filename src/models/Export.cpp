@@ -123,7 +123,8 @@ void emitCma(ScriptWriter& w, const ModelConfig& config, double scale) {
     w.line(1, "count = torch.round(hidden[:, 2, 0]).clamp(-" + max + ", " +
                   max + ")");
     w.line(1, "turned = count + (prev_action == " +
-                  std::to_string(kTurnLeftAction) + ").to({f32}) - (prev_action == " +
+                  std::to_string(kTurnLeftAction) +
+                  ").to({f32}) - (prev_action == " +
                   std::to_string(kTurnRightAction) + ").to({f32})");
     w.line(1, "count = torch.where(prev_action == " +
                   std::to_string(kMoveForwardAction) +

@@ -4,6 +4,7 @@
 // -1e8 instruction mask, one GRU cell per step).
 #include "models/CmaPolicy.h"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include "ModelTestUtil.h"
@@ -134,12 +135,12 @@ TEST(CmaPolicyTest, TurnCountsFollowTheActions) {
   // one row: STOP id 0 at the start (not_done 0), then left, left, right,
   // left, forward, right, right, look up (id 4: no turn), then a reset
   const torch::Tensor actions =
-      torch::tensor({0, 2, 2, 3, 2, 1, 3, 3, 4, 2}, torch::kInt64)
-          .unsqueeze(1);
+      torch::tensor({0, 2, 2, 3, 2, 1, 3, 3, 4, 2}, torch::kInt64).unsqueeze(1);
   torch::Tensor notDone = torch::ones({10, 1});
   notDone[0] = 0;
   notDone[9] = 0;
-  const torch::Tensor counts = turnCounts(actions, notDone, torch::full({1}, 5.0));
+  const torch::Tensor counts =
+      turnCounts(actions, notDone, torch::full({1}, 5.0));
   EXPECT_TRUE(torch::equal(
       counts.squeeze(1),
       torch::tensor({0.f, 1.f, 2.f, 1.f, 2.f, 0.f, -1.f, -2.f, -2.f, 0.f})))
@@ -183,14 +184,9 @@ TEST(CmaPolicyTest, TurnCountChangesTheActionAndRidesInTheState) {
 TEST(CmaPolicyTest, TurnCountNeedsCma) {
   ModelConfig c = tinyConfig(PolicyType::kSeq2Seq);
   c.turn_count_embedding_dim = 8;
-  try {
-    c.validate();
-    FAIL() << "expected a refusal";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("turn_count_embedding_dim"),
-              std::string::npos)
-        << e.what();
-  }
+  EXPECT_THAT([&] { c.validate(); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  ::testing::HasSubstr("turn_count_embedding_dim")));
 }
 
 TEST(CmaPolicyTest, RejectsSeq2SeqConfig) {

@@ -34,7 +34,9 @@ class PolicyTest : public ::testing::TestWithParam<PolicyVariant> {
     if (GetParam().countsTurns) c.turn_count_embedding_dim = 8;
     return c;
   }
-  ModelConfig config() const { return withVariant(tinyConfig(GetParam().policy)); }
+  ModelConfig config() const {
+    return withVariant(tinyConfig(GetParam().policy));
+  }
   ModelConfig rxrConfig() const {
     return withVariant(test::tinyRxrConfig(GetParam().policy));
   }
@@ -465,15 +467,15 @@ TEST_P(PolicyTest, TextFeatureModelRefusesTokensAndGlove) {
               HasSubstr("no word embedding"));
 }
 
-INSTANTIATE_TEST_SUITE_P(BothPolicies, PolicyTest,
-                         ::testing::Values(
-                             PolicyVariant{PolicyType::kSeq2Seq, false},
-                             PolicyVariant{PolicyType::kCma, false},
-                             PolicyVariant{PolicyType::kCma, true}),
-                         [](const auto& info) {
-                           return std::string(policyName(info.param.policy)) +
-                                  (info.param.countsTurns ? "_turn_count" : "");
-                         });
+INSTANTIATE_TEST_SUITE_P(
+    BothPolicies, PolicyTest,
+    ::testing::Values(PolicyVariant{PolicyType::kSeq2Seq, false},
+                      PolicyVariant{PolicyType::kCma, false},
+                      PolicyVariant{PolicyType::kCma, true}),
+    [](const auto& info) {
+      return std::string(policyName(info.param.policy)) +
+             (info.param.countsTurns ? "_turn_count" : "");
+    });
 
 // The R2R models (model.num_actions 4, token instructions) give the outputs
 // they gave before num_actions and instruction_features existed (first
