@@ -5,9 +5,10 @@
 vln_started=$(date +%s)
 vln_stamp() { echo "[$(basename "$0") $(date +%H:%M:%S), $(( $(date +%s) - vln_started )) s] $*"; }
 
-# OpenMP threads that spin between LibTorch ops take the cores from the
-# rendering threads (docs/performance.md)
-export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE}
+# How OpenMP threads wait between LibTorch ops is the binaries' choice
+# (common::OmpWait: a short spin for train, sleeping for eval) unless
+# OMP_WAIT_POLICY or GOMP_SPINCOUNT is set (docs/performance.md, "OpenMP
+# wait policy").
 
 # The default world (configs/world/default.yaml) into data/, unless there.
 vln_ensure_world() {

@@ -43,6 +43,11 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 vln_bin=${VLN_BUILD_DIR:-build}/bin
 source scripts/common.sh
+# Two of these scripts may run side by side (docs/results.md, "How it was
+# run and how long it took"); OpenMP threads that spin then take the cores
+# from the other process's, so here they sleep at once (docs/performance.md,
+# "OpenMP wait policy").
+export OMP_WAIT_POLICY=${OMP_WAIT_POLICY:-PASSIVE}
 
 episodes=${VLN_EVAL_EPISODES:--1}
 seeds=${VLN_SEEDS:-3}

@@ -54,14 +54,6 @@ void initLogging(const std::filesystem::path& logFile,
 
 namespace {
 
-// A variable this process needs, and whether a library reads it only when
-// it is loaded (so setting it now is too late for this process image).
-struct PinnedVariable {
-  const char* name;
-  const char* value;
-  bool readAtLoad;
-};
-
 bool cpuHasAvx2Fma() {
 #if defined(__x86_64__) || defined(__i386__)
   return __builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma");
@@ -70,33 +62,47 @@ bool cpuHasAvx2Fma() {
 #endif
 }
 
+bool setAndNotZero(const char* value) {
+  return value != nullptr && std::string_view(value) != "0";
+}
+
 }  // namespace
 
 bool nativeCpuDispatch() {
-  const char* native = std::getenv("VLN_NATIVE_DISPATCH");
-  return native != nullptr && std::string_view(native) != "0";
+  return setAndNotZero(std::getenv("VLN_NATIVE_DISPATCH"));
 }
 
-void pinNumericalRuntime(const std::string& program, char** argv,
-                         bool passiveOmpWait) {
-  std::vector<PinnedVariable> wanted;
-  if (!nativeCpuDispatch() && cpuHasAvx2Fma()) {
+std::vector<RuntimeVariable> numericalRuntimeVariables(
+    const std::function<const char*(const char*)>& env, bool cpuHasAvx2Fma,
+    OmpWait wait) {
+  std::vector<RuntimeVariable> wanted;
+  if (!setAndNotZero(env("VLN_NATIVE_DISPATCH")) && cpuHasAvx2Fma) {
     wanted.push_back({"ATEN_CPU_CAPABILITY", "avx2", false});
     wanted.push_back({"DNNL_MAX_CPU_ISA", "AVX2", false});
     wanted.push_back({"ONEDNN_MAX_CPU_ISA", "AVX2", false});
     wanted.push_back({"OPENBLAS_CORETYPE", "Haswell", true});
   }
-  // an explicit OMP_WAIT_POLICY is the user's choice
-  if (passiveOmpWait && std::getenv("OMP_WAIT_POLICY") == nullptr)
-    wanted.push_back({"OMP_WAIT_POLICY", "PASSIVE", true});
+  // how OpenMP threads wait is the user's choice when they made one
+  if (env("OMP_WAIT_POLICY") == nullptr && env("GOMP_SPINCOUNT") == nullptr) {
+    if (wait == OmpWait::kPassive)
+      wanted.push_back({"OMP_WAIT_POLICY", "PASSIVE", true});
+    else
+      wanted.push_back({"GOMP_SPINCOUNT", "10000", true});
+  }
+  return wanted;
+}
 
+void pinNumericalRuntime(const std::string& program, char** argv,
+                         OmpWait wait) {
+  const auto wanted = numericalRuntimeVariables(
+      [](const char* name) { return std::getenv(name); }, cpuHasAvx2Fma(),
+      wait);
   bool restart = false;
-  for (const PinnedVariable& variable : wanted) {
-    const char* current = std::getenv(variable.name);
-    if (current != nullptr && std::string_view(current) == variable.value)
-      continue;
-    ::setenv(variable.name, variable.value, /*overwrite=*/1);
-    restart = restart || variable.readAtLoad;
+  for (const RuntimeVariable& variable : wanted) {
+    const char* current = std::getenv(variable.name.c_str());
+    if (current != nullptr && variable.value == current) continue;
+    ::setenv(variable.name.c_str(), variable.value.c_str(), /*overwrite=*/1);
+    restart = restart || variable.read_at_load;
   }
   // the marker stops a second restart if a variable does not stick
   if (!restart || std::getenv("VLN_RUNTIME_PINNED") != nullptr) return;
