@@ -12,7 +12,7 @@ int main(int argc, char** argv) {
   // machine, evaluation ran at 23 steps/s with libgomp's default policy and
   // 672 steps/s with PASSIVE (docs/performance.md, "Evaluation").
   vln::common::pinNumericalRuntime("eval", argv,
-                                  vln::common::OmpWait::kPassive);
+                                   vln::common::OmpWait::kPassive);
   return vln::common::runMain("eval", [&] {
     CLI::App app{
         "Evaluate VLN-CE checkpoints, exports and baselines; build the paper's "

@@ -83,12 +83,12 @@ std::vector<RuntimeVariable> numericalRuntimeVariables(
     wanted.push_back({"OPENBLAS_CORETYPE", "Haswell", true});
   }
   // how OpenMP threads wait is the user's choice when they made one
-  if (env("OMP_WAIT_POLICY") == nullptr && env("GOMP_SPINCOUNT") == nullptr) {
-    if (wait == OmpWait::kPassive)
-      wanted.push_back({"OMP_WAIT_POLICY", "PASSIVE", true});
-    else
-      wanted.push_back({"GOMP_SPINCOUNT", "10000", true});
-  }
+  const bool userChose =
+      env("OMP_WAIT_POLICY") != nullptr || env("GOMP_SPINCOUNT") != nullptr;
+  if (!userChose && wait == OmpWait::kPassive)
+    wanted.push_back({"OMP_WAIT_POLICY", "PASSIVE", true});
+  if (!userChose && wait == OmpWait::kShortSpin)
+    wanted.push_back({"GOMP_SPINCOUNT", "10000", true});
   return wanted;
 }
 
@@ -104,9 +104,13 @@ void pinNumericalRuntime(const std::string& program, char** argv,
     ::setenv(variable.name.c_str(), variable.value.c_str(), /*overwrite=*/1);
     restart = restart || variable.read_at_load;
   }
-  // the marker stops a second restart if a variable does not stick
-  if (!restart || std::getenv("VLN_RUNTIME_PINNED") != nullptr) return;
-  ::setenv("VLN_RUNTIME_PINNED", "1", /*overwrite=*/1);
+  // The marker stops a second restart if a variable does not stick. It
+  // holds the process id, which execv keeps: a child this process starts
+  // (a test running a binary with other variables) restarts on its own.
+  const std::string self = std::to_string(::getpid());
+  const char* marker = std::getenv("VLN_RUNTIME_PINNED");
+  if (!restart || (marker != nullptr && self == marker)) return;
+  ::setenv("VLN_RUNTIME_PINNED", self.c_str(), /*overwrite=*/1);
   ::execv("/proc/self/exe", argv);
   std::cerr << program
             << ": warning: could not restart with pinned OpenBLAS/OpenMP "

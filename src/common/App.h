@@ -33,6 +33,9 @@ enum class OmpWait {
   kShortSpin,
   /// Sleep at once (OMP_WAIT_POLICY=PASSIVE).
   kPassive,
+  /// libgomp's own default: no variable, so no restart for it (the test
+  /// executables, which CTest starts by the hundred; tests/CMakeLists.txt).
+  kLibraryDefault,
 };
 
 /// An environment variable pinNumericalRuntime() sets, and whether a

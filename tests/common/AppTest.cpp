@@ -53,6 +53,14 @@ TEST(NumericalRuntimeVariables, PassiveWhenAsked) {
   EXPECT_TRUE(kept.empty());
 }
 
+TEST(NumericalRuntimeVariables, LibraryDefaultSetsNoWaitVariable) {
+  const auto pinned = asMap(numericalRuntimeVariables(
+      environment({}), /*cpuHasAvx2Fma=*/true, OmpWait::kLibraryDefault));
+  EXPECT_THAT(pinned, Not(Contains(Key("GOMP_SPINCOUNT"))));
+  EXPECT_THAT(pinned, Not(Contains(Key("OMP_WAIT_POLICY"))));
+  EXPECT_THAT(pinned, Contains(Key("OPENBLAS_CORETYPE")));
+}
+
 TEST(NumericalRuntimeVariables, Avx2KernelsUnlessNativeDispatch) {
   const auto pinned = asMap(numericalRuntimeVariables(
       environment({}), /*cpuHasAvx2Fma=*/true, OmpWait::kShortSpin));

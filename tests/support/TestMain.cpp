@@ -20,7 +20,10 @@ int main(int argc, char** argv) {
   const bool listing = std::any_of(argv, argv + argc, [](const char* arg) {
     return std::string_view(arg) == "--gtest_list_tests";
   });
-  if (!listing) vln::common::pinNumericalRuntime(argv[0], argv);
+  // the binaries a test runs choose their own OpenMP wait policy
+  if (!listing)
+    vln::common::pinNumericalRuntime(argv[0], argv,
+                                     vln::common::OmpWait::kLibraryDefault);
   ::testing::InitGoogleMock(&argc, argv);
   return RUN_ALL_TESTS();
 }
