@@ -7,12 +7,13 @@
 #include "train/ExperimentConfig.h"
 
 int main(int argc, char** argv) {
-  // OpenMP threads that busy-wait between LibTorch ops take the cores from
-  // the environment threads rendering between policy steps: on the 2-core
-  // machine, evaluation ran at 23 steps/s with libgomp's default policy and
-  // 672 steps/s with PASSIVE (docs/performance.md, "Evaluation").
-  vln::common::pinNumericalRuntime("eval", argv,
-                                   vln::common::OmpWait::kPassive);
+  // OpenMP threads that busy-wait long between LibTorch ops take the cores
+  // from the environment threads rendering between policy steps (once 23
+  // steps/s with libgomp's default against 672 with PASSIVE); the short
+  // spin every binary uses is faster still: all 270 val_unseen episodes of
+  // the main job in 7.3-7.7 s against 9.2-9.3 s with PASSIVE
+  // (docs/performance.md, "OpenMP wait policy").
+  vln::common::pinNumericalRuntime("eval", argv);
   return vln::common::runMain("eval", [&] {
     CLI::App app{
         "Evaluate VLN-CE checkpoints, exports and baselines; build the paper's "

@@ -85,8 +85,6 @@ std::vector<RuntimeVariable> numericalRuntimeVariables(
   // how OpenMP threads wait is the user's choice when they made one
   const bool userChose =
       env("OMP_WAIT_POLICY") != nullptr || env("GOMP_SPINCOUNT") != nullptr;
-  if (!userChose && wait == OmpWait::kPassive)
-    wanted.push_back({"OMP_WAIT_POLICY", "PASSIVE", true});
   if (!userChose && wait == OmpWait::kShortSpin)
     wanted.push_back({"GOMP_SPINCOUNT", "10000", true});
   return wanted;

@@ -26,13 +26,13 @@ void initLogging(const std::filesystem::path& logFile = {},
 enum class OmpWait {
   /// Spin 10,000 rounds, then sleep (GOMP_SPINCOUNT=10000). libgomp's
   /// default spins 300,000 rounds, long enough to take the cores from the
-  /// threads rendering between policy steps; sleeping at once (kPassive)
-  /// makes every small op of an update wait for a wake-up. On the 2-core
-  /// machine a short DAgger run took 113 s this way, 135 s with the default
-  /// and 148 s with PASSIVE (docs/performance.md, "OpenMP wait policy").
+  /// threads rendering between policy steps; sleeping at once
+  /// (OMP_WAIT_POLICY=PASSIVE) makes every small op of an update wait for
+  /// a wake-up. On the 2-core machine a short DAgger run took 113 s this
+  /// way, 135 s with the default and 148 s with PASSIVE
+  /// (docs/performance.md, "OpenMP wait policy"). Several processes side by
+  /// side still want PASSIVE, which the user sets.
   kShortSpin,
-  /// Sleep at once (OMP_WAIT_POLICY=PASSIVE).
-  kPassive,
   /// libgomp's own default: no variable, so no restart for it (the test
   /// executables, which CTest starts by the hundred; tests/CMakeLists.txt).
   kLibraryDefault,

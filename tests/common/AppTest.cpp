@@ -43,16 +43,6 @@ TEST(NumericalRuntimeVariables, ShortSpinUnlessTheUserChose) {
   }
 }
 
-TEST(NumericalRuntimeVariables, PassiveWhenAsked) {
-  const auto pinned = asMap(numericalRuntimeVariables(
-      environment({}), /*cpuHasAvx2Fma=*/false, OmpWait::kPassive));
-  EXPECT_THAT(pinned, Contains(Pair("OMP_WAIT_POLICY", "PASSIVE")));
-  EXPECT_THAT(pinned, Not(Contains(Key("GOMP_SPINCOUNT"))));
-  const auto kept = asMap(numericalRuntimeVariables(
-      environment({{"GOMP_SPINCOUNT", "0"}}), false, OmpWait::kPassive));
-  EXPECT_TRUE(kept.empty());
-}
-
 TEST(NumericalRuntimeVariables, LibraryDefaultSetsNoWaitVariable) {
   const auto pinned = asMap(numericalRuntimeVariables(
       environment({}), /*cpuHasAvx2Fma=*/true, OmpWait::kLibraryDefault));
