@@ -5,10 +5,9 @@
 vln_started=$(date +%s)
 vln_stamp() { echo "[$(basename "$0") $(date +%H:%M:%S), $(( $(date +%s) - vln_started )) s] $*"; }
 
-# How OpenMP threads wait between LibTorch ops is the binaries' choice
-# (common::OmpWait: a short spin) unless
-# OMP_WAIT_POLICY or GOMP_SPINCOUNT is set (docs/performance.md, "OpenMP
-# wait policy").
+# How OpenMP threads wait between LibTorch ops is the binaries' choice (a
+# short spin, common::OmpWait) unless OMP_WAIT_POLICY or GOMP_SPINCOUNT is
+# set (docs/performance.md, "OpenMP wait policy").
 
 # The default world (configs/world/default.yaml) into data/, unless there.
 vln_ensure_world() {
