@@ -34,7 +34,8 @@ enum class OmpWait {
   /// side still want PASSIVE, which the user sets.
   kShortSpin,
   /// libgomp's own default: no variable, so no restart for it (the test
-  /// executables, which CTest starts by the hundred; tests/CMakeLists.txt).
+  /// executables, which CTest starts by the hundred: tests/support/TestMain.cpp;
+  /// a restart costs each about 0.8 s, tests/CMakeLists.txt).
   kLibraryDefault,
 };
 
