@@ -67,7 +67,6 @@ static_assert(sizeof(TriangleShade) == 64);
 // A texture as the sampler needs it.
 struct TextureView {
   const uint8_t* rgb = nullptr;
-  const uint8_t* end = nullptr;  // one past the last byte
   int width = 0;
   int height = 0;
 };
@@ -77,63 +76,6 @@ struct TextureView {
 inline int floorToInt(float x) {
   const int i = static_cast<int>(x);
   return i - (x < static_cast<float>(i) ? 1 : 0);
-}
-
-// One RGB8 texel as floats (r, g, b, junk). Reads 4 bytes at once except
-// for the very last texel, whose fourth byte lies past the image.
-inline __m128 loadTexel(const uint8_t* p, const uint8_t* end) {
-  int32_t bits;
-  if (p + 4 <= end) {
-    std::memcpy(&bits, p, 4);
-  } else {
-    bits = p[0] | (p[1] << 8) | (p[2] << 16);
-  }
-  const __m128i zero = _mm_setzero_si128();
-  __m128i v = _mm_cvtsi32_si128(bits);
-  v = _mm_unpacklo_epi8(v, zero);
-  v = _mm_unpacklo_epi16(v, zero);
-  return _mm_cvtepi32_ps(v);
-}
-
-// Bilinear lookup with wrap, as GL_LINEAR + GL_REPEAT without mipmaps: texel
-// centres at (i + 0.5) / size, row 0 at v = 0 (the rasteriser uploads the
-// rows in the same order). Returns colour in [0, 1] in lanes 0-2.
-inline __m128 sampleBilinear(const TextureView& texture, float s, float t) {
-  // non-finite or absurd coordinates sample texel row/column 0
-  if (!(std::abs(s) < 1e6f)) s = 0.0f;
-  if (!(std::abs(t) < 1e6f)) t = 0.0f;
-  // with the coordinate wrapped into [0, 1) first, the lower texel is in
-  // [-1, size - 1] and the upper in [0, size]: one comparison each wraps
-  // them (no integer division)
-  s -= static_cast<float>(floorToInt(s));
-  t -= static_cast<float>(floorToInt(t));
-  const int width = texture.width;
-  const int height = texture.height;
-  const float x = s * static_cast<float>(width) - 0.5f;
-  const float y = t * static_cast<float>(height) - 0.5f;
-  int x0 = floorToInt(x);
-  int y0 = floorToInt(y);
-  const float fx = x - static_cast<float>(x0);
-  const float fy = y - static_cast<float>(y0);
-  int x1 = x0 + 1;
-  int y1 = y0 + 1;
-  if (x0 < 0) x0 += width;
-  if (y0 < 0) y0 += height;
-  if (x1 >= width) x1 -= width;
-  if (y1 >= height) y1 -= height;
-  const ptrdiff_t stride = static_cast<ptrdiff_t>(width) * 3;
-  const uint8_t* row0 = texture.rgb + y0 * stride;
-  const uint8_t* row1 = texture.rgb + y1 * stride;
-  constexpr float kInv255 = 1.0f / 255.0f;
-  const __m128 w00 = _mm_set1_ps((1.0f - fx) * (1.0f - fy) * kInv255);
-  const __m128 w10 = _mm_set1_ps(fx * (1.0f - fy) * kInv255);
-  const __m128 w01 = _mm_set1_ps((1.0f - fx) * fy * kInv255);
-  const __m128 w11 = _mm_set1_ps(fx * fy * kInv255);
-  const __m128 top = _mm_add_ps(_mm_mul_ps(w00, loadTexel(row0 + 3 * x0, texture.end)),
-                                _mm_mul_ps(w10, loadTexel(row0 + 3 * x1, texture.end)));
-  const __m128 bottom = _mm_add_ps(_mm_mul_ps(w01, loadTexel(row1 + 3 * x0, texture.end)),
-                                   _mm_mul_ps(w11, loadTexel(row1 + 3 * x1, texture.end)));
-  return _mm_add_ps(top, bottom);
 }
 
 // The shading table of `mesh` (see TriangleShade).
@@ -177,30 +119,106 @@ std::vector<TriangleShade> buildShadeTable(const TriangleMesh& mesh) {
   return table;
 }
 
+// The portable path computes exactly what the AVX-512 path below computes,
+// operation for operation: each multiply-add that path fuses is a
+// std::fma here (one rounding), in the same order, and the clamps keep its
+// NaN rules. So a CPU without AVX-512 renders the same bits as one with it,
+// and runs on either machine train the same weights (docs/reliability.md,
+// "Across machines"). Built twice (target_clones): with FMA instructions for
+// every AVX2 CPU, and for the baseline, where std::fma is libm's correctly
+// rounded fmaf, slower and equal.
+#define VLN_PORTABLE_FMA __attribute__((target_clones("fma", "default")))
+
+// GL's float-to-unorm conversion as the packet path does it: max(c, 0) and
+// min(c, 1) with SSE's rules (a NaN becomes 0), scale, round to nearest.
+inline uint32_t unormByte(float c) {
+  c = c > 0.0f ? c : 0.0f;
+  c = c < 1.0f ? c : 1.0f;
+  return static_cast<uint32_t>(static_cast<int32_t>(std::fma(c, 255.0f, 0.5f)));
+}
+
 // Colour of one hit as r | g << 8 | b << 16: base colour x vertex colour x
-// texture, interpolated with the hit's barycentrics, 4-wide with SSE2 (the
-// fourth lane is ignored).
-inline uint32_t shadeScalar(const TriangleShade& t, float u, float v,
-                            const std::vector<TextureView>& textures) {
-  const __m128 mu = _mm_set1_ps(u);
-  const __m128 mv = _mm_set1_ps(v);
-  __m128 color = _mm_add_ps(_mm_load_ps(t.color0),
-                            _mm_add_ps(_mm_mul_ps(mu, _mm_load_ps(t.dcolor1)),
-                                       _mm_mul_ps(mv, _mm_load_ps(t.dcolor2))));
+// texture, interpolated with the hit's barycentrics; the texture is sampled
+// bilinearly with wrap, as GL_LINEAR + GL_REPEAT without mipmaps (texel
+// centres at (i + 0.5) / size, row 0 at v = 0, the rows uploaded in the same
+// order by the rasteriser).
+VLN_PORTABLE_FMA uint32_t
+shadePortable(const TriangleShade& t, float u, float v,
+              const std::vector<TextureView>& textures) {
+  float color[3];
+  for (int c = 0; c < 3; ++c)
+    color[c] =
+        std::fma(v, t.dcolor2[c], std::fma(u, t.dcolor1[c], t.color0[c]));
   if (t.texture >= 0) {
-    const float s = t.s0 + u * t.duv[0] + v * t.duv[2];
-    const float r = t.t0 + u * t.duv[1] + v * t.duv[3];
-    color = _mm_mul_ps(color,
-                       sampleBilinear(textures[static_cast<size_t>(t.texture)], s, r));
+    const TextureView& texture = textures[static_cast<size_t>(t.texture)];
+    float s = std::fma(v, t.duv[2], std::fma(u, t.duv[0], t.s0));
+    float r = std::fma(v, t.duv[3], std::fma(u, t.duv[1], t.t0));
+    // non-finite or absurd coordinates sample texel row/column 0; then
+    // wrapped into [0, 1), the lower texel is in [-1, size - 1] and the
+    // upper in [0, size]: one comparison each wraps them
+    if (!(std::abs(s) < 1e6f)) s = 0.0f;
+    if (!(std::abs(r) < 1e6f)) r = 0.0f;
+    s -= static_cast<float>(floorToInt(s));
+    r -= static_cast<float>(floorToInt(r));
+    const int width = texture.width;
+    const int height = texture.height;
+    const float x = std::fma(s, static_cast<float>(width), -0.5f);
+    const float y = std::fma(r, static_cast<float>(height), -0.5f);
+    int x0 = floorToInt(x);
+    int y0 = floorToInt(y);
+    const float fx = x - static_cast<float>(x0);
+    const float fy = y - static_cast<float>(y0);
+    int x1 = x0 + 1;
+    int y1 = y0 + 1;
+    if (x0 < 0) x0 += width;
+    if (y0 < 0) y0 += height;
+    if (x1 >= width) x1 -= width;
+    if (y1 >= height) y1 -= height;
+    const ptrdiff_t stride = static_cast<ptrdiff_t>(width) * 3;
+    const uint8_t* t00 = texture.rgb + y0 * stride + 3 * x0;
+    const uint8_t* t10 = texture.rgb + y0 * stride + 3 * x1;
+    const uint8_t* t01 = texture.rgb + y1 * stride + 3 * x0;
+    const uint8_t* t11 = texture.rgb + y1 * stride + 3 * x1;
+    constexpr float kInv255 = 1.0f / 255.0f;
+    const float gx = 1.0f - fx;
+    const float gy = 1.0f - fy;
+    const float w00 = gx * gy * kInv255;
+    const float w10 = fx * gy * kInv255;
+    const float w01 = gx * fy * kInv255;
+    const float w11 = fx * fy * kInv255;
+    for (int c = 0; c < 3; ++c) {
+      const float sample =
+          std::fma(w11, static_cast<float>(t11[c]),
+                   std::fma(w01, static_cast<float>(t01[c]),
+                            std::fma(w10, static_cast<float>(t10[c]),
+                                     w00 * static_cast<float>(t00[c]))));
+      color[c] = color[c] * sample;
+    }
   }
-  // GL's float-to-unorm conversion: clamp to [0, 1], scale, round to nearest
-  color = _mm_min_ps(_mm_max_ps(color, _mm_setzero_ps()), _mm_set1_ps(1.0f));
-  const __m128i bytes = _mm_cvttps_epi32(
-      _mm_add_ps(_mm_mul_ps(color, _mm_set1_ps(255.0f)), _mm_set1_ps(0.5f)));
-  alignas(16) int32_t values[4];
-  _mm_store_si128(reinterpret_cast<__m128i*>(values), bytes);
-  return static_cast<uint32_t>(values[0]) | static_cast<uint32_t>(values[1]) << 8 |
-         static_cast<uint32_t>(values[2]) << 16;
+  return unormByte(color[0]) | unormByte(color[1]) << 8 |
+         unormByte(color[2]) << 16;
+}
+
+// Directions of the 16 primary rays of a 4x4 tile, reset tfar and hit, and
+// the valid mask, as setupPacketAvx512() computes them (direction = x *
+// right + (y * up - back), two roundings).
+VLN_PORTABLE_FMA void setupPacketPortable(
+    const float* columnX, const float* rowY, const Eigen::Matrix3f& toWorld,
+    int columns, int rows, RTCRayHit16& packet, int valid[kPacket]) {
+  float* directions[3] = {packet.ray.dir_x, packet.ray.dir_y, packet.ray.dir_z};
+  for (int k = 0; k < kPacket; ++k) {
+    const int column = k & (kTile - 1);
+    const int row = k / kTile;
+    valid[k] = (column < columns && row < rows) ? -1 : 0;
+    const float x = columnX[column];
+    const float y = rowY[row];
+    for (int axis = 0; axis < 3; ++axis)
+      directions[axis][k] =
+          std::fma(x, toWorld(axis, 0),
+                   std::fma(y, toWorld(axis, 1), -toWorld(axis, 2)));
+    packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
+    packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
+  }
 }
 
 // ---------------------------------------------------------------------------
@@ -262,10 +280,9 @@ bool cpuHasAvx512() {
 // same instructions without the warning.
 constexpr __mmask16 kAll = 0xFFFF;
 
-// The same rule as shadeScalar() for the 16 lanes of a packet at once (the
-// scalar path takes ~100 instructions per textured pixel; this ~15).
-// Lanes outside `hitMask` get 0. Results equal shadeScalar()'s up to the
-// rounding of fused multiply-adds (at most one level, rarely).
+// shadePortable() for the 16 lanes of a packet at once (the portable path
+// takes ~100 instructions per textured pixel; this ~15). Lanes outside
+// `hitMask` get 0. Every operation here has its twin there: change both.
 void shadePacketAvx512(const TriangleShade* table,
                                   const PackedTextures& textures,
                                   const RTCHit16& hits, unsigned hitMask,
@@ -389,8 +406,8 @@ void shadePacketAvx512(const TriangleShade* table,
 
 // Directions of the 16 primary rays of a 4x4 tile (lane k is column k % 4,
 // row k / 4), reset tfar and hit, and the valid mask for tiles overhanging
-// the image; the same values as the scalar loop in render() up to FMA
-// rounding. `columnX` and `rowY` point at the tile's first column and row.
+// the image; the same bits as setupPacketPortable(). `columnX` and `rowY`
+// point at the tile's first column and row.
 void setupPacketAvx512(const float* columnX, const float* rowY,
                        const Eigen::Matrix3f& toWorld, int columns, int rows,
                        RTCRayHit16& packet, int valid[kPacket]) {
@@ -436,9 +453,7 @@ class EmbreeRenderer final : public Renderer {
         mesh_(mesh),
         scene_(static_cast<RTCScene>(rayTracer.embreeScene())) {
     for (const Texture& texture : mesh.textures)
-      textures_.push_back({texture.rgb.data(),
-                           texture.rgb.data() + texture.rgb.size(),
-                           texture.width, texture.height});
+      textures_.push_back({texture.rgb.data(), texture.width, texture.height});
     // the packet shader needs AVX-512F; VLN_EMBREE_SHADING=scalar forces the
     // SSE2 path (tests compare the two)
     const char* forced = std::getenv("VLN_EMBREE_SHADING");
@@ -496,9 +511,6 @@ void EmbreeRenderer::render(const CameraPose& pose,
   updateRayTable(camera);
   if ((outputs & kColor) && shadeTable_.empty()) shadeTable_ = buildShadeTable(mesh_);
   const Eigen::Matrix3f rotation = cameraToWorld(pose);
-  const Vec3f right = rotation.col(0);
-  const Vec3f up = rotation.col(1);
-  const Vec3f forward = -rotation.col(2);
   const int width = camera.width;
   const int height = camera.height;
   const auto& triangleObject = mesh_.triangle_object;
@@ -528,18 +540,9 @@ void EmbreeRenderer::render(const CameraPose& pose,
         setupPacketAvx512(columnX_.data() + tileX, rowY_.data() + tileY, rotation,
                           width - tileX, height - tileY, packet, valid);
       } else {
-        for (int k = 0; k < kPacket; ++k) {
-          const int i = tileX + (k & (kTile - 1));
-          const int j = tileY + k / kTile;
-          valid[k] = (i < width && j < height) ? -1 : 0;
-          const float x = columnX_[static_cast<size_t>(i)];
-          const float y = rowY_[static_cast<size_t>(j)];
-          packet.ray.dir_x[k] = x * right.x() + y * up.x() + forward.x();
-          packet.ray.dir_y[k] = x * right.y() + y * up.y() + forward.y();
-          packet.ray.dir_z[k] = x * right.z() + y * up.z() + forward.z();
-          packet.ray.tfar[k] = std::numeric_limits<float>::infinity();
-          packet.hit.geomID[k] = RTC_INVALID_GEOMETRY_ID;
-        }
+        setupPacketPortable(columnX_.data() + tileX, rowY_.data() + tileY,
+                            rotation, width - tileX, height - tileY, packet,
+                            valid);
       }
       rtcIntersect16(valid, scene_, &context, &packet);
 
@@ -585,7 +588,8 @@ void EmbreeRenderer::shadePacket(const RTCHit16& hits, unsigned hitMask,
   }
   for (int k = 0; k < kPacket; ++k) {
     packed[k] = (hitMask >> k) & 1u
-                    ? shadeScalar(shadeTable_[hits.primID[k]], hits.u[k], hits.v[k], textures_)
+                    ? shadePortable(shadeTable_[hits.primID[k]], hits.u[k],
+                                    hits.v[k], textures_)
                     : 0u;
   }
 }

@@ -13,9 +13,10 @@ namespace vln::sim {
 /// unlit material rule of Renderer.h. `mesh` and `rayTracer` must outlive it.
 /// Creation is cheap (no copy of the scene; the first colour render builds a
 /// 64-byte shading record per triangle). On CPUs with AVX-512F whole packets
-/// are set up and shaded at once; setting VLN_EMBREE_SHADING=scalar before
-/// creation forces the portable SSE2 path (the two agree to one colour
-/// level).
+/// are set up and shaded at once; elsewhere, or with VLN_EMBREE_SHADING=scalar
+/// set before creation, a portable path computes the same bits (the same
+/// fused multiply-adds in the same order), so images do not depend on the
+/// CPU.
 std::unique_ptr<Renderer> createEmbreeRenderer(const TriangleMesh& mesh,
                                                const RayTracer& rayTracer);
 

@@ -107,6 +107,10 @@ const std::string kAskForAvx512 =
     "ATEN_CPU_CAPABILITY=avx512 DNNL_MAX_CPU_ISA=AVX512_CORE "
     "ONEDNN_MAX_CPU_ISA=AVX512_CORE OPENBLAS_CORETYPE=SkylakeX";
 
+// what a CPU without AVX-512 renders with: the renderer's portable path
+// (an AVX-512 CPU sets up and shades its rays with AVX-512 instead)
+const std::string kPortableRenderer = "VLN_EMBREE_SHADING=scalar";
+
 // the two runs' metrics.jsonl record for record, timings aside
 void expectSameMetrics(const fs::path& a, const fs::path& b) {
   auto records = [](const fs::path& run) {
@@ -193,8 +197,9 @@ TEST_F(DeterminismTest, TrainingAndEvaluationAreReproducible) {
 }
 
 // (d) what an AVX-512 machine's libraries pick by themselves, asked for
-// explicitly: the pinned binary trains the same weights as with no such
-// request; with VLN_NATIVE_DISPATCH=1 they differ (on a CPU with AVX-512)
+// explicitly, and the renderer's path of a CPU without AVX-512: the pinned
+// binary trains the same weights as with no such request; with
+// VLN_NATIVE_DISPATCH=1 they differ (on a CPU with AVX-512)
 TEST_F(DeterminismTest, TrainingDoesNotDependOnTheCpusVectorUnits) {
   if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma"))
     GTEST_SKIP() << "the pin needs AVX2 and FMA";
@@ -203,6 +208,9 @@ TEST_F(DeterminismTest, TrainingDoesNotDependOnTheCpusVectorUnits) {
   ASSERT_FALSE(checkpoints.empty());
   const fs::path last = checkpoints.back().filename();
   expectSameCheckpoint(pinned / "checkpoints" / last, asked / "checkpoints" / last);
+  const fs::path portable = train("portable", kPortableRenderer);
+  expectSameCheckpoint(pinned / "checkpoints" / last,
+                       portable / "checkpoints" / last);
   if (!__builtin_cpu_supports("avx512f"))
     GTEST_SKIP() << "no AVX-512 here: native dispatch would pick AVX2 too";
   const fs::path native = train("native", "VLN_NATIVE_DISPATCH=1 " + kAskForAvx512);
@@ -214,9 +222,11 @@ TEST_F(DeterminismTest, TrainingDoesNotDependOnTheCpusVectorUnits) {
 // (e) the waypoint agent's path (issue 18) under the same pin: the candidate
 // waypoint predictor's training, then the waypoint CMA's collection over its
 // candidates and training, asked for AVX-512 kernels, write the same bytes;
-// with VLN_NATIVE_DISPATCH=1 on an AVX-512 CPU the agent's weights differ.
-// (An AVX-512 machine's waypoint run once validated other numbers than an
-// AVX2 machine's; docs/reliability.md, "Across machines".)
+// so do both rendered with the portable path of CPUs without AVX-512; with
+// VLN_NATIVE_DISPATCH=1 on an AVX-512 CPU the agent's weights differ. (An
+// AVX-512 machine's waypoint run once validated other numbers than an AVX2
+// machine's: the renderer's two paths rounded differently until 2026-11-29;
+// docs/reliability.md, "Across machines".)
 TEST_F(DeterminismTest, WaypointTrainingDoesNotDependOnTheCpusVectorUnits) {
   if (!__builtin_cpu_supports("avx2") || !__builtin_cpu_supports("fma"))
     GTEST_SKIP() << "the pin needs AVX2 and FMA";
@@ -259,6 +269,16 @@ TEST_F(DeterminismTest, WaypointTrainingDoesNotDependOnTheCpusVectorUnits) {
   const fs::path last = checkpoints.back().filename();
   expectSameCheckpoint(pinned / "checkpoints" / last, asked / "checkpoints" / last);
   expectSameMetrics(pinned, asked);
+
+  const fs::path portableWeights =
+      predictor("predictor_portable", kPortableRenderer);
+  EXPECT_TRUE(fileBytes(pinnedWeights) == fileBytes(portableWeights))
+      << "the predictor's weights depend on the renderer's path";
+  const fs::path portable =
+      agent("agent_portable", portableWeights, kPortableRenderer);
+  expectSameCheckpoint(pinned / "checkpoints" / last,
+                       portable / "checkpoints" / last);
+  expectSameMetrics(pinned, portable);
 
   if (!__builtin_cpu_supports("avx512f"))
     GTEST_SKIP() << "no AVX-512 here: native dispatch would pick AVX2 too";
