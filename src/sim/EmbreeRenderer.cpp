@@ -453,8 +453,8 @@ class EmbreeRenderer final : public Renderer {
         scene_(static_cast<RTCScene>(rayTracer.embreeScene())) {
     for (const Texture& texture : mesh.textures)
       textures_.push_back({texture.rgb.data(), texture.width, texture.height});
-    // the packet shader needs AVX-512F; VLN_EMBREE_SHADING=scalar forces the
-    // SSE2 path (tests compare the two)
+    // the packet paths need AVX-512F; VLN_EMBREE_SHADING=scalar forces the
+    // portable path, which renders the same bits (tests compare the two)
     const char* forced = std::getenv("VLN_EMBREE_SHADING");
     const bool scalarOnly = forced != nullptr && std::string_view(forced) == "scalar";
     avx512_ = !scalarOnly && cpuHasAvx512();
