@@ -28,6 +28,17 @@ agents show "-".
         --agent cma 'results/x/main_ft/seed*' \\
         --agent no-instruction 'results/x/main_noinstr/seed*'
 
+With --by-first-turn it reports instead, per agent and per kind of the
+instruction's first turn phrase (sharp / plain / slight left or right,
+straight, turn around; the generator's words, "none" without one), where
+the first leg goes and where the agent's first forward step heads, both
+relative to the start heading (degrees, positive = left): the leg's median,
+the opening's median and 10th-90th percentiles, how often the opening is
+within 45 degrees of the leg, and how often it is on the wrong side (the
+leg at least 45 degrees to one side, the opening at least 30 degrees to the
+other). The first turn phrase need not describe the first leg (the words
+may open with a room to leave), so the leg column says how well it does.
+
 Reads <dir>/episodes_ckpt_*_<split>.json.gz (eval's per-episode files,
 one per directory: actions, positions, headings, metrics) and the split's
 episodes file (reference paths). Fractions are means over an agent's
@@ -36,6 +47,7 @@ directories (seeds). Needs only the Python standard library.
 import argparse
 import json
 import math
+import re
 import statistics
 
 import result_files
@@ -63,6 +75,45 @@ def reference_paths(data, split):
     return out
 
 
+# The instruction generator's turn phrases (src/world/InstructionGenerator.cpp),
+# most specific first; the first match in the text names the first turn.
+TURN_PATTERN = re.compile(
+    r"\b(?P<around>turn (all the way )?around)\b"
+    r"|\b(?P<sharp>sharp|sharply) (to the )?(?P<sharp_side>left|right)\b"
+    r"|\b(?P<slight>slight|slightly|veer|bear) (to the )?(?P<slight_side>left|right)\b"
+    r"|\b(?P<straight>walk forward|go straight|straight ahead|head straight|move forward)\b"
+    r"|\b(?P<plain_side>left|right)\b")
+TURN_KINDS = ["sharp left", "left", "slight left", "straight", "slight right",
+              "right", "sharp right", "turn around", "none"]
+
+
+def first_turn(text):
+    m = TURN_PATTERN.search(text.lower())
+    if m is None:
+        return "none"
+    if m.group("around"):
+        return "turn around"
+    if m.group("sharp"):
+        return "sharp " + m.group("sharp_side")
+    if m.group("slight"):
+        return "slight " + m.group("slight_side")
+    if m.group("straight"):
+        return "straight"
+    return m.group("plain_side")
+
+
+def instruction_texts(data, split):
+    episodes, path = result_files.split_episodes(data, split, TOOL)
+    out = {}
+    for e in episodes:
+        text = (e.get("instruction") or {}).get("instruction_text")
+        if not isinstance(text, str):
+            fail(f"'{path}': episode {e.get('episode_id')} has no "
+                 "instruction.instruction_text (needed by --by-first-turn)")
+        out[str(e["episode_id"])] = text
+    return out
+
+
 def planar_distance(a, b):
     return math.hypot(a[0] - b[0], a[2] - b[2])
 
@@ -85,8 +136,62 @@ def first_leg_heading(ref, radius):
     return None
 
 
+def signed_angle(a, b):
+    """a - b wrapped into [-pi, pi)."""
+    return (a - b + math.pi) % (2 * math.pi) - math.pi
+
+
 def angle_between(a, b):
-    return abs((a - b + math.pi) % (2 * math.pi) - math.pi)
+    return abs(signed_angle(a, b))
+
+
+def percentile(values, q):
+    ordered = sorted(values)
+    return ordered[round(q * (len(ordered) - 1))]
+
+
+def first_turn_rows(pattern, split, refs, texts, radius):
+    """Per first-turn kind: the reference legs' and the agent's openings'
+    angles relative to the start heading (degrees), over all runs."""
+    legs, openings = {}, {}
+    for file, episodes in result_files.run_episodes(pattern, split, TOOL):
+        for e in episodes:
+            episode = str(e.get("episode_id"))
+            if episode not in refs:
+                fail(f"'{file}': episode {episode} is not in split {split}")
+            want = first_leg_heading(refs[episode], radius)
+            classify(e, refs[episode], radius, want, file)  # validates
+            headings, actions = e["path"]["headings"], e["actions"]
+            first_forward = next((i for i, a in enumerate(actions)
+                                  if a == MOVE_FORWARD and i < len(headings)),
+                                 None)
+            if want is None or first_forward is None:
+                continue
+            kind = first_turn(texts[episode])
+            start = headings[0]
+            legs.setdefault(kind, []).append(
+                math.degrees(signed_angle(want, start)))
+            openings.setdefault(kind, []).append(
+                math.degrees(signed_angle(headings[first_forward], start)))
+    rows = []
+    for kind in TURN_KINDS:
+        if kind not in legs:
+            continue
+        leg, opening = legs[kind], openings[kind]
+        right = sum(abs(signed_angle(math.radians(o), math.radians(g)))
+                    < math.pi / 4 for g, o in zip(leg, opening))
+        sided = [(g, o) for g, o in zip(leg, opening) if abs(g) >= 45]
+        wrong = sum((g > 0 and o <= -30) or (g < 0 and o >= 30)
+                    for g, o in sided)
+        rows.append({"first turn": kind, "episodes": len(leg),
+                     "leg median": statistics.median(leg),
+                     "opening median": statistics.median(opening),
+                     "opening p10": percentile(opening, 0.1),
+                     "opening p90": percentile(opening, 0.9),
+                     "opening leg right": right / len(leg),
+                     "wrong side": (wrong / len(sided) if sided
+                                    else float("nan"))})
+    return rows
 
 
 def classify(episode, ref, radius, want, where):
@@ -197,11 +302,41 @@ def main():
                         help="an agent and its result directories (seeds)")
     parser.add_argument("--json", action="store_true",
                         help="print the fractions as JSON")
+    parser.add_argument("--by-first-turn", action="store_true",
+                        help="the openings by the instruction's first turn "
+                             "phrase instead (see above)")
     args = parser.parse_args()
     if not args.radius > 0:
         fail(f"--radius must be positive, got {args.radius}")
 
     refs = reference_paths(args.data, args.split)
+    if args.by_first_turn:
+        texts = instruction_texts(args.data, args.split)
+        tables = {name: first_turn_rows(pattern, args.split, refs, texts,
+                                        args.radius)
+                  for name, pattern in args.agent}
+        if args.json:
+            print(json.dumps({n: [{k: (None if isinstance(v, float) and
+                                       math.isnan(v) else v)
+                                   for k, v in row.items()} for row in rows]
+                              for n, rows in tables.items()},
+                             indent=2, sort_keys=True))
+            return
+        print(f"{args.split}: the first forward step by the instruction's "
+              "first turn phrase (degrees from the start heading, + = left; "
+              "all runs pooled)")
+        print("| agent | first turn | episodes | leg median | opening median "
+              "[10%, 90%] | opening leg right | wrong side |")
+        print("| --- | --- | ---: | ---: | ---: | ---: | ---: |")
+        for name, rows in tables.items():
+            for r in rows:
+                wrong = ("-" if math.isnan(r["wrong side"])
+                         else f"{r['wrong side']:.3f}")
+                print(f"| {name} | {r['first turn']} | {r['episodes']} | "
+                      f"{r['leg median']:.0f} | {r['opening median']:.0f} "
+                      f"[{r['opening p10']:.0f}, {r['opening p90']:.0f}] | "
+                      f"{r['opening leg right']:.3f} | {wrong} |")
+        return
     results = {}
     for name, pattern in args.agent:
         rates, runs, episodes = agent_rates(pattern, args.split, refs,

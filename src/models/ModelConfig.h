@@ -98,6 +98,7 @@ struct ModelConfig {
   int depth_projection_size = 128;
   int spatial_embedding_dim = 64;
   bool progress_monitor = false;
+  int heading_harmonics = 1;
   double dropout = 0.0;
   int depth_resnet_base_planes = 32;
   int rgb_height = 224;
@@ -206,6 +207,13 @@ struct ModelConfig {
     v.field("progress_monitor", progress_monitor,
             "Add the progress-monitor head (tanh of a linear map of the action "
             "GRU state)");
+    v.field("heading_harmonics", heading_harmonics,
+            "Waypoint CMA only: a heading (a view's, a candidate's, the "
+            "previous decision's) enters the policy as sin and cos of m times "
+            "it for m = 1 .. this. With 1 a candidate's logit can only prefer "
+            "headings along one cosine, too broad to tell 'right' from "
+            "'sharp right'",
+            common::inRange(1, 16));
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "
             "on the instruction's encoded states, on the visual feature maps "

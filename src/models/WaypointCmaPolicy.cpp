@@ -9,14 +9,24 @@ namespace vln::models {
 namespace {
 
 constexpr double kTwoPi = 6.283185307179586;
-constexpr int64_t kPrevFeatures = 4;  // sin, cos, distance / 3, start
+// sin, cos of m * heading for m = 1 .. harmonics, stacked on a new last
+// dimension ([..] -> [.., 2 * harmonics])
+torch::Tensor headingFeatures(const torch::Tensor& heading, int64_t harmonics) {
+  std::vector<torch::Tensor> parts;
+  for (int64_t m = 1; m <= harmonics; ++m) {
+    const torch::Tensor angle = m == 1 ? heading : heading * double(m);
+    parts.push_back(torch::sin(angle));
+    parts.push_back(torch::cos(angle));
+  }
+  return torch::stack(parts, -1);
+}
 
-// [.., 2] heading, distance -> [.., 3] sin, cos, distance / 3
-torch::Tensor polarFeatures(const torch::Tensor& polar) {
-  const torch::Tensor heading = polar.select(-1, 0);
-  const torch::Tensor distance = polar.select(-1, 1);
-  return torch::stack(
-      {torch::sin(heading), torch::cos(heading), distance / 3.0}, -1);
+// [.., 2] heading, distance -> [.., 2 * harmonics + 1]: the heading's
+// features, distance / 3
+torch::Tensor polarFeatures(const torch::Tensor& polar, int64_t harmonics) {
+  return torch::cat({headingFeatures(polar.select(-1, 0), harmonics),
+                     (polar.select(-1, 1) / 3.0).unsqueeze(-1)},
+                    -1);
 }
 
 // softmax attention of queries q [n, D] over values [n, M, Dv] with keys
@@ -50,7 +60,8 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
   namespace nn = torch::nn;
   const int64_t hidden = config.hidden_size;
   const int64_t prevDim = config.prev_action_embedding_dim;
-  int64_t viewIn = 2;  // sin, cos of the view's heading
+  const int64_t polarIn = 2 * config.heading_harmonics + 1;
+  int64_t viewIn = polarIn - 1;  // the view's heading
   if (config.usesRgb()) {
     rgb_linear = register_module(
         "rgb_linear", nn::Linear(rgbFeatures, config.rgb_projection_size));
@@ -64,7 +75,7 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
   }
   view_linear = register_module("view_linear", nn::Linear(viewIn, hidden));
   prev_linear =
-      register_module("prev_linear", nn::Linear(kPrevFeatures, prevDim));
+      register_module("prev_linear", nn::Linear(polarIn + 1, prevDim));
   state_encoder =
       register_module("state_encoder", MaskedGru(hidden + prevDim, hidden));
   int64_t compressIn = hidden + hidden + prevDim;
@@ -85,7 +96,7 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
   second_state_encoder =
       register_module("second_state_encoder", MaskedGru(hidden, hidden));
   candidate_linear =
-      register_module("candidate_linear", nn::Linear(hidden + 3, hidden));
+      register_module("candidate_linear", nn::Linear(hidden + polarIn, hidden));
   stop_key = register_parameter(
       "stop_key", torch::randn({hidden}) / std::sqrt(double(hidden)));
   query_linear =
@@ -121,9 +132,10 @@ torch::Tensor WaypointCmaPolicyImpl::encodeViews(
         inputs.depth.reshape({n, numViews_, depthFeatures_})))));
   const torch::Tensor angles =
       torch::arange(numViews_, parts[0].options()) * (kTwoPi / numViews_);
-  parts.push_back(torch::stack({torch::sin(angles), torch::cos(angles)}, 1)
-                      .unsqueeze(0)
-                      .expand({n, numViews_, 2}));
+  const torch::Tensor headings =
+      headingFeatures(angles, config_.heading_harmonics);
+  parts.push_back(
+      headings.unsqueeze(0).expand({n, numViews_, headings.size(1)}));
   return torch::relu(view_linear(torch::cat(parts, 2)));
 }
 
@@ -146,7 +158,10 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
   const torch::Tensor views = encodeViews(inputs, n);  // [n, N, H]
   const torch::Tensor notDone = inputs.not_done.reshape({n, 1});
   const torch::Tensor prevFeatures = torch::cat(
-      {polarFeatures(inputs.prev.reshape({n, 2})) * notDone, 1.0 - notDone}, 1);
+      {polarFeatures(inputs.prev.reshape({n, 2}), config_.heading_harmonics) *
+           notDone,
+       1.0 - notDone},
+      1);
   const torch::Tensor prev = torch::relu(prev_linear(prevFeatures));
 
   const torch::Tensor gru1In =
@@ -196,7 +211,9 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
       torch::gather(views, 1, viewIndex.unsqueeze(2).expand({n, K, H}));
   const torch::Tensor keys = torch::cat(
       {stop_key.view({1, 1, H}).expand({n, 1, H}),
-       candidate_linear(torch::cat({candidateViews, polarFeatures(polar)}, 2))},
+       candidate_linear(torch::cat(
+           {candidateViews, polarFeatures(polar, config_.heading_harmonics)},
+           2))},
       1);  // [n, 1 + K, H]
   torch::Tensor logits = torch::bmm(keys, query.unsqueeze(2)).squeeze(2) /
                          std::sqrt(static_cast<double>(H));

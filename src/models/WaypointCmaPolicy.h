@@ -17,6 +17,9 @@
 // flattened frozen encoder features, and a_{t-1} = ReLU(W_a [sin, cos,
 // dist / 3, start]) of the previous decision's candidate (relative heading
 // and distance when it was chosen; zeros and start = 1 at t = 0).
+// With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
+// of m times the heading for m = 1 .. M (measured and not adopted:
+// docs/results.md, "Two more levers for the waypoint agent").
 //
 // Sequence mode (training): inputs [T, B, ...]; step mode (acting):
 // [B, ...]. Headings are radians counter-clockwise relative to the agent's

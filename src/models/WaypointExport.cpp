@@ -36,12 +36,27 @@ Sizes sizesOf(const WaypointCmaPolicyImpl& policy) {
   return s;
 }
 
-// the expression of sin, cos, distance / 3 stacked on `dim`, as
+// the expression of sin, cos of m * `heading` for m = 1 .. harmonics stacked
+// on `dim`, as WaypointCmaPolicy's headingFeatures()
+std::string headingFeatures(const std::string& heading, int harmonics,
+                            int dim) {
+  std::string parts;
+  for (int m = 1; m <= harmonics; ++m) {
+    const std::string angle =
+        m == 1 ? heading : "(" + heading + " * " + floatLiteral(m) + ")";
+    parts += (m == 1 ? "" : ", ") + std::string("torch.sin(") + angle +
+             "), torch.cos(" + angle + ")";
+  }
+  return "torch.stack([" + parts + "], " + std::to_string(dim) + ")";
+}
+
+// the heading's features, then distance / 3, on `dim`, as
 // WaypointCmaPolicy's polarFeatures()
 std::string polarFeatures(const std::string& heading,
-                          const std::string& distance, int dim) {
-  return "torch.stack([torch.sin(" + heading + "), torch.cos(" + heading +
-         "), " + distance + " / 3.0], " + std::to_string(dim) + ")";
+                          const std::string& distance, int harmonics, int dim) {
+  return "torch.cat([" + headingFeatures(heading, harmonics, dim) + ", (" +
+         distance + " / 3.0).unsqueeze(" + std::to_string(dim) + ")], " +
+         std::to_string(dim) + ")";
 }
 
 // step_features: WaypointCmaPolicyImpl::forwardSequence() for one step,
@@ -74,17 +89,18 @@ void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
   w.line(1, "angles = torch.arange(" + s.views +
                 ", dtype={f32}, device=mask.device) * " +
                 floatLiteral(kTwoPi / static_cast<double>(policy.numViews())));
-  w.line(1,
-         "parts.append(torch.stack([torch.sin(angles), torch.cos(angles)], "
-         "1).unsqueeze(0).expand([n, " +
-             s.views + ", 2]))");
+  w.line(1, "parts.append(" +
+                headingFeatures("angles", config.heading_harmonics, 1) +
+                ".unsqueeze(0).expand([n, " + s.views + ", " +
+                std::to_string(2 * config.heading_harmonics) + "]))");
   w.line(1, "views = torch.relu(" +
                 linear(w, "policy.view_linear", "torch.cat(parts, 2)") + ")");
 
   // the previous decision (zeros and start = 1 at an episode's start)
   w.line(1, "prev_polar = prev.to({f32})");
   w.line(1, "prev_in = torch.cat([" +
-                polarFeatures("prev_polar[:, 0]", "prev_polar[:, 1]", 1) +
+                polarFeatures("prev_polar[:, 0]", "prev_polar[:, 1]",
+                              config.heading_harmonics, 1) +
                 " * mask, 1.0 - mask], 1)");
   w.line(1, "prev_e = torch.relu(" +
                 linear(w, "policy.prev_linear", "prev_in") + ")");
@@ -142,7 +158,9 @@ void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
          "view_index.unsqueeze(2).expand([n, k, " +
              s.hidden + "]))");
   w.line(1, "candidate_in = torch.cat([candidate_views, " +
-                polarFeatures("heading", "polar[:, :, 1]", 2) + "], 2)");
+                polarFeatures("heading", "polar[:, :, 1]",
+                              config.heading_harmonics, 2) +
+                "], 2)");
   w.line(1, "keys_c = torch.cat([" + w.ref("policy.stop_key") +
                 ".view([1, 1, " + s.hidden + "]).expand([n, 1, " + s.hidden +
                 "]), " + linear(w, "policy.candidate_linear", "candidate_in") +

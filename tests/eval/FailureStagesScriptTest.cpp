@@ -159,6 +159,79 @@ TEST(FailureStagesScriptTest, OpeningOfferedToAWaypointAgent) {
   EXPECT_THAT(log, HasSubstr("episode 1 has a waypoint_choices[0] without"));
 }
 
+// --by-first-turn: the openings grouped by the instruction's first turn
+// phrase, relative to the start heading (the path runs along +x, Habitat
+// heading -pi/2)
+TEST(FailureStagesScriptTest, OpeningsByTheFirstTurnPhrase) {
+  if (!vln::test::havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  vln::test::TempDir dir;
+  const std::vector<std::string> texts{
+      "Turn left and walk to the door.", "Make a left, then stop.",
+      "Veer right into the hallway.", "Walk forward to the sofa."};
+  nlohmann::json split = nlohmann::json::array();
+  for (int i = 1; i <= 4; ++i)
+    split.push_back({{"episode_id", i},
+                     {"instruction", {{"instruction_text", texts[i - 1]}}},
+                     {"reference_path", {{0, 0, 0}, {2, 0, 0}, {4, 0, 0}}}});
+  common::writeJsonFile(dir / "data" / "val_unseen" / "val_unseen.json.gz",
+                        {{"episodes", split}});
+  const std::vector<std::vector<double>> walked{
+      {0, 0, 0}, {0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
+  auto withHeadings = [&](int id, const std::vector<double>& headings,
+                          const std::vector<int>& actions) {
+    nlohmann::json e = episode(id, 0, 0, walked, 0.0, actions);
+    e["path"]["headings"] = headings;
+    return e;
+  };
+  // heading h faces (-sin h, 0, -cos h). 1: starts facing +z (heading
+  // -pi: the leg is 90 degrees to the left) and turns left onto it; 2: the
+  // same start, turns right and walks -x (-90: the wrong side); 3: starts
+  // facing -z (heading 0: the leg is 90 degrees to the right) and turns
+  // right onto it; 4: never moves (not judged)
+  writeRun(
+      dir / "a",
+      {withHeadings(1, {-M_PI, kAlongPath, kAlongPath, kAlongPath},
+                    {2, 1, 1, 0}),
+       withHeadings(2, {-M_PI, M_PI / 2, M_PI / 2, M_PI / 2}, {3, 1, 1, 0}),
+       withHeadings(3, {0.0, kAlongPath, kAlongPath, kAlongPath}, {3, 1, 1, 0}),
+       withHeadings(4, {kAlongPath, kAlongPath, kAlongPath, kAlongPath},
+                    {0, 0, 0, 0})});
+  std::string log;
+  const std::string args = "--by-first-turn --data " + (dir / "data").string() +
+                           " --split val_unseen --agent A '" +
+                           (dir / "a").string() + "'";
+  ASSERT_EQ(runScript("--json " + args, &log), 0) << log;
+  const nlohmann::json rows = nlohmann::json::parse(log).at("A");
+  ASSERT_EQ(rows.size(), 2u) << log;
+  const nlohmann::json& left = rows[0];
+  EXPECT_EQ(left.at("first turn"), "left");
+  EXPECT_EQ(left.at("episodes"), 2);
+  EXPECT_NEAR(left.at("leg median").get<double>(), 90.0, 1e-9);
+  EXPECT_NEAR(left.at("opening median").get<double>(), 0.0, 1e-9);
+  EXPECT_NEAR(left.at("opening p10").get<double>(), -90.0, 1e-9);
+  EXPECT_DOUBLE_EQ(left.at("opening leg right").get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(left.at("wrong side").get<double>(), 0.5);
+  const nlohmann::json& slight = rows[1];
+  EXPECT_EQ(slight.at("first turn"), "slight right");
+  EXPECT_EQ(slight.at("episodes"), 1);
+  EXPECT_NEAR(slight.at("leg median").get<double>(), -90.0, 1e-9);
+  EXPECT_DOUBLE_EQ(slight.at("opening leg right").get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(slight.at("wrong side").get<double>(), 0.0);
+  // the table form
+  ASSERT_EQ(runScript(args, &log), 0) << log;
+  EXPECT_THAT(log, HasSubstr("| A | left | 2 | 90 | 0 [-90, 90] | 0.500 | "
+                             "0.500 |"));
+
+  // a split without instructions is named
+  writeSplit(dir / "bare");
+  EXPECT_NE(runScript("--by-first-turn --data " + (dir / "bare").string() +
+                          " --split val_unseen --agent A '" +
+                          (dir / "a").string() + "'",
+                      &log),
+            0);
+  EXPECT_THAT(log, HasSubstr("has no instruction.instruction_text"));
+}
+
 TEST(FailureStagesScriptTest, InputsItCannotUseAreNamed) {
   if (!vln::test::havePython()) GTEST_SKIP() << "no /usr/bin/python3";
   vln::test::TempDir dir;

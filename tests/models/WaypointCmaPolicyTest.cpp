@@ -1,7 +1,7 @@
 // Tests src/models/WaypointCmaPolicy.cpp: shapes, the candidate mask, that
 // stepping equals the sequence, that candidates read the view at their
-// heading, the no-instruction ablation, training-only dropout, and that it
-// can fit labels.
+// heading, the no-instruction ablation, training-only dropout, the heading
+// harmonics' input widths, and that it can fit labels.
 
 #include "models/WaypointCmaPolicy.h"
 
@@ -167,9 +167,47 @@ TEST(WaypointCmaPolicyTest, DropoutActsOnlyWhileTraining) {
   EXPECT_TRUE(torch::allclose(evaluated, logits(plain), 1e-6, 1e-6));
 }
 
-TEST(WaypointCmaPolicyTest, LearnsToFollowLabels) {
+TEST(WaypointCmaPolicyTest, HeadingHarmonicsWidenOnlyTheHeadingInputs) {
+  ModelConfig c = config();
+  WaypointCmaPolicy one(c, kViews, kRgb, kDepth);
+  c.heading_harmonics = 3;
+  WaypointCmaPolicy three(c, kViews, kRgb, kDepth);
+  // one harmonic keeps the layer shapes checkpoints have always had:
+  // sin, cos (views); sin, cos, distance, start (previous decision)
+  EXPECT_EQ(one->view_linear->weight.size(1),
+            c.rgb_projection_size + c.depth_projection_size + 2);
+  EXPECT_EQ(one->prev_linear->weight.size(1), 4);
+  EXPECT_EQ(one->candidate_linear->weight.size(1), c.hidden_size + 3);
+  EXPECT_EQ(three->view_linear->weight.size(1),
+            c.rgb_projection_size + c.depth_projection_size + 6);
+  EXPECT_EQ(three->prev_linear->weight.size(1), 8);
+  EXPECT_EQ(three->candidate_linear->weight.size(1), c.hidden_size + 7);
+  // headings 2 pi apart are the same heading
+  torch::manual_seed(4);
+  three->eval();
+  torch::NoGradGuard noGrad;
+  const auto instruction =
+      three->encodeInstruction(test::randomTokens({4}, 4, 23));
+  WaypointPolicyInputs in = randomInputs(2, {3});
+  WaypointPolicyInputs turned = in;
+  turned.candidates = in.candidates.clone();
+  turned.candidates.select(-1, 0) += 6.283185307179586;
+  turned.prev = in.prev.clone();
+  turned.prev.select(-1, 0) -= 6.283185307179586;
+  EXPECT_TRUE(torch::allclose(
+      three->forwardSequence(instruction, in, three->initialHidden(1)).logits,
+      three->forwardSequence(instruction, turned, three->initialHidden(1))
+          .logits,
+      1e-4, 1e-4));
+}
+
+class WaypointCmaPolicyLearningTest : public testing::TestWithParam<int> {};
+
+TEST_P(WaypointCmaPolicyLearningTest, LearnsToFollowLabels) {
   torch::manual_seed(3);
-  WaypointCmaPolicy policy(config(), kViews, kRgb, kDepth);
+  ModelConfig c = config();
+  c.heading_harmonics = GetParam();
+  WaypointCmaPolicy policy(c, kViews, kRgb, kDepth);
   const torch::Tensor tokens = test::randomTokens({5, 4, 6, 3}, 6, 23);
   const WaypointPolicyInputs in = randomInputs(3, {4, 4, 3, 2});
   // labels among each row's valid choices (0 STOP, 1..count)
@@ -191,6 +229,9 @@ TEST(WaypointCmaPolicyTest, LearnsToFollowLabels) {
   }
   EXPECT_LT(loss, 0.05);
 }
+
+INSTANTIATE_TEST_SUITE_P(HeadingHarmonics, WaypointCmaPolicyLearningTest,
+                         testing::Values(1, 4));
 
 }  // namespace
 }  // namespace vln::models

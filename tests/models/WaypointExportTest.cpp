@@ -161,6 +161,9 @@ std::vector<Variant> variants() {
   c = base;
   c.policy = PolicyType::kSeq2Seq;
   out.push_back({"seq2seq_instruction_encoder", c});
+  c = base;
+  c.heading_harmonics = 3;
+  out.push_back({"heading_harmonics", c});
   return out;
 }
 
