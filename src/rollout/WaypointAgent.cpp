@@ -196,6 +196,11 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     }
   }
   const PanoramaFeatures features = model_->encode(rgb, depth);
+  PanoramaFeatures mirrored;
+  if (collecting_ && collection_.mirror)
+    mirrored =
+        model_->encode(rgb.defined() ? mirrorPanoramaViews(rgb) : rgb,
+                       depth.defined() ? mirrorPanoramaViews(depth) : depth);
 
   // candidates
   std::vector<std::vector<waypoint::Candidate>> candidates;
@@ -305,6 +310,11 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
         d.rgb = features.rgb[i].to(torch::kCPU, torch::kHalf).clone();
       if (features.depth.defined())
         d.depth = features.depth[i].to(torch::kCPU, torch::kHalf).clone();
+      if (mirrored.rgb.defined())
+        d.rgb_mirrored = mirrored.rgb[i].to(torch::kCPU, torch::kHalf).clone();
+      if (mirrored.depth.defined())
+        d.depth_mirrored =
+            mirrored.depth[i].to(torch::kCPU, torch::kHalf).clone();
       d.candidates = candidates[static_cast<size_t>(i)];
       d.prev_heading = slot.prevHeading;
       d.prev_distance = slot.prevDistance;
@@ -371,6 +381,57 @@ WaypointBatch batchDecisions(
     }
   }
   return batch;
+}
+
+at::Tensor mirrorPanoramaViews(const at::Tensor& images) {
+  VLN_CHECK_ARG(images.dim() == 5,
+                "mirrorPanoramaViews(): images must be "
+                "[n, N, h, w, c], got ",
+                images.sizes());
+  const int64_t views = images.size(1);
+  std::vector<int64_t> order(static_cast<size_t>(views));
+  for (int64_t k = 0; k < views; ++k)
+    order[static_cast<size_t>(k)] = (views - k) % views;
+  return images.index_select(1, torch::tensor(order, torch::kLong))
+      .flip({3})
+      .contiguous();
+}
+
+WaypointDecision mirroredDecision(const WaypointDecision& decision) {
+  VLN_CHECK_ARG(
+      decision.rgb.defined() == decision.rgb_mirrored.defined() &&
+          decision.depth.defined() == decision.depth_mirrored.defined(),
+      "mirroredDecision(): the decision was collected without its "
+      "mirrored panorama (WaypointCollection::mirror)");
+  WaypointDecision out = decision;
+  out.rgb = decision.rgb_mirrored;
+  out.depth = decision.depth_mirrored;
+  out.rgb_mirrored = decision.rgb;
+  out.depth_mirrored = decision.depth;
+  for (waypoint::Candidate& c : out.candidates) {
+    c.heading = wrapAngle(-c.heading);
+    c.heading_bin =
+        (waypoint::kNumHeadings - c.heading_bin) % waypoint::kNumHeadings;
+  }
+  out.prev_heading = wrapAngle(-decision.prev_heading);
+  return out;
+}
+
+at::Tensor swapLeftAndRight(const at::Tensor& tokens,
+                            const std::vector<bool>& rows, int64_t left,
+                            int64_t right) {
+  VLN_CHECK_ARG(
+      tokens.dim() == 2 && tokens.size(0) == static_cast<int64_t>(rows.size()),
+      "swapLeftAndRight(): tokens must be [", rows.size(), ", L], got ",
+      tokens.sizes());
+  at::Tensor out = tokens.clone();
+  for (size_t b = 0; b < rows.size(); ++b) {
+    if (!rows[b]) continue;
+    const at::Tensor row = tokens[static_cast<int64_t>(b)];
+    out[static_cast<int64_t>(b)].masked_fill_(row.eq(left), right);
+    out[static_cast<int64_t>(b)].masked_fill_(row.eq(right), left);
+  }
+  return out;
 }
 
 }  // namespace vln::rollout

@@ -53,6 +53,10 @@ struct WaypointDecision {
   float prev_distance = 0.0f;  ///< (0 at the first decision)
   int label = 0;               ///< oracle: 0 STOP, j + 1 candidate j
   int taken = 0;               ///< what the agent did, same coding
+  /// The features of the mirrored panorama (mirrorPanoramaViews()), kept
+  /// when collecting with WaypointCollection::mirror; else undefined.
+  at::Tensor rgb_mirrored;
+  at::Tensor depth_mirrored;
 };
 
 /// Training-time behaviour (WaypointAgent::collect()).
@@ -60,6 +64,8 @@ struct WaypointCollection {
   double beta = 1.0;   ///< probability of taking the oracle's choice
   bool sample = true;  ///< otherwise sample the policy (else its argmax)
   uint64_t seed = 0;   ///< of the per-episode draws
+  /// Also encode each decision's mirrored panorama (for mirroredDecision()).
+  bool mirror = false;
 };
 
 class WaypointAgent : public Agent {
@@ -126,5 +132,23 @@ struct WaypointBatch {
 WaypointBatch batchDecisions(
     std::span<const std::vector<WaypointDecision>* const> episodes,
     int maxCandidates);
+
+/// A panorama's images [n, N, h, w, c] as the agent's mirror image would
+/// see them: view k looks k * 2 pi / N to the left, so the mirrored view k
+/// is view (N - k) mod N flipped left to right.
+at::Tensor mirrorPanoramaViews(const at::Tensor& images);
+
+/// `decision` in the mirror image of its scene: the mirrored panorama's
+/// features, every heading (candidates', the previous decision's) negated,
+/// the same label. Its instruction must be read with "left" and "right"
+/// swapped (swapLeftAndRight()). Throws std::invalid_argument when the
+/// decision was collected without WaypointCollection::mirror.
+WaypointDecision mirroredDecision(const WaypointDecision& decision);
+
+/// Token rows [B, L] with the ids `left` and `right` exchanged in the rows
+/// where `rows[b]` is true (a copy).
+at::Tensor swapLeftAndRight(const at::Tensor& tokens,
+                            const std::vector<bool>& rows, int64_t left,
+                            int64_t right);
 
 }  // namespace vln::rollout

@@ -34,6 +34,11 @@ struct WaypointAgentConfig {
   /// sampled): a decision threshold, not a weight. Positive values stop
   /// sooner. The oracle's labels and the training loss do not see it.
   double stop_bias = 0.0;
+  /// Training only: the probability that a collected episode is replayed
+  /// mirrored in a training batch (rollout::mirroredDecision(), the words
+  /// "left" and "right" swapped). Above 0 every collected decision also
+  /// keeps the features of its mirrored panorama.
+  double mirror_probability = 0.0;
   waypoint::ApproachConfig approach;
   waypoint::DepthBaselineConfig depth_baseline;
 
@@ -65,6 +70,13 @@ struct WaypointAgentConfig {
             "Added to the policy's STOP logit when it chooses (positive "
             "stops sooner; labels and loss are unchanged)",
             common::inRange(-20.0, 20.0));
+    v.field("mirror_probability", mirror_probability,
+            "Training only: probability that a collected episode is replayed "
+            "mirrored in a batch (the panorama's views reversed and each "
+            "flipped, headings negated, 'left' and 'right' swapped in the "
+            "instruction; labels unchanged). Above 0 collection also encodes "
+            "every decision's mirrored panorama",
+            common::inRange(0.0, 1.0));
     v.section("approach", approach,
               "Executing a waypoint and the oracle's stopping rule");
     v.section("depth_baseline", depth_baseline,

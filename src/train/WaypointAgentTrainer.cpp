@@ -84,6 +84,30 @@ class DecisionCollection : public rollout::EpisodeJob {
   int64_t successes_ = 0;
 };
 
+// the token ids a mirrored replay exchanges
+struct MirrorTokens {
+  int64_t left = -1;
+  int64_t right = -1;
+};
+
+// the ids of "left" and "right" in the train split's vocabulary (none
+// needed without the instruction); throws std::invalid_argument naming
+// waypoint_agent.mirror_probability when the split cannot say them
+MirrorTokens mirrorTokensOf(const ExperimentConfig& config,
+                            const TrainingData& data) {
+  if (!config.model.usesInstruction()) return {};
+  const std::string option = "waypoint_agent.mirror_probability";
+  VLN_CHECK_ARG(data.train.vocabulary.has_value(), kTask, ": ", option,
+                " needs the train split's instruction_vocab (what the tokens "
+                "mean), and dataset.train_split has none");
+  const auto left = data.train.vocabulary->find("left");
+  const auto right = data.train.vocabulary->find("right");
+  VLN_CHECK_ARG(left && right, kTask, ": ", option,
+                " needs the words 'left' and 'right' in the train split's "
+                "instruction_vocab");
+  return {*left, *right};
+}
+
 }  // namespace
 
 torch::Tensor instructionContrastLoss(
@@ -119,6 +143,12 @@ void validateWaypointAgentConfig(const ExperimentConfig& config) {
   VLN_CHECK_ARG(config.trainer.mode == "dagger", kTask,
                 ": trainer.mode must be dagger (the agent's rounds are "
                 "collected by the waypoint oracle)");
+  VLN_CHECK_ARG(config.waypoint_agent.mirror_probability == 0.0 ||
+                    config.trainer.instruction_contrast_weight == 0.0,
+                kTask,
+                ": waypoint_agent.mirror_probability and "
+                "trainer.instruction_contrast_weight cannot be combined (the "
+                "contrast would read the unmirrored words)");
   if (config.waypoint_agent.candidates == "predictor") {
     config.waypoint.predictor.validate("waypoint.predictor");
     VLN_CHECK_ARG(!config.waypoint_agent.predictor_weights.empty(), kTask,
@@ -213,6 +243,13 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       kTask, parameterCount, config.waypoint_agent.candidates,
       data.pool.size());
 
+  // mirrored replays read the instruction with "left" and "right" swapped
+  const double mirrorProbability = config.waypoint_agent.mirror_probability;
+  const MirrorTokens mirrorTokens =
+      mirrorProbability > 0.0 ? mirrorTokensOf(config, data) : MirrorTokens{};
+  std::mt19937_64 mirrorRng(
+      common::deriveSeed(static_cast<uint64_t>(tc.seed), 23));
+
   const TrainingSchedule schedule(tc);
   TrainingProgress progress;
   progress.checkpoint_index = -1;
@@ -237,6 +274,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       rollout::WaypointCollection how;
       how.beta = schedule.beta(iteration.iteration);
       how.sample = tc.dagger_action == "sample";
+      how.mirror = mirrorProbability > 0.0;
       how.seed =
           common::deriveSeed(static_cast<uint64_t>(tc.seed),
                              1000 + static_cast<uint64_t>(iteration.iteration));
@@ -286,9 +324,25 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
         const size_t end = std::min(order.size(), start + tc.batch_size);
         std::vector<const std::vector<rollout::WaypointDecision>*> rows;
         std::vector<const data::Episode*> instructions;
+        // the batch's mirrored replays (mirroredDecision()), kept alive
+        // until batchDecisions() has copied them
+        std::vector<std::vector<rollout::WaypointDecision>> mirroredRows;
+        std::vector<bool> mirrored;
+        mirroredRows.reserve(end - start);
         for (size_t i = start; i < end; ++i) {
-          rows.push_back(&collected[order[i]].decisions);
-          instructions.push_back(collected[order[i]].episode);
+          const CollectedEpisode& e = collected[order[i]];
+          const bool mirror = mirrorProbability > 0.0 &&
+                              common::uniform01(mirrorRng) < mirrorProbability;
+          mirrored.push_back(mirror);
+          if (mirror) {
+            auto& m = mirroredRows.emplace_back();
+            for (const rollout::WaypointDecision& d : e.decisions)
+              m.push_back(rollout::mirroredDecision(d));
+            rows.push_back(&m);
+          } else {
+            rows.push_back(&e.decisions);
+          }
+          instructions.push_back(e.episode);
         }
         rollout::WaypointBatch batch = rollout::batchDecisions(rows, K);
         auto& in = batch.inputs;
@@ -296,11 +350,13 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                                  &in.candidate_mask, &in.prev, &in.not_done})
           if (t->defined()) *t = t->to(device);
         const torch::Tensor labels = batch.labels.to(device).reshape({-1});
+        torch::Tensor tokens = rollout::batchInstructions(
+            instructions, config.dataset.max_instruction_length);
+        if (mirrorProbability > 0.0 && config.model.usesInstruction())
+          tokens = rollout::swapLeftAndRight(
+              tokens, mirrored, mirrorTokens.left, mirrorTokens.right);
         const models::EncodedInstruction instruction =
-            policy->encodeInstruction(
-                rollout::batchInstructions(
-                    instructions, config.dataset.max_instruction_length)
-                    .to(device));
+            policy->encodeInstruction(tokens.to(device));
         const models::WaypointPolicyOutputs out = policy->forwardSequence(
             instruction, in,
             policy->initialHidden(static_cast<int64_t>(rows.size())));

@@ -1,8 +1,10 @@
 // WaypointAgent: the oracle-driven agent reaches the goals and records
 // consistent decisions, batching never changes an episode, the decision cap
-// STOPs, the STOP bias moves the policy's stops, teleporting (waypoint_agent.execution) takes one recorded step per
-// waypoint with teleport labels and the caps, and recorded decisions batch
-// into padded training tensors.
+// STOPs, the STOP bias moves the policy's stops, teleporting
+// (waypoint_agent.execution) takes one recorded step per waypoint with teleport
+// labels and the caps, recorded decisions batch into padded training tensors,
+// and decisions mirror (panorama views, headings, the words left and right) for
+// mirrored replays.
 
 #include "rollout/WaypointAgent.h"
 
@@ -12,6 +14,7 @@
 #include "rollout/RolloutTestPolicy.h"
 #include "rollout/RolloutTestWorld.h"
 #include "sim/NavMesh.h"
+#include "sim/Panorama.h"
 #include "waypoint/WaypointApproach.h"
 
 namespace vln::rollout {
@@ -308,6 +311,116 @@ TEST(WaypointAgentTest, DecisionsBatchIntoPaddedSequences) {
                   waypoint::binDistance(1));
   EXPECT_FLOAT_EQ(batch.inputs.depth[1][0][5][1].item<float>(), 2.0f);
   EXPECT_FLOAT_EQ(batch.inputs.depth[1][1][5][1].item<float>(), 0.0f);
+}
+
+// the mirror image of a panorama: view k looks k * 30 degrees to the left,
+// so its mirror is the view as far to the right, flipped left to right
+TEST(WaypointMirrorTest, MirroredViewsAreTheOtherSidesFlipped) {
+  torch::manual_seed(11);
+  const int64_t views = 12;
+  const torch::Tensor images =
+      torch::randint(0, 256, {2, views, 3, 4, 3}, torch::kUInt8);
+  const torch::Tensor mirrored = mirrorPanoramaViews(images);
+  ASSERT_EQ(mirrored.sizes(), images.sizes());
+  for (int64_t k = 0; k < views; ++k) {
+    const int64_t source = (views - k) % views;
+    EXPECT_TRUE(
+        torch::equal(mirrored.select(1, k), images.select(1, source).flip({2})))
+        << "view " << k;
+    // the renderer's convention: that source view looks k views to the right
+    const float heading = 0.3f;
+    const float want = heading - static_cast<float>(k) * 2.0f *
+                                     static_cast<float>(M_PI) / views;
+    EXPECT_NEAR(std::remainder(
+                    sim::panoramaViewHeading(heading, static_cast<int>(source),
+                                             static_cast<int>(views)) -
+                        want,
+                    2.0 * M_PI),
+                0.0, 1e-5)
+        << "view " << k;
+  }
+  EXPECT_TRUE(torch::equal(mirrorPanoramaViews(mirrored), images));
+  EXPECT_THROW(mirrorPanoramaViews(torch::zeros({12, 3, 4, 3})),
+               std::invalid_argument);
+}
+
+TEST(WaypointMirrorTest, AMirroredDecisionNegatesHeadingsAndKeepsItsLabel) {
+  WaypointDecision d;
+  d.rgb = torch::rand({12, 5}).to(torch::kHalf);
+  d.depth = torch::rand({12, 4}).to(torch::kHalf);
+  d.rgb_mirrored = torch::rand({12, 5}).to(torch::kHalf);
+  d.depth_mirrored = torch::rand({12, 4}).to(torch::kHalf);
+  d.candidates.resize(2);
+  d.candidates[0].heading_bin = 10;
+  d.candidates[0].heading = 0.5f;
+  d.candidates[0].distance = 1.0f;
+  d.candidates[1].heading_bin = 76;
+  d.candidates[1].heading = 4.0f;
+  d.candidates[1].distance = 2.5f;
+  d.prev_heading = -1.2f;
+  d.prev_distance = 0.75f;
+  d.label = 2;
+  d.taken = 1;
+  const WaypointDecision m = mirroredDecision(d);
+  EXPECT_TRUE(torch::equal(m.rgb, d.rgb_mirrored));
+  EXPECT_TRUE(torch::equal(m.depth, d.depth_mirrored));
+  ASSERT_EQ(m.candidates.size(), 2u);
+  EXPECT_NEAR(m.candidates[0].heading, -0.5f, 1e-6);
+  // 4 rad is -2.28 rad; its mirror 2.28 rad
+  EXPECT_NEAR(m.candidates[1].heading, 2.0f * static_cast<float>(M_PI) - 4.0f,
+              1e-5);
+  EXPECT_EQ(m.candidates[1].distance, 2.5f);
+  EXPECT_EQ(m.candidates[0].heading_bin, 110);
+  EXPECT_EQ(m.candidates[1].heading_bin, 44);
+  EXPECT_NEAR(m.prev_heading, 1.2f, 1e-6);
+  EXPECT_EQ(m.prev_distance, 0.75f);
+  EXPECT_EQ(m.label, 2);
+  EXPECT_EQ(m.taken, 1);
+  // mirrored twice: the decision again
+  const WaypointDecision back = mirroredDecision(m);
+  EXPECT_TRUE(torch::equal(back.rgb, d.rgb));
+  EXPECT_NEAR(back.candidates[0].heading, 0.5f, 1e-6);
+  // a decision collected without its mirrored panorama
+  WaypointDecision plain = d;
+  plain.rgb_mirrored = torch::Tensor();
+  EXPECT_THROW(mirroredDecision(plain), std::invalid_argument);
+}
+
+TEST(WaypointMirrorTest, LeftAndRightSwapOnlyInMirroredRows) {
+  const torch::Tensor tokens =
+      torch::tensor({{5, 7, 9, 0}, {7, 5, 5, 0}}, torch::kLong);
+  const torch::Tensor swapped = swapLeftAndRight(tokens, {false, true}, 5, 7);
+  EXPECT_TRUE(torch::equal(swapped[0], tokens[0]));
+  EXPECT_TRUE(
+      torch::equal(swapped[1], torch::tensor({5, 7, 7, 0}, torch::kLong)));
+  EXPECT_TRUE(
+      torch::equal(tokens[1], torch::tensor({7, 5, 5, 0}, torch::kLong)))
+      << "the input is not changed";
+  EXPECT_THROW(swapLeftAndRight(tokens, {true}, 5, 7), std::invalid_argument);
+}
+
+// collecting with mirror keeps each decision's mirrored features: the
+// encoder's features of the mirrored panorama, of the same shape
+TEST(WaypointMirrorTest, CollectionKeepsTheMirroredPanoramasFeatures) {
+  const auto& w = rolloutTestWorld();
+  const TinyWaypointAgent t = tinyWaypointAgent(1);
+  for (const bool mirror : {false, true}) {
+    auto agent = makeAgent(t, 1, false);
+    WaypointCollection how{/*beta=*/1.0, /*sample=*/true, /*seed=*/3};
+    how.mirror = mirror;
+    agent->collect(how);
+    run(*agent, {w.episodes.front()}, 1, 1);
+    const std::vector<WaypointDecision> decisions = agent->takeDecisions(0);
+    ASSERT_FALSE(decisions.empty());
+    for (const WaypointDecision& d : decisions) {
+      ASSERT_EQ(d.rgb_mirrored.defined(), mirror);
+      ASSERT_EQ(d.depth_mirrored.defined(), mirror);
+      if (!mirror) continue;
+      EXPECT_EQ(d.rgb_mirrored.sizes(), d.rgb.sizes());
+      EXPECT_EQ(d.depth_mirrored.scalar_type(), torch::kHalf);
+      EXPECT_FALSE(torch::equal(d.rgb_mirrored, d.rgb));
+    }
+  }
 }
 
 }  // namespace

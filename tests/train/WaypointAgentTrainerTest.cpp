@@ -4,7 +4,8 @@
 // stats and the best checkpoint; `eval` scores a checkpoint like any other;
 // `train --export` and `vlnce-export` write the policy as TorchScript that
 // acts as the checkpoint does; --resume and bad configs are refused with the
-// key named; waypoint_agent.execution teleport trains and evaluates.
+// key named; waypoint_agent.execution teleport trains and evaluates;
+// mirrored replays (waypoint_agent.mirror_probability) train.
 
 #include "train/WaypointAgentTrainer.h"
 
@@ -354,6 +355,17 @@ TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
   c.waypoint_agent.candidates = "depth_baseline";
   EXPECT_NO_THROW(validateWaypointAgentConfig(c));
   EXPECT_TRUE(makeWaypointAgentModels(c, false).predictor.is_empty());
+  // mirrored replays cannot be combined with the instruction contrast
+  c = good;
+  c.waypoint_agent.mirror_probability = 0.5;
+  EXPECT_NO_THROW(validateWaypointAgentConfig(c));
+  c.trainer.instruction_contrast_weight = 0.5;
+  try {
+    validateWaypointAgentConfig(c);
+    ADD_FAILURE() << "mirror and contrast together";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("waypoint_agent.mirror_probability"));
+  }
   // the instruction contrast needs an instruction
   c = good;
   c.trainer.instruction_contrast_weight = 0.5;
@@ -427,6 +439,37 @@ TEST(InstructionContrastLossTest, MeasuresHowMuchTheWordsDecide) {
 // the teacher-forcing round's oracle (labelling by teleport ends) reaches
 // most goals; eval records one TELEPORT step per waypoint, and the same
 // checkpoint walks when the command line says so
+// every replay mirrored trains other weights than none, from the same
+// collected decisions
+TEST_F(WaypointAgentTrainerTest, MirroredReplaysTrain) {
+  const fs::path config = writeConfig("  max_decisions: 6\n");
+  auto trainOnce = [&](const std::string& probability, const fs::path& out) {
+    std::string output;
+    EXPECT_EQ(
+        vln::test::runCommand(binary("train") + " --config " + config.string() +
+                                  " --set trainer.dagger_iterations=1"
+                                  " --set trainer.eval_during_training=false"
+                                  " --set waypoint_agent.mirror_probability=" +
+                                  probability +
+                                  " --set output.dir=" + out.string() + " 2>&1",
+                              &output),
+        0)
+        << output;
+    const auto checkpoints = listCheckpoints(out / "checkpoints");
+    EXPECT_EQ(checkpoints.size(), 1u) << output;
+    return checkpoints.empty() ? Checkpoint{}
+                               : loadCheckpoint(checkpoints.back());
+  };
+  const Checkpoint plain = trainOnce("0", dir_ / "plain");
+  const Checkpoint mirrored = trainOnce("1", dir_ / "mirrored");
+  ASSERT_EQ(plain.policy.size(), mirrored.policy.size());
+  bool differ = false;
+  for (size_t i = 0; i < plain.policy.size(); ++i)
+    differ = differ ||
+             !torch::equal(plain.policy[i].second, mirrored.policy[i].second);
+  EXPECT_TRUE(differ) << "mirroring every replay changed nothing";
+}
+
 TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {
   const fs::path config =
       writeConfig("  max_decisions: 6\n  execution: teleport\n");
