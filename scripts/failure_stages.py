@@ -156,18 +156,13 @@ def first_turn_rows(pattern, split, refs, texts, radius):
     legs, openings = {}, {}
     for file, episodes in result_files.run_episodes(pattern, split, TOOL):
         for e in episodes:
-            episode = str(e.get("episode_id"))
-            if episode not in refs:
-                fail(f"'{file}': episode {episode} is not in split {split}")
-            want = first_leg_heading(refs[episode], radius)
-            classify(e, refs[episode], radius, want, file)  # validates
-            headings, actions = e["path"]["headings"], e["actions"]
-            first_forward = next((i for i, a in enumerate(actions)
-                                  if a == MOVE_FORWARD and i < len(headings)),
-                                 None)
+            want = first_leg_heading(reference_of(refs, e, file, split),
+                                     radius)
+            _, _, headings, actions = episode_path(e, file)
+            first_forward = first_forward_index(actions, headings)
             if want is None or first_forward is None:
                 continue
-            kind = first_turn(texts[episode])
+            kind = first_turn(texts[str(e["episode_id"])])
             start = headings[0]
             legs.setdefault(kind, []).append(
                 math.degrees(signed_angle(want, start)))
@@ -194,8 +189,9 @@ def first_turn_rows(pattern, split, refs, texts, radius):
     return rows
 
 
-def classify(episode, ref, radius, want, where):
-    """`want`: the first leg's heading (first_leg_heading()), or None."""
+def episode_path(episode, where):
+    """The episode's metrics, path positions, headings and actions; fails
+    naming the episode when one is missing or they do not fit together."""
     metrics = episode.get("metrics", {})
     path = episode.get("path", {})
     positions = path.get("positions")
@@ -208,6 +204,31 @@ def classify(episode, ref, radius, want, where):
         fail(f"{where}: episode {episode.get('episode_id')} lacks "
              "metrics.success/oracle_success, path.positions/headings of "
              "equal length or actions")
+    return metrics, positions, headings, actions
+
+
+def first_forward_index(actions, headings):
+    """The step of the first forward move (its heading is the opening), or
+    None when the agent never moved."""
+    return next((i for i, a in enumerate(actions)
+                 if a == MOVE_FORWARD and i < len(headings)), None)
+
+
+def reference_of(refs, episode, where, split):
+    episode_id = str(episode.get("episode_id"))
+    if episode_id not in refs:
+        fail(f"'{where}': episode {episode_id} is not in split {split}")
+    return refs[episode_id]
+
+
+def json_value(value):
+    """NaN (a column that does not apply) as null: strict JSON."""
+    return None if isinstance(value, float) and math.isnan(value) else value
+
+
+def classify(episode, ref, radius, want, where):
+    """`want`: the first leg's heading (first_leg_heading()), or None."""
+    metrics, positions, headings, actions = episode_path(episode, where)
     if metrics["success"]:
         outcome = "success"
     elif metrics["oracle_success"]:
@@ -216,8 +237,7 @@ def classify(episode, ref, radius, want, where):
         fraction = nodes_passed(positions, ref, radius) / (len(ref) - 1)
         third = min(2, int(fraction * 3))
         outcome = OUTCOMES[2 + third]
-    first_forward = next((i for i, a in enumerate(actions)
-                          if a == MOVE_FORWARD and i < len(headings)), None)
+    first_forward = first_forward_index(actions, headings)
     if want is None or first_forward is None:
         opening = None  # no leg to compare, or the agent never moved
     else:
@@ -256,10 +276,7 @@ def agent_rates(pattern, split, refs, radius):
         offered, offer_judged = 0, 0
         right_when_offered, offered_judged = 0, 0
         for e in episodes:
-            episode = str(e.get("episode_id"))
-            if episode not in refs:
-                fail(f"'{file}': episode {episode} is not in split {split}")
-            ref = refs[episode]
+            ref = reference_of(refs, e, file, split)
             want = first_leg_heading(ref, radius)
             outcome, opening = classify(e, ref, radius, want, file)
             counts[outcome] += 1
@@ -316,9 +333,8 @@ def main():
                                         args.radius)
                   for name, pattern in args.agent}
         if args.json:
-            print(json.dumps({n: [{k: (None if isinstance(v, float) and
-                                       math.isnan(v) else v)
-                                   for k, v in row.items()} for row in rows]
+            print(json.dumps({n: [{k: json_value(v) for k, v in row.items()}
+                                  for row in rows]
                               for n, rows in tables.items()},
                              indent=2, sort_keys=True))
             return
@@ -343,10 +359,7 @@ def main():
                                             args.radius)
         results[name] = dict(rates, runs=runs, episodes=episodes)
     if args.json:
-        # NaN (not a waypoint agent) as null: strict JSON
-        print(json.dumps({n: {k: (None if isinstance(v, float) and
-                                  math.isnan(v) else v)
-                              for k, v in r.items()}
+        print(json.dumps({n: {k: json_value(v) for k, v in r.items()}
                           for n, r in results.items()},
                          indent=2, sort_keys=True))
         return

@@ -210,9 +210,8 @@ struct ModelConfig {
     v.field("heading_harmonics", heading_harmonics,
             "Waypoint CMA only: a heading (a view's, a candidate's, the "
             "previous decision's) enters the policy as sin and cos of m times "
-            "it for m = 1 .. this. With 1 a candidate's logit can only prefer "
-            "headings along one cosine, too broad to tell 'right' from "
-            "'sharp right'",
+            "it for m = 1 .. this (1: the heading's sin and cos alone, as "
+            "always; 4 measured and not adopted, docs/results.md)",
             common::inRange(1, 16));
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "

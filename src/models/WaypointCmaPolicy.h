@@ -19,7 +19,7 @@
 // and distance when it was chosen; zeros and start = 1 at t = 0).
 // With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
 // of m times the heading for m = 1 .. M (measured and not adopted:
-// docs/results.md, "Two more levers for the waypoint agent").
+// docs/results.md, "Four more levers for the waypoint agent").
 //
 // Sequence mode (training): inputs [T, B, ...]; step mode (acting):
 // [B, ...]. Headings are radians counter-clockwise relative to the agent's

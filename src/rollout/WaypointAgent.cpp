@@ -305,16 +305,16 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     Slot& slot = *slots_[static_cast<size_t>(envList[i])];
     const int choice = taken[static_cast<size_t>(i)];
     if (collecting_) {
+      // row i of a feature tensor as recorded: fp16 on the CPU
+      auto recorded = [i](const at::Tensor& t) {
+        return t.defined() ? t[i].to(torch::kCPU, torch::kHalf).clone()
+                           : at::Tensor();
+      };
       WaypointDecision d;
-      if (features.rgb.defined())
-        d.rgb = features.rgb[i].to(torch::kCPU, torch::kHalf).clone();
-      if (features.depth.defined())
-        d.depth = features.depth[i].to(torch::kCPU, torch::kHalf).clone();
-      if (mirrored.rgb.defined())
-        d.rgb_mirrored = mirrored.rgb[i].to(torch::kCPU, torch::kHalf).clone();
-      if (mirrored.depth.defined())
-        d.depth_mirrored =
-            mirrored.depth[i].to(torch::kCPU, torch::kHalf).clone();
+      d.rgb = recorded(features.rgb);
+      d.depth = recorded(features.depth);
+      d.rgb_mirrored = recorded(mirrored.rgb);
+      d.depth_mirrored = recorded(mirrored.depth);
       d.candidates = candidates[static_cast<size_t>(i)];
       d.prev_heading = slot.prevHeading;
       d.prev_distance = slot.prevDistance;
