@@ -30,15 +30,18 @@ torch::Tensor polarFeatures(const torch::Tensor& polar, int64_t harmonics) {
 }
 
 // softmax attention of queries q [n, D] over values [n, M, Dv] with keys
-// [n, M, D] (mask [n, M] bool, true = attend; may be undefined)
+// [n, M, D] (mask [n, M] bool, true = attend; may be undefined); the
+// weights [n, M] go to `weights` when given
 torch::Tensor attend(const torch::Tensor& q, const torch::Tensor& keys,
-                     const torch::Tensor& values, const torch::Tensor& mask) {
+                     const torch::Tensor& values, const torch::Tensor& mask,
+                     torch::Tensor* weights = nullptr) {
   torch::Tensor scores = torch::bmm(keys, q.unsqueeze(2)).squeeze(2) /
                          std::sqrt(static_cast<double>(q.size(1)));
   if (mask.defined())
     scores = scores.masked_fill(mask.logical_not(),
                                 -std::numeric_limits<float>::infinity());
   const torch::Tensor alpha = torch::softmax(scores, 1);
+  if (weights != nullptr) *weights = alpha;
   return torch::bmm(alpha.unsqueeze(1), values).squeeze(1);
 }
 
@@ -171,7 +174,7 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
   const torch::Tensor h1 = h1Seq.reshape({n, H});
 
   std::vector<torch::Tensor> context{h1};
-  torch::Tensor visualQuery;
+  torch::Tensor visualQuery, textWeights;
   if (config_.usesInstruction()) {
     // the instruction rows repeat over the T steps
     const int64_t L = instruction.states.size(1);
@@ -182,8 +185,9 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
     };
     const torch::Tensor mask =
         instruction.mask.unsqueeze(0).expand({steps, batch, L}).reshape({n, L});
-    const torch::Tensor text = attend(state_q(h1), perStep(instruction.keys),
-                                      perStep(instruction.states), mask);
+    const torch::Tensor text =
+        attend(state_q(h1), perStep(instruction.keys),
+               perStep(instruction.states), mask, &textWeights);
     context.push_back(text);
     visualQuery = text_q(text);
   } else {
@@ -226,6 +230,8 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
 
   WaypointPolicyOutputs out;
   out.logits = logits.view({steps, batch, K + 1});
+  if (textWeights.defined())
+    out.text_attention = textWeights.view({steps, batch, -1});
   out.hidden = torch::stack({h1Last, h2Last}, 1);
   return out;
 }
@@ -241,6 +247,8 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::step(
                            seq(inputs.prev),       seq(inputs.not_done)};
   WaypointPolicyOutputs out = forwardSequence(instruction, one, hidden);
   out.logits = out.logits.squeeze(0);
+  if (out.text_attention.defined())
+    out.text_attention = out.text_attention.squeeze(0);
   return out;
 }
 

@@ -53,6 +53,9 @@ struct WaypointPolicyInputs {
 struct WaypointPolicyOutputs {
   torch::Tensor logits;  ///< [.., 1 + K]: STOP, then the candidates
   torch::Tensor hidden;  ///< [B, 2, hidden_size] after the last step
+  /// [.., L]: the instruction attention of s_t (weights over the tokens);
+  /// undefined with model.no_instruction
+  torch::Tensor text_attention;
 };
 
 class WaypointCmaPolicyImpl : public torch::nn::Module {

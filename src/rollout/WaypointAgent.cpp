@@ -320,6 +320,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
       d.prev_distance = slot.prevDistance;
       d.label = labels[static_cast<size_t>(i)];
       d.taken = choice;
+      d.position = slot.choices.back().position;
       slot.record.push_back(std::move(d));
     }
     ++slot.decisions;

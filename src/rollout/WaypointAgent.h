@@ -53,6 +53,9 @@ struct WaypointDecision {
   float prev_distance = 0.0f;  ///< (0 at the first decision)
   int label = 0;               ///< oracle: 0 STOP, j + 1 candidate j
   int taken = 0;               ///< what the agent did, same coding
+  /// Where the agent stood (world frame, metres), e.g. to tell which leg of
+  /// the reference path it was about to walk (data::upcomingLeg()).
+  Vec3f position = Vec3f::Zero();
   /// The features of the mirrored panorama (mirrorPanoramaViews()), kept
   /// when collecting with WaypointCollection::mirror; else undefined.
   at::Tensor rgb_mirrored;

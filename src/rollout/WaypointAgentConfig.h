@@ -39,6 +39,12 @@ struct WaypointAgentConfig {
   /// "left" and "right" swapped). Above 0 every collected decision also
   /// keeps the features of its mirrored panorama.
   double mirror_probability = 0.0;
+  /// Training only: weight of the sub-instruction loss (train::
+  /// subInstructionLoss()), which asks the instruction attention at each
+  /// decision to rest on the clauses of the reference path's leg ahead;
+  /// needs the training splits' sub-instruction files
+  /// (data/SubInstructions.h). 0: off.
+  double sub_instruction_weight = 0.0;
   waypoint::ApproachConfig approach;
   waypoint::DepthBaselineConfig depth_baseline;
 
@@ -77,6 +83,13 @@ struct WaypointAgentConfig {
             "instruction; labels unchanged). Above 0 collection also encodes "
             "every decision's mirrored panorama",
             common::inRange(0.0, 1.0));
+    v.field("sub_instruction_weight", sub_instruction_weight,
+            "Training only: weight of the loss that asks the instruction "
+            "attention at each decision to rest on the clauses describing the "
+            "reference path's leg ahead (from <split>_sub_instructions.json.gz "
+            "of every training split, which vlnce-data generate writes); 0 "
+            "turns it off",
+            common::inRange(0.0, 100.0));
     v.section("approach", approach,
               "Executing a waypoint and the oracle's stopping rule");
     v.section("depth_baseline", depth_baseline,

@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <limits>
 #include <numeric>
 #include <random>
 #include <string>
@@ -131,6 +133,76 @@ torch::Tensor instructionContrastLoss(
                                      labels.ge(0));
 }
 
+SubInstructionTokensByEpisode loadSubInstructionTokens(
+    const ExperimentConfig& config, const TrainingData& data) {
+  const std::string option = "waypoint_agent.sub_instruction_weight";
+  std::vector<const data::Split*> splits{&data.train};
+  if (data.aug) splits.push_back(data.aug.get());
+  for (const auto& extra : data.extra) splits.push_back(extra.get());
+  SubInstructionTokensByEpisode out;
+  for (const data::Split* split : splits) {
+    const fs::path file =
+        data::splitSubInstructionsPath(config.dataset.data_path, split->name);
+    VLN_CHECK_ARG(fs::exists(file), kTask, ": ", option, " needs '",
+                  file.string(),
+                  "', which does not exist (vlnce-data generate writes it for "
+                  "the training splits of a generated world)");
+    const data::SubInstructions subs = data::readSubInstructions(file);
+    data::checkSubInstructions(subs, split->episodes,
+                               strCat(option, ": '", file.string(), "'"));
+    for (const data::Episode& e : split->episodes)
+      out[&e] = data::subInstructionTokens(e.instruction.instruction_text,
+                                           subs.at(e.episode_id));
+  }
+  return out;
+}
+
+at::Tensor subInstructionTargets(
+    std::span<const std::vector<rollout::WaypointDecision>* const> rows,
+    std::span<const data::Episode* const> episodes,
+    const SubInstructionTokensByEpisode& tokens, int64_t L) {
+  VLN_CHECK_ARG(rows.size() == episodes.size(),
+                "subInstructionTargets(): ", rows.size(), " rows for ",
+                episodes.size(), " episodes");
+  int64_t T = 0;
+  for (const auto* row : rows) T = std::max<int64_t>(T, row->size());
+  const auto B = static_cast<int64_t>(rows.size());
+  at::Tensor targets = torch::zeros({T, B, L});
+  auto access = targets.accessor<float, 3>();
+  for (int64_t b = 0; b < B; ++b) {
+    const data::Episode& episode = *episodes[static_cast<size_t>(b)];
+    const auto it = tokens.find(&episode);
+    if (it == tokens.end() || episode.reference_path.size() < 2) continue;
+    const auto& clauses = it->second;
+    const auto& row = *rows[static_cast<size_t>(b)];
+    for (size_t t = 0; t < row.size(); ++t) {
+      // the first leg at or after the one ahead that some clause describes
+      int leg = data::upcomingLeg(episode.reference_path, row[t].position,
+                                  kSubInstructionLookahead);
+      int target = std::numeric_limits<int>::max();
+      for (const data::SubInstructionTokens& c : clauses)
+        if (c.leg >= leg) target = std::min(target, c.leg);
+      for (const data::SubInstructionTokens& c : clauses)
+        if (c.leg == target)
+          for (int k = c.first; k < std::min<int64_t>(c.last, L); ++k)
+            access[static_cast<int64_t>(t)][b][k] = 1.0f;
+    }
+  }
+  return targets;
+}
+
+torch::Tensor subInstructionLoss(const torch::Tensor& attention,
+                                 const torch::Tensor& targets) {
+  VLN_CHECK_ARG(attention.sizes() == targets.sizes(),
+                "subInstructionLoss(): attention ", attention.sizes(),
+                " and targets ", targets.sizes(), " differ");
+  const torch::Tensor mass = (attention * targets).sum(-1);
+  const torch::Tensor has = targets.sum(-1).gt(0);
+  if (!has.any().item<bool>()) return attention.sum() * 0.0;
+  // the floor keeps log finite where the attention is exactly 0
+  return -torch::log(mass.masked_select(has).clamp_min(1e-8)).mean();
+}
+
 void validateWaypointAgentConfig(const ExperimentConfig& config) {
   checkWaypointPanorama(config, kTask);
   VLN_CHECK_ARG(!config.model.usesTextFeatures(), kTask,
@@ -140,6 +212,17 @@ void validateWaypointAgentConfig(const ExperimentConfig& config) {
                 kTask,
                 ": trainer.instruction_contrast_weight needs the instruction "
                 "(model.no_instruction is true)");
+  VLN_CHECK_ARG(config.waypoint_agent.sub_instruction_weight == 0.0 ||
+                    config.model.usesInstruction(),
+                kTask,
+                ": waypoint_agent.sub_instruction_weight needs the instruction "
+                "(model.no_instruction is true)");
+  VLN_CHECK_ARG(config.waypoint_agent.sub_instruction_weight == 0.0 ||
+                    !config.dataset.isRxr(),
+                kTask,
+                ": waypoint_agent.sub_instruction_weight needs R2R-format "
+                "training splits with sub-instruction files (dataset.format "
+                "is rxr)");
   VLN_CHECK_ARG(config.trainer.mode == "dagger", kTask,
                 ": trainer.mode must be dagger (the agent's rounds are "
                 "collected by the waypoint oracle)");
@@ -249,6 +332,11 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       mirrorProbability > 0.0 ? mirrorTokensOf(config, data) : MirrorTokens{};
   std::mt19937_64 mirrorRng(
       common::deriveSeed(static_cast<uint64_t>(tc.seed), 23));
+  const double subInstructionWeight =
+      config.waypoint_agent.sub_instruction_weight;
+  const SubInstructionTokensByEpisode subInstructionTokens =
+      subInstructionWeight > 0.0 ? loadSubInstructionTokens(config, data)
+                                 : SubInstructionTokensByEpisode{};
 
   const TrainingSchedule schedule(tc);
   TrainingProgress progress;
@@ -313,7 +401,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       std::vector<size_t> order(collected.size());
       std::iota(order.begin(), order.end(), size_t{0});
       common::deterministicShuffle(order, orderRng);
-      double lossSum = 0.0, contrastSum = 0.0;
+      double lossSum = 0.0, contrastSum = 0.0, subInstructionSum = 0.0;
       int64_t correct = 0, labelled = 0, batches = 0;
       // the first decision of each episode, where the instruction's opening
       // ("turn left ...") is all that tells the candidates apart
@@ -371,6 +459,15 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
           contrastSum += contrast.item<double>();
           loss = loss + tc.instruction_contrast_weight * contrast;
         }
+        if (subInstructionWeight > 0.0) {
+          const torch::Tensor targets =
+              subInstructionTargets(rows, instructions, subInstructionTokens,
+                                    out.text_attention.size(-1));
+          const torch::Tensor sub =
+              subInstructionLoss(out.text_attention, targets.to(device));
+          subInstructionSum += sub.item<double>();
+          loss = loss + subInstructionWeight * sub;
+        }
         optimizer.zero_grad();
         loss.backward();
         optimizer.step();
@@ -399,6 +496,8 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       }
       const double meanLoss = batches > 0 ? lossSum / batches : 0.0;
       const double meanContrast = batches > 0 ? contrastSum / batches : 0.0;
+      const double meanSubInstruction =
+          batches > 0 ? subInstructionSum / batches : 0.0;
       const double accuracy =
           labelled > 0 ? static_cast<double>(correct) / labelled : 0.0;
       const double firstAccuracy =
@@ -406,26 +505,26 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                             : 0.0;
       spdlog::info(
           "{}: iteration {} epoch {}: {} updates, loss {:.4f} (instruction "
-          "contrast {:.4f}), label accuracy {:.3f} over {} decisions ({:.3f} "
-          "at the first decision), {:.1f} s",
+          "contrast {:.4f}, sub-instruction {:.4f}), label accuracy {:.3f} "
+          "over {} decisions ({:.3f} at the first decision), {:.1f} s",
           kTask, iteration.iteration, epoch.epoch, batches, meanLoss,
-          meanContrast, accuracy, labelled, firstAccuracy,
+          meanContrast, meanSubInstruction, accuracy, labelled, firstAccuracy,
           epochClock.seconds());
-      metrics.write(
-          "epoch",
-          {{"iteration", iteration.iteration},
-           {"epoch", epoch.epoch},
-           {"loss", meanLoss},
-           {"instruction_contrast", meanContrast},
-           {"accuracy", accuracy},
-           {"first_decision_accuracy", firstAccuracy},
-           {"lr", schedule.learningRate(iteration.iteration)},
-           {"updates", progress.updates},
-           {"seconds", epochClock.seconds()}},
-          {{"train/epoch_loss", meanLoss},
-           {"train/label_accuracy", accuracy},
-           {"train/first_decision_accuracy", firstAccuracy}},
-          progress.updates);
+      metrics.write("epoch",
+                    {{"iteration", iteration.iteration},
+                     {"epoch", epoch.epoch},
+                     {"loss", meanLoss},
+                     {"instruction_contrast", meanContrast},
+                     {"sub_instruction", meanSubInstruction},
+                     {"accuracy", accuracy},
+                     {"first_decision_accuracy", firstAccuracy},
+                     {"lr", schedule.learningRate(iteration.iteration)},
+                     {"updates", progress.updates},
+                     {"seconds", epochClock.seconds()}},
+                    {{"train/epoch_loss", meanLoss},
+                     {"train/label_accuracy", accuracy},
+                     {"train/first_decision_accuracy", firstAccuracy}},
+                    progress.updates);
 
       ++progress.checkpoint_index;
       progress.dagger_iteration = epoch.iterations_done;

@@ -17,7 +17,8 @@
 //  - Learning: cross-entropy of the policy's logits (STOP and the
 //    candidates) against the labels over whole decision sequences,
 //    batches of trainer.batch_size episodes, Adam at trainer.lr; plus
-//    trainer.instruction_contrast_weight times instructionContrastLoss().
+//    trainer.instruction_contrast_weight times instructionContrastLoss(),
+//    plus waypoint_agent.sub_instruction_weight times subInstructionLoss().
 //  - After each epoch: a checkpoint (ckpt.<i>.pth, the policy's tensors
 //    only; the encoders and the predictor are frozen files named by the
 //    config) and, as the schedule says, an evaluation on eval.splits
@@ -28,14 +29,19 @@
 // train --resume is refused: a run is minutes long on the default world.
 
 #include <filesystem>
+#include <map>
 #include <memory>
+#include <span>
 #include <vector>
+
+#include "data/SubInstructions.h"
 
 #include "models/ObservationEncoder.h"
 #include "models/WaypointCmaPolicy.h"
 #include "models/WaypointPredictor.h"
 #include "rollout/WaypointAgent.h"
 #include "train/ExperimentConfig.h"
+#include "train/TrainingData.h"
 
 namespace vln::train {
 
@@ -83,6 +89,43 @@ torch::Tensor instructionContrastLoss(
     const torch::Tensor& labels,
     const std::vector<const data::Episode*>& instructions, int maxLength,
     const torch::Device& device);
+
+/// How far past its projection onto the reference path an agent's position
+/// is moved to tell the leg it is about to walk (data::upcomingLeg()): a
+/// decision is taken where the last waypoint ended, often a little short
+/// of or past a reference node; half a metre on lies on the next leg.
+inline constexpr float kSubInstructionLookahead = 0.5f;
+
+/// Per training episode, its sub-instructions as token ranges (data::
+/// subInstructionTokens()), read from every pool split's
+/// <split>_sub_instructions.json.gz under dataset.data_path and checked
+/// against the split (data::checkSubInstructions()). Throws
+/// std::invalid_argument naming waypoint_agent.sub_instruction_weight and
+/// the file when one is missing.
+using SubInstructionTokensByEpisode =
+    std::map<const data::Episode*, std::vector<data::SubInstructionTokens>>;
+SubInstructionTokensByEpisode loadSubInstructionTokens(
+    const ExperimentConfig& config, const TrainingData& data);
+
+/// The tokens the sub-instruction loss asks decision t of batch episode b
+/// (`rows[b]`, the instruction of `episodes[b]`) to attend to: the tokens
+/// of the clauses describing the leg of the episode's reference path ahead
+/// of where the agent stood (data::upcomingLeg() with
+/// kSubInstructionLookahead), or, when no clause describes that leg (a
+/// straight leg left unsaid), those of the next leg some clause describes.
+/// [T, B, L] float 0/1 with T the longest row; all zero at padding steps,
+/// for episodes without sub-instructions and where the clauses' tokens lie
+/// beyond the first `L`.
+at::Tensor subInstructionTargets(
+    std::span<const std::vector<rollout::WaypointDecision>* const> rows,
+    std::span<const data::Episode* const> episodes,
+    const SubInstructionTokensByEpisode& tokens, int64_t L);
+
+/// -log of the instruction attention's mass on the targets (`attention`
+/// and `targets` [T, B, L]), averaged over the decisions that have a
+/// target; a differentiable 0 when none has.
+torch::Tensor subInstructionLoss(const torch::Tensor& attention,
+                                 const torch::Tensor& targets);
 
 /// trainer.task = waypoint_cma. Expects logging set up.
 void runWaypointAgentTraining(const ExperimentConfig& config,

@@ -87,7 +87,8 @@ class Writer {
     middle(clauses, transitionUsed);
     clauses.push_back({facts_.total, stopClause()});
     GeneratedInstruction out;
-    out.text = human_ ? assembleHuman(clauses) : assembleSpeaker(clauses);
+    out.text = human_ ? assembleHuman(clauses, out.sub_instructions)
+                      : assembleSpeaker(clauses, out.sub_instructions);
     out.landmarks = std::move(mentions_);
     out.goal_room = facts_.stop.room;
     return out;
@@ -479,9 +480,31 @@ class Writer {
 
   // --- sentences ---------------------------------------------------------
 
-  std::string assembleHuman(const std::vector<Clause>& clauses) {
+  // The leg a clause at distance `s` along the path describes: the last
+  // waypoint at or before it (the last waypoint itself only at the path's
+  // end, where the stop clause is).
+  int legAt(float s) const {
+    const auto& starts = facts_.leg_start;
+    const auto it = std::upper_bound(starts.begin(), starts.end(), s);
+    return std::clamp(static_cast<int>(it - starts.begin()) - 1, 0,
+                      static_cast<int>(starts.size()) - 1);
+  }
+
+  // clause `clause` placed at byte `at` of the text
+  data::SubInstruction subInstruction(const Clause& clause, size_t at) const {
+    return {static_cast<int>(at), static_cast<int>(at + clause.text.size()),
+            legAt(clause.s)};
+  }
+
+  // The text, and in `spans` where each clause went (the random draws are
+  // those of the text alone, so recording them changes no instruction).
+  std::string assembleHuman(const std::vector<Clause>& clauses,
+                            std::vector<data::SubInstruction>& spans) {
     // one to three clauses per sentence, joined by varied connectives
     std::vector<std::string> sentences;
+    // per sentence, its clauses' spans relative to the sentence
+    std::vector<std::vector<data::SubInstruction>> sentenceSpans;
+    std::vector<data::SubInstruction> currentSpans;
     std::string current;
     int inSentence = 0;
     int target = 1 + common::uniformIndex(rng_, 3);
@@ -492,32 +515,45 @@ class Writer {
           current = pick(rng_, {"then ", "next, ", "after that, ", "now ",
                                 "from there, "}) +
                     current;
+        currentSpans = {subInstruction(
+            clauses[i], current.size() - clauses[i].text.size())};
       } else {
         current += pick(
             rng_, {" and ", ", then ", ", ", " and then ", ", and ", " and "});
+        currentSpans.push_back(subInstruction(clauses[i], current.size()));
         current += clauses[i].text;
       }
       ++inSentence;
       if (inSentence >= target || i + 1 == clauses.size()) {
         sentences.push_back(current);
+        sentenceSpans.push_back(std::move(currentSpans));
+        currentSpans.clear();
         inSentence = 0;
         target = 1 + common::uniformIndex(rng_, 3);
       }
     }
     std::string text;
-    for (std::string& s : sentences) {
+    for (size_t k = 0; k < sentences.size(); ++k) {
+      std::string& s = sentences[k];
       s[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(s[0])));
       if (!text.empty()) text += chance(0.1) ? ".  " : ". ";
+      for (data::SubInstruction span : sentenceSpans[k]) {
+        span.begin += static_cast<int>(text.size());
+        span.end += static_cast<int>(text.size());
+        spans.push_back(span);
+      }
       text += s;
     }
     text += chance(0.85) ? "." : ". ";
     return text;
   }
 
-  std::string assembleSpeaker(const std::vector<Clause>& clauses) {
+  std::string assembleSpeaker(const std::vector<Clause>& clauses,
+                              std::vector<data::SubInstruction>& spans) {
     std::string text;
     for (size_t i = 0; i < clauses.size(); ++i) {
       if (i > 0) text += (i % 2 == 1) ? " and " : " . ";
+      spans.push_back(subInstruction(clauses[i], text.size()));
       text += clauses[i].text;
     }
     return text + " .";

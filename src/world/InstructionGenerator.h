@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "common/Math.h"
+#include "data/SubInstructions.h"
 #include "sim/Mesh.h"
 #include "world/WorldConfig.h"
 
@@ -65,6 +66,10 @@ struct GeneratedInstruction {
   std::string text;
   std::vector<LandmarkMention> landmarks;
   int goal_room = -1;  ///< index into semantics.rooms of the goal, or -1
+  /// Every clause of `text` with the leg it describes (the leg holding the
+  /// point of the path it is about; the last waypoint's index for the stop
+  /// clause), in text order.
+  std::vector<data::SubInstruction> sub_instructions;
 };
 
 /// Generates instructions for paths through one house.

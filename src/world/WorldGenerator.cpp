@@ -25,6 +25,7 @@
 #include "data/GloveFit.h"
 #include "data/GroundTruth.h"
 #include "data/Split.h"
+#include "data/SubInstructions.h"
 #include "data/Vocabulary.h"
 #include "sim/MeshIo.h"
 #include "sim/RayTracer.h"
@@ -74,6 +75,8 @@ struct Trajectory {
   double graph_length = 0.0;  // along nav-graph edges, metres
   data::GroundTruthPath ground_truth;
   std::vector<std::string> instructions;
+  // per instruction, its clauses and the legs they describe
+  std::vector<std::vector<data::SubInstruction>> sub_instructions;
 };
 
 struct HouseResult {
@@ -203,7 +206,10 @@ HouseResult processHouse(const WorldConfig& config, const WorldOutput& output,
             : config.instructions.per_trajectory,
         common::deriveSeed(common::deriveSeed(seed, kInstructionStream),
                            static_cast<uint64_t>(candidate)));
-    for (const auto& g : generated) t.instructions.push_back(g.text);
+    for (const auto& g : generated) {
+      t.instructions.push_back(g.text);
+      t.sub_instructions.push_back(g.sub_instructions);
+    }
     result.trajectories.push_back(std::move(t));
   }
   result.graph = std::move(captured.built.graph);
@@ -415,6 +421,9 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   std::map<std::string, double> pathLength, geodesic, actions, tokens,
       unknownTokens;
   std::vector<std::string> trainCorpus;
+  // for the training splits only: the evaluation splits' files are frozen
+  // and an agent is not told how its instruction divides
+  std::map<std::string, data::SubInstructions> subInstructions;
   int trajectoryId = 0;
   for (const std::string& split : splitNames) {
     int episodeId = 0;
@@ -426,7 +435,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
         pathLength[split] += t.graph_length;
         geodesic[split] += t.geodesic;
         actions[split] += static_cast<double>(t.ground_truth.actions.size());
-        for (const std::string& text : t.instructions) {
+        for (size_t k = 0; k < t.instructions.size(); ++k) {
+          const std::string& text = t.instructions[k];
           data::Episode e;
           e.episode_id = ++episodeId;
           e.trajectory_id = trajectoryId;
@@ -448,6 +458,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
           }
           if (split == kTrain || split == kTrainAug)
             trainCorpus.push_back(text);
+          if (split == kTrain || split == kTrainAug || split == kTrainExtra)
+            subInstructions[split][e.episode_id] = t.sub_instructions[k];
           datasets[split].episodes.push_back(std::move(e));
         }
       }
@@ -594,6 +606,10 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
       if (split != kTest)
         data::writeGroundTruth(data::splitGroundTruthPath(staging, split),
                                truths[split]);
+      if (subInstructions.count(split) != 0)
+        data::writeSubInstructions(
+            data::splitSubInstructionsPath(staging, split),
+            subInstructions[split]);
     }
     data::writeEpisodes(data::hiddenGoalsPath(staging, kTest), hiddenTest);
     data::writeGroundTruth(data::hiddenGroundTruthPath(staging, kTest),

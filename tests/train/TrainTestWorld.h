@@ -14,6 +14,7 @@
 
 #include "common/FileIo.h"
 #include "data/Glove.h"
+#include "data/SubInstructions.h"
 #include "support/TestPaths.h"
 #include "world/WorldGenerator.h"
 
@@ -61,7 +62,9 @@ inline const TinyWorld& tinyWorld() {
       throw std::runtime_error("tinyWorld(): cannot open the lock file");
     ::flock(fd, LOCK_EX);
     try {
-      if (!fs::exists(root / "done")) {
+      // a world from before the sub-instruction files is generated again
+      if (!fs::exists(root / "done") ||
+          !fs::exists(data::splitSubInstructionsPath(w.data, "train"))) {
         world::WorldOutput output;
         output.out = w.data;
         output.scenes_dir = w.scenes;

@@ -5,7 +5,8 @@
 // `train --export` and `vlnce-export` write the policy as TorchScript that
 // acts as the checkpoint does; --resume and bad configs are refused with the
 // key named; waypoint_agent.execution teleport trains and evaluates;
-// mirrored replays (waypoint_agent.mirror_probability) train.
+// mirrored replays (waypoint_agent.mirror_probability) and the
+// sub-instruction loss (waypoint_agent.sub_instruction_weight) train.
 
 #include "train/WaypointAgentTrainer.h"
 
@@ -366,6 +367,17 @@ TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("waypoint_agent.mirror_probability"));
   }
+  // the sub-instruction loss needs an instruction
+  c = good;
+  c.waypoint_agent.sub_instruction_weight = 1.0;
+  EXPECT_NO_THROW(validateWaypointAgentConfig(c));
+  c.model.no_instruction = true;
+  try {
+    validateWaypointAgentConfig(c);
+    ADD_FAILURE() << "no words to attend to";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("waypoint_agent.sub_instruction_weight"));
+  }
   // the instruction contrast needs an instruction
   c = good;
   c.trainer.instruction_contrast_weight = 0.5;
@@ -433,6 +445,115 @@ TEST(InstructionContrastLossTest, MeasuresHowMuchTheWordsDecide) {
   for (const auto& p : policy.instruction_encoder->parameters())
     if (p.grad().defined()) encoderGradient += p.grad().abs().sum().item<double>();
   EXPECT_GT(encoderGradient, 0.0);
+}
+
+// subInstructionTargets() marks the clauses of the leg ahead of each
+// decision (or of the next described leg), and subInstructionLoss() is
+// -log of the attention mass on them
+TEST(SubInstructionLossTest, AsksTheAttentionToRestOnTheLegAhead) {
+  data::Episode episode;
+  // legs 0 (to z = -4), 1 (to x = 4), 2 (to z = -8); 3 = the stop
+  episode.reference_path = {Vec3f(0, 0, 0), Vec3f(0, 0, -4), Vec3f(4, 0, -4),
+                            Vec3f(4, 0, -8)};
+  // tokens: [0, 2) leg 0, [2, 4) and [4, 5) leg 1, leg 2 unsaid, [6, 9) stop
+  SubInstructionTokensByEpisode tokens;
+  tokens[&episode] = {{0, 2, 0}, {2, 4, 1}, {4, 5, 1}, {6, 9, 3}};
+  std::vector<rollout::WaypointDecision> row(4);
+  row[0].position = Vec3f(0, 0, -0.2f);  // leg 0
+  row[1].position = Vec3f(0, 0, -3.8f);  // at the first turn: leg 1
+  row[2].position = Vec3f(4, 0, -4.2f);  // leg 2, unsaid: the stop's words
+  row[3].position = Vec3f(4, 0, -7.9f);  // at the goal: the stop
+  std::vector<rollout::WaypointDecision> shortRow(1);
+  shortRow[0].position = Vec3f(0, 0, -1.0f);
+  data::Episode untold = episode;  // no sub-instructions
+  const std::vector<const std::vector<rollout::WaypointDecision>*> rows{
+      &row, &shortRow, &row};
+  const std::vector<const data::Episode*> episodes{&episode, &episode, &untold};
+  const int64_t L = 8;  // the stop's last token falls beyond L
+  const torch::Tensor targets =
+      subInstructionTargets(rows, episodes, tokens, L);
+  ASSERT_EQ(targets.sizes(), (torch::IntArrayRef{4, 3, L}));
+  auto marked = [&](int64_t t, int64_t b) {
+    std::vector<int64_t> out;
+    for (int64_t k = 0; k < L; ++k)
+      if (targets[t][b][k].item<float>() > 0.0f) out.push_back(k);
+    return out;
+  };
+  EXPECT_EQ(marked(0, 0), (std::vector<int64_t>{0, 1}));
+  EXPECT_EQ(marked(1, 0), (std::vector<int64_t>{2, 3, 4}));
+  EXPECT_EQ(marked(2, 0), (std::vector<int64_t>{6, 7}));
+  EXPECT_EQ(marked(3, 0), (std::vector<int64_t>{6, 7}));
+  EXPECT_EQ(marked(0, 1), (std::vector<int64_t>{0, 1}));
+  for (int64_t t = 1; t < 4; ++t) EXPECT_TRUE(marked(t, 1).empty()) << t;
+  for (int64_t t = 0; t < 4; ++t) EXPECT_TRUE(marked(t, 2).empty()) << t;
+
+  // uniform attention: -log(k / L) averaged over the decisions with targets
+  const torch::Tensor uniform = torch::full({4, 3, L}, 1.0 / L);
+  const double expected = -(std::log(2.0 / L) + std::log(3.0 / L) +
+                            2.0 * std::log(2.0 / L) + std::log(2.0 / L)) /
+                          5.0;
+  EXPECT_NEAR(subInstructionLoss(uniform, targets).item<double>(), expected,
+              1e-5);
+  // all the attention on the targets: no loss; a gradient towards them
+  const torch::Tensor onTargets =
+      targets / targets.sum(-1, true).clamp_min(1.0);
+  EXPECT_NEAR(subInstructionLoss(onTargets, targets).item<double>(), 0.0, 1e-6);
+  torch::Tensor scores = torch::zeros({4, 3, L}, torch::requires_grad());
+  subInstructionLoss(torch::softmax(scores, -1), targets).backward();
+  EXPECT_LT(scores.grad()[0][0][0].item<double>(), 0.0);
+  EXPECT_GT(scores.grad()[0][0][5].item<double>(), 0.0);
+  // no targets at all: zero, still differentiable
+  const torch::Tensor none =
+      subInstructionLoss(uniform, torch::zeros_like(uniform));
+  EXPECT_EQ(none.item<double>(), 0.0);
+}
+
+// the loss trains from the binary on the tiny world's sub-instruction files,
+// and a split without its file is refused naming the option and the file
+TEST_F(WaypointAgentTrainerTest, SubInstructionLossTrainsAndNeedsItsFiles) {
+  const fs::path config = writeConfig("  max_decisions: 6\n");
+  const fs::path run = dir_ / "sub";
+  std::string output;
+  ASSERT_EQ(
+      vln::test::runCommand(binary("train") + " --config " + config.string() +
+                                " --set trainer.dagger_iterations=1"
+                                " --set trainer.eval_during_training=false"
+                                " --set waypoint_agent.sub_instruction_weight=1"
+                                " --set output.dir=" +
+                                run.string() + " 2>&1",
+                            &output),
+      0)
+      << output;
+  int epochs = 0;
+  for (const auto& r : vln::test::readJsonLines(run / "metrics.jsonl")) {
+    if (r["type"] != "epoch") continue;
+    ++epochs;
+    EXPECT_GT(r["sub_instruction"].get<double>(), 0.0);
+    EXPECT_LT(r["sub_instruction"].get<double>(), 20.0);
+  }
+  EXPECT_EQ(epochs, 1);
+
+  // the same world without train_aug's file
+  const fs::path copy = dir_ / "world";
+  fs::copy(world_->data, copy, fs::copy_options::recursive);
+  fs::remove(data::splitSubInstructionsPath(copy, "train_aug"));
+  ExperimentConfig c = loadExperimentConfig(config);
+  c.dataset.data_path = copy.string();
+  c.trainer.use_aug = true;
+  c.waypoint_agent.sub_instruction_weight = 1.0;
+  const TrainingData data = TrainingData::load(c);
+  ASSERT_TRUE(data.aug);
+  try {
+    loadSubInstructionTokens(c, data);
+    ADD_FAILURE() << "a missing sub-instruction file must be an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("waypoint_agent.sub_instruction_weight"));
+    EXPECT_THAT(e.what(), HasSubstr("train_aug_sub_instructions.json.gz"));
+  }
+  c.trainer.use_aug = false;
+  const SubInstructionTokensByEpisode loaded =
+      loadSubInstructionTokens(c, TrainingData::load(c));
+  EXPECT_FALSE(loaded.empty());
 }
 
 // waypoint_agent.execution teleport trains and evaluates from the binaries:

@@ -117,6 +117,60 @@ TEST(InstructionGeneratorTest, LeftTurnSaysLeftRightTurnSaysRight) {
   }
 }
 
+// The text between and around the clauses of `g` joins them and nothing
+// more; the spans are in text order, and their legs do not go back.
+void expectClausesCoverTheText(const GeneratedInstruction& g, int stopLeg) {
+  static const std::set<std::string> kJoins = {
+      "", "and", "then", "next", "after that", "now", "from there", "and then"};
+  ASSERT_FALSE(g.sub_instructions.empty()) << g.text;
+  size_t at = 0;
+  int leg = 0;
+  auto expectJoin = [&](size_t begin, size_t end) {
+    std::string gap = lower(g.text.substr(begin, end - begin));
+    std::erase_if(gap, [](char c) { return c == '.' || c == ','; });
+    while (!gap.empty() && gap.front() == ' ') gap.erase(gap.begin());
+    while (!gap.empty() && gap.back() == ' ') gap.pop_back();
+    EXPECT_TRUE(kJoins.count(gap)) << "'" << gap << "' in " << g.text;
+  };
+  for (const data::SubInstruction& s : g.sub_instructions) {
+    ASSERT_GE(static_cast<size_t>(s.begin), at) << g.text;
+    ASSERT_LT(s.begin, s.end) << g.text;
+    ASSERT_LE(static_cast<size_t>(s.end), g.text.size()) << g.text;
+    expectJoin(at, static_cast<size_t>(s.begin));
+    EXPECT_GE(s.leg, leg) << g.text;
+    leg = s.leg;
+    at = static_cast<size_t>(s.end);
+  }
+  expectJoin(at, g.text.size());
+  EXPECT_EQ(g.sub_instructions.back().leg, stopLeg) << g.text;
+  const std::string stop = lower(
+      g.text.substr(static_cast<size_t>(g.sub_instructions.back().begin), 4));
+  EXPECT_TRUE(stop == "stop" || stop == "wait" || stop == "stan") << g.text;
+}
+
+TEST(InstructionGeneratorTest, SubInstructionsAreTheClausesWithTheirLegs) {
+  // a left turn at waypoint 1 (the agent starts facing the first leg): the
+  // clause saying "left" describes leg 1
+  const std::vector<Vec3f> left = {{0, 0, 0}, {0, 0, -4}, {-4, 0, -4}};
+  for (const auto& g : inEmptyOffice(left, 0.0f, 30)) {
+    expectClausesCoverTheText(g, 2);
+    for (const data::SubInstruction& s : g.sub_instructions) {
+      const std::string clause = g.text.substr(
+          static_cast<size_t>(s.begin), static_cast<size_t>(s.end - s.begin));
+      if (containsWord(clause, "left")) EXPECT_EQ(s.leg, 1) << g.text;
+    }
+  }
+  // landmarks and rooms, both styles
+  const sim::SceneSemantics semantics = threeRooms();
+  const InstructionGenerator generator(semantics, InstructionConfig{});
+  const auto path = bedroomToKitchen();
+  for (uint64_t seed = 0; seed < 40; ++seed)
+    for (const InstructionStyle style :
+         {InstructionStyle::kHuman, InstructionStyle::kSpeaker})
+      for (const auto& g : generator.generate(path, 1.0f, style, 3, seed))
+        expectClausesCoverTheText(g, static_cast<int>(path.size()) - 1);
+}
+
 TEST(InstructionGeneratorTest, DoublingBackIsASharpTurn) {
   // along -Z, then back towards +Z and -X: a 150 degree left turn
   const float back = degToRad(150.0f);

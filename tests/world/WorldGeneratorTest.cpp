@@ -19,6 +19,7 @@
 #include "data/GroundTruth.h"
 #include "data/NavGraph.h"
 #include "data/Split.h"
+#include "data/SubInstructions.h"
 #include "data/Vocabulary.h"
 #include "sim/Agent.h"
 #include "sim/Scene.h"
@@ -143,6 +144,27 @@ TEST_F(WorldGeneratorTest, WritesEverySplitInThePublicLayout) {
   for (const auto& entry : fs::directory_iterator(datasetRoot()))
     EXPECT_THAT(entry.path().filename().string(),
                 ::testing::Not(HasSubstr(".generate-")));
+}
+
+TEST_F(WorldGeneratorTest, SubInstructionsAreWrittenForTheTrainingSplitsOnly) {
+  for (const std::string& split : worldSplitNames()) {
+    const fs::path file = data::splitSubInstructionsPath(datasetRoot(), split);
+    const bool training = split == "train" || split == "train_aug";
+    ASSERT_EQ(fs::exists(file), training) << split;
+    if (!training) continue;
+    const data::EpisodeDataset dataset =
+        data::readEpisodes(data::splitEpisodesPath(datasetRoot(), split));
+    const data::SubInstructions subs = data::readSubInstructions(file);
+    EXPECT_EQ(subs.size(), dataset.episodes.size()) << split;
+    EXPECT_NO_THROW(data::checkSubInstructions(subs, dataset.episodes, split));
+    for (const data::Episode& e : dataset.episodes) {
+      const auto& list = subs.at(e.episode_id);
+      ASSERT_FALSE(list.empty()) << e.episode_id;
+      // the last clause is the stop, at the reference path's last point
+      EXPECT_EQ(list.back().leg, static_cast<int>(e.reference_path.size()) - 1)
+          << e.instruction.instruction_text;
+    }
+  }
 }
 
 TEST_F(WorldGeneratorTest, TestGoalsAndGroundTruthGoToTheHiddenFolderOnly) {
@@ -364,6 +386,10 @@ TEST_F(WorldGeneratorTest, ExtraTrainHousesAddTrainExtraAndChangeNothingElse) {
               train.instruction_vocab->encode(e.instruction.instruction_text));
     EXPECT_TRUE(fs::exists(more.path() / "scenes" / e.scene_id)) << e.scene_id;
   }
+  EXPECT_NO_THROW(data::checkSubInstructions(
+      data::readSubInstructions(
+          data::splitSubInstructionsPath(root, "train_extra")),
+      extra.episodes, "train_extra"));
   EXPECT_EQ(extraScenes.size(), 2u);
   for (const std::string& scene : extraScenes)
     EXPECT_FALSE(trainScenes.count(scene)) << scene;

@@ -1,0 +1,167 @@
+#include "data/SubInstructions.h"
+
+#include <algorithm>
+#include <charconv>
+#include <limits>
+
+#include "common/Check.h"
+#include "common/Json.h"
+#include "data/Vocabulary.h"
+
+namespace vln::data {
+namespace {
+
+int nonNegativeInt(const nlohmann::json& object, const char* key,
+                   std::string_view context) {
+  VLN_CHECK_ARG(object.is_object(), context, ": expected a JSON object, got ",
+                object.type_name());
+  auto it = object.find(key);
+  VLN_CHECK_ARG(it != object.end(), context, ": field '", key, "' is missing");
+  VLN_CHECK_ARG(it->is_number_integer(), context, ": field '", key,
+                "' must be an integer, got ", it->type_name(), " ",
+                it->dump().substr(0, 80));
+  const auto value = it->get<int64_t>();
+  VLN_CHECK_ARG(value >= 0 && value <= std::numeric_limits<int>::max(), context,
+                ": field '", key, "' must be in [0, ",
+                std::numeric_limits<int>::max(), "], got ", value);
+  return static_cast<int>(value);
+}
+
+void validate(const SubInstruction& s, std::string_view context) {
+  VLN_CHECK_ARG(s.begin >= 0 && s.leg >= 0, context,
+                ": fields 'begin' and 'leg' must be >= 0, got ", s.begin,
+                " and ", s.leg);
+  VLN_CHECK_ARG(s.end >= s.begin, context, ": field 'end' (", s.end,
+                ") is before 'begin' (", s.begin, ")");
+}
+
+}  // namespace
+
+std::filesystem::path splitSubInstructionsPath(
+    const std::filesystem::path& root, std::string_view split) {
+  return root / split / (std::string(split) + "_sub_instructions.json.gz");
+}
+
+SubInstructions readSubInstructions(const std::filesystem::path& file) {
+  const std::string where =
+      strCat("readSubInstructions(): '", file.string(), "'");
+  const nlohmann::json root = common::readJsonFile(file);
+  VLN_CHECK_ARG(root.is_object(), where,
+                ": expected a JSON object keyed by episode id, got ",
+                root.type_name());
+  SubInstructions out;
+  for (const auto& [key, entry] : root.items()) {
+    int id = 0;
+    auto [end, error] =
+        std::from_chars(key.data(), key.data() + key.size(), id);
+    VLN_CHECK_ARG(
+        error == std::errc() && end == key.data() + key.size() && !key.empty(),
+        where, ": key '", key, "' is not an integer episode id");
+    const std::string context = strCat(where, ": episode ", id);
+    VLN_CHECK_ARG(entry.is_array(), context,
+                  ": expected an array of sub-instructions, got ",
+                  entry.type_name());
+    std::vector<SubInstruction> list;
+    for (size_t i = 0; i < entry.size(); ++i) {
+      const std::string item = strCat(context, ": sub-instruction ", i);
+      SubInstruction s;
+      s.begin = nonNegativeInt(entry[i], "begin", item);
+      s.end = nonNegativeInt(entry[i], "end", item);
+      s.leg = nonNegativeInt(entry[i], "leg", item);
+      validate(s, item);
+      list.push_back(s);
+    }
+    VLN_CHECK_ARG(out.emplace(id, std::move(list)).second, where,
+                  ": episode id ", id, " appears twice (key '", key, "')");
+  }
+  return out;
+}
+
+void writeSubInstructions(const std::filesystem::path& file,
+                          const SubInstructions& subInstructions) {
+  const std::string where =
+      strCat("writeSubInstructions(): '", file.string(), "'");
+  nlohmann::json root = nlohmann::json::object();
+  for (const auto& [id, list] : subInstructions) {
+    nlohmann::json entries = nlohmann::json::array();
+    for (size_t i = 0; i < list.size(); ++i) {
+      validate(list[i],
+               strCat(where, ": episode ", id, ": sub-instruction ", i));
+      entries.push_back({{"begin", list[i].begin},
+                         {"end", list[i].end},
+                         {"leg", list[i].leg}});
+    }
+    root[std::to_string(id)] = std::move(entries);
+  }
+  common::writeJsonFile(file, root);
+}
+
+void checkSubInstructions(const SubInstructions& subInstructions,
+                          const std::vector<Episode>& episodes,
+                          std::string_view source) {
+  for (const Episode& e : episodes) {
+    auto it = subInstructions.find(e.episode_id);
+    VLN_CHECK_ARG(it != subInstructions.end(), source, ": episode ",
+                  e.episode_id, " has no sub-instructions");
+    const auto textSize =
+        static_cast<int64_t>(e.instruction.instruction_text.size());
+    const auto stopLeg = static_cast<int64_t>(e.reference_path.size()) - 1;
+    for (size_t i = 0; i < it->second.size(); ++i) {
+      const SubInstruction& s = it->second[i];
+      VLN_CHECK_ARG(s.end <= textSize, source, ": episode ", e.episode_id,
+                    ": sub-instruction ", i, ": field 'end' (", s.end,
+                    ") is beyond the instruction_text's ", textSize, " bytes");
+      VLN_CHECK_ARG(s.leg <= stopLeg, source, ": episode ", e.episode_id,
+                    ": sub-instruction ", i, ": field 'leg' (", s.leg,
+                    ") is beyond the reference_path's last point (", stopLeg,
+                    ")");
+    }
+  }
+}
+
+std::vector<SubInstructionTokens> subInstructionTokens(
+    std::string_view text, const std::vector<SubInstruction>& subInstructions) {
+  auto tokensBefore = [&](int offset) {
+    const size_t n =
+        std::min(static_cast<size_t>(std::max(offset, 0)), text.size());
+    return static_cast<int>(tokenize(text.substr(0, n)).size());
+  };
+  std::vector<SubInstructionTokens> out;
+  out.reserve(subInstructions.size());
+  for (const SubInstruction& s : subInstructions)
+    out.push_back({tokensBefore(s.begin), tokensBefore(s.end), s.leg});
+  return out;
+}
+
+int upcomingLeg(const std::vector<Vec3f>& path, const Vec3f& position,
+                float lookahead) {
+  VLN_CHECK_ARG(path.size() >= 2,
+                "upcomingLeg(): a path needs two points, got ", path.size());
+  // the nearest point of the path, as a distance along it
+  float best = std::numeric_limits<float>::infinity();
+  float along = 0.0f, start = 0.0f;
+  std::vector<float> legStart{0.0f};
+  for (size_t i = 0; i + 1 < path.size(); ++i) {
+    const Vec3f d = path[i + 1] - path[i];
+    const float length = d.norm();
+    const float t =
+        length > 0.0f
+            ? std::clamp((position - path[i]).dot(d) / (length * length), 0.0f,
+                         1.0f)
+            : 0.0f;
+    const float distance = (path[i] + t * d - position).norm();
+    if (distance < best) {
+      best = distance;
+      along = start + t * length;
+    }
+    start += length;
+    legStart.push_back(start);
+  }
+  const float ahead = along + lookahead;
+  if (ahead >= start) return static_cast<int>(path.size()) - 1;
+  // the last leg starting at or before `ahead`
+  const auto it = std::upper_bound(legStart.begin(), legStart.end(), ahead);
+  return static_cast<int>(it - legStart.begin()) - 1;
+}
+
+}  // namespace vln::data
