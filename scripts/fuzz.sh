@@ -35,7 +35,7 @@ rss_mb=${VLN_FUZZ_RSS_MB:-2048}
 out=$root/fuzz-out
 
 all_targets=(fuzz_experiment_config fuzz_episodes fuzz_ground_truth
-  fuzz_glove_text fuzz_embeddings_json fuzz_mesh_obj fuzz_mesh_ply
+  fuzz_sub_instructions fuzz_glove_text fuzz_embeddings_json fuzz_mesh_obj fuzz_mesh_ply
   fuzz_navgraph fuzz_navmesh fuzz_geometry fuzz_checkpoint fuzz_zip
   fuzz_rxr_episodes fuzz_npz)
 if (($#)); then targets=("$@"); else targets=("${all_targets[@]}"); fi
@@ -52,7 +52,7 @@ done
 max_len() {
   case $1 in
     fuzz_navmesh) echo 262144 ;;
-    fuzz_episodes | fuzz_ground_truth | fuzz_embeddings_json | fuzz_checkpoint | fuzz_zip | fuzz_rxr_episodes | fuzz_npz) echo 65536 ;;
+    fuzz_episodes | fuzz_ground_truth | fuzz_sub_instructions | fuzz_embeddings_json | fuzz_checkpoint | fuzz_zip | fuzz_rxr_episodes | fuzz_npz) echo 65536 ;;
     fuzz_navgraph | fuzz_experiment_config) echo 32768 ;;
     fuzz_geometry) echo 4096 ;;
     *) echo 16384 ;;
@@ -130,6 +130,7 @@ first() { find "$world" -name "$1" -type f | sort | head -n 1; }
 if [[ -f $world/done ]]; then
   f=$(first 'val_seen.json.gz') && [[ -n $f ]] && seed_from fuzz_episodes "$f" world_episodes.json
   f=$(first 'val_seen_gt.json.gz') && [[ -n $f ]] && seed_from fuzz_ground_truth "$f" world_gt.json
+  f=$(first 'train_sub_instructions.json.gz') && [[ -n $f ]] && seed_from fuzz_sub_instructions "$f" world_sub_instructions.json
   f=$(first 'embeddings.json.gz') && [[ -n $f ]] && seed_from fuzz_embeddings_json "$f" world_embeddings.json
   f=$(first '*.navmesh') && [[ -n $f ]] && seed_from fuzz_navmesh "$f" world.navmesh
   f=$(first '*_connectivity.json') && [[ -n $f ]] && seed_from fuzz_navgraph "$f" world_graph.json

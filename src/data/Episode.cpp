@@ -242,6 +242,15 @@ Vec3f vec3FromJson(const nlohmann::json& value, std::string_view context) {
           floatValue(value[2], context)};
 }
 
+int episodeIdKey(std::string_view key, std::string_view context) {
+  int id = 0;
+  auto [end, error] = std::from_chars(key.data(), key.data() + key.size(), id);
+  VLN_CHECK_ARG(
+      error == std::errc() && end == key.data() + key.size() && !key.empty(),
+      context, ": key '", key, "' is not an integer episode id");
+  return id;
+}
+
 nlohmann::json vec3ToJson(const Vec3f& v) { return floatArray(v.data(), 3); }
 
 Episode episodeFromJson(const nlohmann::json& value, std::string_view source,

@@ -162,6 +162,12 @@ Vec3f vec3FromJson(const nlohmann::json& value, std::string_view context);
 /// [x, y, z] as a JSON array.
 nlohmann::json vec3ToJson(const Vec3f& v);
 
+/// The episode id an object key of a per-episode file spells ("12"), as the
+/// ground-truth and sub-instruction files key their entries. Throws
+/// std::invalid_argument "<context>: key '<key>' is not an integer episode
+/// id" for anything else.
+int episodeIdKey(std::string_view key, std::string_view context);
+
 /// The scan name of a scene id: "mp3d/<scan>/<scan>.glb" -> "<scan>".
 std::string sceneScanId(std::string_view sceneId);
 

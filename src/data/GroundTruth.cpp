@@ -1,6 +1,5 @@
 #include "data/GroundTruth.h"
 
-#include <charconv>
 #include <limits>
 
 #include "common/Check.h"
@@ -56,13 +55,7 @@ GroundTruth parseRoot(const nlohmann::json& root, const std::string& where) {
                 root.type_name());
   GroundTruth groundTruth;
   for (const auto& [key, entry] : root.items()) {
-    // keys are decimal episode ids ("12"); anything else is a corrupt file
-    int id = 0;
-    auto [end, error] =
-        std::from_chars(key.data(), key.data() + key.size(), id);
-    VLN_CHECK_ARG(
-        error == std::errc() && end == key.data() + key.size() && !key.empty(),
-        where, ": key '", key, "' is not an integer episode id");
+    const int id = episodeIdKey(key, where);
     std::string context = strCat(where, ": episode ", id);
     VLN_CHECK_ARG(entry.is_object(), context, ": expected a JSON object, got ",
                   entry.type_name());

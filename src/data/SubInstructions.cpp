@@ -1,7 +1,6 @@
 #include "data/SubInstructions.h"
 
 #include <algorithm>
-#include <charconv>
 #include <limits>
 
 #include "common/Check.h"
@@ -51,12 +50,7 @@ SubInstructions readSubInstructions(const std::filesystem::path& file) {
                 root.type_name());
   SubInstructions out;
   for (const auto& [key, entry] : root.items()) {
-    int id = 0;
-    auto [end, error] =
-        std::from_chars(key.data(), key.data() + key.size(), id);
-    VLN_CHECK_ARG(
-        error == std::errc() && end == key.data() + key.size() && !key.empty(),
-        where, ": key '", key, "' is not an integer episode id");
+    const int id = episodeIdKey(key, where);
     const std::string context = strCat(where, ": episode ", id);
     VLN_CHECK_ARG(entry.is_array(), context,
                   ": expected an array of sub-instructions, got ",
