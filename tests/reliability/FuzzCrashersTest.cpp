@@ -26,6 +26,7 @@
 #include "data/NavGraph.h"
 #include "data/Npz.h"
 #include "data/RxrEpisodes.h"
+#include "data/SubInstructions.h"
 #include "fuzz/GeometryFuzzing.h"
 #include "sim/MeshIo.h"
 #include "sim/NavMesh.h"
@@ -96,6 +97,11 @@ const std::map<std::string, Reader>& readers() {
       {"fuzz_ground_truth",
        [](std::string_view in, const fs::path& dir) {
          data::readGroundTruth(writeBytes(dir / "split_gt.json.gz", in));
+       }},
+      {"fuzz_sub_instructions",
+       [](std::string_view in, const fs::path& dir) {
+         data::readSubInstructions(
+             writeBytes(dir / "train_sub_instructions.json.gz", in));
        }},
       {"fuzz_glove_text",
        [](std::string_view in, const fs::path& dir) {
