@@ -38,6 +38,9 @@ void ModelConfig::validate() const {
   VLN_CHECK_ARG(!(no_rgb && no_depth && no_instruction),
                 "ModelConfig::validate(): model.no_rgb, model.no_depth and "
                 "model.no_instruction are all true, the policy has no input");
+  VLN_CHECK_ARG(!leg_attention || !no_instruction,
+                "ModelConfig::validate(): model.leg_attention attends to the "
+                "instruction, and model.no_instruction is true");
   if (usesDepth() && depth_encoder != EncoderType::kSmallCnn) {
     VLN_CHECK_ARG(depth_height >= 64 && depth_width >= 64,
                   "ModelConfig::validate(): model.depth_encoder '",

@@ -99,6 +99,7 @@ struct ModelConfig {
   int spatial_embedding_dim = 64;
   bool progress_monitor = false;
   int heading_harmonics = 1;
+  bool leg_attention = false;
   double dropout = 0.0;
   int depth_resnet_base_planes = 32;
   int rgb_height = 224;
@@ -213,6 +214,12 @@ struct ModelConfig {
             "it for m = 1 .. this (1: the heading's sin and cos alone, as "
             "always; 4 measured and not adopted, docs/results.md)",
             common::inRange(1, 16));
+    v.field("leg_attention", leg_attention,
+            "Waypoint CMA only: a second attention over the instruction, "
+            "queried from the first GRU's state, whose attended words join "
+            "the second GRU's input and the candidates' query; "
+            "waypoint_agent.sub_instruction_weight then supervises this "
+            "attention and leaves the first free");
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "
             "on the instruction's encoded states, on the visual feature maps "

@@ -90,6 +90,10 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
     text_k = register_module("text_k", nn::Linear(textDim, hidden));
     text_q = register_module("text_q", nn::Linear(textDim, hidden));
     compressIn += textDim;
+    if (config.leg_attention) {
+      leg_q = register_module("leg_q", nn::Linear(hidden, hidden));
+      compressIn += textDim;
+    }
   } else {
     visual_query = register_parameter(
         "visual_query", torch::randn({hidden}) / std::sqrt(double(hidden)));
@@ -189,6 +193,10 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
         attend(state_q(h1), perStep(instruction.keys),
                perStep(instruction.states), mask, &textWeights);
     context.push_back(text);
+    if (leg_q)
+      context.push_back(attend(leg_q(h1), perStep(instruction.keys),
+                               perStep(instruction.states), mask,
+                               &textWeights));
     visualQuery = text_q(text);
   } else {
     visualQuery = visual_query.unsqueeze(0).expand({n, H});

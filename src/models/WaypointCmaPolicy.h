@@ -17,6 +17,11 @@
 // flattened frozen encoder features, and a_{t-1} = ReLU(W_a [sin, cos,
 // dist / 3, start]) of the previous decision's candidate (relative heading
 // and distance when it was chosen; zeros and start = 1 at t = 0).
+// With model.leg_attention a second attention over the instruction,
+//   l_t   = Attn(S, W_l h1_t)
+// joins s_t wherever s_t is an input (GRU2's and the query's), as a place
+// for the words of the leg at hand (waypoint_agent.sub_instruction_weight
+// supervises it then, not s_t).
 // With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
 // of m times the heading for m = 1 .. M (measured and not adopted:
 // docs/results.md, "Four more levers for the waypoint agent").
@@ -53,8 +58,9 @@ struct WaypointPolicyInputs {
 struct WaypointPolicyOutputs {
   torch::Tensor logits;  ///< [.., 1 + K]: STOP, then the candidates
   torch::Tensor hidden;  ///< [B, 2, hidden_size] after the last step
-  /// [.., L]: the instruction attention of s_t (weights over the tokens);
-  /// undefined with model.no_instruction
+  /// [.., L]: the instruction attention of s_t (weights over the tokens),
+  /// or with model.leg_attention that of l_t; undefined with
+  /// model.no_instruction
   torch::Tensor text_attention;
 };
 
@@ -94,6 +100,7 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
   torch::nn::Linear prev_linear{nullptr};
   MaskedGru state_encoder{nullptr};
   torch::nn::Linear state_q{nullptr}, text_k{nullptr}, text_q{nullptr};
+  torch::nn::Linear leg_q{nullptr};  ///< with model.leg_attention
   torch::Tensor visual_query;  ///< [hidden] with no_instruction
   torch::nn::Linear second_state_compress{nullptr};
   MaskedGru second_state_encoder{nullptr};

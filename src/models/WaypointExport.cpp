@@ -124,6 +124,19 @@ void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
            "text = torch.bmm(torch.softmax(scores, 1).unsqueeze(1), "
            "states).squeeze(1)");
     w.line(1, "context.append(text)");
+    if (config.leg_attention) {
+      // the second attention (model.leg_attention), after the first
+      w.line(1, "q_leg = " + linear(w, "policy.leg_q", "h1"));
+      w.line(1,
+             "scores_leg = torch.bmm(keys, q_leg.unsqueeze(2)).squeeze(2) / " +
+                 s.scale);
+      w.line(1,
+             "scores_leg = scores_leg.masked_fill(encoded[1].logical_not(), "
+             "float(\"-inf\"))");
+      w.line(1,
+             "context.append(torch.bmm(torch.softmax(scores_leg, 1)."
+             "unsqueeze(1), states).squeeze(1))");
+    }
     w.line(1, "vq = " + linear(w, "policy.text_q", "text"));
   } else {
     w.line(1, "vq = " + w.ref("policy.visual_query") +

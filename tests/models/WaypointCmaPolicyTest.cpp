@@ -1,7 +1,8 @@
 // Tests src/models/WaypointCmaPolicy.cpp: shapes, the candidate mask, that
 // stepping equals the sequence, that candidates read the view at their
 // heading, the no-instruction ablation, training-only dropout, the heading
-// harmonics' input widths, and that it can fit labels.
+// harmonics' input widths, the second (leg) attention, and that it can fit
+// labels.
 
 #include "models/WaypointCmaPolicy.h"
 
@@ -199,6 +200,49 @@ TEST(WaypointCmaPolicyTest, HeadingHarmonicsWidenOnlyTheHeadingInputs) {
       three->forwardSequence(instruction, turned, three->initialHidden(1))
           .logits,
       1e-4, 1e-4));
+}
+
+// model.leg_attention adds one query layer and widens what reads the
+// attended words; text_attention then reports the second attention (here
+// made uniform over the real tokens by zeroing its query)
+TEST(WaypointCmaPolicyTest, LegAttentionIsASecondAttentionOverTheWords) {
+  ModelConfig c = config();
+  WaypointCmaPolicy plain(c, kViews, kRgb, kDepth);
+  c.leg_attention = true;
+  EXPECT_NO_THROW(c.validate());
+  WaypointCmaPolicy leg(c, kViews, kRgb, kDepth);
+  ASSERT_FALSE(plain->leg_q);
+  ASSERT_TRUE(leg->leg_q);
+  const int64_t textDim = c.instructionStateSize();
+  EXPECT_EQ(leg->second_state_compress->weight.size(1),
+            plain->second_state_compress->weight.size(1) + textDim);
+  EXPECT_EQ(leg->query_linear->weight.size(1),
+            plain->query_linear->weight.size(1) + textDim);
+
+  torch::manual_seed(6);
+  leg->eval();
+  torch::NoGradGuard noGrad;
+  leg->leg_q->weight.zero_();
+  leg->leg_q->bias.zero_();
+  // two instructions of 4 and 2 tokens
+  const auto instruction = leg->encodeInstruction(
+      torch::tensor({{5, 6, 7, 8}, {9, 10, 0, 0}}, torch::kLong));
+  const WaypointPolicyOutputs out = leg->forwardSequence(
+      instruction, randomInputs(3, {2, 3}), leg->initialHidden(2));
+  ASSERT_EQ(out.text_attention.sizes(), (torch::IntArrayRef{3, 2, 4}));
+  const torch::Tensor uniform =
+      torch::tensor({{0.25f, 0.25f, 0.25f, 0.25f}, {0.5f, 0.5f, 0.0f, 0.0f}})
+          .expand({3, 2, 4});
+  EXPECT_TRUE(torch::allclose(out.text_attention, uniform, 1e-6, 1e-6));
+  // the plain policy's first attention is not uniform
+  const WaypointPolicyOutputs first =
+      plain->forwardSequence(plain->encodeInstruction(torch::tensor(
+                                 {{5, 6, 7, 8}, {9, 10, 0, 0}}, torch::kLong)),
+                             randomInputs(3, {2, 3}), plain->initialHidden(2));
+  EXPECT_FALSE(torch::allclose(first.text_attention, uniform, 1e-3, 1e-3));
+
+  c.no_instruction = true;
+  EXPECT_THROW(c.validate(), std::invalid_argument);
 }
 
 class WaypointCmaPolicyLearningTest : public testing::TestWithParam<int> {};

@@ -164,6 +164,9 @@ std::vector<Variant> variants() {
   c = base;
   c.heading_harmonics = 3;
   out.push_back({"heading_harmonics", c});
+  c = base;
+  c.leg_attention = true;
+  out.push_back({"leg_attention", c});
   return out;
 }
 
