@@ -219,7 +219,8 @@ struct ModelConfig {
             "queried from the first GRU's state, whose attended words join "
             "the second GRU's input and the candidates' query; "
             "waypoint_agent.sub_instruction_weight then supervises this "
-            "attention and leaves the first free");
+            "attention and leaves the first free (measured so and not "
+            "adopted, docs/results.md)");
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "
             "on the instruction's encoded states, on the visual feature maps "

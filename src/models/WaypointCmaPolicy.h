@@ -21,7 +21,8 @@
 //   l_t   = Attn(S, W_l h1_t)
 // joins s_t wherever s_t is an input (GRU2's and the query's), as a place
 // for the words of the leg at hand (waypoint_agent.sub_instruction_weight
-// supervises it then, not s_t).
+// supervises it then, not s_t; measured and not adopted: docs/results.md,
+// "Sub-instruction attention, and the mirrored DAgger round's third seed").
 // With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
 // of m times the heading for m = 1 .. M (measured and not adopted:
 // docs/results.md, "Four more levers for the waypoint agent").

@@ -43,7 +43,8 @@ struct WaypointAgentConfig {
   /// subInstructionLoss()), which asks the instruction attention at each
   /// decision to rest on the clauses of the reference path's leg ahead;
   /// needs the training splits' sub-instruction files
-  /// (data/SubInstructions.h). 0: off.
+  /// (data/SubInstructions.h). 0: off (0.5 and 2 measured and not
+  /// adopted: docs/results.md, "Sub-instruction attention ...").
   double sub_instruction_weight = 0.0;
   waypoint::ApproachConfig approach;
   waypoint::DepthBaselineConfig depth_baseline;
