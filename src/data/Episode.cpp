@@ -251,6 +251,21 @@ int episodeIdKey(std::string_view key, std::string_view context) {
   return id;
 }
 
+int intField(const nlohmann::json& object, std::string_view key,
+             std::string_view context) {
+  auto it = object.find(key);
+  VLN_CHECK_ARG(it != object.end(), context, ": field '", key, "' is missing");
+  VLN_CHECK_ARG(it->is_number_integer(), context, ": field '", key,
+                "' must be an integer, got ", it->type_name(), " ",
+                it->dump().substr(0, 80));
+  auto value = it->get<int64_t>();
+  VLN_CHECK_ARG(value >= std::numeric_limits<int>::min() &&
+                    value <= std::numeric_limits<int>::max(),
+                context, ": field '", key, "' is out of the int range, got ",
+                value);
+  return static_cast<int>(value);
+}
+
 nlohmann::json vec3ToJson(const Vec3f& v) { return floatArray(v.data(), 3); }
 
 Episode episodeFromJson(const nlohmann::json& value, std::string_view source,

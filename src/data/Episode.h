@@ -168,6 +168,13 @@ nlohmann::json vec3ToJson(const Vec3f& v);
 /// id" for anything else.
 int episodeIdKey(std::string_view key, std::string_view context);
 
+/// The required integer member `key` of a JSON object, checked (nlohmann's
+/// get<int>() would truncate a float silently). Throws
+/// std::invalid_argument "<context>: field '<key>' ..." when it is missing,
+/// not an integer or outside int's range.
+int intField(const nlohmann::json& object, std::string_view key,
+             std::string_view context);
+
 /// The scan name of a scene id: "mp3d/<scan>/<scan>.glb" -> "<scan>".
 std::string sceneScanId(std::string_view sceneId);
 

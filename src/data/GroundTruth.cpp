@@ -1,29 +1,11 @@
 #include "data/GroundTruth.h"
 
-#include <limits>
-
 #include "common/Check.h"
 #include "common/Json.h"
 #include "data/Episode.h"
 
 namespace vln::data {
 namespace {
-
-// nlohmann's get<int>() truncates floats silently, so integers are checked
-int intField(const nlohmann::json& object, const char* key,
-             std::string_view context) {
-  auto it = object.find(key);
-  VLN_CHECK_ARG(it != object.end(), context, ": field '", key, "' is missing");
-  VLN_CHECK_ARG(it->is_number_integer(), context, ": field '", key,
-                "' must be an integer, got ", it->type_name(), " ",
-                it->dump().substr(0, 80));
-  auto value = it->get<int64_t>();
-  VLN_CHECK_ARG(value >= std::numeric_limits<int>::min() &&
-                    value <= std::numeric_limits<int>::max(),
-                context, ": field '", key, "' is out of the int range, got ",
-                value);
-  return static_cast<int>(value);
-}
 
 const nlohmann::json& arrayField(const nlohmann::json& object, const char* key,
                                  std::string_view context) {

@@ -10,20 +10,15 @@
 namespace vln::data {
 namespace {
 
+// intField() of a JSON object, at least 0
 int nonNegativeInt(const nlohmann::json& object, const char* key,
                    std::string_view context) {
   VLN_CHECK_ARG(object.is_object(), context, ": expected a JSON object, got ",
                 object.type_name());
-  auto it = object.find(key);
-  VLN_CHECK_ARG(it != object.end(), context, ": field '", key, "' is missing");
-  VLN_CHECK_ARG(it->is_number_integer(), context, ": field '", key,
-                "' must be an integer, got ", it->type_name(), " ",
-                it->dump().substr(0, 80));
-  const auto value = it->get<int64_t>();
-  VLN_CHECK_ARG(value >= 0 && value <= std::numeric_limits<int>::max(), context,
-                ": field '", key, "' must be in [0, ",
+  const int value = intField(object, key, context);
+  VLN_CHECK_ARG(value >= 0, context, ": field '", key, "' must be in [0, ",
                 std::numeric_limits<int>::max(), "], got ", value);
-  return static_cast<int>(value);
+  return value;
 }
 
 void validate(const SubInstruction& s, std::string_view context) {

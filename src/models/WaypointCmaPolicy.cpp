@@ -189,9 +189,10 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
     };
     const torch::Tensor mask =
         instruction.mask.unsqueeze(0).expand({steps, batch, L}).reshape({n, L});
-    const torch::Tensor text =
-        attend(state_q(h1), perStep(instruction.keys),
-               perStep(instruction.states), mask, &textWeights);
+    // text_attention reports the leg attention when there is one
+    const torch::Tensor text = attend(state_q(h1), perStep(instruction.keys),
+                                      perStep(instruction.states), mask,
+                                      leg_q ? nullptr : &textWeights);
     context.push_back(text);
     if (leg_q)
       context.push_back(attend(leg_q(h1), perStep(instruction.keys),

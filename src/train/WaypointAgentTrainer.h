@@ -35,7 +35,6 @@
 #include <vector>
 
 #include "data/SubInstructions.h"
-
 #include "models/ObservationEncoder.h"
 #include "models/WaypointCmaPolicy.h"
 #include "models/WaypointPredictor.h"
