@@ -157,7 +157,9 @@ TEST(InstructionGeneratorTest, SubInstructionsAreTheClausesWithTheirLegs) {
     for (const data::SubInstruction& s : g.sub_instructions) {
       const std::string clause = g.text.substr(
           static_cast<size_t>(s.begin), static_cast<size_t>(s.end - s.begin));
-      if (containsWord(clause, "left")) EXPECT_EQ(s.leg, 1) << g.text;
+      if (containsWord(clause, "left")) {
+        EXPECT_EQ(s.leg, 1) << g.text;
+      }
     }
   }
   // landmarks and rooms, both styles
