@@ -41,6 +41,9 @@ void ModelConfig::validate() const {
   VLN_CHECK_ARG(!leg_attention || !no_instruction,
                 "ModelConfig::validate(): model.leg_attention attends to the "
                 "instruction, and model.no_instruction is true");
+  VLN_CHECK_ARG(!candidate_text || !no_instruction,
+                "ModelConfig::validate(): model.candidate_text attends to the "
+                "instruction, and model.no_instruction is true");
   if (usesDepth() && depth_encoder != EncoderType::kSmallCnn) {
     VLN_CHECK_ARG(depth_height >= 64 && depth_width >= 64,
                   "ModelConfig::validate(): model.depth_encoder '",

@@ -100,6 +100,7 @@ struct ModelConfig {
   bool progress_monitor = false;
   int heading_harmonics = 1;
   bool leg_attention = false;
+  bool candidate_text = false;
   double dropout = 0.0;
   int depth_resnet_base_planes = 32;
   int rgb_height = 224;
@@ -221,6 +222,12 @@ struct ModelConfig {
             "waypoint_agent.sub_instruction_weight then supervises this "
             "attention and leaves the first free (measured so and not "
             "adopted, docs/results.md)");
+    v.field("candidate_text", candidate_text,
+            "Waypoint CMA only: each candidate attends over the instruction "
+            "with its own key (its view and heading) and the words it finds "
+            "are added to its key, so a candidate can match the words that "
+            "describe it (a landmark in its view, a turn towards its "
+            "heading) whichever words the state attends to");
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "
             "on the instruction's encoded states, on the visual feature maps "

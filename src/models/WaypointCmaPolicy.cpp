@@ -45,6 +45,16 @@ torch::Tensor attend(const torch::Tensor& q, const torch::Tensor& keys,
   return torch::bmm(alpha.unsqueeze(1), values).squeeze(1);
 }
 
+// [B, ...] rows of an episode (the instruction's) -> [T * B, ...], the rows
+// repeated for each of T steps in the steps' [T, B] order
+torch::Tensor repeatOverSteps(const torch::Tensor& t, int64_t steps) {
+  std::vector<int64_t> expanded{steps};
+  expanded.insert(expanded.end(), t.sizes().begin(), t.sizes().end());
+  std::vector<int64_t> flat(t.sizes().begin(), t.sizes().end());
+  flat[0] *= steps;
+  return t.unsqueeze(0).expand(expanded).reshape(flat);
+}
+
 }  // namespace
 
 WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
@@ -93,6 +103,12 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
     if (config.leg_attention) {
       leg_q = register_module("leg_q", nn::Linear(hidden, hidden));
       compressIn += textDim;
+    }
+    if (config.candidate_text) {
+      candidate_text_q =
+          register_module("candidate_text_q", nn::Linear(hidden, hidden));
+      candidate_text_linear =
+          register_module("candidate_text_linear", nn::Linear(textDim, hidden));
     }
   } else {
     visual_query = register_parameter(
@@ -179,25 +195,19 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
 
   std::vector<torch::Tensor> context{h1};
   torch::Tensor visualQuery, textWeights;
+  torch::Tensor textKeys, textStates, textMask;  // [n, L, ..]
   if (config_.usesInstruction()) {
     // the instruction rows repeat over the T steps
-    const int64_t L = instruction.states.size(1);
-    auto perStep = [&](const torch::Tensor& t) {
-      return t.unsqueeze(0)
-          .expand({steps, batch, L, t.size(-1)})
-          .reshape({n, L, t.size(-1)});
-    };
-    const torch::Tensor mask =
-        instruction.mask.unsqueeze(0).expand({steps, batch, L}).reshape({n, L});
+    textKeys = repeatOverSteps(instruction.keys, steps);
+    textStates = repeatOverSteps(instruction.states, steps);
+    textMask = repeatOverSteps(instruction.mask, steps);
     // text_attention reports the leg attention when there is one
-    const torch::Tensor text = attend(state_q(h1), perStep(instruction.keys),
-                                      perStep(instruction.states), mask,
-                                      leg_q ? nullptr : &textWeights);
+    const torch::Tensor text = attend(state_q(h1), textKeys, textStates,
+                                      textMask, leg_q ? nullptr : &textWeights);
     context.push_back(text);
     if (leg_q)
-      context.push_back(attend(leg_q(h1), perStep(instruction.keys),
-                               perStep(instruction.states), mask,
-                               &textWeights));
+      context.push_back(
+          attend(leg_q(h1), textKeys, textStates, textMask, &textWeights));
     visualQuery = text_q(text);
   } else {
     visualQuery = visual_query.unsqueeze(0).expand({n, H});
@@ -222,12 +232,23 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
           .to(torch::kLong);
   const torch::Tensor candidateViews =
       torch::gather(views, 1, viewIndex.unsqueeze(2).expand({n, K, H}));
-  const torch::Tensor keys = torch::cat(
-      {stop_key.view({1, 1, H}).expand({n, 1, H}),
-       candidate_linear(torch::cat(
-           {candidateViews, polarFeatures(polar, config_.heading_harmonics)},
-           2))},
-      1);  // [n, 1 + K, H]
+  torch::Tensor candidateKeys = candidate_linear(torch::cat(
+      {candidateViews, polarFeatures(polar, config_.heading_harmonics)},
+      2));  // [n, K, H]
+  if (candidate_text_q) {
+    // each candidate's own attention over the words: scores [n, K, L]
+    torch::Tensor scores =
+        torch::bmm(candidate_text_q(candidateKeys), textKeys.transpose(1, 2)) /
+        std::sqrt(static_cast<double>(H));
+    scores = scores.masked_fill(textMask.logical_not().unsqueeze(1),
+                                -std::numeric_limits<float>::infinity());
+    const torch::Tensor words =
+        torch::bmm(torch::softmax(scores, 2), textStates);
+    candidateKeys = candidateKeys + candidate_text_linear(words);
+  }
+  const torch::Tensor keys =
+      torch::cat({stop_key.view({1, 1, H}).expand({n, 1, H}), candidateKeys},
+                 1);  // [n, 1 + K, H]
   torch::Tensor logits = torch::bmm(keys, query.unsqueeze(2)).squeeze(2) /
                          std::sqrt(static_cast<double>(H));
   const torch::Tensor valid =

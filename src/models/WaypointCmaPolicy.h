@@ -23,6 +23,10 @@
 // for the words of the leg at hand (waypoint_agent.sub_instruction_weight
 // supervises it then, not s_t; measured and not adopted: docs/results.md,
 // "Sub-instruction attention, and the mirrored DAgger round's third seed").
+// With model.candidate_text each candidate also reads the instruction,
+//   w_j   = Attn(S, W_w c_j),   c_j <- c_j + W_u w_j
+// before the logits, so that the words describing a candidate (a landmark
+// in its view, a turn towards its heading) reach its key directly.
 // With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
 // of m times the heading for m = 1 .. M (measured and not adopted:
 // docs/results.md, "Four more levers for the waypoint agent").
@@ -102,6 +106,8 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
   MaskedGru state_encoder{nullptr};
   torch::nn::Linear state_q{nullptr}, text_k{nullptr}, text_q{nullptr};
   torch::nn::Linear leg_q{nullptr};  ///< with model.leg_attention
+  /// W_w, W_u with model.candidate_text
+  torch::nn::Linear candidate_text_q{nullptr}, candidate_text_linear{nullptr};
   torch::Tensor visual_query;  ///< [hidden] with no_instruction
   torch::nn::Linear second_state_compress{nullptr};
   MaskedGru second_state_encoder{nullptr};

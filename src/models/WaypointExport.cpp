@@ -174,10 +174,23 @@ void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
                 polarFeatures("heading", "polar[:, :, 1]",
                               config.heading_harmonics, 2) +
                 "], 2)");
+  w.line(1,
+         "cand_keys = " + linear(w, "policy.candidate_linear", "candidate_in"));
+  if (config.candidate_text) {
+    // each candidate's own attention over the words (model.candidate_text)
+    w.line(1, "scores_c = torch.bmm(" +
+                  linear(w, "policy.candidate_text_q", "cand_keys") +
+                  ", keys.transpose(1, 2)) / " + s.scale);
+    w.line(1,
+           "scores_c = scores_c.masked_fill(encoded[1].logical_not()."
+           "unsqueeze(1), float(\"-inf\"))");
+    w.line(1, "cand_keys = cand_keys + " +
+                  linear(w, "policy.candidate_text_linear",
+                         "torch.bmm(torch.softmax(scores_c, 2), states)"));
+  }
   w.line(1, "keys_c = torch.cat([" + w.ref("policy.stop_key") +
                 ".view([1, 1, " + s.hidden + "]).expand([n, 1, " + s.hidden +
-                "]), " + linear(w, "policy.candidate_linear", "candidate_in") +
-                "], 1)");
+                "]), cand_keys], 1)");
   w.line(1, "logits = torch.bmm(keys_c, query.unsqueeze(2)).squeeze(2) / " +
                 s.scale);
   w.line(1, "real = candidate_mask != 0");

@@ -245,6 +245,51 @@ TEST(WaypointCmaPolicyTest, LegAttentionIsASecondAttentionOverTheWords) {
   EXPECT_THROW(c.validate(), std::invalid_argument);
 }
 
+// model.candidate_text adds each candidate's own attention over the words
+// to its key: with W_u zeroed the logits are the plain policy's, and the
+// step mode computes what the sequence mode does
+TEST(WaypointCmaPolicyTest, CandidateTextAddsTheWordsACandidateReadsToItsKey) {
+  ModelConfig c = config();
+  torch::manual_seed(8);
+  WaypointCmaPolicy plain(c, kViews, kRgb, kDepth);
+  c.candidate_text = true;
+  EXPECT_NO_THROW(c.validate());
+  WaypointCmaPolicy reading(c, kViews, kRgb, kDepth);
+  ASSERT_FALSE(plain->candidate_text_q);
+  ASSERT_TRUE(reading->candidate_text_q);
+  EXPECT_EQ(reading->candidate_text_linear->weight.size(1),
+            c.instructionStateSize());
+  plain->eval();
+  reading->eval();
+  torch::NoGradGuard noGrad;
+  // the shared parameters equal, the new ones aside
+  const auto own = reading->named_parameters();
+  for (const auto& p : plain->named_parameters()) own[p.key()].copy_(p.value());
+  const torch::Tensor tokens =
+      torch::tensor({{5, 6, 7, 8}, {9, 10, 0, 0}}, torch::kLong);
+  const WaypointPolicyInputs in = randomInputs(3, {4, 2});
+  auto logits = [&](WaypointCmaPolicy& policy) {
+    return policy
+        ->forwardSequence(policy->encodeInstruction(tokens), in,
+                          policy->initialHidden(2))
+        .logits;
+  };
+  const torch::Tensor before = logits(plain);
+  EXPECT_FALSE(torch::allclose(logits(reading), before, 1e-4, 1e-4));
+  const torch::Tensor stepped =
+      reading
+          ->step(reading->encodeInstruction(tokens), stepOf(in, 0),
+                 reading->initialHidden(2))
+          .logits;
+  EXPECT_TRUE(torch::allclose(stepped, logits(reading)[0], 1e-5, 1e-5));
+  reading->candidate_text_linear->weight.zero_();
+  reading->candidate_text_linear->bias.zero_();
+  EXPECT_TRUE(torch::allclose(logits(reading), before, 1e-6, 1e-6));
+
+  c.no_instruction = true;
+  EXPECT_THROW(c.validate(), std::invalid_argument);
+}
+
 class WaypointCmaPolicyLearningTest : public testing::TestWithParam<int> {};
 
 TEST_P(WaypointCmaPolicyLearningTest, LearnsToFollowLabels) {

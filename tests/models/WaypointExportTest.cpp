@@ -167,6 +167,9 @@ std::vector<Variant> variants() {
   c = base;
   c.leg_attention = true;
   out.push_back({"leg_attention", c});
+  c = base;
+  c.candidate_text = true;
+  out.push_back({"candidate_text", c});
   return out;
 }
 
