@@ -227,7 +227,8 @@ struct ModelConfig {
             "with its own key (its view and heading) and the words it finds "
             "are added to its key, so a candidate can match the words that "
             "describe it (a landmark in its view, a turn towards its "
-            "heading) whichever words the state attends to");
+            "heading) whichever words the state attends to (measured and "
+            "not adopted, docs/results.md)");
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "
             "on the instruction's encoded states, on the visual feature maps "

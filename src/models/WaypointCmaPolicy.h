@@ -26,7 +26,9 @@
 // With model.candidate_text each candidate also reads the instruction,
 //   w_j   = Attn(S, W_w c_j),   c_j <- c_j + W_u w_j
 // before the logits, so that the words describing a candidate (a landmark
-// in its view, a turn towards its heading) reach its key directly.
+// in its view, a turn towards its heading) reach its key directly
+// (measured and not adopted: docs/results.md, "Candidates that read the
+// words, a slower learning rate and the better RGB encoder again").
 // With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
 // of m times the heading for m = 1 .. M (measured and not adopted:
 // docs/results.md, "Four more levers for the waypoint agent").

@@ -155,7 +155,12 @@ WaypointPredictor makeWaypointPredictor(const ModelConfig& model,
   };
   return WaypointPredictor(
       config, numViews, model.usesDepth() ? flat(depthFeatureShape(model)) : 0,
-      model.usesRgb() ? flat(rgbFeatureShape(model)) : 0);
+      predictorReadsRgb(model, config) ? flat(rgbFeatureShape(model)) : 0);
+}
+
+bool predictorReadsRgb(const ModelConfig& model,
+                       const WaypointPredictorConfig& config) {
+  return model.usesRgb() && config.rgb;
 }
 
 // ===========================================================================

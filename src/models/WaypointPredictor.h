@@ -92,11 +92,16 @@ TORCH_MODULE(WaypointPredictor);
 
 /// The predictor of `numViews` views whose features come from `model`'s
 /// encoders (depthFeatureShape() / rgbFeatureShape() flattened; none for
-/// model.no_depth / no_rgb): what the training task builds and what its
-/// weight file loads into.
+/// model.no_depth, nor RGB unless predictorReadsRgb()): what the training
+/// task builds and what its weight file loads into.
 WaypointPredictor makeWaypointPredictor(const ModelConfig& model,
                                         const WaypointPredictorConfig& config,
                                         int64_t numViews);
+
+/// Whether the predictor reads RGB features: the model has them
+/// (model.no_rgb false) and waypoint.predictor.rgb asks for them.
+bool predictorReadsRgb(const ModelConfig& model,
+                       const WaypointPredictorConfig& config);
 
 /// Training losses against a target heatmap [Bt, 120, 12] (peak 1).
 enum class WaypointLoss {

@@ -19,6 +19,8 @@ struct WaypointPredictorConfig {
   /// Views a token attends to on each side (circular); -1: all views.
   int neighbors = 1;
   double dropout = 0.1;
+  /// Read the RGB views' features besides depth (when the model has RGB).
+  bool rgb = true;
 
   void visit(common::ConfigVisitor& v) {
     v.field("hidden_size", hidden_size,
@@ -37,6 +39,11 @@ struct WaypointPredictorConfig {
             common::inRange(-1, 180));
     v.field("dropout", dropout, "Dropout while training (0: none)",
             common::inRange(0.0, 0.9));
+    v.field("rgb", rgb,
+            "Read the RGB views' features besides the depth views' (when "
+            "the model has RGB: model.no_rgb false); false: depth alone, "
+            "whatever the agent reads. The agent's config must say what the "
+            "predictor was trained with");
   }
   /// Throws std::invalid_argument naming `where` when hidden_size is not a
   /// multiple of heads.

@@ -160,6 +160,11 @@ struct WaypointPretrainer::Impl {
   models::RgbEncoder rgbEncoder{nullptr};
   models::WaypointPredictor net{nullptr};
   int64_t updates = 0;
+  // whether the predictor reads RGB (the views are kept and encoded only
+  // then)
+  bool readsRgb() const {
+    return models::predictorReadsRgb(config.model, config.waypoint.predictor);
+  }
 
   // renders the panoramas of house `sceneId` (training: headings_per_node
   // random headings per node; evaluation: one, as the metrics command)
@@ -218,7 +223,7 @@ struct WaypointPretrainer::Impl {
                   .candidates,
               sample.targets);
         if (config.model.usesDepth()) sample.depth = panorama.depth;
-        if (config.model.usesRgb()) sample.rgb = panorama.rgb;
+        if (readsRgb()) sample.rgb = panorama.rgb;
         house.samples.push_back(std::move(sample));
       }
     }
@@ -360,7 +365,7 @@ struct WaypointPretrainer::Impl {
                            config.model.depth_weights);
       depthEncoder->eval();
     }
-    if (config.model.usesRgb()) {
+    if (readsRgb()) {
       rgbEncoder = models::RgbEncoder(config.model);
       if (!config.model.rgb_weights.empty())
         models::loadModule(rgbEncoder->cnnModule(), config.model.rgb_weights);

@@ -177,6 +177,33 @@ TEST(WaypointPretrainerTest, TinyRunTrainsEvaluatesAndWritesWeights) {
   EXPECT_DOUBLE_EQ(second.model.chamfer_sum, result.model.chamfer_sum);
 }
 
+// waypoint.predictor.rgb false: a depth-only predictor beside a model that
+// has RGB; its weights load into that predictor and not into one reading RGB
+TEST(WaypointPretrainerTest, DepthOnlyPredictorBesideAnRgbModel) {
+  const test::TinyWorld& world = test::tinyWorld();
+  vln::test::TempDir dir;
+  ExperimentConfig config = tinyConfig(world, dir / "run");
+  ASSERT_TRUE(config.model.usesRgb());
+  config.waypoint.predictor.rgb = false;
+  EXPECT_FALSE(
+      models::predictorReadsRgb(config.model, config.waypoint.predictor));
+  const WaypointPretrainResult result =
+      WaypointPretrainer(config, dir / "run").run();
+  EXPECT_GT(result.eval_panoramas, 0);
+  EXPECT_LT(result.final_loss, result.initial_loss);
+
+  models::WaypointPredictor depthOnly = models::makeWaypointPredictor(
+      config.model, config.waypoint.predictor, 12);
+  EXPECT_FALSE(depthOnly->rgb_fc);
+  EXPECT_NO_THROW(models::loadModule(*depthOnly, result.weights_file));
+  config.waypoint.predictor.rgb = true;
+  models::WaypointPredictor withRgb = models::makeWaypointPredictor(
+      config.model, config.waypoint.predictor, 12);
+  EXPECT_TRUE(withRgb->rgb_fc);
+  EXPECT_THROW(models::loadModule(*withRgb, result.weights_file),
+               std::invalid_argument);
+}
+
 TEST(WaypointPretrainerTest, TrainBinaryRunsTheShippedConfigAndRefusesResume) {
   const fs::path binary = vln::test::binaryPath() / "bin" / "train";
   if (!fs::exists(binary)) GTEST_SKIP() << "build the train binary first";
