@@ -163,6 +163,17 @@ bool predictorReadsRgb(const ModelConfig& model,
   return model.usesRgb() && config.rgb;
 }
 
+void checkPredictorInputs(const ModelConfig& model,
+                          const WaypointPredictorConfig& config,
+                          std::string_view where) {
+  VLN_CHECK_ARG(model.usesDepth() || predictorReadsRgb(model, config), where,
+                ": the candidate-waypoint predictor reads no features "
+                "(model.no_depth is true and ",
+                model.usesRgb() ? "waypoint.predictor.rgb is false"
+                                : "model.no_rgb is true",
+                ")");
+}
+
 // ===========================================================================
 // losses
 // ===========================================================================

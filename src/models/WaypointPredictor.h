@@ -24,6 +24,7 @@
 
 #include <cstdint>
 #include <numbers>
+#include <string_view>
 
 #include "models/ModelConfig.h"
 #include "models/WaypointPredictorConfig.h"
@@ -102,6 +103,13 @@ WaypointPredictor makeWaypointPredictor(const ModelConfig& model,
 /// (model.no_rgb false) and waypoint.predictor.rgb asks for them.
 bool predictorReadsRgb(const ModelConfig& model,
                        const WaypointPredictorConfig& config);
+
+/// Throws std::invalid_argument "<where>: ..." naming the keys when the
+/// predictor would read no features (model.no_depth, and no RGB by
+/// predictorReadsRgb()): what the tasks check before rendering anything.
+void checkPredictorInputs(const ModelConfig& model,
+                          const WaypointPredictorConfig& config,
+                          std::string_view where);
 
 /// Training losses against a target heatmap [Bt, 120, 12] (peak 1).
 enum class WaypointLoss {

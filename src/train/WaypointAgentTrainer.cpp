@@ -205,6 +205,9 @@ torch::Tensor subInstructionLoss(const torch::Tensor& attention,
 
 void validateWaypointAgentConfig(const ExperimentConfig& config) {
   checkWaypointPanorama(config, kTask);
+  if (config.waypoint_agent.candidates == "predictor")
+    models::checkPredictorInputs(config.model, config.waypoint.predictor,
+                                 kTask);
   VLN_CHECK_ARG(!config.model.usesTextFeatures(), kTask,
                 ": model.instruction_features must be tokens");
   VLN_CHECK_ARG(config.trainer.instruction_contrast_weight == 0.0 ||

@@ -123,6 +123,7 @@ void checkWaypointPanorama(const ExperimentConfig& config,
 void validateWaypointPretrainConfig(const ExperimentConfig& config) {
   checkWaypointPanorama(config, kTask);
   config.waypoint.predictor.validate("waypoint.predictor");
+  models::checkPredictorInputs(config.model, config.waypoint.predictor, kTask);
 }
 
 waypoint::PredictorMetrics scoreWaypointLogits(

@@ -352,6 +352,17 @@ TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
     EXPECT_THAT(e.what(), HasSubstr("waypoint_agent.predictor_weights"));
     EXPECT_THAT(e.what(), HasSubstr("missing.pt"));
   }
+  // a predictor left without features, before any weights are read
+  ExperimentConfig blind = good;
+  blind.model.no_rgb = false;
+  blind.model.no_depth = true;
+  blind.waypoint.predictor.rgb = false;
+  try {
+    validateWaypointAgentConfig(blind);
+    ADD_FAILURE() << "a predictor without features must be an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("waypoint.predictor.rgb is false"));
+  }
   // the depth-only baseline needs no weights
   c.waypoint_agent.candidates = "depth_baseline";
   EXPECT_NO_THROW(validateWaypointAgentConfig(c));

@@ -83,6 +83,11 @@ TEST(WaypointPretrainerTest, ConfigChecksNameTheKey) {
   c = good;
   c.model.no_rgb = c.model.no_depth = true;
   expectRejected(c, "no_rgb");
+  // the policy could read RGB, the predictor nothing
+  c = good;
+  c.model.no_depth = true;
+  c.waypoint.predictor.rgb = false;
+  expectRejected(c, "waypoint.predictor.rgb is false");
 }
 
 TEST(WaypointPretrainerTest, ShippedConfigLoadsAndValidates) {
