@@ -29,6 +29,11 @@ int main(int argc, char** argv) {
     app.add_option(
         "--checkpoint", options.checkpoint,
         "ckpt.<i>.pth, a directory of them, or a TorchScript .pt export");
+    app.add_option("--ensemble", options.ensemble,
+                   "With a waypoint agent's --checkpoint file: more "
+                   "checkpoints or run directories (their best) of the same "
+                   "recipe whose choice probabilities are averaged with it "
+                   "(repeatable)");
     app.add_option("--agent", options.agent,
                    "Evaluate a baseline instead: random, handcrafted or oracle "
                    "(trainer.expert's shortest-path expert)");

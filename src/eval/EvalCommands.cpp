@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <span>
 
 #include "common/App.h"
 #include "common/Check.h"
@@ -92,13 +93,15 @@ struct Candidate {
 };
 
 std::unique_ptr<rollout::Agent> policyAgent(
-    const train::ExperimentConfig& config, const fs::path& checkpoint) {
+    const train::ExperimentConfig& config, const fs::path& checkpoint,
+    std::span<const fs::path> ensemble) {
   const models::NamedTensors weights = train::loadCheckpoint(checkpoint).policy;
   if (config.trainer.task == "waypoint_cma") {
     train::validateWaypointAgentConfig(config);
     train::WaypointAgentModels nets =
         train::makeWaypointAgentModels(config, /*withEmbeddings=*/false);
     models::loadStateStrict(*nets.policy, weights, checkpoint.string());
+    train::addEnsembleMembers(nets, config, ensemble);
     return train::makeWaypointAgent(config, nets, config.eval.num_envs,
                                     config.eval.sample_actions,
                                     static_cast<uint64_t>(config.eval.seed));
@@ -152,9 +155,11 @@ std::unique_ptr<rollout::Agent> scriptedAgent(
       static_cast<uint64_t>(ec.seed));
 }
 
+// `ensemble`: more waypoint policies voting with a checkpoint's (--ensemble)
 std::unique_ptr<rollout::Agent> makeAgent(
     const Candidate& candidate, const train::ExperimentConfig& config,
-    const BaselineStatistics* baselineStats) {
+    const BaselineStatistics* baselineStats,
+    std::span<const fs::path> ensemble) {
   const rollout::EvalConfig& ec = config.eval;
   if (candidate.baseline == "oracle")
     return makeOracleAgent(config.sim.agent, config.task, config.trainer.expert,
@@ -167,7 +172,7 @@ std::unique_ptr<rollout::Agent> makeAgent(
   }
   if (!candidate.scripted.empty())
     return scriptedAgent(config, candidate.scripted);
-  return policyAgent(config, candidate.checkpoint);
+  return policyAgent(config, candidate.checkpoint, ensemble);
 }
 
 // an rxr_text policy reads the text feature files of the split it runs on
@@ -437,6 +442,32 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
       }
     }
   }
+  std::vector<fs::path> ensemble;  // the members' checkpoint files
+  if (!options.ensemble.empty()) {
+    VLN_CHECK_ARG(settings.trainer.task == "waypoint_cma",
+                  "eval --ensemble: only waypoint agents (trainer.task "
+                  "waypoint_cma) are ensembled; this config's task is '",
+                  settings.trainer.task, "'");
+    VLN_CHECK_ARG(candidates.size() == 1 && !directoryMode &&
+                      !candidates.front().checkpoint.empty(),
+                  "eval --ensemble: --checkpoint must be one checkpoint "
+                  "file (ckpt.<i>.pth), not a directory, an export or a "
+                  "baseline");
+    for (const fs::path& member : options.ensemble) {
+      VLN_CHECK_IO(fs::exists(member), "eval --ensemble: '", member.string(),
+                   "' does not exist");
+      // a run directory: its best checkpoint (else its newest)
+      ensemble.push_back(fs::is_directory(member)
+                             ? train::bestOrLatestCheckpoint(member)
+                             : member);
+    }
+    Candidate& first = candidates.front();
+    first.label +=
+        " + " + std::to_string(ensemble.size()) + " ensemble member(s)";
+    out << "ensemble: " << first.checkpoint.string();
+    for (const fs::path& member : ensemble) out << ", " << member.string();
+    out << " (choice probabilities averaged)\n";
+  }
 
   // the splits, loaded once; the test split with its hidden goals when given
   std::vector<data::Split> splits;
@@ -491,7 +522,7 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     }
     if (todo.empty()) continue;
     const std::unique_ptr<rollout::Agent> agent =
-        makeAgent(candidate, settings, baselineStats.get());
+        makeAgent(candidate, settings, baselineStats.get(), ensemble);
     if (!options.report.empty()) agent->keepInstructionAttention(true);
     for (const data::Split* split : todo) {
       useSplitTextFeatures(*agent, settings, *split);

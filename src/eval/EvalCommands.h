@@ -8,6 +8,13 @@
 //                                                     already evaluated; picks
 //                                                     the best (best.json)
 //   eval --config C --checkpoint policy.pt           a TorchScript export
+//   eval --config C --checkpoint ckpt.<i>.pth --ensemble RUN_OR_CKPT ...
+//                                                     a waypoint agent whose
+//                                                     choice averages the
+//                                                     probabilities of the
+//                                                     checkpoint's policy and
+//                                                     the members' (other
+//                                                     seeds of the recipe)
 //   eval --config C --agent random|handcrafted       a no-learning baseline
 //   eval --config C --agent oracle                   the shortest-path oracle
 //                                                     (trainer.expert)
@@ -54,6 +61,12 @@ struct EvalCommandOptions {
   /// A checkpoint file, a directory of checkpoints, or a TorchScript export
   /// (.pt). Empty when `agent` is set.
   std::filesystem::path checkpoint;
+  /// With `checkpoint` a checkpoint file of a waypoint agent (trainer.task
+  /// waypoint_cma): more policies of the same recipe (other seeds) that
+  /// vote with it, each a checkpoint file or a run directory (its best
+  /// checkpoint, else its newest; train::readPolicyWeights()). Their choice
+  /// probabilities are averaged (rollout::ensembleLogits()).
+  std::vector<std::filesystem::path> ensemble;
   /// "random" or "handcrafted": evaluate a baseline instead (its statistics
   /// come from dataset.train_split's ground truth); "oracle": the
   /// shortest-path oracle of trainer.expert (rollout::OracleAgent; splits

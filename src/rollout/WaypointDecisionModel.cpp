@@ -9,31 +9,76 @@
 namespace vln::rollout {
 
 struct NativeWaypointModel::EnvState {
-  models::EncodedInstruction instruction;
-  torch::Tensor hidden;  // [1, 2, H]
+  // per policy
+  std::vector<models::EncodedInstruction> instructions;
+  std::vector<torch::Tensor> hiddens;  // each [1, 2, H]
 };
+
+at::Tensor ensembleLogits(std::span<const at::Tensor> memberLogits) {
+  VLN_CHECK_ARG(!memberLogits.empty(), "ensembleLogits(): no member");
+  torch::Tensor sum;
+  for (const at::Tensor& logits : memberLogits) {
+    VLN_CHECK_ARG(logits.sizes() == memberLogits.front().sizes(),
+                  "ensembleLogits(): members disagree on the shape (",
+                  logits.sizes(), " against ", memberLogits.front().sizes(),
+                  ")");
+    const torch::Tensor p = torch::softmax(logits.to(torch::kFloat64), -1);
+    sum = sum.defined() ? sum + p : p;
+  }
+  return torch::log(sum / static_cast<double>(memberLogits.size()));
+}
 
 NativeWaypointModel::NativeWaypointModel(
     std::shared_ptr<models::WaypointCmaPolicyImpl> policy,
     models::ObservationEncoder encoder, models::WaypointPredictor predictor,
     CandidateNms nms, int maxInstructionLength)
-    : policy_(std::move(policy)),
+    : NativeWaypointModel(
+          std::vector<std::shared_ptr<models::WaypointCmaPolicyImpl>>{
+              std::move(policy)},
+          std::move(encoder), std::move(predictor), nms, maxInstructionLength) {
+}
+
+NativeWaypointModel::NativeWaypointModel(
+    std::vector<std::shared_ptr<models::WaypointCmaPolicyImpl>> policies,
+    models::ObservationEncoder encoder, models::WaypointPredictor predictor,
+    CandidateNms nms, int maxInstructionLength)
+    : policies_(std::move(policies)),
       encoder_(std::move(encoder)),
       predictor_(std::move(predictor)),
       nms_(nms),
       maxInstructionLength_(maxInstructionLength) {
-  VLN_CHECK_ARG(policy_ != nullptr, "NativeWaypointModel: no policy");
+  VLN_CHECK_ARG(!policies_.empty(), "NativeWaypointModel: no policy");
+  for (size_t m = 0; m < policies_.size(); ++m)
+    VLN_CHECK_ARG(policies_[m] != nullptr, "NativeWaypointModel: policy ", m,
+                  " is null");
   VLN_CHECK_ARG(!encoder_.is_empty(), "NativeWaypointModel: no encoder");
+  const models::WaypointCmaPolicyImpl& first = *policies_.front();
+  for (size_t m = 1; m < policies_.size(); ++m) {
+    const models::WaypointCmaPolicyImpl& member = *policies_[m];
+    VLN_CHECK_ARG(
+        member.numViews() == first.numViews() &&
+            member.config().usesRgb() == first.config().usesRgb() &&
+            member.config().usesDepth() == first.config().usesDepth() &&
+            member.config().usesInstruction() ==
+                first.config().usesInstruction(),
+        "NativeWaypointModel: ensemble member ", m, " reads ",
+        member.numViews(), " views (rgb ", member.config().usesRgb(),
+        ", depth ", member.config().usesDepth(), ", instruction ",
+        member.config().usesInstruction(), "), the first ", first.numViews(),
+        " (rgb ", first.config().usesRgb(), ", depth ",
+        first.config().usesDepth(), ", instruction ",
+        first.config().usesInstruction(), ")");
+  }
 }
 
 NativeWaypointModel::~NativeWaypointModel() = default;
 
 const models::ModelConfig& NativeWaypointModel::config() const {
-  return policy_->config();
+  return policies_.front()->config();
 }
 
 int NativeWaypointModel::numViews() const {
-  return static_cast<int>(policy_->numViews());
+  return static_cast<int>(policies_.front()->numViews());
 }
 
 NativeWaypointModel::EnvState& NativeWaypointModel::state(int env) {
@@ -47,18 +92,22 @@ NativeWaypointModel::EnvState& NativeWaypointModel::state(int env) {
 void NativeWaypointModel::reset(int env, const data::Episode& episode) {
   EnvState& s = state(env);
   torch::NoGradGuard noGrad;
-  policy_->eval();
   const data::Episode* one[] = {&episode};
-  const torch::Device device = policy_->view_linear->weight.device();
-  s.instruction = policy_->encodeInstruction(
-      batchInstructions(one, maxInstructionLength_).to(device));
-  s.hidden = policy_->initialHidden(1);
+  s.instructions.clear();
+  s.hiddens.clear();
+  for (const auto& policy : policies_) {
+    policy->eval();
+    const torch::Device device = policy->view_linear->weight.device();
+    s.instructions.push_back(policy->encodeInstruction(
+        batchInstructions(one, maxInstructionLength_).to(device)));
+    s.hiddens.push_back(policy->initialHidden(1));
+  }
 }
 
 PanoramaFeatures NativeWaypointModel::encode(const at::Tensor& rgb,
                                              const at::Tensor& depth) {
   torch::NoGradGuard noGrad;
-  const torch::Device device = policy_->view_linear->weight.device();
+  const torch::Device device = policies_.front()->view_linear->weight.device();
   const torch::Tensor anyInput = rgb.defined() ? rgb : depth;
   const int64_t n = anyInput.size(0), views = anyInput.size(1);
   encoder_->eval();
@@ -100,30 +149,41 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
                                      const at::Tensor& prev,
                                      const at::Tensor& notDone) {
   torch::NoGradGuard noGrad;
-  policy_->eval();
-  const torch::Device device = policy_->view_linear->weight.device();
-  std::vector<const models::EncodedInstruction*> instructions;
-  std::vector<torch::Tensor> hiddens;
-  for (int env : envs) {
-    const EnvState& s = state(env);
-    VLN_CHECK_ARG(s.hidden.defined(), "NativeWaypointModel::step(): "
-                  "environment ", env, " was never reset");
-    instructions.push_back(&s.instruction);
-    hiddens.push_back(s.hidden);
-  }
-  models::WaypointPolicyInputs inputs{features.rgb,         features.depth,
-                                      candidates.to(device), mask.to(device),
-                                      prev.to(device),       notDone.to(device)};
-  const models::EncodedInstruction instruction =
-      policy_->config().usesInstruction() ? stackInstructions(instructions)
+  for (int env : envs)
+    VLN_CHECK_ARG(!state(env).hiddens.empty(),
+                  "NativeWaypointModel::step(): "
+                  "environment ",
+                  env, " was never reset");
+  std::vector<at::Tensor> memberLogits;
+  for (size_t m = 0; m < policies_.size(); ++m) {
+    models::WaypointCmaPolicyImpl& policy = *policies_[m];
+    policy.eval();
+    const torch::Device device = policy.view_linear->weight.device();
+    std::vector<const models::EncodedInstruction*> instructions;
+    std::vector<torch::Tensor> hiddens;
+    for (int env : envs) {
+      const EnvState& s = state(env);
+      instructions.push_back(&s.instructions[m]);
+      hiddens.push_back(s.hiddens[m]);
+    }
+    models::WaypointPolicyInputs inputs{
+        features.rgb,    features.depth,  candidates.to(device),
+        mask.to(device), prev.to(device), notDone.to(device)};
+    const models::EncodedInstruction instruction =
+        policy.config().usesInstruction() ? stackInstructions(instructions)
                                           : models::EncodedInstruction{};
-  const models::WaypointPolicyOutputs out =
-      policy_->step(instruction, inputs, torch::cat(hiddens, 0));
-  for (size_t i = 0; i < envs.size(); ++i) {
-    const auto row = static_cast<int64_t>(i);
-    state(envs[i]).hidden = out.hidden.slice(0, row, row + 1).clone();
+    const models::WaypointPolicyOutputs out =
+        policy.step(instruction, inputs, torch::cat(hiddens, 0));
+    for (size_t i = 0; i < envs.size(); ++i) {
+      const auto row = static_cast<int64_t>(i);
+      state(envs[i]).hiddens[m] = out.hidden.slice(0, row, row + 1).clone();
+    }
+    memberLogits.push_back(
+        out.logits.to(torch::kCPU, torch::kFloat64).contiguous());
   }
-  return out.logits.to(torch::kCPU, torch::kFloat64).contiguous();
+  // one policy: its logits as they are (a checkpoint's results unchanged)
+  if (memberLogits.size() == 1) return memberLogits.front();
+  return ensembleLogits(memberLogits);
 }
 
 }  // namespace vln::rollout

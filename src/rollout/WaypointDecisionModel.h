@@ -73,16 +73,35 @@ class WaypointDecisionModel {
                           const at::Tensor& prev, const at::Tensor& notDone) = 0;
 };
 
+/// The probabilities of an ensemble's members averaged: `memberLogits`
+/// (each float64 [n, 1 + K], -inf at masked slots, at least one) become
+/// log(mean_m softmax(logits_m)) per row, -inf where every member masks.
+/// Averaging probabilities rather than logits keeps one member's confident
+/// choice from being outvoted by logits of another scale.
+at::Tensor ensembleLogits(std::span<const at::Tensor> memberLogits);
+
 /// The project's modules: the policy, its frozen encoders and (unless
 /// null) the learned predictor with `nms`. They run in eval mode under
 /// NoGradGuard on the policy's device; the policy is shared with the
 /// trainer, which updates it between rounds.
+///
+/// With more than one policy the model is an ensemble (eval --ensemble):
+/// every member reads the same encoder features and candidates, keeps its
+/// own recurrent state and instruction encoding, and step() returns
+/// ensembleLogits() of their logits. The members must read the same
+/// modalities and views (std::invalid_argument otherwise): they are
+/// policies of one recipe trained under different seeds, over the same
+/// frozen encoders and predictor.
 class NativeWaypointModel : public WaypointDecisionModel {
  public:
   NativeWaypointModel(std::shared_ptr<models::WaypointCmaPolicyImpl> policy,
                       models::ObservationEncoder encoder,
                       models::WaypointPredictor predictor, CandidateNms nms,
                       int maxInstructionLength);
+  NativeWaypointModel(
+      std::vector<std::shared_ptr<models::WaypointCmaPolicyImpl>> policies,
+      models::ObservationEncoder encoder, models::WaypointPredictor predictor,
+      CandidateNms nms, int maxInstructionLength);
   ~NativeWaypointModel() override;
 
   const models::ModelConfig& config() const override;
@@ -101,7 +120,8 @@ class NativeWaypointModel : public WaypointDecisionModel {
   struct EnvState;
   EnvState& state(int env);
 
-  std::shared_ptr<models::WaypointCmaPolicyImpl> policy_;
+  // policies_[0] is the policy; more are ensemble members
+  std::vector<std::shared_ptr<models::WaypointCmaPolicyImpl>> policies_;
   models::ObservationEncoder encoder_;
   models::WaypointPredictor predictor_;
   CandidateNms nms_;

@@ -244,15 +244,26 @@ void validateWaypointAgentConfig(const ExperimentConfig& config) {
   }
 }
 
+namespace {
+
+// an initialised waypoint CMA of config.model on the config's panorama
+std::shared_ptr<models::WaypointCmaPolicyImpl> newWaypointPolicy(
+    const ExperimentConfig& config) {
+  const models::ModelConfig& m = config.model;
+  return std::make_shared<models::WaypointCmaPolicyImpl>(
+      m, config.panorama.num_views,
+      m.usesRgb() ? flatSize(models::rgbFeatureShape(m)) : 0,
+      m.usesDepth() ? flatSize(models::depthFeatureShape(m)) : 0);
+}
+
+}  // namespace
+
 WaypointAgentModels makeWaypointAgentModels(const ExperimentConfig& config,
                                             bool withEmbeddings) {
   const models::ModelConfig& m = config.model;
   torch::manual_seed(static_cast<uint64_t>(config.trainer.seed));
   WaypointAgentModels out;
-  out.policy = std::make_shared<models::WaypointCmaPolicyImpl>(
-      m, config.panorama.num_views,
-      m.usesRgb() ? flatSize(models::rgbFeatureShape(m)) : 0,
-      m.usesDepth() ? flatSize(models::depthFeatureShape(m)) : 0);
+  out.policy = newWaypointPolicy(config);
   if (withEmbeddings && m.usesInstruction())
     out.policy->setWordEmbeddings(embeddingTensor(config));
   out.encoder = models::ObservationEncoder(m);
@@ -275,6 +286,20 @@ WaypointAgentModels makeWaypointAgentModels(const ExperimentConfig& config,
   return out;
 }
 
+void addEnsembleMembers(WaypointAgentModels& models,
+                        const ExperimentConfig& config,
+                        std::span<const fs::path> checkpoints) {
+  const torch::Device device = models::modelDevice(config.model);
+  for (const fs::path& given : checkpoints) {
+    std::shared_ptr<models::WaypointCmaPolicyImpl> member =
+        newWaypointPolicy(config);
+    models::loadStateStrict(*member, readPolicyWeights(given), given.string());
+    member->to(device);
+    member->eval();
+    models.ensemble.push_back(std::move(member));
+  }
+}
+
 std::unique_ptr<rollout::WaypointAgent> makeWaypointAgent(
     const ExperimentConfig& config, const WaypointAgentModels& models,
     int numEnvs, bool sampleActions, uint64_t seed) {
@@ -284,10 +309,16 @@ std::unique_ptr<rollout::WaypointAgent> makeWaypointAgent(
   nms.heading_radius = w.nms_heading_radius;
   nms.distance_radius = w.nms_distance_radius;
   nms.min_score = static_cast<float>(w.nms_min_score);
+  std::vector<std::shared_ptr<models::WaypointCmaPolicyImpl>> policies{
+      models.policy};
+  policies.insert(policies.end(), models.ensemble.begin(),
+                  models.ensemble.end());
   return std::make_unique<rollout::WaypointAgent>(
-      models.policy, models.encoder, models.predictor, nms,
+      std::make_unique<rollout::NativeWaypointModel>(
+          std::move(policies), models.encoder, models.predictor, nms,
+          config.dataset.max_instruction_length),
       config.waypoint_agent, config.panorama, config.sim.agent, numEnvs,
-      sampleActions, seed, config.dataset.max_instruction_length);
+      sampleActions, seed);
 }
 
 void runWaypointAgentTraining(const ExperimentConfig& config,

@@ -58,14 +58,29 @@ struct WaypointAgentModels {
   std::shared_ptr<models::WaypointCmaPolicyImpl> policy;
   models::ObservationEncoder encoder{nullptr};
   models::WaypointPredictor predictor{nullptr};
+  /// More policies that vote with `policy` (addEnsembleMembers()); empty
+  /// outside an ensemble.
+  std::vector<std::shared_ptr<models::WaypointCmaPolicyImpl>> ensemble;
 };
 /// `withEmbeddings`: copy dataset.embeddings into the policy (a new run;
 /// a checkpoint brings its own).
 WaypointAgentModels makeWaypointAgentModels(const ExperimentConfig& config,
                                             bool withEmbeddings);
 
-/// An agent over `models` with `numEnvs` environments, non-maximum
-/// suppression from waypoint.nms_*.
+/// Adds to `models.ensemble` one policy built from `config` per entry of
+/// `checkpoints`, loaded with its tensors (readPolicyWeights(): a
+/// checkpoint file, or a run directory's best checkpoint): policies of the
+/// same recipe trained under other seeds, which then read the same frozen
+/// encoders and predictor as `models.policy` (rollout::NativeWaypointModel
+/// averages their choice probabilities). Throws naming the file when its
+/// tensors do not fit model.*.
+void addEnsembleMembers(WaypointAgentModels& models,
+                        const ExperimentConfig& config,
+                        std::span<const std::filesystem::path> checkpoints);
+
+/// An agent over `models` (an ensemble when models.ensemble is not empty)
+/// with `numEnvs` environments, non-maximum suppression from
+/// waypoint.nms_*.
 std::unique_ptr<rollout::WaypointAgent> makeWaypointAgent(
     const ExperimentConfig& config, const WaypointAgentModels& models,
     int numEnvs, bool sampleActions, uint64_t seed);

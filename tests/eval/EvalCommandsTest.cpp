@@ -475,6 +475,11 @@ TEST_F(EvalCommandsTest, BadInputIsNamed) {
   split.checkpoint = writeCheckpoint(dir_ / "ckpt.1.pth", 1.0);
   split.splits = {"val_nowhere"};
   expectError(split, "val_nowhere");
+  // ensembles are of waypoint agents only
+  EvalCommandOptions ensemble;
+  ensemble.checkpoint = split.checkpoint;
+  ensemble.ensemble = {split.checkpoint};
+  expectError(ensemble, "eval --ensemble: only waypoint agents");
   EvalCommandOptions greedy;
   greedy.agent = "greedy";
   expectError(greedy,

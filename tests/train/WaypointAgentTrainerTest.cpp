@@ -230,6 +230,40 @@ TEST_F(WaypointAgentTrainerTest, TrainsAndEvaluatesLikeAnyAgent) {
   EXPECT_GT(stats.num_episodes, 0);
   EXPECT_GT(stats.mean.path_length, 0.0);
 
+  // an ensemble of the checkpoint with itself chooses as the checkpoint
+  // does; with the run's best as the member it runs and names it; a
+  // directory of checkpoints cannot be ensembled
+  auto ensembleEval = [&](const fs::path& checkpoint, const fs::path& member,
+                          const fs::path& out) {
+    return vln::test::runCommand(
+        binary("eval") + " --config " + (run / "config.yaml").string() +
+            " --checkpoint " + checkpoint.string() + " --ensemble " +
+            member.string() + " --split val_unseen --out " + out.string() +
+            " 2>&1",
+        &output);
+  };
+  ASSERT_EQ(ensembleEval(checkpoints.back(), checkpoints.back(),
+                         dir_ / "ensemble_self"),
+            0)
+      << output;
+  EXPECT_THAT(output, HasSubstr("(choice probabilities averaged)"));
+  const auto single = rollout::readEpisodesFile(
+      dir_ / "eval" / rollout::episodesFileName(1, "val_unseen"));
+  const auto doubled = rollout::readEpisodesFile(
+      dir_ / "ensemble_self" / rollout::episodesFileName(1, "val_unseen"));
+  ASSERT_FALSE(single.empty());
+  ASSERT_EQ(doubled.size(), single.size());
+  for (size_t i = 0; i < single.size(); ++i)
+    EXPECT_EQ(doubled[i].record.actions, single[i].record.actions)
+        << "episode " << i;
+  ASSERT_EQ(ensembleEval(checkpoints.front(), run, dir_ / "ensemble_run"), 0)
+      << output;
+  EXPECT_THAT(output, HasSubstr((run / "checkpoints").string()));
+  EXPECT_TRUE(fs::exists(dir_ / "ensemble_run" /
+                         rollout::statsFileName(0, "val_unseen")));
+  EXPECT_NE(ensembleEval(run / "checkpoints", run, dir_ / "ensemble_dir"), 0);
+  EXPECT_THAT(output, HasSubstr("--checkpoint must be one checkpoint file"));
+
   // eval scores the export as the checkpoint it came from: the archive
   // proposes, the config's waypoint_agent executes, action for action
   const fs::path exportedFrom = bestOrLatestCheckpoint(run);
