@@ -249,6 +249,11 @@ void emitRgbEncoder(ScriptWriter& w, RgbEncoderImpl& rgb) {
   }
   emitModule(w, rgb.cnnModule(), "encoder.rgb.cnn", "x", 1);
   if (rgb.resnet) w.line(1, "x = torch.adaptive_avg_pool2d(x, [4, 4])");
+  if (rgb.semantic)  // model.rgb_semantic_outputs
+    w.line(1, "x = torch.sigmoid(torch.linear(x.flatten(1), " +
+                  w.ref("encoder.rgb.semantic.weight") + ", " +
+                  w.ref("encoder.rgb.semantic.bias") +
+                  ")).view(x.size(0), -1, 1, 1)");
   w.line(1, "return x");
   w.line(0, "");
 }

@@ -38,6 +38,9 @@ void ModelConfig::validate() const {
   VLN_CHECK_ARG(!(no_rgb && no_depth && no_instruction),
                 "ModelConfig::validate(): model.no_rgb, model.no_depth and "
                 "model.no_instruction are all true, the policy has no input");
+  VLN_CHECK_ARG(rgb_semantic_outputs == 0 || !rgb_trainable,
+                "ModelConfig::validate(): model.rgb_semantic_outputs reads "
+                "frozen pretrained heads, and model.rgb_trainable is true");
   VLN_CHECK_ARG(!leg_attention || !no_instruction,
                 "ModelConfig::validate(): model.leg_attention attends to the "
                 "instruction, and model.no_instruction is true");
@@ -85,6 +88,8 @@ void ModelConfig::validate() const {
 }
 
 FeatureShape rgbFeatureShape(const ModelConfig& config) {
+  if (config.rgb_semantic_outputs > 0)
+    return {config.rgb_semantic_outputs, 1, 1};
   switch (config.rgb_encoder) {
     case EncoderType::kResNet50:
       return {2048, 4, 4};

@@ -75,6 +75,7 @@ struct ModelConfig {
   EncoderType depth_encoder = EncoderType::kResNet50;
   std::string rgb_weights;
   std::string depth_weights;
+  int rgb_semantic_outputs = 0;
   bool rgb_trainable = false;
   bool rgb_batch_statistics = false;
   bool normalize_rgb = true;
@@ -120,6 +121,14 @@ struct ModelConfig {
             "TorchScript file holding the RGB encoder's tensors by name, as "
             "scripts/convert_torchvision_resnet50.py writes (empty: random "
             "init)");
+    v.field("rgb_semantic_outputs", rgb_semantic_outputs,
+            "Waypoint CMA only: 0 (the default) gives the policy the RGB "
+            "CNN's feature map; N > 0 gives it, per image, the sigmoid of the "
+            "N outputs of an rgb_semantic pretraining's heads (object "
+            "categories, colours, room type: 29 + 12 + 9 = 50 for the "
+            "default world), and model.rgb_weights must then name that "
+            "pretraining's semantic_net.pt (docs/pretraining.md)",
+            common::inRange(0, 4096));
     v.field("depth_weights", depth_weights,
             "TorchScript file holding the depth encoder's tensors by name, as "
             "scripts/convert_ddppo_depth.py writes (empty: random init)");
@@ -292,7 +301,8 @@ struct ModelConfig {
 
 /// Shape [C, h, w] of the RGB encoder's output for `config`'s RGB image size:
 /// resnet50 [2048,4,4], resnet18 [512,4,4] (adaptive-pooled to 4x4 as in
-/// VLN-CE, whatever the input size), small_cnn [64,4,4].
+/// VLN-CE, whatever the input size), small_cnn [64,4,4]; with
+/// model.rgb_semantic_outputs N > 0, [N, 1, 1] (the pretrained heads').
 FeatureShape rgbFeatureShape(const ModelConfig& config);
 
 /// Shape [C, h, w] of the depth encoder's output for `config`'s depth image

@@ -39,12 +39,20 @@ void freeze(torch::nn::Module& module) {
 
 RgbEncoderImpl::RgbEncoderImpl(const ModelConfig& config)
     : normalize_(config.normalize_rgb) {
+  // the CNN's own feature map, whatever the encoder outputs
+  ModelConfig cnnConfig = config;
+  cnnConfig.rgb_semantic_outputs = 0;
+  const FeatureShape cnnShape = rgbFeatureShape(cnnConfig);
   if (config.rgb_encoder == EncoderType::kSmallCnn) {
-    small = register_module("cnn", SmallCnn(3, rgbFeatureShape(config)[0]));
+    small = register_module("cnn", SmallCnn(3, cnnShape[0]));
   } else {
     resnet = register_module(
         "cnn", TorchVisionResNet(resnetLayers(config.rgb_encoder)));
   }
+  if (config.rgb_semantic_outputs > 0)
+    semantic = register_module(
+        "semantic", torch::nn::Linear(cnnShape[0] * cnnShape[1] * cnnShape[2],
+                                      config.rgb_semantic_outputs));
 }
 
 torch::Tensor RgbEncoderImpl::forward(const torch::Tensor& rgb) {
@@ -73,7 +81,45 @@ torch::Tensor RgbEncoderImpl::forward(const torch::Tensor& rgb) {
   } else {
     features = small->forward(normalised);
   }
+  if (semantic) {
+    // what the pretraining's heads say the image shows, as probabilities
+    const int64_t n = features.size(0);
+    features = torch::sigmoid(semantic->forward(features.flatten(1)))
+                   .view({n, -1, 1, 1});
+  }
   return unflattenFeatures(features, rgb);
+}
+
+void RgbEncoderImpl::loadSemanticNet(const std::filesystem::path& file) {
+  VLN_CHECK_ARG(semantic,
+                "RgbEncoder::loadSemanticNet(): this encoder has "
+                "no semantic heads (model.rgb_semantic_outputs is 0)");
+  const NamedTensors all = readTensorFile(file);
+  auto find = [&](const std::string& name) {
+    for (const auto& [key, tensor] : all)
+      if (key == name) return tensor;
+    throw std::invalid_argument(strCat(
+        "model.rgb_weights '", file.string(), "' has no tensor '", name,
+        "': with model.rgb_semantic_outputs it must be the semantic_net.pt "
+        "of an rgb_semantic pretraining (its CNN under rgb.cnn. and the "
+        "heads categories, colors and room)"));
+  };
+  loadStateStrict(cnnModule(), stripPrefix(all, "rgb.cnn."), file.string());
+  // the three heads as one linear layer, in the order the pretraining
+  // declares them
+  std::vector<torch::Tensor> weights, biases;
+  for (const char* head : {"categories", "colors", "room"}) {
+    weights.push_back(find(std::string(head) + ".weight"));
+    biases.push_back(find(std::string(head) + ".bias"));
+  }
+  const torch::Tensor weight = torch::cat(weights, 0);
+  VLN_CHECK_ARG(weight.size(0) == semantic->weight.size(0),
+                "model.rgb_semantic_outputs is ", semantic->weight.size(0),
+                " but the heads of '", file.string(), "' have ", weight.size(0),
+                " outputs (categories ", weights[0].size(0), ", colours ",
+                weights[1].size(0), ", rooms ", weights[2].size(0), ")");
+  loadStateStrict(*semantic, {{"weight", weight}, {"bias", torch::cat(biases)}},
+                  file.string());
 }
 
 torch::nn::Module& RgbEncoderImpl::cnnModule() {
@@ -150,8 +196,16 @@ VisualFeatures ObservationEncoderImpl::forward(
 }
 
 void ObservationEncoderImpl::loadPretrained() {
-  if (rgb && !config_.rgb_weights.empty())
+  if (rgb && rgb->semantic) {
+    VLN_CHECK_ARG(!config_.rgb_weights.empty(),
+                  "model.rgb_semantic_outputs is ",
+                  config_.rgb_semantic_outputs,
+                  " but model.rgb_weights is empty: it must name the "
+                  "semantic_net.pt of an rgb_semantic pretraining");
+    rgb->loadSemanticNet(config_.rgb_weights);
+  } else if (rgb && !config_.rgb_weights.empty()) {
     loadModule(rgb->cnnModule(), config_.rgb_weights);
+  }
   if (depth && !config_.depth_weights.empty())
     loadModule(depth->cnnModule(), config_.depth_weights);
 }

@@ -6,17 +6,20 @@
 
 #include <torch/torch.h>
 
+#include <filesystem>
+
 #include "models/ModelConfig.h"
 #include "models/ResNet.h"
 
 namespace vln::models {
 
 /// RGB CNN: uint8 images [..., H, W, 3] -> float features [..., C, 4, 4]
-/// (rgbFeatureShape()). Pixels are scaled to [0, 1] and, with
-/// model.normalize_rgb (the default), normalised with the ImageNet mean/std
-/// inside (torchvision's weights expect it; VLN-CE's encoder only divides by
-/// 255, which model.normalize_rgb: false reproduces). ResNet outputs are
-/// adaptive-average-pooled to 4x4 as in VLN-CE.
+/// (rgbFeatureShape()); with model.rgb_semantic_outputs N, the sigmoid of
+/// the pretraining's semantic heads over that map, [..., N, 1, 1]. Pixels are
+/// scaled to [0, 1] and, with model.normalize_rgb (the default), normalised
+/// with the ImageNet mean/std inside (torchvision's weights expect it; VLN-CE's
+/// encoder only divides by 255, which model.normalize_rgb: false reproduces).
+/// ResNet outputs are adaptive-average-pooled to 4x4 as in VLN-CE.
 class RgbEncoderImpl : public torch::nn::Module {
  public:
   explicit RgbEncoderImpl(const ModelConfig& config);
@@ -24,12 +27,20 @@ class RgbEncoderImpl : public torch::nn::Module {
   /// The module whose tensors a weight file holds (torchvision names for
   /// the ResNets).
   torch::nn::Module& cnnModule();
+  /// With model.rgb_semantic_outputs: loads the CNN and the heads of an
+  /// rgb_semantic pretraining's SemanticNet file (models/SemanticNet.h)
+  /// strictly. Throws std::invalid_argument naming the file and the tensor
+  /// or the sizes that do not fit.
+  void loadSemanticNet(const std::filesystem::path& file);
   /// True when pixels are normalised with the ImageNet statistics
   /// (model.normalize_rgb), false when they are only divided by 255.
   bool normalizesWithImageNet() const { return normalize_; }
 
   TorchVisionResNet resnet{nullptr};  ///< set for resnet18/resnet50
   SmallCnn small{nullptr};            ///< set for small_cnn
+  /// The pretraining's heads (categories, colours, room) as one layer; set
+  /// with model.rgb_semantic_outputs.
+  torch::nn::Linear semantic{nullptr};
 
  private:
   bool normalize_ = true;

@@ -126,6 +126,12 @@ void PolicyImpl::initHeads(torch::nn::Linear& action,
 
 std::shared_ptr<PolicyImpl> makePolicy(const ModelConfig& config,
                                        const torch::Tensor& wordEmbeddings) {
+  // the low-level policies' RGB attention and export expect the CNN's
+  // 4x4 feature map
+  VLN_CHECK_ARG(config.rgb_semantic_outputs == 0 || !config.usesRgb(),
+                "makePolicy(): model.rgb_semantic_outputs is read by the "
+                "waypoint CMA only (trainer.task waypoint_cma); set it to 0 "
+                "or model.no_rgb: true");
   std::shared_ptr<PolicyImpl> policy;
   if (config.policy == PolicyType::kCma) {
     policy = std::make_shared<CmaPolicyImpl>(config);

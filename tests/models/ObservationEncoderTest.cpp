@@ -4,6 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "ModelTestUtil.h"
+#include "models/Policy.h"
+#include "models/SemanticNet.h"
 #include "models/StateDict.h"
 #include "support/TestPaths.h"
 
@@ -196,6 +198,66 @@ TEST(ObservationEncoderTest, PretrainedWeightsLoadStrictly) {
     EXPECT_THAT(e.what(), HasSubstr("cnn.0.weight expected [32, 1, 3, 3], "
                                     "got [32, 3, 3, 3]"));
   }
+}
+
+TEST(ObservationEncoderTest,
+     SemanticOutputsAreThePretrainedHeadsProbabilities) {
+  torch::manual_seed(6);
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  c.no_depth = true;
+  SemanticNet net(c, /*categories=*/7, /*colors=*/5, /*rooms=*/3);
+  vln::test::TempDir dir;
+  saveModule(*net, dir / "semantic_net.pt");
+  c.rgb_semantic_outputs = 15;
+  c.rgb_weights = (dir / "semantic_net.pt").string();
+  EXPECT_EQ(rgbFeatureShape(c), (FeatureShape{15, 1, 1}));
+  ObservationEncoder encoder(c);
+  encoder->loadPretrained();
+  const torch::Tensor rgb = randomRgb({2, 3}, 32, 32);
+  torch::NoGradGuard g;
+  const torch::Tensor features = encoder->forward(rgb, {}).rgb;
+  EXPECT_EQ(sizesOf(features), (Shape{2, 3, 15, 1, 1}));
+  const SemanticLogits logits = net->forward(rgb.reshape({6, 32, 32, 3}));
+  const torch::Tensor expected =
+      torch::sigmoid(
+          torch::cat({logits.categories, logits.colors, logits.room}, 1))
+          .view({2, 3, 15, 1, 1});
+  EXPECT_TRUE(torch::allclose(features, expected, 1e-5, 1e-6));
+  // frozen like the CNN
+  for (const auto& p : encoder->rgb->semantic->parameters())
+    EXPECT_FALSE(p.requires_grad());
+
+  // heads of another size, a file of the CNN alone, no file: named errors
+  auto expectError = [&](ModelConfig bad, const std::string& what) {
+    ObservationEncoder e(bad);
+    try {
+      e->loadPretrained();
+      ADD_FAILURE() << "no error, expected: " << what;
+    } catch (const std::invalid_argument& error) {
+      EXPECT_THAT(error.what(), HasSubstr(what));
+    }
+  };
+  ModelConfig wider = c;
+  wider.rgb_semantic_outputs = 16;
+  expectError(wider,
+              "model.rgb_semantic_outputs is 16 but the heads of '" +
+                  c.rgb_weights +
+                  "' have 15 outputs (categories 7, colours 5, rooms 3)");
+  saveModule(net->rgb->cnnModule(), dir / "cnn.pt");
+  ModelConfig cnnOnly = c;
+  cnnOnly.rgb_weights = (dir / "cnn.pt").string();
+  expectError(cnnOnly, "cnn.pt");
+  ModelConfig none = c;
+  none.rgb_weights.clear();
+  expectError(none, "model.rgb_weights is empty");
+
+  // the low-level policies read the CNN's feature map only
+  EXPECT_THAT([&] { makePolicy(c); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("read by the waypoint CMA only")));
+  c.no_rgb = true;
+  c.no_depth = false;
+  EXPECT_NO_THROW(makePolicy(c));
 }
 
 }  // namespace

@@ -170,6 +170,10 @@ std::vector<Variant> variants() {
   c = base;
   c.candidate_text = true;
   out.push_back({"candidate_text", c});
+  // the RGB features are the semantic heads' probabilities
+  c = base;
+  c.rgb_semantic_outputs = 15;
+  out.push_back({"rgb_semantic_outputs", c});
   return out;
 }
 
