@@ -1,6 +1,7 @@
 // SemanticNet: one logit per head output for every image, the RGB encoder's
 // parameters under "rgb." (what the pretrainer saves for model.rgb_weights),
-// and a clear error for images of the wrong rank.
+// and clear errors for images of the wrong rank and for a config that
+// reads semantic heads itself.
 
 #include "models/SemanticNet.h"
 
@@ -28,6 +29,12 @@ TEST(SemanticNetTest, OneLogitPerOutputOfEachHead) {
   for (const auto& item : net->named_parameters())
     if (item.key().rfind("rgb.", 0) == 0) ++encoderTensors;
   EXPECT_GT(encoderTensors, 0);
+  // the pretraining cannot read heads of its own
+  ModelConfig reading = model;
+  reading.rgb_semantic_outputs = 15;
+  EXPECT_THAT([&] { SemanticNet(reading, 7, 5, 3); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("model.rgb_semantic_outputs must be 0")));
   EXPECT_THAT([&] { net->forward(images[0]); },
               ::testing::Throws<c10::Error>(
                   ::testing::Property(&c10::Error::what_without_backtrace,
