@@ -93,13 +93,14 @@ void NativeWaypointModel::reset(int env, const data::Episode& episode) {
   EnvState& s = state(env);
   torch::NoGradGuard noGrad;
   const data::Episode* one[] = {&episode};
+  // the tokens once; each policy encodes them on its own device
+  const torch::Tensor tokens = batchInstructions(one, maxInstructionLength_);
   s.instructions.clear();
   s.hiddens.clear();
   for (const auto& policy : policies_) {
     policy->eval();
     const torch::Device device = policy->view_linear->weight.device();
-    s.instructions.push_back(policy->encodeInstruction(
-        batchInstructions(one, maxInstructionLength_).to(device)));
+    s.instructions.push_back(policy->encodeInstruction(tokens.to(device)));
     s.hiddens.push_back(policy->initialHidden(1));
   }
 }
