@@ -249,6 +249,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
   // approaches and the oracle plan on the navmesh
   std::vector<int> taken(static_cast<size_t>(n)),
       labels(static_cast<size_t>(n));
+  std::vector<uint32_t> acceptable(static_cast<size_t>(n), 0u);
   envs.forEach(envList, [&](int env) {
     const int64_t i = rowOf[static_cast<size_t>(env)];
     Slot& slot = *slots_[static_cast<size_t>(env)];
@@ -262,15 +263,18 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
                                         slot.referenceIndex, final);
       waypoint::ApproachConfig rule = config_.approach;
       if (!final) rule.success_distance = 0.0f;  // never stop short of the goal
-      int choice = waypoint::oracleChoice(navmesh, agent_, state, cands, target,
-                                          rule, config_.execution);
-      if (choice < 0 && !final && !cands.empty()) {
+      waypoint::OracleVerdict verdict = waypoint::oracleVerdict(
+          navmesh, agent_, state, cands, target, rule, config_.execution);
+      if (verdict.choice < 0 && !final && !cands.empty()) {
         // at an intermediate waypoint with nothing closer: head for the goal
-        choice = waypoint::oracleChoice(navmesh, agent_, state, cands,
-                                        slot.episode->goals.front().position,
-                                        config_.approach, config_.execution);
+        verdict = waypoint::oracleVerdict(navmesh, agent_, state, cands,
+                                          slot.episode->goals.front().position,
+                                          config_.approach, config_.execution);
       }
-      label = choice + 1;
+      label = verdict.choice + 1;
+      if (config_.label_tolerance > 0.0)
+        acceptable[static_cast<size_t>(i)] = waypoint::acceptableChoices(
+            verdict, static_cast<float>(config_.label_tolerance));
     }
     const bool useOracle =
         collecting_ && common::uniform01(slot.draws.rng) < collection_.beta;
@@ -319,6 +323,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
       d.prev_heading = slot.prevHeading;
       d.prev_distance = slot.prevDistance;
       d.label = labels[static_cast<size_t>(i)];
+      d.acceptable = acceptable[static_cast<size_t>(i)];
       d.taken = choice;
       d.position = slot.choices.back().position;
       slot.record.push_back(std::move(d));
@@ -356,11 +361,13 @@ WaypointBatch batchDecisions(
   in.prev = torch::zeros({T, B, 2});
   in.not_done = torch::zeros({T, B});
   batch.labels = torch::full({T, B}, -1, torch::kLong);
+  batch.acceptable = torch::zeros({T, B, K + 1}, torch::kBool);
   auto polar = in.candidates.accessor<float, 4>();
   auto mask = in.candidate_mask.accessor<bool, 3>();
   auto prev = in.prev.accessor<float, 3>();
   auto notDone = in.not_done.accessor<float, 2>();
   auto labels = batch.labels.accessor<int64_t, 2>();
+  auto accepted = batch.acceptable.accessor<bool, 3>();
   for (int64_t b = 0; b < B; ++b) {
     const auto& decisions = *episodes[static_cast<size_t>(b)];
     for (int64_t t = 0; t < static_cast<int64_t>(decisions.size()); ++t) {
@@ -379,6 +386,14 @@ WaypointBatch batchDecisions(
       prev[t][b][1] = d.prev_distance;
       notDone[t][b] = t > 0 ? 1.0f : 0.0f;
       labels[t][b] = d.label;
+      VLN_CHECK_ARG(d.label >= 0 && d.label <= K &&
+                        (K + 1 >= 32 || d.acceptable >> (K + 1) == 0),
+                    "batchDecisions(): label ", d.label,
+                    " or accepted choices ", d.acceptable, " outside ", K + 1,
+                    " choices");
+      accepted[t][b][d.label] = true;
+      for (int64_t c = 0; c < std::min<int64_t>(K + 1, 32); ++c)
+        if ((d.acceptable >> c) & 1u) accepted[t][b][c] = true;
     }
   }
   return batch;

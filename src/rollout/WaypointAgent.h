@@ -52,6 +52,10 @@ struct WaypointDecision {
   float prev_heading = 0.0f;   ///< the previous decision's candidate
   float prev_distance = 0.0f;  ///< (0 at the first decision)
   int label = 0;               ///< oracle: 0 STOP, j + 1 candidate j
+  /// The choices the loss accepts, as bits in the label's coding
+  /// (waypoint::acceptableChoices() with waypoint_agent.label_tolerance);
+  /// 0 means the label alone.
+  uint32_t acceptable = 0;
   int taken = 0;               ///< what the agent did, same coding
   /// Where the agent stood (world frame, metres), e.g. to tell which leg of
   /// the reference path it was about to walk (data::upcomingLeg()).
@@ -127,10 +131,13 @@ class WaypointAgent : public Agent {
 /// one training batch: WaypointPolicyInputs [T, B, ...] with T the longest
 /// episode and K = `maxCandidates` slots, padded after each episode's end
 /// (not_done 0, no candidates), features as float; labels [T, B] int64
-/// with -1 on the padding.
+/// with -1 on the padding; acceptable [T, B, K + 1] bool, the choices the
+/// loss accepts (the label alone where a decision's `acceptable` is 0;
+/// none on the padding).
 struct WaypointBatch {
   models::WaypointPolicyInputs inputs;
   at::Tensor labels;
+  at::Tensor acceptable;
 };
 WaypointBatch batchDecisions(
     std::span<const std::vector<WaypointDecision>* const> episodes,

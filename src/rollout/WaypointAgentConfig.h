@@ -46,6 +46,12 @@ struct WaypointAgentConfig {
   /// (data/SubInstructions.h). 0: off (0.5 and 2 measured and not
   /// adopted: docs/results.md, "Sub-instruction attention ...").
   double sub_instruction_weight = 0.0;
+  /// Training only: the loss accepts every candidate whose execution ends
+  /// at most this many metres farther from the oracle's target than the
+  /// oracle's choice (waypoint::acceptableChoices()): -log of the
+  /// probability of the accepted set instead of the label's. 0: the label
+  /// alone (cross-entropy).
+  double label_tolerance = 0.0;
   waypoint::ApproachConfig approach;
   waypoint::DepthBaselineConfig depth_baseline;
 
@@ -91,6 +97,12 @@ struct WaypointAgentConfig {
             "of every training split, which vlnce-data generate writes); 0 "
             "turns it off",
             common::inRange(0.0, 100.0));
+    v.field("label_tolerance", label_tolerance,
+            "Training only: the loss accepts, besides the oracle's choice, "
+            "every candidate whose execution ends at most this many metres "
+            "farther from the oracle's target (-log of the accepted set's "
+            "probability); 0: the oracle's choice alone",
+            common::inRange(0.0, 10.0));
     v.section("approach", approach,
               "Executing a waypoint and the oracle's stopping rule");
     v.section("depth_baseline", depth_baseline,

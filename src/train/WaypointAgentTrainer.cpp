@@ -112,6 +112,34 @@ MirrorTokens mirrorTokensOf(const ExperimentConfig& config,
 
 }  // namespace
 
+torch::Tensor acceptedSetLoss(const torch::Tensor& logits,
+                              const torch::Tensor& labels,
+                              const torch::Tensor& acceptable) {
+  VLN_CHECK_ARG(logits.dim() == 2 && labels.dim() == 1 &&
+                    acceptable.sizes() == logits.sizes() &&
+                    labels.size(0) == logits.size(0),
+                "acceptedSetLoss(): logits [D, C], labels [D] and acceptable "
+                "[D, C] expected, got ",
+                logits.sizes(), ", ", labels.sizes(), " and ",
+                acceptable.sizes());
+  const torch::Tensor valid = labels.ge(0);
+  if (!valid.any().item<bool>()) return logits.sum() * 0.0;
+  // the label alone everywhere: the cross-entropy itself, so that runs
+  // without waypoint_agent.label_tolerance train the same bits as before
+  if (acceptable.sum(1).le(1).all().item<bool>())
+    return torch::nn::functional::cross_entropy(
+        logits, labels,
+        torch::nn::functional::CrossEntropyFuncOptions().ignore_index(-1));
+  const torch::Tensor rows = logits.index({valid});
+  const torch::Tensor accepted = acceptable.index({valid});
+  const torch::Tensor all = torch::logsumexp(rows, 1);
+  const torch::Tensor kept = torch::logsumexp(
+      rows.masked_fill(accepted.logical_not(),
+                       -std::numeric_limits<float>::infinity()),
+      1);
+  return (all - kept).mean();
+}
+
 torch::Tensor instructionContrastLoss(
     models::WaypointCmaPolicyImpl& policy,
     const models::WaypointPolicyInputs& inputs, const torch::Tensor& logits,
@@ -235,6 +263,12 @@ void validateWaypointAgentConfig(const ExperimentConfig& config) {
                 ": waypoint_agent.mirror_probability and "
                 "trainer.instruction_contrast_weight cannot be combined (the "
                 "contrast would read the unmirrored words)");
+  VLN_CHECK_ARG(config.waypoint_agent.label_tolerance == 0.0 ||
+                    config.waypoint_agent.max_candidates <= 31,
+                kTask,
+                ": waypoint_agent.label_tolerance needs max_candidates <= 31 "
+                "(got ",
+                config.waypoint_agent.max_candidates, ")");
   if (config.waypoint_agent.candidates == "predictor") {
     config.waypoint.predictor.validate("waypoint.predictor");
     VLN_CHECK_ARG(!config.waypoint_agent.predictor_weights.empty(), kTask,
@@ -436,7 +470,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       std::iota(order.begin(), order.end(), size_t{0});
       common::deterministicShuffle(order, orderRng);
       double lossSum = 0.0, contrastSum = 0.0, subInstructionSum = 0.0;
-      int64_t correct = 0, labelled = 0, batches = 0;
+      int64_t correct = 0, acceptedHits = 0, labelled = 0, batches = 0;
       // the first decision of each episode, where the instruction's opening
       // ("turn left ...") is all that tells the candidates apart
       int64_t firstCorrect = 0, firstLabelled = 0;
@@ -483,9 +517,9 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
             instruction, in,
             policy->initialHidden(static_cast<int64_t>(rows.size())));
         const torch::Tensor logits = out.logits.reshape({labels.size(0), -1});
-        torch::Tensor loss = torch::nn::functional::cross_entropy(
-            logits, labels,
-            torch::nn::functional::CrossEntropyFuncOptions().ignore_index(-1));
+        const torch::Tensor acceptable =
+            batch.acceptable.to(device).reshape({labels.size(0), -1});
+        torch::Tensor loss = acceptedSetLoss(logits, labels, acceptable);
         if (tc.instruction_contrast_weight > 0.0 && rows.size() > 1) {
           const torch::Tensor contrast = instructionContrastLoss(
               *policy, in, logits, labels, instructions,
@@ -514,6 +548,11 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
           const torch::Tensor hits =
               logits.argmax(1).eq(labels).logical_and(valid);
           correct += hits.sum().item<int64_t>();
+          acceptedHits += acceptable.gather(1, logits.argmax(1, true))
+                              .squeeze(1)
+                              .logical_and(valid)
+                              .sum()
+                              .item<int64_t>();
           labelled += valid.sum().item<int64_t>();
           // labels are [T, B] flattened: t = 0 is the first B entries
           const auto B = static_cast<int64_t>(rows.size());
@@ -534,16 +573,19 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
           batches > 0 ? subInstructionSum / batches : 0.0;
       const double accuracy =
           labelled > 0 ? static_cast<double>(correct) / labelled : 0.0;
+      const double acceptedAccuracy =
+          labelled > 0 ? static_cast<double>(acceptedHits) / labelled : 0.0;
       const double firstAccuracy =
           firstLabelled > 0 ? static_cast<double>(firstCorrect) / firstLabelled
                             : 0.0;
       spdlog::info(
           "{}: iteration {} epoch {}: {} updates, loss {:.4f} (instruction "
           "contrast {:.4f}, sub-instruction {:.4f}), label accuracy {:.3f} "
-          "over {} decisions ({:.3f} at the first decision), {:.1f} s",
+          "over {} decisions ({:.3f} at the first decision, {:.3f} an "
+          "accepted choice), {:.1f} s",
           kTask, iteration.iteration, epoch.epoch, batches, meanLoss,
           meanContrast, meanSubInstruction, accuracy, labelled, firstAccuracy,
-          epochClock.seconds());
+          acceptedAccuracy, epochClock.seconds());
       metrics.write("epoch",
                     {{"iteration", iteration.iteration},
                      {"epoch", epoch.epoch},
@@ -552,6 +594,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                      {"sub_instruction", meanSubInstruction},
                      {"accuracy", accuracy},
                      {"first_decision_accuracy", firstAccuracy},
+                     {"accepted_accuracy", acceptedAccuracy},
                      {"lr", schedule.learningRate(iteration.iteration)},
                      {"updates", progress.updates},
                      {"seconds", epochClock.seconds()}},

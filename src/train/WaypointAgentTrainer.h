@@ -85,6 +85,17 @@ std::unique_ptr<rollout::WaypointAgent> makeWaypointAgent(
     const ExperimentConfig& config, const WaypointAgentModels& models,
     int numEnvs, bool sampleActions, uint64_t seed);
 
+/// The imitation loss over accepted sets: with `logits` [D, C], `labels`
+/// [D] (-1 where unlabelled, such decisions are left out) and `acceptable`
+/// [D, C] bool (every labelled row holds its label), -log of the
+/// probability the policy gives the row's accepted choices, averaged over
+/// the labelled rows. Where every row accepts its label alone this is the
+/// cross-entropy (computed as such). A differentiable 0 when no row is
+/// labelled.
+torch::Tensor acceptedSetLoss(const torch::Tensor& logits,
+                              const torch::Tensor& labels,
+                              const torch::Tensor& acceptable);
+
 /// The instruction-contrast loss of one batch: its decisions (`inputs`,
 /// [T, B] as forwardSequence() takes them) replayed with each episode's
 /// instruction swapped for the next one's in `instructions` (B episodes,

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <limits>
 
+#include "common/Check.h"
 #include "sim/NavMesh.h"
 
 namespace vln::waypoint {
@@ -61,29 +62,60 @@ sim::AgentState executionEnd(const sim::NavMesh& navmesh,
   return planApproach(navmesh, agent, start, heading, distance, config).end;
 }
 
-int oracleChoice(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
-                 const sim::AgentState& state,
-                 std::span<const Candidate> candidates, const Vec3f& goal,
-                 const ApproachConfig& config, Execution execution) {
+OracleVerdict oracleVerdict(const sim::NavMesh& navmesh,
+                            const sim::AgentConfig& agent,
+                            const sim::AgentState& state,
+                            std::span<const Candidate> candidates,
+                            const Vec3f& goal, const ApproachConfig& config,
+                            Execution execution) {
+  OracleVerdict verdict;
   const float here = navmesh.geodesicDistance(state.position, goal);
-  if (here <= config.stop_distance) return -1;
-  int best = -1;
+  if (here <= config.stop_distance) return verdict;
   float bestDistance = std::numeric_limits<float>::infinity();
   for (size_t i = 0; i < candidates.size(); ++i) {
     const sim::AgentState end =
         executionEnd(navmesh, agent, state, candidates[i].heading,
                      candidates[i].distance, config, execution);
     const float d = navmesh.geodesicDistance(end.position, goal);
+    verdict.end_distances.push_back(d);
     if (d < bestDistance) {
       bestDistance = d;
-      best = static_cast<int>(i);
+      verdict.choice = static_cast<int>(i);
     }
   }
-  if (best < 0 || !std::isfinite(bestDistance)) return -1;
+  if (verdict.choice < 0 || !std::isfinite(bestDistance)) {
+    verdict.choice = -1;
+    return verdict;
+  }
   if (here <= config.success_distance &&
       bestDistance > here - config.min_progress)
-    return -1;
-  return best;
+    verdict.choice = -1;
+  return verdict;
+}
+
+uint32_t acceptableChoices(const OracleVerdict& verdict, float tolerance) {
+  VLN_CHECK_ARG(std::isfinite(tolerance) && tolerance >= 0.0f,
+                "acceptableChoices(): tolerance must be finite and >= 0, got ",
+                tolerance);
+  VLN_CHECK_ARG(verdict.end_distances.size() < 32,
+                "acceptableChoices(): ", verdict.end_distances.size(),
+                " candidates do not fit 32 bits with STOP");
+  if (verdict.choice < 0) return 1u;
+  const float limit =
+      verdict.end_distances.at(static_cast<size_t>(verdict.choice)) + tolerance;
+  uint32_t bits = 1u << (verdict.choice + 1);
+  for (size_t j = 0; j < verdict.end_distances.size(); ++j)
+    if (verdict.end_distances[j] <= limit) bits |= 1u << (j + 1);
+  return bits;
+}
+
+int oracleChoice(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
+                 const sim::AgentState& state,
+                 std::span<const Candidate> candidates, const Vec3f& goal,
+                 const ApproachConfig& config, Execution execution) {
+  return oracleVerdict(navmesh, agent, state, candidates, goal, config,
+                       execution)
+      .choice;
 }
 
 }  // namespace vln::waypoint

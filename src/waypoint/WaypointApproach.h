@@ -15,6 +15,7 @@
 // the agent will live through (up to the episode's step limit).
 // Heading convention: waypoint/WaypointHeatmap.h.
 
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -107,13 +108,40 @@ sim::AgentState executionEnd(const sim::NavMesh& navmesh,
                              float distance, const ApproachConfig& config,
                              Execution execution);
 
-/// The oracle's choice among `candidates` for an agent at `state` heading
-/// for `goal` (world frame): -1 for STOP, else the index of the candidate
-/// whose execution (executionEnd() under `execution`) ends at the smallest
-/// geodesic distance to the goal. STOP when the agent is within
-/// config.stop_distance, or within config.success_distance and no candidate
-/// ends config.min_progress closer, or when there is no candidate (or none
-/// reaches the goal's island) at all.
+/// The oracle's choice among `candidates` and what it was chosen from.
+struct OracleVerdict {
+  /// -1 for STOP, else the index of the chosen candidate.
+  int choice = -1;
+  /// Per candidate, the geodesic distance (m) from where its execution ends
+  /// to the goal (infinity where that end cannot reach the goal); empty
+  /// when the agent was within stop_distance and nothing was planned.
+  std::vector<float> end_distances;
+};
+
+/// The oracle's verdict for an agent at `state` heading for `goal` (world
+/// frame): the candidate whose execution (executionEnd() under `execution`)
+/// ends at the smallest geodesic distance to the goal. STOP (-1) when the
+/// agent is within config.stop_distance, or within config.success_distance
+/// and no candidate ends config.min_progress closer, or when there is no
+/// candidate (or none reaches the goal's island) at all.
+OracleVerdict oracleVerdict(const sim::NavMesh& navmesh,
+                            const sim::AgentConfig& agent,
+                            const sim::AgentState& state,
+                            std::span<const Candidate> candidates,
+                            const Vec3f& goal, const ApproachConfig& config,
+                            Execution execution = Execution::kWalk);
+
+/// The choices as good as the verdict's within `tolerance` metres, as bits
+/// in the policy's coding (bit 0 STOP, bit j + 1 candidate j): the chosen
+/// one, and with tolerance > 0 every candidate whose execution ends at most
+/// `tolerance` farther from the goal than the chosen one's. A STOP verdict
+/// accepts STOP alone. Two candidates that end 0.1 m apart are the same
+/// choice for the task; a label that insists on one of them asks the
+/// policy to learn the oracle's tie-break. Throws std::invalid_argument for
+/// a negative or non-finite tolerance or more than 31 candidates.
+uint32_t acceptableChoices(const OracleVerdict& verdict, float tolerance);
+
+/// oracleVerdict(...).choice.
 int oracleChoice(const sim::NavMesh& navmesh, const sim::AgentConfig& agent,
                  const sim::AgentState& state,
                  std::span<const Candidate> candidates, const Vec3f& goal,

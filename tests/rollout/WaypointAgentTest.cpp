@@ -311,6 +311,34 @@ TEST(WaypointAgentTest, DecisionsBatchIntoPaddedSequences) {
                   waypoint::binDistance(1));
   EXPECT_FLOAT_EQ(batch.inputs.depth[1][0][5][1].item<float>(), 2.0f);
   EXPECT_FLOAT_EQ(batch.inputs.depth[1][1][5][1].item<float>(), 0.0f);
+  // without accepted choices, the label alone; none on the padding
+  EXPECT_TRUE(torch::equal(batch.acceptable,
+                           torch::tensor({0, 1, 0, 0, 0, 0, 1, 0, 0, 0,
+                                          1, 0, 0, 0, 0, 0, 0, 0, 0, 0},
+                                         torch::kBool)
+                               .view({2, 2, 5})));
+}
+
+TEST(WaypointAgentTest, AcceptedChoicesBatchAsMasks) {
+  WaypointDecision d;
+  d.depth = torch::ones({12, 2}, torch::kHalf);
+  for (int j = 0; j < 3; ++j)
+    d.candidates.push_back(waypoint::candidateAt(10 * j, j, 1.0f));
+  d.label = 1;
+  d.acceptable = 0b1010u;  // candidates 0 and 2
+  const std::vector<WaypointDecision> a = {d};
+  const std::vector<const std::vector<WaypointDecision>*> rows = {&a};
+  EXPECT_TRUE(
+      torch::equal(batchDecisions(rows, 3).acceptable,
+                   torch::tensor({0, 1, 0, 1}, torch::kBool).view({1, 1, 4})));
+  // a bit beyond the slots is refused, as is a label beyond them
+  std::vector<WaypointDecision> bad = {d};
+  bad[0].acceptable = 1u << 5;
+  const std::vector<const std::vector<WaypointDecision>*> badRows = {&bad};
+  EXPECT_THROW(batchDecisions(badRows, 3), std::invalid_argument);
+  bad[0].acceptable = 0;
+  bad[0].label = 4;
+  EXPECT_THROW(batchDecisions(badRows, 3), std::invalid_argument);
 }
 
 // the mirror image of a panorama: view k looks k * 30 degrees to the left,

@@ -6,12 +6,16 @@
 // acts as the checkpoint does; --resume and bad configs are refused with the
 // key named; waypoint_agent.execution teleport trains and evaluates;
 // mirrored replays (waypoint_agent.mirror_probability) and the
-// sub-instruction loss (waypoint_agent.sub_instruction_weight) train.
+// sub-instruction loss (waypoint_agent.sub_instruction_weight) train, and
+// so does a label tolerance (acceptedSetLoss()).
 
 #include "train/WaypointAgentTrainer.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
 
 #include <torch/script.h>
 
@@ -62,7 +66,35 @@ class WaypointAgentTrainerTest : public test::TinyWorldBinaryTest {
     models::saveModule(*predictor, dir_ / "predictor.pt");
     return yaml;
   }
+
+  // one teacher-forcing round of `config` with `sets` (" --set k=v" ...)
+  // into `out`: its only checkpoint, and the train binary's output
+  Checkpoint trainOnce(const fs::path& config, const std::string& sets,
+                       const fs::path& out, std::string* log = nullptr) {
+    std::string output;
+    EXPECT_EQ(vln::test::runCommand(
+                  binary("train") + " --config " + config.string() +
+                      " --set trainer.dagger_iterations=1"
+                      " --set trainer.eval_during_training=false" +
+                      sets + " --set output.dir=" + out.string() + " 2>&1",
+                  &output),
+              0)
+        << output;
+    if (log != nullptr) *log = output;
+    const auto checkpoints = listCheckpoints(out / "checkpoints");
+    EXPECT_EQ(checkpoints.size(), 1u) << output;
+    return checkpoints.empty() ? Checkpoint{}
+                               : loadCheckpoint(checkpoints.back());
+  }
 };
+
+// whether two checkpoints' policies differ in any weight
+bool policiesDiffer(const Checkpoint& a, const Checkpoint& b) {
+  EXPECT_EQ(a.policy.size(), b.policy.size());
+  for (size_t i = 0; i < std::min(a.policy.size(), b.policy.size()); ++i)
+    if (!torch::equal(a.policy[i].second, b.policy[i].second)) return true;
+  return false;
+}
 
 // The TorchScript archive `file` gives the logits and recurrent state of
 // `checkpoint`'s policy (with the run's frozen encoders) on a random
@@ -412,6 +444,17 @@ TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("waypoint_agent.mirror_probability"));
   }
+  // accepted choices are bits of a 32-bit word
+  c = good;
+  c.waypoint_agent.label_tolerance = 0.5;
+  EXPECT_NO_THROW(validateWaypointAgentConfig(c));
+  c.waypoint_agent.max_candidates = 40;
+  try {
+    validateWaypointAgentConfig(c);
+    ADD_FAILURE() << "40 candidates with a label tolerance";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("waypoint_agent.label_tolerance"));
+  }
   // the sub-instruction loss needs an instruction
   c = good;
   c.waypoint_agent.sub_instruction_weight = 1.0;
@@ -441,6 +484,50 @@ TEST_F(WaypointAgentTrainerTest, BadConfigsNameTheKey) {
   } catch (const std::invalid_argument& e) {
     EXPECT_THAT(e.what(), HasSubstr("trainer.instruction_contrast_weight"));
   }
+}
+
+// acceptedSetLoss(): the cross-entropy when every row accepts its label
+// alone, -log of the accepted choices' probability otherwise, unlabelled
+// rows left out
+TEST(AcceptedSetLossTest, IsMinusLogTheAcceptedProbability) {
+  torch::manual_seed(3);
+  const torch::Tensor logits = torch::randn({4, 3}, torch::requires_grad());
+  const torch::Tensor labels = torch::tensor({0, 2, -1, 1}, torch::kLong);
+  torch::Tensor acceptable = torch::zeros({4, 3}, torch::kBool);
+  for (int64_t i : {0, 1, 3}) acceptable[i][labels[i].item<int64_t>()] = true;
+  EXPECT_TRUE(torch::equal(
+      acceptedSetLoss(logits, labels, acceptable),
+      torch::nn::functional::cross_entropy(
+          logits, labels,
+          torch::nn::functional::CrossEntropyFuncOptions().ignore_index(-1))));
+
+  // row 0 also accepts choice 1, row 3 accepts everything
+  acceptable[0][1] = true;
+  acceptable[3].fill_(true);
+  const torch::Tensor loss = acceptedSetLoss(logits, labels, acceptable);
+  const torch::Tensor p = torch::softmax(logits.detach(), 1);
+  const double expected =
+      (-std::log(p[0][0].item<double>() + p[0][1].item<double>()) -
+       std::log(p[1][2].item<double>()) + 0.0) /
+      3.0;
+  EXPECT_NEAR(loss.item<double>(), expected, 1e-5);
+  loss.backward();
+  // the row that accepts every choice, and the unlabelled one, pull nothing
+  EXPECT_NEAR(logits.grad()[3].abs().sum().item<double>(), 0.0, 1e-6);
+  EXPECT_EQ(logits.grad()[2].abs().sum().item<double>(), 0.0);
+  EXPECT_GT(logits.grad()[0].abs().sum().item<double>(), 0.0);
+  // row 0 no longer asks to prefer choice 0 over choice 1
+  EXPECT_NEAR(logits.grad()[0][0].item<double>(),
+              logits.grad()[0][1].item<double>() *
+                  (p[0][0].item<double>() / p[0][1].item<double>()),
+              1e-6);
+
+  const torch::Tensor none =
+      acceptedSetLoss(logits, torch::full({4}, -1, torch::kLong), acceptable);
+  EXPECT_EQ(none.item<double>(), 0.0);
+  EXPECT_TRUE(none.requires_grad());
+  EXPECT_THROW(acceptedSetLoss(logits, labels, acceptable.slice(1, 0, 2)),
+               std::invalid_argument);
 }
 
 // instructionContrastLoss() on a tiny policy: ln 2 when every episode of
@@ -609,31 +696,27 @@ TEST_F(WaypointAgentTrainerTest, SubInstructionLossTrainsAndNeedsItsFiles) {
 // collected decisions
 TEST_F(WaypointAgentTrainerTest, MirroredReplaysTrain) {
   const fs::path config = writeConfig("  max_decisions: 6\n");
-  auto trainOnce = [&](const std::string& probability, const fs::path& out) {
-    std::string output;
-    EXPECT_EQ(
-        vln::test::runCommand(binary("train") + " --config " + config.string() +
-                                  " --set trainer.dagger_iterations=1"
-                                  " --set trainer.eval_during_training=false"
-                                  " --set waypoint_agent.mirror_probability=" +
-                                  probability +
-                                  " --set output.dir=" + out.string() + " 2>&1",
-                              &output),
-        0)
-        << output;
-    const auto checkpoints = listCheckpoints(out / "checkpoints");
-    EXPECT_EQ(checkpoints.size(), 1u) << output;
-    return checkpoints.empty() ? Checkpoint{}
-                               : loadCheckpoint(checkpoints.back());
-  };
-  const Checkpoint plain = trainOnce("0", dir_ / "plain");
-  const Checkpoint mirrored = trainOnce("1", dir_ / "mirrored");
-  ASSERT_EQ(plain.policy.size(), mirrored.policy.size());
-  bool differ = false;
-  for (size_t i = 0; i < plain.policy.size(); ++i)
-    differ = differ ||
-             !torch::equal(plain.policy[i].second, mirrored.policy[i].second);
-  EXPECT_TRUE(differ) << "mirroring every replay changed nothing";
+  const std::string mirror = " --set waypoint_agent.mirror_probability=";
+  const Checkpoint plain = trainOnce(config, mirror + "0", dir_ / "plain");
+  const Checkpoint mirrored =
+      trainOnce(config, mirror + "1", dir_ / "mirrored");
+  EXPECT_TRUE(policiesDiffer(plain, mirrored))
+      << "mirroring every replay changed nothing";
+}
+
+// a tolerance that accepts every candidate the oracle did not rank far
+// behind its choice trains other weights than the labels alone, and the
+// log reports how often the policy's choice was an accepted one
+TEST_F(WaypointAgentTrainerTest, LabelToleranceTrains) {
+  const fs::path config = writeConfig("  max_decisions: 6\n");
+  const std::string tolerance = " --set waypoint_agent.label_tolerance=";
+  std::string log;
+  const Checkpoint exact = trainOnce(config, tolerance + "0", dir_ / "exact");
+  const Checkpoint tolerant =
+      trainOnce(config, tolerance + "3", dir_ / "tolerant", &log);
+  EXPECT_TRUE(policiesDiffer(exact, tolerant))
+      << "accepting near-ties changed nothing";
+  EXPECT_THAT(log, HasSubstr("an accepted choice"));
 }
 
 TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {

@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <vector>
 
 #include "sim/NavMesh.h"
 #include "sim/Scene.h"
@@ -101,6 +103,48 @@ TEST_F(WaypointApproachTest, OracleTakesTheCandidateNearestTheGoal) {
   EXPECT_EQ(
       oracleChoice(scene_->navmesh(), agent_, start, candidates, goal, config_),
       1);
+}
+
+// the verdict behind the choice: every candidate's end distance, and the
+// choices within a tolerance of the chosen one's
+TEST_F(WaypointApproachTest, VerdictAcceptsCandidatesWithinTheTolerance) {
+  const sim::AgentState start = at(-1.0f, 2.0f, 0.0f);
+  const Vec3f goal = *scene_->navmesh().snapPoint({-1.0f, 0.0f, -2.5f});
+  const std::vector<Candidate> candidates = {
+      candidateAt(60, 7, 1.0f),  // behind
+      candidateAt(0, 7, 0.5f),   // ahead: towards the goal
+      candidateAt(30, 3, 0.2f),  // left, 1 m
+  };
+  const OracleVerdict verdict = oracleVerdict(scene_->navmesh(), agent_, start,
+                                              candidates, goal, config_);
+  EXPECT_EQ(verdict.choice, oracleChoice(scene_->navmesh(), agent_, start,
+                                         candidates, goal, config_));
+  ASSERT_EQ(verdict.choice, 1);
+  ASSERT_EQ(verdict.end_distances.size(), 3u);
+  const std::vector<float>& d = verdict.end_distances;
+  EXPECT_LT(d[1], d[2]);
+  EXPECT_LT(d[2], d[0]);
+  EXPECT_EQ(acceptableChoices(verdict, 0.0f), 1u << 2);
+  EXPECT_EQ(acceptableChoices(verdict, d[2] - d[1] + 0.01f),
+            (1u << 2) | (1u << 3));
+  EXPECT_EQ(acceptableChoices(verdict, d[0] - d[1] + 0.01f), 0b1110u);
+
+  // STOP accepts STOP alone
+  const OracleVerdict stop =
+      oracleVerdict(scene_->navmesh(), agent_, at(-1.0f, -1.5f, 0.0f),
+                    candidates, goal, config_);
+  EXPECT_EQ(stop.choice, -1);
+  EXPECT_EQ(acceptableChoices(stop, 10.0f), 1u);
+
+  // by hand: unreachable ends are never accepted
+  const float inf = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(acceptableChoices({1, {3.0f, 2.0f, 2.2f, inf}}, 0.25f),
+            (1u << 2) | (1u << 3));
+  EXPECT_THROW(acceptableChoices(verdict, -0.1f), std::invalid_argument);
+  EXPECT_THROW(acceptableChoices(verdict, std::nanf("")),
+               std::invalid_argument);
+  EXPECT_THROW(acceptableChoices({0, std::vector<float>(32, 1.0f)}, 0.5f),
+               std::invalid_argument);
 }
 
 TEST_F(WaypointApproachTest, OracleStopsNearTheGoalOrWithoutProgress) {
