@@ -39,6 +39,18 @@ leg at least 45 degrees to one side, the opening at least 30 degrees to the
 other). The first turn phrase need not describe the first leg (the words
 may open with a room to leave), so the leg column says how well it does.
 
+With --by-decision (waypoint agents whose files carry the goal oracle's
+verdict, "oracle" and "end_distances" in each of "waypoint_choices": eval
+writes them where the goal is known) it reports, per agent and per
+decision k (all runs pooled): how many episodes reached decision k, how
+often the agent's choice there was as good as the oracle's (both STOP, or a
+candidate whose execution ends within --tolerance metres of the oracle's
+choice's end distance to the goal), how often it was the oracle's own
+choice, and in how many episodes the first choice worse than the oracle's
+("the first slip") came at decision k; then how the first slips divide
+into stopping early (STOP where the oracle walks on), walking on (a
+candidate where the oracle STOPs) and a worse candidate.
+
 Reads <dir>/episodes_ckpt_*_<split>.json.gz (eval's per-episode files,
 one per directory: actions, positions, headings, metrics) and the split's
 episodes file (reference paths). Fractions are means over an agent's
@@ -265,6 +277,73 @@ def opening_offered(episode, want, where):
     return False
 
 
+SLIPS = ["stopped early", "walked on", "worse candidate"]
+
+
+def slip(choice, tolerance, where):
+    """None when the choice was as good as the goal oracle's, else its
+    kind (SLIPS); raises for a choice without the oracle's verdict."""
+    if "oracle" not in choice or "end_distances" not in choice:
+        fail(f"{where}: a waypoint choice has no 'oracle' and "
+             "'end_distances' (evaluated without the goal, or by an older "
+             "eval)")
+    chosen, oracle = choice.get("chosen"), choice["oracle"]
+    ends = choice["end_distances"]
+    if not (isinstance(chosen, int) and isinstance(oracle, int) and
+            isinstance(ends, list) and
+            all(d is None or isinstance(d, (int, float)) for d in ends)):
+        fail(f"{where}: a waypoint choice's 'chosen', 'oracle' or "
+             "'end_distances' is malformed")
+    if oracle == -1:
+        return None if chosen == -1 else "walked on"
+    if chosen == -1:
+        return "stopped early"
+    if not (0 <= chosen < len(ends) and 0 <= oracle < len(ends)):
+        fail(f"{where}: a waypoint choice's 'chosen' or 'oracle' is beyond "
+             "its end distances")
+    if ends[chosen] is not None and ends[oracle] is not None and \
+            ends[chosen] <= ends[oracle] + tolerance:
+        return None
+    return "worse candidate"
+
+
+def decision_rows(pattern, split, tolerance):
+    """Per decision index (1-based): episodes reaching it, choices as good
+    as the oracle's, the oracle's own choice, first slips there; and the
+    first slips' kinds, over all runs."""
+    reached, good, exact, first = {}, {}, {}, {}
+    kinds = dict.fromkeys(SLIPS, 0)
+    episodes_seen = 0
+    for file, episodes in result_files.run_episodes(pattern, split, TOOL):
+        for e in episodes:
+            choices = e.get("waypoint_choices")
+            if not isinstance(choices, list) or not choices:
+                fail(f"{file}: episode {e.get('episode_id')} has no "
+                     "waypoint_choices (not a waypoint agent's file)")
+            episodes_seen += 1
+            slipped = False
+            for k, choice in enumerate(choices, start=1):
+                kind = slip(choice, tolerance,
+                            f"{file}: episode {e.get('episode_id')}")
+                reached[k] = reached.get(k, 0) + 1
+                good[k] = good.get(k, 0) + (kind is None)
+                exact[k] = exact.get(k, 0) + (
+                    choice["chosen"] == choice["oracle"])
+                if kind is not None and not slipped:
+                    slipped = True
+                    first[k] = first.get(k, 0) + 1
+                    kinds[kind] += 1
+    rows = [{"decision": k, "reached": reached[k],
+             "as good": good[k] / reached[k],
+             "oracle choice": exact[k] / reached[k],
+             "first slip": first.get(k, 0) / episodes_seen}
+            for k in sorted(reached)]
+    never = 1.0 - sum(first.values()) / episodes_seen
+    slips = sum(kinds.values())
+    return rows, never, {k: (v / slips if slips else float("nan"))
+                         for k, v in kinds.items()}, episodes_seen
+
+
 def agent_rates(pattern, split, refs, radius):
     runs = result_files.run_episodes(pattern, split, TOOL)
     per_run = []
@@ -322,9 +401,57 @@ def main():
     parser.add_argument("--by-first-turn", action="store_true",
                         help="the openings by the instruction's first turn "
                              "phrase instead (see above)")
+    parser.add_argument("--by-decision", action="store_true",
+                        help="waypoint agents' choices against the goal "
+                             "oracle's, decision by decision (see above)")
+    parser.add_argument("--tolerance", type=float, default=0.5,
+                        help="with --by-decision, metres by which a "
+                             "candidate may end farther from the goal than "
+                             "the oracle's and still be as good "
+                             "(default: %(default)s)")
     args = parser.parse_args()
     if not args.radius > 0:
         fail(f"--radius must be positive, got {args.radius}")
+    if not args.tolerance >= 0:
+        fail(f"--tolerance must be >= 0, got {args.tolerance}")
+    if args.by_decision and args.by_first_turn:
+        fail("--by-decision and --by-first-turn are separate reports")
+
+    if args.by_decision:
+        tables = {name: decision_rows(pattern, args.split, args.tolerance)
+                  for name, pattern in args.agent}
+        if args.json:
+            print(json.dumps(
+                {n: {"decisions": [{k: json_value(v) for k, v in r.items()}
+                                   for r in rows],
+                     "never slipped": never,
+                     "first slips": {k: json_value(v)
+                                     for k, v in kinds.items()},
+                     "episodes": count}
+                 for n, (rows, never, kinds, count) in tables.items()},
+                indent=2, sort_keys=True))
+            return
+        print(f"{args.split}: choices against the goal oracle's, by decision "
+              f"(as good: within {args.tolerance:g} m of the oracle's end "
+              "distance; all runs pooled)")
+        print("| agent | decision | reached | as good as the oracle's | "
+              "the oracle's choice | first slip here |")
+        print("| --- | ---: | ---: | ---: | ---: | ---: |")
+        for name, (rows, never, kinds, count) in tables.items():
+            for r in rows:
+                print(f"| {name} | {r['decision']} | {r['reached']} | "
+                      f"{r['as good']:.3f} | {r['oracle choice']:.3f} | "
+                      f"{r['first slip']:.3f} |")
+            print(f"| {name} | never slipped | {count} | | | {never:.3f} |")
+        print()
+        print("| agent | " + " | ".join(f"first slips: {k}" for k in SLIPS)
+              + " |")
+        print("| --- |" + " ---: |" * len(SLIPS))
+        for name, (_, _, kinds, _) in tables.items():
+            print(f"| {name} | " + " | ".join(
+                "-" if math.isnan(kinds[k]) else f"{kinds[k]:.3f}"
+                for k in SLIPS) + " |")
+        return
 
     refs = reference_paths(args.data, args.split)
     if args.by_first_turn:

@@ -65,11 +65,20 @@ struct MetricsOptions {
 
 /// One decision of a waypoint agent (rollout/WaypointAgent.h), for maps:
 /// where the agent stood, its candidate waypoints (world frame, metres) and
-/// the one it chose (-1: STOP).
+/// the one it chose (-1: STOP). Where the episode's goal is known, also the
+/// goal oracle's verdict on the same candidates (waypoint::oracleVerdict()):
+/// its choice and, per candidate, the geodesic distance from where that
+/// candidate's execution ends to the goal (infinity when unreachable; empty
+/// when the oracle planned nothing, within its stop distance).
 struct WaypointChoice {
+  /// `oracle` when the goal was not known (a test split without its
+  /// ground truth).
+  static constexpr int kNoOracle = -2;
   Vec3f position = Vec3f::Zero();
   std::vector<Vec3f> candidates;
   int chosen = -1;
+  int oracle = kNoOracle;
+  std::vector<float> end_distances;
 };
 
 /// One evaluated episode as the evaluator records it.

@@ -3,6 +3,7 @@
 #include "rollout/Metrics.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <string_view>
 
@@ -145,10 +146,20 @@ nlohmann::json episodesToJson(std::span<const EpisodeResult> episodes) {
     // low-level agents' files stay as they were
     if (!r.waypoint_choices.empty()) {
       nlohmann::json choices = nlohmann::json::array();
-      for (const WaypointChoice& c : r.waypoint_choices)
-        choices.push_back({{"position", vecToJson(c.position)},
-                           {"candidates", pointsToJson(c.candidates)},
-                           {"chosen", c.chosen}});
+      for (const WaypointChoice& c : r.waypoint_choices) {
+        nlohmann::json choice = {{"position", vecToJson(c.position)},
+                                 {"candidates", pointsToJson(c.candidates)},
+                                 {"chosen", c.chosen}};
+        if (c.oracle != WaypointChoice::kNoOracle) {
+          choice["oracle"] = c.oracle;
+          nlohmann::json ends = nlohmann::json::array();
+          for (float d : c.end_distances)  // null: the goal is unreachable
+            ends.push_back(std::isfinite(d) ? nlohmann::json(d)
+                                            : nlohmann::json());
+          choice["end_distances"] = std::move(ends);
+        }
+        choices.push_back(std::move(choice));
+      }
       episode["waypoint_choices"] = std::move(choices);
     }
     list.push_back(std::move(episode));
@@ -215,6 +226,31 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
                       at, ".chosen' must be -1 (STOP) or a candidate index "
                       "0..", static_cast<int>(c.candidates.size()) - 1,
                       ", got ", c.chosen);
+        if (choices[k].contains("oracle")) {
+          c.oracle = common::requireField<int>(choices[k], "oracle", at);
+          VLN_CHECK_ARG(c.oracle >= -1 &&
+                            c.oracle < static_cast<int>(c.candidates.size()),
+                        at,
+                        ".oracle' must be -1 (STOP) or a candidate index "
+                        "0..",
+                        static_cast<int>(c.candidates.size()) - 1, ", got ",
+                        c.oracle);
+          const auto ends = common::requireField<nlohmann::json>(
+              choices[k], "end_distances", at);
+          VLN_CHECK_ARG(ends.is_array() && (ends.empty() ||
+                                            ends.size() == c.candidates.size()),
+                        at,
+                        ".end_distances' must be an array of one number "
+                        "(or null) per candidate, or empty");
+          for (const auto& d : ends) {
+            VLN_CHECK_ARG(d.is_null() || d.is_number(), at,
+                          ".end_distances' must hold numbers or null, got ",
+                          d.type_name());
+            c.end_distances.push_back(
+                d.is_null() ? std::numeric_limits<float>::infinity()
+                            : d.get<float>());
+          }
+        }
         r.waypoint_choices.push_back(std::move(c));
       }
     }

@@ -289,6 +289,16 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
       mark.candidates.push_back(
           waypoint::fromPolar(state, c.heading, c.distance));
     mark.chosen = choice - 1;
+    if (!collecting_ && !slot.episode->goals.empty()) {
+      // the goal oracle's view of the same decision, for analyses of where
+      // the agent's choices part from it (what training would label, with
+      // the default oracle); collection has its own labels
+      const waypoint::OracleVerdict verdict = waypoint::oracleVerdict(
+          navmesh, agent_, state, cands, slot.episode->goals.front().position,
+          config_.approach, config_.execution);
+      mark.oracle = verdict.choice;
+      mark.end_distances = verdict.end_distances;
+    }
     slot.choices.push_back(std::move(mark));
     if (choice == 0) {
       slot.queue.push_back(sim::Action::kStop);

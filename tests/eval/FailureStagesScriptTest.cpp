@@ -1,7 +1,8 @@
 // scripts/failure_stages.py: each episode sorted into success, stopped near
 // the goal, or lost in a third of the reference path, and how often the
 // first forward step follows the path's first leg, as means over an agent's
-// runs. Checked on hand-made episodes whose outcomes are worked out by
+// runs; with --by-decision, a waypoint agent's choices against the goal
+// oracle's. Checked on hand-made episodes whose outcomes are worked out by
 // hand, and on the inputs it must refuse. Skipped without /usr/bin/python3.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -230,6 +231,97 @@ TEST(FailureStagesScriptTest, OpeningsByTheFirstTurnPhrase) {
                       &log),
             0);
   EXPECT_THAT(log, HasSubstr("has no instruction.instruction_text"));
+}
+
+// --by-decision: each choice against the goal oracle's verdict, worked out
+// by hand
+TEST(FailureStagesScriptTest, ChoicesAgainstTheOracleByDecision) {
+  if (!vln::test::havePython()) GTEST_SKIP() << "no /usr/bin/python3";
+  vln::test::TempDir dir;
+  const std::vector<std::vector<double>> walked{{0, 0, 0}, {1, 0, 0}};
+  const nlohmann::json candidates = {{1, 0, 0}, {0, 0, 1}};
+  auto decided = [&](int id, const std::vector<nlohmann::json>& choices) {
+    nlohmann::json e = episode(id, 0, 0, walked, kAlongPath, {1, 0});
+    e["waypoint_choices"] = choices;
+    return e;
+  };
+  // chosen, the oracle's choice, the end distances (null: unreachable)
+  auto choice = [&](int chosen, int oracle, nlohmann::json ends) {
+    return nlohmann::json{{"position", {0, 0, 0}},
+                          {"candidates", candidates},
+                          {"chosen", chosen},
+                          {"oracle", oracle},
+                          {"end_distances", ends}};
+  };
+  // 1: the oracle's choice, then a candidate 0.3 m worse (as good), then
+  //    STOP with the oracle: never slips
+  // 2: a candidate 1 m worse at decision 1 (a slip), then the oracle's
+  // 3: the oracle's choice, then STOP where the oracle walks on
+  // 4: walks on where the oracle STOPs, at decision 1
+  writeRun(dir / "w",
+           {decided(1, {choice(0, 0, {2.0, 3.0}), choice(1, 0, {2.0, 2.3}),
+                        choice(-1, -1, nlohmann::json::array())}),
+            decided(2, {choice(1, 0, {2.0, 3.0}), choice(0, 0, {1.0, 3.0})}),
+            decided(3, {choice(0, 0, {2.0, 3.0}), choice(-1, 1, {3.0, 1.0})}),
+            decided(4, {choice(0, -1, {2.0, nullptr})})});
+  std::string log;
+  ASSERT_EQ(runScript("--json --by-decision --split val_unseen --agent W '" +
+                          (dir / "w").string() + "'",
+                      &log),
+            0)
+      << log;
+  const nlohmann::json w = nlohmann::json::parse(log).at("W");
+  EXPECT_EQ(w.at("episodes").get<int>(), 4);
+  const nlohmann::json rows = w.at("decisions");
+  ASSERT_EQ(rows.size(), 3u);
+  EXPECT_EQ(rows[0].at("reached").get<int>(), 4);
+  EXPECT_DOUBLE_EQ(rows[0].at("as good").get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(rows[0].at("oracle choice").get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(rows[0].at("first slip").get<double>(), 0.5);
+  EXPECT_EQ(rows[1].at("reached").get<int>(), 3);
+  EXPECT_NEAR(rows[1].at("as good").get<double>(), 2.0 / 3, 1e-12);
+  EXPECT_NEAR(rows[1].at("oracle choice").get<double>(), 1.0 / 3, 1e-12);
+  EXPECT_DOUBLE_EQ(rows[1].at("first slip").get<double>(), 0.25);
+  EXPECT_DOUBLE_EQ(rows[2].at("as good").get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(w.at("never slipped").get<double>(), 0.25);
+  const nlohmann::json kinds = w.at("first slips");
+  EXPECT_NEAR(kinds.at("worse candidate").get<double>(), 1.0 / 3, 1e-12);
+  EXPECT_NEAR(kinds.at("stopped early").get<double>(), 1.0 / 3, 1e-12);
+  EXPECT_NEAR(kinds.at("walked on").get<double>(), 1.0 / 3, 1e-12);
+  // a tighter tolerance makes episode 1's second choice a slip
+  ASSERT_EQ(runScript("--json --by-decision --tolerance 0.1 --split "
+                      "val_unseen --agent W '" +
+                          (dir / "w").string() + "'",
+                      &log),
+            0)
+      << log;
+  EXPECT_DOUBLE_EQ(
+      nlohmann::json::parse(log).at("W").at("never slipped").get<double>(),
+      0.0);
+  // the table prints too
+  ASSERT_EQ(runScript("--by-decision --split val_unseen --agent W '" +
+                          (dir / "w").string() + "'",
+                      &log),
+            0)
+      << log;
+  EXPECT_THAT(log, HasSubstr("| W | never slipped | 4 | | | 0.250 |"));
+
+  // files without the oracle's verdict (a hidden test split, an older
+  // eval) are named, as is a negative tolerance
+  nlohmann::json old = decided(1, {choice(0, 0, {2.0, 3.0})});
+  old["waypoint_choices"][0].erase("oracle");
+  writeRun(dir / "old", {old});
+  EXPECT_NE(runScript("--by-decision --split val_unseen --agent W '" +
+                          (dir / "old").string() + "'",
+                      &log),
+            0);
+  EXPECT_THAT(log, HasSubstr("has no 'oracle' and 'end_distances'"));
+  EXPECT_NE(runScript("--by-decision --tolerance -1 --split val_unseen "
+                      "--agent W '" +
+                          (dir / "w").string() + "'",
+                      &log),
+            0);
+  EXPECT_THAT(log, HasSubstr("--tolerance must be >= 0"));
 }
 
 TEST(FailureStagesScriptTest, InputsItCannotUseAreNamed) {

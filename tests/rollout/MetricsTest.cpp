@@ -487,18 +487,41 @@ TEST(MetricsTest, EpisodesFileKeepsRxrPitchesAndLookActions) {
 
 TEST(MetricsTest, EpisodesFileKeepsWaypointChoices) {
   EpisodeRecord r = straightEpisode(3, /*stop=*/true);
-  r.waypoint_choices = {{{0, 0, 0}, {{0, 0, -1}, {1, 0, 0}}, 0},
-                        {{0, 0, -1}, {{0, 0, -2}}, -1}};
+  auto choice = [](Vec3f position, std::vector<Vec3f> candidates, int chosen) {
+    WaypointChoice c;
+    c.position = position;
+    c.candidates = std::move(candidates);
+    c.chosen = chosen;
+    return c;
+  };
+  r.waypoint_choices = {choice({0, 0, 0}, {{0, 0, -1}, {1, 0, 0}}, 0),
+                        choice({0, 0, -1}, {{0, 0, -2}}, -1),
+                        choice({0, 0, -2}, {{0, 0, -3}, {1, 0, -2}}, 1)};
+  // the goal oracle's verdict where the goal was known: one end
+  // unreachable; within the stop distance nothing was planned
+  r.waypoint_choices[0].oracle = 0;
+  r.waypoint_choices[0].end_distances = {
+      1.5f, std::numeric_limits<float>::infinity()};
+  r.waypoint_choices[1].oracle = -1;
   const std::vector<EpisodeResult> results = {{r, {}}};
   const nlohmann::json json = episodesToJson(results);
+  const nlohmann::json& written = json["episodes"][0]["waypoint_choices"];
+  EXPECT_TRUE(written[0]["end_distances"][1].is_null());
+  EXPECT_TRUE(written[1]["end_distances"].empty());
+  EXPECT_FALSE(written[2].contains("oracle"));
+  EXPECT_FALSE(written[2].contains("end_distances"));
   const auto back = episodesFromJson(json, "wp.json");
-  ASSERT_EQ(back[0].record.waypoint_choices.size(), 2u);
-  for (size_t k = 0; k < 2; ++k) {
+  ASSERT_EQ(back[0].record.waypoint_choices.size(), 3u);
+  for (size_t k = 0; k < 3; ++k) {
     const WaypointChoice& got = back[0].record.waypoint_choices[k];
     EXPECT_EQ(got.position, r.waypoint_choices[k].position);
     EXPECT_EQ(got.candidates, r.waypoint_choices[k].candidates);
     EXPECT_EQ(got.chosen, r.waypoint_choices[k].chosen);
+    EXPECT_EQ(got.oracle, r.waypoint_choices[k].oracle);
+    EXPECT_EQ(got.end_distances, r.waypoint_choices[k].end_distances);
   }
+  EXPECT_EQ(back[0].record.waypoint_choices[2].oracle,
+            WaypointChoice::kNoOracle);
   // low-level agents' files have no such key
   EXPECT_FALSE(episodesToJson(std::vector<EpisodeResult>{
                                   {straightEpisode(3, true), {}}})["episodes"][0]
@@ -515,6 +538,28 @@ TEST(MetricsTest, EpisodesFileKeepsWaypointChoices) {
   EXPECT_THAT([&] { episodesFromJson(bad, "wp.json"); },
               ::testing::ThrowsMessage<std::invalid_argument>(
                   HasSubstr("'waypoint_choices[0].candidates'")));
+  // so are an oracle beyond the candidates and end distances that do not
+  // match them
+  bad = json;
+  bad["episodes"][0]["waypoint_choices"][0]["oracle"] = 2;
+  EXPECT_THAT([&] { episodesFromJson(bad, "wp.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("'waypoint_choices[0].oracle' must be -1")));
+  bad = json;
+  bad["episodes"][0]["waypoint_choices"][0]["end_distances"] = {1.0};
+  EXPECT_THAT([&] { episodesFromJson(bad, "wp.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("'waypoint_choices[0].end_distances'")));
+  bad = json;
+  bad["episodes"][0]["waypoint_choices"][0]["end_distances"][0] = "far";
+  EXPECT_THAT([&] { episodesFromJson(bad, "wp.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("must hold numbers or null, got string")));
+  bad = json;
+  bad["episodes"][0]["waypoint_choices"][0].erase("end_distances");
+  EXPECT_THAT([&] { episodesFromJson(bad, "wp.json"); },
+              ::testing::ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("end_distances")));
 }
 
 TEST(MetricsTest, EpisodesFileRoundTrips) {

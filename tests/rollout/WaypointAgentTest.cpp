@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "rollout/Evaluator.h"
 #include "rollout/RolloutTestPolicy.h"
 #include "rollout/RolloutTestWorld.h"
@@ -122,6 +124,49 @@ TEST(WaypointAgentTest, BatchingDoesNotChangeAnEpisode) {
     longest = std::max(longest, a.episodes[i].record.actions.size());
   }
   EXPECT_GT(longest, 10u);  // the random policy walks somewhere
+}
+
+// an evaluated decision carries the goal oracle's verdict on the same
+// candidates: its choice is the candidate that ends nearest the goal, a
+// STOP without plans only within its stop distance; without a goal (a
+// hidden test split) there is none
+TEST(WaypointAgentTest, EvaluationRecordsTheGoalOraclesVerdict) {
+  const auto& w = rolloutTestWorld();
+  const TinyWaypointAgent t = tinyWaypointAgent(5);
+  auto agent = makeAgent(t, 2, /*sample=*/true);
+  const EvaluationResult r = run(*agent, w.episodes, 2, 2);
+  size_t candidates = 0;
+  for (size_t i = 0; i < r.episodes.size(); ++i) {
+    const sim::NavMesh& navmesh = w.scene->navmesh();  // one scene
+    const Vec3f goal = w.episodes[i].goals.front().position;
+    for (const WaypointChoice& c : r.episodes[i].record.waypoint_choices) {
+      ASSERT_GE(c.oracle, -1);
+      if (c.end_distances.empty()) {
+        EXPECT_EQ(c.oracle, -1);
+        EXPECT_LE(navmesh.geodesicDistance(c.position, goal),
+                  t.config.approach.stop_distance + 1e-4f);
+        continue;
+      }
+      ASSERT_EQ(c.end_distances.size(), c.candidates.size());
+      candidates += c.candidates.size();
+      if (c.oracle >= 0) {
+        EXPECT_EQ(
+            c.end_distances[static_cast<size_t>(c.oracle)],
+            *std::min_element(c.end_distances.begin(), c.end_distances.end()));
+      }
+    }
+  }
+  EXPECT_GT(candidates, 0u);
+
+  data::Episode hidden = w.episodes.front();
+  hidden.goals.clear();
+  auto blind = makeAgent(t, 1, /*sample=*/true);
+  const EvaluationResult h = run(*blind, {hidden}, 1, 1);
+  ASSERT_FALSE(h.episodes.front().record.waypoint_choices.empty());
+  for (const WaypointChoice& c : h.episodes.front().record.waypoint_choices) {
+    EXPECT_EQ(c.oracle, WaypointChoice::kNoOracle);
+    EXPECT_TRUE(c.end_distances.empty());
+  }
 }
 
 TEST(WaypointAgentTest, StopsAfterMaxDecisions) {
