@@ -219,22 +219,19 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
         c.candidates = pointsFromJson(
             common::requireField<nlohmann::json>(choices[k], "candidates", at),
             at + ".candidates'");
-        c.chosen = common::requireField<int>(choices[k], "chosen", at);
-        // -1: STOP; otherwise an index into the candidates
-        VLN_CHECK_ARG(c.chosen >= -1 &&
-                          c.chosen < static_cast<int>(c.candidates.size()),
-                      at, ".chosen' must be -1 (STOP) or a candidate index "
-                      "0..", static_cast<int>(c.candidates.size()) - 1,
-                      ", got ", c.chosen);
+        // the agent's and the oracle's choices: -1 STOP, otherwise an index
+        // into the candidates
+        const int slots = static_cast<int>(c.candidates.size());
+        auto choiceField = [&](const char* name) {
+          const int choice = common::requireField<int>(choices[k], name, at);
+          VLN_CHECK_ARG(choice >= -1 && choice < slots, at, ".", name,
+                        "' must be -1 (STOP) or a candidate index 0..",
+                        slots - 1, ", got ", choice);
+          return choice;
+        };
+        c.chosen = choiceField("chosen");
         if (choices[k].contains("oracle")) {
-          c.oracle = common::requireField<int>(choices[k], "oracle", at);
-          VLN_CHECK_ARG(c.oracle >= -1 &&
-                            c.oracle < static_cast<int>(c.candidates.size()),
-                        at,
-                        ".oracle' must be -1 (STOP) or a candidate index "
-                        "0..",
-                        static_cast<int>(c.candidates.size()) - 1, ", got ",
-                        c.oracle);
+          c.oracle = choiceField("oracle");
           const auto ends = common::requireField<nlohmann::json>(
               choices[k], "end_distances", at);
           VLN_CHECK_ARG(ends.is_array() && (ends.empty() ||

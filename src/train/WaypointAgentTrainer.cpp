@@ -545,10 +545,10 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
         {
           torch::NoGradGuard noGrad;
           const torch::Tensor valid = labels.ge(0);
-          const torch::Tensor hits =
-              logits.argmax(1).eq(labels).logical_and(valid);
+          const torch::Tensor choices = logits.argmax(1);
+          const torch::Tensor hits = choices.eq(labels).logical_and(valid);
           correct += hits.sum().item<int64_t>();
-          acceptedHits += acceptable.gather(1, logits.argmax(1, true))
+          acceptedHits += acceptable.gather(1, choices.unsqueeze(1))
                               .squeeze(1)
                               .logical_and(valid)
                               .sum()

@@ -83,10 +83,9 @@ OracleVerdict oracleVerdict(const sim::NavMesh& navmesh,
       verdict.choice = static_cast<int>(i);
     }
   }
-  if (verdict.choice < 0 || !std::isfinite(bestDistance)) {
-    verdict.choice = -1;
-    return verdict;
-  }
+  // no candidate, or none ends where the goal can be reached (a chosen one
+  // has a finite distance: nothing is below infinity)
+  if (verdict.choice < 0) return verdict;
   if (here <= config.success_distance &&
       bestDistance > here - config.min_progress)
     verdict.choice = -1;
