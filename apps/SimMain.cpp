@@ -10,7 +10,7 @@
 // The flags win over the config.
 //
 //   vlnce-sim render --scene F --position x,y,z --heading DEG --out DIR
-//       [--backend embree|osmesa] [--width W --height H] [--hfov DEG]
+//       [--backend embree|osmesa|raster] [--width W --height H] [--hfov DEG]
 //       [--camera-height M] [--pitch DEG]
 //     writes DIR/rgb.png (8-bit RGB) and DIR/depth.png: raw z-depth as a
 //     16-bit greyscale PNG in millimetres (0 = nothing hit, saturating at
@@ -133,8 +133,7 @@ void applyConfigDefaults(const SimConfig& config, const CLI::App& command,
                          RenderArgs& args) {
   if (command.count("--config") == 0) return;
   if (command.count("--backend") == 0)
-    args.backend =
-        config.renderer == RendererBackend::kOsMesa ? "osmesa" : "embree";
+    args.backend = std::string(rendererBackendName(config.renderer));
   if (command.count("--width") == 0) args.width = config.rgb.width;
   if (command.count("--height") == 0) args.height = config.rgb.height;
   if (command.count("--hfov") == 0) args.hfov = config.rgb.hfov;
@@ -233,7 +232,8 @@ int main(int argc, char** argv) {
     renderCmd->add_option("--heading", render.heading, "Heading (degrees, 0 = -Z, left positive)")->required();
     renderCmd->add_option("--pitch", render.pitch, "Camera pitch (degrees, up positive)");
     renderCmd->add_option("--out", render.out, "Output directory")->required();
-    renderCmd->add_option("--backend", render.backend, "embree or osmesa");
+    renderCmd->add_option("--backend", render.backend,
+                          "embree, osmesa or raster");
     renderCmd->add_option("--width", render.width, "Image width (pixels)");
     renderCmd->add_option("--height", render.height, "Image height (pixels)");
     renderCmd->add_option("--hfov", render.hfov, "Horizontal field of view (degrees)");
@@ -258,7 +258,8 @@ int main(int argc, char** argv) {
         "--procedural", throughput.procedural, "Procedural house seed");
     sceneOpt->excludes(proceduralOpt);
     benchCmd->add_option("--res", throughput.res, "Square image size (pixels)");
-    benchCmd->add_option("--backend", throughput.backend, "embree or osmesa");
+    benchCmd->add_option("--backend", throughput.backend,
+                         "embree, osmesa or raster");
     benchCmd->add_option("--frames", throughput.frames,
                          "Frames per thread and pass");
     benchCmd->add_option("--threads", throughput.threads,
@@ -282,9 +283,8 @@ int main(int argc, char** argv) {
       return runNavMesh(navmesh, resolveSimConfig(navmeshSim, *navmeshCmd));
     throughput.sim = resolveSimConfig(benchSim, *benchCmd);
     if (benchCmd->count("--config") > 0 && benchCmd->count("--backend") == 0)
-      throughput.backend = throughput.sim.renderer == RendererBackend::kOsMesa
-                               ? "osmesa"
-                               : "embree";
+      throughput.backend =
+          std::string(rendererBackendName(throughput.sim.renderer));
     return bench::runSimThroughput(throughput);
   });
 }

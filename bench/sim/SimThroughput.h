@@ -17,7 +17,7 @@ struct SimThroughputOptions {
   std::string scene;        ///< scene file; or
   int64_t procedural = -1;  ///< procedural house seed (exactly one of both)
   int res = 256;            ///< square image size, pixels
-  std::string backend = "embree";  ///< "embree" or "osmesa"
+  std::string backend = "embree";  ///< "embree", "osmesa" or "raster"
   int frames = 1000;  ///< frames per thread and pass (steps: 20x as many)
   int threads = 1;    ///< renderers (and simulators) in parallel
   int subdivide = 1;  ///< split every triangle into N x N (sim::subdivide)
@@ -31,7 +31,8 @@ struct SimThroughputOptions {
 /// scene's own triangles, the renderers the subdivided ones. Throws
 /// std::invalid_argument naming the option when one is out of range
 /// (--res in [1, 4096], --frames >= 1, --threads in [1, 256], --subdivide
-/// in [1, 64], --backend embree or osmesa) or not exactly one of --scene and
+/// in [1, 64], --backend embree, osmesa or raster) or not exactly one of
+/// --scene and
 /// --procedural is given, and what loading the scene throws.
 int runSimThroughput(const SimThroughputOptions& options);
 

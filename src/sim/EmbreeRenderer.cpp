@@ -15,6 +15,7 @@
 #include "common/Check.h"
 #include "sim/Mesh.h"
 #include "sim/RayTracer.h"
+#include "sim/Shading.h"
 
 namespace vln::sim {
 
@@ -46,158 +47,6 @@ class FlushDenormalsScope {
   unsigned saved_;
 };
 
-// Everything shading needs about one triangle, in one cache line and laid
-// out for 4-wide SSE loads: colour (base colour x vertex colour, in [0, 1])
-// at corner 0 and its changes towards corners 1 and 2, so a hit's colour is
-// c0 + u dc1 + v dc2 with Embree's barycentrics (p = (1-u-v) p0 + u p1 +
-// v p2); the same for uv. The fourth lane of each colour row carries a
-// scalar so the record stays 64 bytes.
-struct alignas(64) TriangleShade {
-  float color0[3];
-  int32_t texture;  // index into TriangleMesh::textures or -1
-  float dcolor1[3];
-  float s0;  // uv at corner 0
-  float dcolor2[3];
-  float t0;
-  float duv[4];  // d(s, t) towards corner 1, then towards corner 2
-};
-static_assert(sizeof(TriangleShade) == 64);
-
-// A texture as the sampler needs it.
-struct TextureView {
-  const uint8_t* rgb = nullptr;
-  int width = 0;
-  int height = 0;
-};
-
-// floor() for |x| < 2^31 without SSE4.1's roundss: the baseline x86-64 build
-// would otherwise call into libm for every texel coordinate
-inline int floorToInt(float x) {
-  const int i = static_cast<int>(x);
-  return i - (x < static_cast<float>(i) ? 1 : 0);
-}
-
-// The shading table of `mesh` (see TriangleShade).
-std::vector<TriangleShade> buildShadeTable(const TriangleMesh& mesh) {
-  std::vector<TriangleShade> table(mesh.triangleCount());
-  for (size_t t = 0; t < table.size(); ++t) {
-    const uint32_t* corner = mesh.indices.data() + 3 * t;
-    std::array<float, 3> base{1.0f, 1.0f, 1.0f};
-    int texture = -1;
-    const int material = mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
-    if (material >= 0) {
-      base = mesh.materials[static_cast<size_t>(material)].base_color;
-      texture = mesh.materials[static_cast<size_t>(material)].texture;
-    }
-    float color[3][3];
-    for (int k = 0; k < 3; ++k) {
-      for (int c = 0; c < 3; ++c) {
-        const float vertex = mesh.colors.empty()
-                                 ? 1.0f
-                                 : mesh.colors[corner[k]][c] * (1.0f / 255.0f);
-        color[k][c] = base[c] * vertex;
-      }
-    }
-    TriangleShade& shade = table[t];
-    for (int c = 0; c < 3; ++c) {
-      shade.color0[c] = color[0][c];
-      shade.dcolor1[c] = color[1][c] - color[0][c];
-      shade.dcolor2[c] = color[2][c] - color[0][c];
-    }
-    shade.texture = texture;
-    Vec2f uv[3] = {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()};
-    if (!mesh.uvs.empty())
-      for (int k = 0; k < 3; ++k) uv[k] = mesh.uvs[corner[k]];
-    shade.s0 = uv[0].x();
-    shade.t0 = uv[0].y();
-    shade.duv[0] = uv[1].x() - uv[0].x();
-    shade.duv[1] = uv[1].y() - uv[0].y();
-    shade.duv[2] = uv[2].x() - uv[0].x();
-    shade.duv[3] = uv[2].y() - uv[0].y();
-  }
-  return table;
-}
-
-// The portable path computes exactly what the AVX-512 path below computes,
-// operation for operation: each multiply-add that path fuses is a
-// std::fma here (one rounding), in the same order, and the clamps keep its
-// NaN rules. So a CPU without AVX-512 renders the same bits as one with it,
-// and runs on either machine train the same weights (docs/reliability.md,
-// "Across machines"). Built twice (target_clones): with FMA instructions for
-// every AVX2 CPU, and for the baseline, where std::fma is libm's correctly
-// rounded fmaf, slower and equal.
-#define VLN_PORTABLE_FMA __attribute__((target_clones("fma", "default")))
-
-// GL's float-to-unorm conversion as the packet path does it: max(c, 0) and
-// min(c, 1) with SSE's rules (a NaN becomes 0), scale, round to nearest.
-inline uint32_t unormByte(float c) {
-  c = c > 0.0f ? c : 0.0f;
-  c = c < 1.0f ? c : 1.0f;
-  return static_cast<uint32_t>(static_cast<int32_t>(std::fma(c, 255.0f, 0.5f)));
-}
-
-// Colour of one hit as r | g << 8 | b << 16: base colour x vertex colour x
-// texture, interpolated with the hit's barycentrics; the texture is sampled
-// bilinearly with wrap, as GL_LINEAR + GL_REPEAT without mipmaps (texel
-// centres at (i + 0.5) / size, row 0 at v = 0, the rows uploaded in the same
-// order by the rasteriser).
-VLN_PORTABLE_FMA uint32_t
-shadePortable(const TriangleShade& t, float u, float v,
-              const std::vector<TextureView>& textures) {
-  float color[3];
-  for (int c = 0; c < 3; ++c)
-    color[c] =
-        std::fma(v, t.dcolor2[c], std::fma(u, t.dcolor1[c], t.color0[c]));
-  if (t.texture >= 0) {
-    const TextureView& texture = textures[static_cast<size_t>(t.texture)];
-    float s = std::fma(v, t.duv[2], std::fma(u, t.duv[0], t.s0));
-    float r = std::fma(v, t.duv[3], std::fma(u, t.duv[1], t.t0));
-    // non-finite or absurd coordinates sample texel row/column 0; then
-    // wrapped into [0, 1), the lower texel is in [-1, size - 1] and the
-    // upper in [0, size]: one comparison each wraps them
-    if (!(std::abs(s) < 1e6f)) s = 0.0f;
-    if (!(std::abs(r) < 1e6f)) r = 0.0f;
-    s -= static_cast<float>(floorToInt(s));
-    r -= static_cast<float>(floorToInt(r));
-    const int width = texture.width;
-    const int height = texture.height;
-    const float x = std::fma(s, static_cast<float>(width), -0.5f);
-    const float y = std::fma(r, static_cast<float>(height), -0.5f);
-    int x0 = floorToInt(x);
-    int y0 = floorToInt(y);
-    const float fx = x - static_cast<float>(x0);
-    const float fy = y - static_cast<float>(y0);
-    int x1 = x0 + 1;
-    int y1 = y0 + 1;
-    if (x0 < 0) x0 += width;
-    if (y0 < 0) y0 += height;
-    if (x1 >= width) x1 -= width;
-    if (y1 >= height) y1 -= height;
-    const ptrdiff_t stride = static_cast<ptrdiff_t>(width) * 3;
-    const uint8_t* t00 = texture.rgb + y0 * stride + 3 * x0;
-    const uint8_t* t10 = texture.rgb + y0 * stride + 3 * x1;
-    const uint8_t* t01 = texture.rgb + y1 * stride + 3 * x0;
-    const uint8_t* t11 = texture.rgb + y1 * stride + 3 * x1;
-    constexpr float kInv255 = 1.0f / 255.0f;
-    const float gx = 1.0f - fx;
-    const float gy = 1.0f - fy;
-    const float w00 = gx * gy * kInv255;
-    const float w10 = fx * gy * kInv255;
-    const float w01 = gx * fy * kInv255;
-    const float w11 = fx * fy * kInv255;
-    for (int c = 0; c < 3; ++c) {
-      const float sample =
-          std::fma(w11, static_cast<float>(t11[c]),
-                   std::fma(w01, static_cast<float>(t01[c]),
-                            std::fma(w10, static_cast<float>(t10[c]),
-                                     w00 * static_cast<float>(t00[c]))));
-      color[c] = color[c] * sample;
-    }
-  }
-  return unormByte(color[0]) | unormByte(color[1]) << 8 |
-         unormByte(color[2]) << 16;
-}
-
 // Directions of the 16 primary rays of a 4x4 tile, reset tfar and hit, and
 // the valid mask, as setupPacketAvx512() computes them (direction = x *
 // right + (y * up - back), two roundings).
@@ -223,40 +72,6 @@ VLN_PORTABLE_FMA void setupPacketPortable(
 // ---------------------------------------------------------------------------
 // AVX-512 shading of a whole packet
 // ---------------------------------------------------------------------------
-
-// All textures in one RGB8 buffer (plus 4 bytes of padding so a 4-byte
-// gather of the last texel stays inside it), addressed by byte offset.
-struct PackedTextures {
-  std::vector<uint8_t> texels;
-  std::vector<int32_t> offset;
-  std::vector<int32_t> width;
-  std::vector<int32_t> height;
-};
-
-// The packed copy of the mesh's textures, or nullopt when they exceed the
-// 32-bit offsets of the gathers.
-std::optional<PackedTextures> packTextures(const TriangleMesh& mesh) {
-  PackedTextures packed;
-  size_t total = 0;
-  for (const Texture& texture : mesh.textures) total += texture.rgb.size();
-  if (total + 4 > static_cast<size_t>(std::numeric_limits<int32_t>::max()))
-    return std::nullopt;
-  packed.texels.reserve(total + 4);
-  for (const Texture& texture : mesh.textures) {
-    packed.offset.push_back(static_cast<int32_t>(packed.texels.size()));
-    packed.width.push_back(texture.width);
-    packed.height.push_back(texture.height);
-    packed.texels.insert(packed.texels.end(), texture.rgb.begin(), texture.rgb.end());
-  }
-  packed.texels.resize(packed.texels.size() + 4, 0);
-  // gathers index these by texture id; keep them non-empty
-  if (packed.offset.empty()) {
-    packed.offset.push_back(0);
-    packed.width.push_back(1);
-    packed.height.push_back(1);
-  }
-  return packed;
-}
 
 bool cpuHasAvx512() {
   __builtin_cpu_init();
@@ -451,14 +266,12 @@ class EmbreeRenderer final : public Renderer {
       : Renderer("EmbreeRenderer", mesh),
         mesh_(mesh),
         scene_(static_cast<RTCScene>(rayTracer.embreeScene())) {
-    for (const Texture& texture : mesh.textures)
-      textures_.push_back({texture.rgb.data(), texture.width, texture.height});
-    // the packet paths need AVX-512F; VLN_EMBREE_SHADING=scalar forces the
-    // portable path, which renders the same bits (tests compare the two)
+    // the packet paths need AVX-512F (shading eight hits at a time, AVX2);
+    // VLN_EMBREE_SHADING=scalar forces the portable paths, which render the
+    // same bits (tests compare them)
     const char* forced = std::getenv("VLN_EMBREE_SHADING");
-    const bool scalarOnly = forced != nullptr && std::string_view(forced) == "scalar";
-    avx512_ = !scalarOnly && cpuHasAvx512();
-    if (avx512_) packedTextures_ = packTextures(mesh);
+    scalarOnly_ = forced != nullptr && std::string_view(forced) == "scalar";
+    avx512_ = !scalarOnly_ && cpuHasAvx512();
   }
 
  private:
@@ -472,13 +285,12 @@ class EmbreeRenderer final : public Renderer {
   const TriangleMesh& mesh_;
   RTCScene scene_;
   // built on the first colour render: depth-only renderers never pay for it
-  std::vector<TriangleShade> shadeTable_;
-  std::vector<TextureView> textures_;
+  std::optional<HitShader> shader_;
   // packet ray setup and shading with AVX-512F (the CPU has it and the
   // scalar path is not forced); shading also needs the textures to fit the
   // gathers' 32-bit offsets
+  bool scalarOnly_ = false;
   bool avx512_ = false;
-  std::optional<PackedTextures> packedTextures_;
   // camera-frame ray slopes per column (x) and row (y) of the last intrinsics
   CameraIntrinsics tableCamera_{0, 0, 0.0f};
   std::vector<float> columnX_;
@@ -508,7 +320,7 @@ void EmbreeRenderer::render(const CameraPose& pose,
                             uint8_t* rgb, float* depth, int32_t* objects) {
   FlushDenormalsScope flushDenormals;
   updateRayTable(camera);
-  if ((outputs & kColor) && shadeTable_.empty()) shadeTable_ = buildShadeTable(mesh_);
+  if ((outputs & kColor) && !shader_) shader_.emplace(mesh_, !scalarOnly_);
   const Eigen::Matrix3f rotation = cameraToWorld(pose);
   const int width = camera.width;
   const int height = camera.height;
@@ -581,16 +393,15 @@ void EmbreeRenderer::render(const CameraPose& pose,
 
 void EmbreeRenderer::shadePacket(const RTCHit16& hits, unsigned hitMask,
                                  uint32_t packed[kPacket]) const {
-  if (packedTextures_) {
-    shadePacketAvx512(shadeTable_.data(), *packedTextures_, hits, hitMask, packed);
+  if (avx512_ && shader_->packedTextures() != nullptr) {
+    shadePacketAvx512(shader_->table().data(), *shader_->packedTextures(), hits,
+                      hitMask, packed);
     return;
   }
-  for (int k = 0; k < kPacket; ++k) {
-    packed[k] = (hitMask >> k) & 1u
-                    ? shadePortable(shadeTable_[hits.primID[k]], hits.u[k],
-                                    hits.v[k], textures_)
-                    : 0u;
-  }
+  // two halves of eight lanes
+  for (int half = 0; half < kPacket; half += 8)
+    shader_->shade8(hits.primID + half, hits.u + half, hits.v + half,
+                    hitMask >> half, packed + half);
 }
 
 }  // namespace

@@ -66,12 +66,14 @@ void PanoramaRenderer::render(const AgentState& agent, Panorama& out) {
   out.depth_height = depth.height;
   out.depth.resize(static_cast<size_t>(views) * depth.width * depth.height);
 
+  nextView_.store(0, std::memory_order_relaxed);
   if (!pool_) {
     renderViews(0, agent, out);
     return;
   }
-  // a static split (thread t renders views t, t+T, ...) keeps each renderer
-  // on one task, whichever worker runs it
+  // one task per renderer, each taking the next view until none is left:
+  // views differ in cost (a wall close by against a whole room), so a fixed
+  // split would leave one thread waiting for the other
   pool_->parallelFor(renderers_.size(),
                      [&](size_t thread) { renderViews(thread, agent, out); });
 }
@@ -85,8 +87,8 @@ void PanoramaRenderer::renderViews(size_t thread, const AgentState& agent,
   const size_t rgbSize = static_cast<size_t>(rgb.width) * rgb.height * 3;
   const size_t depthSize = static_cast<size_t>(depth.width) * depth.height;
   const bool shared = rgb == depth;
-  for (int view = static_cast<int>(thread); view < views;
-       view += static_cast<int>(renderers_.size())) {
+  for (int view = nextView_.fetch_add(1, std::memory_order_relaxed);
+       view < views; view = nextView_.fetch_add(1, std::memory_order_relaxed)) {
     // the camera poses of Simulator::observe() after turning to the view
     const float heading = panoramaViewHeading(agent.heading, view, views);
     const CameraPose rgbPose{agent.position + Vec3f(0.0f, rgb.position_y, 0.0f),

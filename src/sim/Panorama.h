@@ -15,6 +15,7 @@
 // (habitat orientations [0, k*pi/6, 0]); they reverse it to clockwise only
 // inside their predictor.
 
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <string_view>
@@ -116,12 +117,14 @@ class PanoramaRenderer {
   const PanoramaConfig& config() const { return config_; }
 
  private:
-  // renders the views t, t + T, ... with renderer t
+  // renders the views left (taking them one by one from nextView_) with
+  // renderer `thread`
   void renderViews(size_t thread, const AgentState& agent, Panorama& out);
 
   PanoramaConfig config_;
   std::vector<std::unique_ptr<Renderer>> renderers_;
   std::unique_ptr<common::ThreadPool> pool_;  // null with one thread
+  std::atomic<int> nextView_{0};
 };
 
 }  // namespace vln::sim

@@ -16,6 +16,7 @@
 #include "sim/GeometryCheck.h"
 #include "sim/Mesh.h"
 #include "sim/OsMesaRenderer.h"
+#include "sim/RasterRenderer.h"
 #include "sim/RayTracer.h"
 
 namespace vln::sim {
@@ -31,6 +32,8 @@ std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
       return createEmbreeRenderer(mesh, rayTracer);
     case RendererBackend::kOsMesa:
       return createOsMesaRenderer(mesh);
+    case RendererBackend::kRaster:
+      return createRasterRenderer(mesh);
   }
   VLN_ASSERT(false);
   return nullptr;
@@ -91,8 +94,22 @@ RendererBackend parseRendererBackend(std::string_view name,
                                      std::string_view option) {
   if (name == "embree") return RendererBackend::kEmbree;
   if (name == "osmesa") return RendererBackend::kOsMesa;
+  if (name == "raster") return RendererBackend::kRaster;
   throw std::invalid_argument(
-      strCat(option, " must be embree or osmesa, got '", name, "'"));
+      strCat(option, " must be embree, osmesa or raster, got '", name, "'"));
+}
+
+std::string_view rendererBackendName(RendererBackend backend) {
+  switch (backend) {
+    case RendererBackend::kEmbree:
+      return "embree";
+    case RendererBackend::kOsMesa:
+      return "osmesa";
+    case RendererBackend::kRaster:
+      return "raster";
+  }
+  VLN_ASSERT(false);
+  return "";
 }
 
 Eigen::Matrix3f cameraToWorld(const CameraPose& pose) {

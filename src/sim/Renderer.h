@@ -1,8 +1,9 @@
 #pragma once
-// Egocentric RGB-D rendering into caller-owned buffers. Two backends share
+// Egocentric RGB-D rendering into caller-owned buffers. Three backends share
 // this interface and produce matching images: an Embree ray caster
-// (coherent packets) and an OSMesa rasteriser. Materials are unlit: colour =
-// base colour x vertex colour x texture, so both agree exactly on shading.
+// (coherent packets), an OSMesa rasteriser and the project's own CPU
+// rasteriser. Materials are unlit: colour = base colour x vertex colour x
+// texture, so all agree exactly on shading.
 
 #include <cstdint>
 #include <filesystem>
@@ -101,11 +102,14 @@ std::unique_ptr<Renderer> createRenderer(const TriangleMesh& mesh,
                                          const RayTracer& rayTracer,
                                          RendererBackend backend);
 
-/// The backend called `name`: "embree" or "osmesa" (as in SimConfig's
-/// `renderer`). Throws std::invalid_argument naming `option` (e.g. the
-/// command-line flag) and `name` otherwise.
+/// The backend called `name`: "embree", "osmesa" or "raster" (as in
+/// SimConfig's `renderer`). Throws std::invalid_argument naming `option` (e.g.
+/// the command-line flag) and `name` otherwise.
 RendererBackend parseRendererBackend(std::string_view name,
                                      std::string_view option);
+
+/// The name parseRendererBackend() reads as `backend`.
+std::string_view rendererBackendName(RendererBackend backend);
 
 /// Rotation from the camera frame to the world frame for `pose`. The camera
 /// frame is OpenGL's: +X right, +Y up, looking along -Z; pitch is applied

@@ -140,8 +140,9 @@ struct DepthCameraConfig {
   bool operator==(const DepthCameraConfig&) const = default;
 };
 
-/// Rendering backend. Both produce the same images (tested).
-enum class RendererBackend { kEmbree, kOsMesa };
+/// Rendering backend. All produce the same images up to float rounding at
+/// pixel centres on triangle edges (tested).
+enum class RendererBackend { kEmbree, kOsMesa, kRaster };
 
 /// The simulator: scenes, navmesh, agent and sensors.
 struct SimConfig {
@@ -163,8 +164,11 @@ struct SimConfig {
     v.section("depth", depth, "Depth camera");
     v.enumeration("renderer", renderer,
                   {{"embree", RendererBackend::kEmbree},
-                   {"osmesa", RendererBackend::kOsMesa}},
-                  "Rendering backend (both render the same images)");
+                   {"osmesa", RendererBackend::kOsMesa},
+                   {"raster", RendererBackend::kRaster}},
+                  "Rendering backend: embree (ray casting), osmesa (OpenGL) "
+                  "or raster (the CPU rasteriser); all render the same "
+                  "images");
     v.field("cache_navmesh", cache_navmesh,
             "Save built navmeshes as <scene>.navmesh beside the scene file "
             "and load them from there");

@@ -1,6 +1,7 @@
-// Tests src/sim/Renderer.cpp, EmbreeRenderer.cpp and OsMesaRenderer.cpp:
-// exact answers on simple geometry for both backends, agreement of the two
-// backends on a small textured, vertex-coloured room, and depth
+// Tests src/sim/Renderer.cpp, EmbreeRenderer.cpp, OsMesaRenderer.cpp and
+// RasterRenderer.cpp: exact answers on simple geometry for every backend,
+// agreement of the backends on a small textured, vertex-coloured room (and,
+// for the two that sample pixel centres exactly, a cluttered one), and depth
 // post-processing.
 
 #include "sim/Renderer.h"
@@ -19,6 +20,7 @@
 #include "common/FileIo.h"
 #include "sim/GeometryCheck.h"
 #include "sim/Mesh.h"
+#include "sim/MeshSubdivision.h"
 #include "sim/RayTracer.h"
 #include "support/TestPaths.h"
 
@@ -28,10 +30,24 @@ namespace {
 using ::testing::HasSubstr;
 
 constexpr RendererBackend kBackends[] = {RendererBackend::kEmbree,
-                                         RendererBackend::kOsMesa};
+                                         RendererBackend::kOsMesa,
+                                         RendererBackend::kRaster};
 
-const char* backendName(RendererBackend backend) {
-  return backend == RendererBackend::kEmbree ? "embree" : "osmesa";
+std::string backendName(RendererBackend backend) {
+  return std::string(rendererBackendName(backend));
+}
+
+// The class name the backend's errors start with.
+std::string backendClassName(RendererBackend backend) {
+  switch (backend) {
+    case RendererBackend::kEmbree:
+      return "EmbreeRenderer";
+    case RendererBackend::kOsMesa:
+      return "OsMesaRenderer";
+    case RendererBackend::kRaster:
+      return "RasterRenderer";
+  }
+  return "";
 }
 
 // Appends quad a-b-c-d with per-corner uv and colour, one material and
@@ -392,12 +408,10 @@ TEST_P(RendererBackendTest, CamerasFarOutsideTheSceneAreRefused) {
     const CameraPose pose{eye, 0.0f, 0.0f};
     EXPECT_THAT(
         [&] { renderer->renderRgbDepth(pose, camera, rgb, depth); },
-        ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
-            HasSubstr(std::string(GetParam() == RendererBackend::kEmbree
-                                      ? "EmbreeRenderer"
-                                      : "OsMesaRenderer") +
-                      "::renderRgbDepth(): camera eye"),
-            HasSubstr("outside the scene"))));
+        ::testing::ThrowsMessage<std::invalid_argument>(
+            ::testing::AllOf(HasSubstr(backendClassName(GetParam()) +
+                                       "::renderRgbDepth(): camera eye"),
+                             HasSubstr("outside the scene"))));
     EXPECT_THROW(renderer->renderRgb(pose, camera, rgb), std::invalid_argument);
     EXPECT_THROW(renderer->renderDepth(pose, camera, depth),
                  std::invalid_argument);
@@ -523,6 +537,94 @@ TEST(RendererAgreementTest, EmbreeAndOsMesaAgreeOnTestRoom) {
     // or two of difference is expected; the mean stays well under one level
     EXPECT_LT(colorError / (3.0 * interior), 0.5);
     EXPECT_GE(static_cast<double>(colorWithin), 0.995 * interior);
+  }
+}
+
+// The test room with each triangle cut into 16 and 400 small triangles of
+// random size, orientation, colour and uv strewn through it, crossing each
+// other and the walls: many small, overlapping and hidden triangles.
+TriangleMesh clutteredRoom() {
+  TriangleMesh mesh = subdivide(testRoom(), 4);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> coordinate(-2.8f, 2.8f);
+  std::uniform_real_distribution<float> height(0.1f, 2.9f);
+  std::uniform_real_distribution<float> offset(-0.3f, 0.3f);
+  std::uniform_real_distribution<float> unit(0.0f, 1.0f);
+  std::uniform_int_distribution<int> channel(0, 255);
+  for (int t = 0; t < 400; ++t) {
+    const Vec3f centre(coordinate(rng), height(rng), coordinate(rng));
+    const auto base = static_cast<uint32_t>(mesh.positions.size());
+    for (int k = 0; k < 3; ++k) {
+      mesh.positions.push_back(centre +
+                               Vec3f(offset(rng), offset(rng), offset(rng)));
+      mesh.uvs.emplace_back(3.0f * unit(rng), 3.0f * unit(rng));
+      mesh.colors.push_back(Rgb8{static_cast<uint8_t>(channel(rng)),
+                                 static_cast<uint8_t>(channel(rng)),
+                                 static_cast<uint8_t>(channel(rng))});
+    }
+    for (uint32_t k = 0; k < 3; ++k) mesh.indices.push_back(base + k);
+    mesh.triangle_material.push_back(t % 4);
+    mesh.triangle_object.push_back(100 + t);
+  }
+  return mesh;
+}
+
+TEST(RendererAgreementTest, RasterAndEmbreeAgreeAtPixelCentres) {
+  // both decide per pixel centre whether its ray meets a triangle in front
+  // of the eye and take the nearest, so they may differ only where rounding
+  // settles a centre on a triangle's edge (or two surfaces' depths)
+  // differently. Poses look everywhere in the rooms, some from a few
+  // centimetres off a wall (triangles crossing the eye's plane).
+  for (const bool cluttered : {false, true}) {
+    SCOPED_TRACE(cluttered ? "cluttered room" : "test room");
+    const TriangleMesh mesh = cluttered ? clutteredRoom() : testRoom();
+    RayTracer tracer(mesh);
+    auto embree = createRenderer(mesh, tracer, RendererBackend::kEmbree);
+    auto raster = createRenderer(mesh, tracer, RendererBackend::kRaster);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> coordinate(-2.9f, 2.9f);
+    std::uniform_real_distribution<float> height(0.2f, 2.8f);
+    std::uniform_real_distribution<float> angle(-3.2f, 3.2f);
+    std::vector<CameraPose> poses;
+    for (int i = 0; i < 30; ++i)
+      poses.push_back({Vec3f(coordinate(rng), height(rng), coordinate(rng)),
+                       angle(rng), 0.4f * angle(rng)});
+    poses.push_back({Vec3f(0.0f, 1.25f, -2.97f), 0.0f, 0.0f});
+    poses.push_back({Vec3f(2.98f, 1.0f, 0.0f), 1.3f, 0.1f});
+    poses.push_back({Vec3f(1.0f, 0.81f, -1.6f), 2.0f, -0.7f});
+    size_t pixels = 0, hitMismatches = 0, depthMismatches = 0, idMismatches = 0,
+           colorMismatches = 0, colorOffByMore = 0;
+    for (const CameraIntrinsics& camera :
+         {CameraIntrinsics{61, 47, 90.0f}, CameraIntrinsics{64, 64, 90.0f},
+          CameraIntrinsics{37, 53, 120.0f}}) {
+      for (const CameraPose& pose : poses) {
+        const Images a = renderAll(*embree, pose, camera);
+        const Images b = renderAll(*raster, pose, camera);
+        for (size_t p = 0; p < a.depth.size(); ++p) {
+          ++pixels;
+          if ((a.depth[p] > 0.0f) != (b.depth[p] > 0.0f)) ++hitMismatches;
+          if (std::abs(a.depth[p] - b.depth[p]) > 1e-5f * a.depth[p])
+            ++depthMismatches;
+          if (a.ids[p] != b.ids[p]) ++idMismatches;
+          int worst = 0;
+          for (int c = 0; c < 3; ++c)
+            worst = std::max(
+                worst, std::abs(int(a.rgb[3 * p + c]) - int(b.rgb[3 * p + c])));
+          if (worst > 0) ++colorMismatches;
+          if (worst > 1) ++colorOffByMore;
+        }
+      }
+    }
+    SCOPED_TRACE(::testing::Message()
+                 << pixels << " pixels: " << hitMismatches << " hit, "
+                 << depthMismatches << " depth, " << idMismatches << " object, "
+                 << colorMismatches << " colour mismatches, " << colorOffByMore
+                 << " by more than a level");
+    EXPECT_LE(hitMismatches, pixels / 10000);
+    EXPECT_LE(depthMismatches, pixels / 2000);
+    EXPECT_LE(idMismatches, pixels / 2000);
+    EXPECT_LE(colorMismatches, pixels / 1000);
+    EXPECT_LE(colorOffByMore, pixels / 10000);
   }
 }
 
@@ -683,16 +785,17 @@ TEST(ImagePngTest, WritesRgbAndSixteenBitDepth) {
   EXPECT_FALSE(std::filesystem::exists(dir / "bad.png"));
 }
 
-TEST(ParseRendererBackendTest, NamesBothBackendsAndRejectsOthers) {
-  EXPECT_EQ(parseRendererBackend("embree", "--backend"),
-            RendererBackend::kEmbree);
-  EXPECT_EQ(parseRendererBackend("osmesa", "--backend"),
-            RendererBackend::kOsMesa);
+TEST(ParseRendererBackendTest, NamesEveryBackendAndRejectsOthers) {
+  for (const RendererBackend backend : kBackends)
+    EXPECT_EQ(parseRendererBackend(rendererBackendName(backend), "--backend"),
+              backend);
+  EXPECT_EQ(rendererBackendName(RendererBackend::kRaster), "raster");
   try {
     parseRendererBackend("Embree", "--backend");
     FAIL() << "expected std::invalid_argument";
   } catch (const std::invalid_argument& e) {
-    EXPECT_STREQ(e.what(), "--backend must be embree or osmesa, got 'Embree'");
+    EXPECT_STREQ(e.what(),
+                 "--backend must be embree, osmesa or raster, got 'Embree'");
   }
 }
 

@@ -1,0 +1,620 @@
+#include "sim/RasterRenderer.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <optional>
+#include <vector>
+
+#include "common/Check.h"
+#include "sim/Mesh.h"
+#include "sim/Shading.h"
+
+namespace vln::sim {
+
+namespace {
+
+using enum Renderer::Output;
+
+// Rasterising loops are compiled twice: for AVX2, where GCC vectorises them
+// eight pixels at a time, and for the baseline. The loops use no fused
+// operations (the build's ISO mode keeps -ffp-contract=off), so both clones
+// compute the same bits.
+#define VLN_RASTER_CLONES __attribute__((target_clones("avx2", "default")))
+
+// Camera-frame depth (metres in front of the eye) below which a vertex
+// counts as "not in front" when bounding a triangle's pixels. The part of a
+// triangle closer than this is left out of the bound only; it could cover a
+// pixel only within kNearBound * tan(hfov / 2) of the eye.
+constexpr float kNearBound = 1e-5f;
+
+// Relative slack on a triangle's nearest inverse depth (ViewTriangle) for
+// the rounding of the inverse depths drawn from its edge functions.
+constexpr float kNearestSlack = 1e-4f;
+
+// Side of the square pixel tiles whose farthest hit render() keeps, to skip
+// triangles that lie wholly behind what is already drawn.
+constexpr int kTile = 8;
+
+// The smallest inverse depth of the pixels [x0, x0 + columns) x [y0, y0 +
+// rows) of a row-major buffer with rows `stride` apart; whole tiles take a loop
+// of fixed length that compiles to a few vector minimums.
+VLN_RASTER_CLONES float farthestInTile(const float* inverseDepth, size_t stride,
+                                       int x0, int y0, int columns, int rows) {
+  const float* first =
+      inverseDepth + static_cast<size_t>(y0) * stride + static_cast<size_t>(x0);
+  if (columns == kTile && rows == kTile) {
+    float lanes[kTile];
+    for (int k = 0; k < kTile; ++k) lanes[k] = first[k];
+    for (int row = 1; row < kTile; ++row) {
+      const float* line = first + static_cast<size_t>(row) * stride;
+      for (int k = 0; k < kTile; ++k) lanes[k] = std::min(lanes[k], line[k]);
+    }
+    float farthest = lanes[0];
+    for (int k = 1; k < kTile; ++k) farthest = std::min(farthest, lanes[k]);
+    return farthest;
+  }
+  float farthest = std::numeric_limits<float>::infinity();
+  for (int row = 0; row < rows; ++row) {
+    const float* line = first + static_cast<size_t>(row) * stride;
+    for (int k = 0; k < columns; ++k) farthest = std::min(farthest, line[k]);
+  }
+  return farthest;
+}
+
+// The edge functions of one triangle seen from the eye, as functions of a
+// pixel's camera-frame ray d = (X, Y, -1) (pixelDirection()):
+// edge[i] = a[i] X + b[i] Y + c[i] is (p_j x p_k) . d for the edge (p_j, p_k)
+// opposite corner i (camera-frame corners p), signed so that all three are
+// >= 0 exactly where the ray passes through the triangle in front of the
+// eye. Their sum is det / t, where det = |p0 . (p1 x p2)| and t the ray
+// parameter of the hit, which is its z-depth; so the barycentrics of the hit
+// are edge[i] / sum (corner 1's is Embree's u, corner 2's its v), and
+// inverse depth 1 / t = sum / det is linear in X and Y: its coefficients are
+// the last entries.
+struct EdgeFunctions {
+  float a[4];
+  float b[4];
+  float c[4];
+};
+
+// Where a triangle may cover pixels: its rows, and the map from a ray slope
+// X to a fractional column, column = X * columnScale + columnOffset.
+struct PixelBounds {
+  int firstRow, lastRow, firstColumn, lastColumn;
+  float columnScale, columnOffset;
+};
+
+// Eight lanes of GCC's vector extensions: the AVX2 clone below computes
+// with one register, the baseline with two SSE registers, lane for lane
+// the same IEEE operations.
+// The helpers returning them are inlined within this file, never an ABI
+// boundary, so GCC's note on passing 32-byte vectors without AVX is moot.
+#pragma GCC diagnostic ignored "-Wpsabi"
+using Floats8 = float __attribute__((vector_size(32)));
+using Ints8 = int32_t __attribute__((vector_size(32)));
+constexpr Ints8 kLanes = {0, 1, 2, 3, 4, 5, 6, 7};
+inline Floats8 splat(float value) {
+  return Floats8{value, value, value, value, value, value, value, value};
+}
+inline Ints8 splatInt(int32_t value) {
+  return Ints8{value, value, value, value, value, value, value, value};
+}
+
+// Draws one triangle into the visibility buffer: each pixel centre inside it
+// (all three edge functions >= 0) whose stored hit is farther takes it.
+// `inverseDepth` holds 1 / z-depth (0 where nothing was hit yet), so nearer
+// is larger. Per row, the columns are first narrowed to where each edge
+// function can be >= 0 (with a column of slack for rounding; the edge tests
+// decide), which skips most of the bounding box of a thin or slanted
+// triangle. Rows are `stride` apart, a multiple of eight, and `columnX` has
+// `stride` entries.
+VLN_RASTER_CLONES void rasterizeTriangle(
+    const float* columnX, const float* rowY, const EdgeFunctions& f,
+    const PixelBounds& bounds, int32_t triangle, size_t stride,
+    float* inverseDepth, int32_t* visible) {
+  // locals, so the stores below cannot alias them and the span loop
+  // vectorises
+  const float a0 = f.a[0], a1 = f.a[1], a2 = f.a[2], as = f.a[3];
+  const float b0 = f.b[0], b1 = f.b[1], b2 = f.b[2], bs = f.b[3];
+  const float c0 = f.c[0], c1 = f.c[1], c2 = f.c[2], cs = f.c[3];
+  const Floats8 a0v = splat(a0), a1v = splat(a1), a2v = splat(a2),
+                asv = splat(as);
+  const float firstColumnF = static_cast<float>(bounds.firstColumn);
+  const float lastColumnF = static_cast<float>(bounds.lastColumn);
+  // edge i is >= 0 on one side of the column where a_i X + r_i = 0, i.e.
+  // X = -r_i / a_i: column = r_i * scale_i + columnOffset
+  auto crossingScale = [&](float a) {
+    return a == 0.0f ? 0.0f : -bounds.columnScale / a;
+  };
+  const float k0 = crossingScale(a0), k1 = crossingScale(a1),
+              k2 = crossingScale(a2);
+  for (int row = bounds.firstRow; row <= bounds.lastRow; ++row) {
+    const float y = rowY[row];
+    const float r0 = b0 * y + c0;
+    const float r1 = b1 * y + c1;
+    const float r2 = b2 * y + c2;
+    const float rs = bs * y + cs;
+    // narrow [low, high] to where each edge function can be >= 0
+    float low = firstColumnF;
+    float high = lastColumnF;
+    bool empty = false;
+    auto narrow = [&](float a, float r, float k) {
+      if (a == 0.0f) {
+        empty = empty || r < 0.0f;
+        return;
+      }
+      const float column = r * k + bounds.columnOffset;
+      if (a > 0.0f) {
+        low = std::max(low, column - 1.0f);
+      } else {
+        high = std::min(high, column + 1.0f);
+      }
+    };
+    narrow(a0, r0, k0);
+    narrow(a1, r1, k1);
+    narrow(a2, r2, k2);
+    // NaN bounds (from an infinite crossing) compare false: the box stays
+    if (empty || !(low <= high)) continue;
+    // both are within [0, lastColumn]: truncation floors; one more column
+    // stands in for the ceiling
+    const int first = static_cast<int>(low);
+    const int last = std::min(static_cast<int>(high) + 1, bounds.lastColumn);
+    // whole blocks of eight columns (rows are padded to them), the columns
+    // outside [first, last] masked
+    float* depthRow = inverseDepth + static_cast<size_t>(row) * stride;
+    int32_t* visibleRow = visible + static_cast<size_t>(row) * stride;
+    const Floats8 e0Row = splat(r0), e1Row = splat(r1), e2Row = splat(r2),
+                  sRow = splat(rs);
+    const Floats8 zero = splat(0.0f);
+    const Ints8 firstColumn = splatInt(first), lastColumn = splatInt(last);
+    const Ints8 id = splatInt(triangle);
+    for (int block = first & ~7; block <= last; block += 8) {
+      Floats8 x, stored;
+      Ints8 ids;
+      std::memcpy(&x, columnX + block, sizeof x);
+      std::memcpy(&stored, depthRow + block, sizeof stored);
+      std::memcpy(&ids, visibleRow + block, sizeof ids);
+      const Ints8 column = splatInt(block) + kLanes;
+      const Floats8 e0 = a0v * x + e0Row;
+      const Floats8 e1 = a1v * x + e1Row;
+      const Floats8 e2 = a2v * x + e2Row;
+      const Floats8 s = asv * x + sRow;
+      const Ints8 take = (e0 >= zero) & (e1 >= zero) & (e2 >= zero) &
+                         (s > stored) & (column >= firstColumn) &
+                         (column <= lastColumn);
+      stored = take ? s : stored;
+      ids = take ? id : ids;
+      std::memcpy(depthRow + block, &stored, sizeof stored);
+      std::memcpy(visibleRow + block, &ids, sizeof ids);
+    }
+  }
+}
+
+// Depth per pixel from the visibility buffer: 1 / inverse depth where a
+// triangle is visible, 0 (no hit) elsewhere.
+VLN_RASTER_CLONES void depthFromInverse(const float* __restrict inverseDepth,
+                                        const int32_t* __restrict visible,
+                                        size_t count, float* __restrict depth) {
+  for (size_t p = 0; p < count; ++p)
+    depth[p] = visible[p] < 0 ? 0.0f : 1.0f / inverseDepth[p];
+}
+
+// Barycentrics of hits from their edge functions: each over their sum
+// (corner 1's is Embree's u, corner 2's its v).
+VLN_RASTER_CLONES void barycentrics(const float* __restrict e0,
+                                    const float* __restrict e1,
+                                    const float* __restrict e2, size_t count,
+                                    float* __restrict u, float* __restrict v) {
+  for (size_t k = 0; k < count; ++k) {
+    const float sum = e0[k] + e1[k] + e2[k];
+    u[k] = e1[k] / sum;
+    v[k] = e2[k] / sum;
+  }
+}
+
+class RasterRenderer final : public Renderer {
+ public:
+  explicit RasterRenderer(const TriangleMesh& mesh)
+      : Renderer("RasterRenderer", mesh),
+        mesh_(mesh),
+        edges_(mesh.triangleCount()) {}
+
+ private:
+  enum class EdgeState : uint8_t { kUnset, kSet, kEdgeOn };
+
+  // A triangle that may show in the current view: its extent in ray slopes
+  // (X, Y), a bound on its inverse depth (1 / the z-depth of its nearest
+  // corner, slightly enlarged against rounding); its edge functions are
+  // edges_[triangle].
+  struct ViewTriangle {
+    float minX, maxX, minY, maxY;
+    float nearest;
+    int32_t triangle;
+    // edges_[triangle] holds this view's edge functions (set up when the
+    // triangle is first drawn: most are hidden and never need them)
+    EdgeState edges = EdgeState::kUnset;
+  };
+
+  void render(const CameraPose& pose, const CameraIntrinsics& camera,
+              unsigned outputs, uint8_t* rgb, float* depth,
+              int32_t* objects) override;
+  void updateRayTable(const CameraIntrinsics& camera);
+  // the triangles of the view from `pose` through the slope window
+  // |X| <= tanX, |Y| <= tanY, with their edge functions; kept while the
+  // pose and window stay (the colour and depth cameras of one view share
+  // them, whatever their sizes)
+  __attribute__((noinline)) void setUpView(const CameraPose& pose, float tanX,
+                                           float tanY);
+  // sets up triangle `t` when it reaches into the window
+  void setUpTriangle(size_t t, float tanX, float tanY);
+  // writes edges_[t] for the current view; false when the triangle is seen
+  // edge-on (or degenerate) and covers no pixel centre
+  bool setUpEdges(size_t t);
+  // the colour image of the visibility buffer
+  __attribute__((noinline)) void shadeVisible(const CameraIntrinsics& camera,
+                                              uint8_t* rgb);
+
+  const TriangleMesh& mesh_;
+  // built on the first colour render: depth-only renderers never pay for it
+  std::optional<HitShader> shader_;
+  // per triangle, written when it is set up for the current view
+  std::vector<EdgeFunctions> edges_;
+
+  // camera-frame ray slopes per column (X) and row (Y) of the last
+  // intrinsics, their extremes, and the maps from slopes back to
+  // (fractional) pixels
+  CameraIntrinsics tableCamera_{0, 0, 0.0f};
+  std::vector<float> columnX_;
+  std::vector<float> rowY_;
+  size_t stride_ = 0;  // row stride of the visibility buffer: width padded to 8
+  float tanX_ = 0.0f;
+  float tanY_ = 0.0f;
+  float columnScale_ = 0.0f;
+  float columnOffset_ = 0.0f;
+  float rowScale_ = 0.0f;
+  float rowOffset_ = 0.0f;
+
+  // the view set up last: pose, window, the vertices in its camera frame
+  // with their slopes (x / -z, y / -z) where they lie at least kNearBound in
+  // front of the eye, and its triangles
+  bool haveView_ = false;
+  CameraPose viewPose_;
+  float viewTanX_ = 0.0f;
+  float viewTanY_ = 0.0f;
+  std::vector<Vec3f> cameraVertices_;
+  std::vector<float> slopeX_;
+  std::vector<float> slopeY_;
+  std::vector<uint8_t> inFront_;
+  std::vector<ViewTriangle> viewTriangles_;
+
+  // the visibility buffer: 1 / z-depth and triangle per pixel, and per tile
+  // of kTile x kTile pixels the smallest inverse depth (the farthest hit, 0
+  // while a pixel has none)
+  std::vector<float> inverseDepth_;
+  std::vector<int32_t> visible_;
+  std::vector<float> tileFarthest_;
+  std::vector<uint8_t> tileStale_;
+  // one row's edge functions and barycentrics while shading
+  std::vector<float> edgeRow_;
+  std::vector<float> barycentricRow_;
+};
+
+void RasterRenderer::updateRayTable(const CameraIntrinsics& camera) {
+  if (camera.width == tableCamera_.width &&
+      camera.height == tableCamera_.height &&
+      camera.hfov_deg == tableCamera_.hfov_deg)
+    return;
+  // rows padded to whole blocks of eight columns; the padding repeats the
+  // last column's slope (masked off when drawing)
+  stride_ = (static_cast<size_t>(camera.width) + 7) / 8 * 8;
+  columnX_.resize(stride_);
+  for (size_t i = 0; i < stride_; ++i)
+    columnX_[i] = pixelDirection(camera,
+                                 static_cast<float>(std::min(
+                                     i, static_cast<size_t>(camera.width) - 1)),
+                                 0.0f)
+                      .x();
+  rowY_.resize(static_cast<size_t>(camera.height));
+  for (int j = 0; j < camera.height; ++j)
+    rowY_[j] = pixelDirection(camera, 0.0f, static_cast<float>(j)).y();
+  // pixelDirection(): X = (2 (column + 0.5) / width - 1) tan(hfov / 2), so
+  // column = X * width / (2 tan) + width / 2 - 0.5; rows count downwards
+  tanX_ = std::tan(degToRad(camera.hfov_deg) / 2.0f);
+  tanY_ = tanHalfVerticalFov(camera);
+  columnScale_ = static_cast<float>(camera.width) / (2.0f * tanX_);
+  columnOffset_ = static_cast<float>(camera.width) / 2.0f - 0.5f;
+  rowScale_ = -static_cast<float>(camera.height) / (2.0f * tanY_);
+  rowOffset_ = static_cast<float>(camera.height) / 2.0f - 0.5f;
+  tableCamera_ = camera;
+}
+
+void RasterRenderer::setUpView(const CameraPose& pose, float tanX, float tanY) {
+  if (haveView_ && pose.eye == viewPose_.eye &&
+      pose.heading == viewPose_.heading && pose.pitch == viewPose_.pitch &&
+      tanX == viewTanX_ && tanY == viewTanY_)
+    return;
+  const Eigen::Matrix3f toCamera = cameraToWorld(pose).transpose();
+  const size_t count = mesh_.positions.size();
+  cameraVertices_.resize(count);
+  slopeX_.resize(count);
+  slopeY_.resize(count);
+  inFront_.resize(count);
+  for (size_t v = 0; v < count; ++v) {
+    const Vec3f p = toCamera * (mesh_.positions[v] - pose.eye);
+    cameraVertices_[v] = p;
+    const bool front = p.z() <= -kNearBound;
+    inFront_[v] = front ? 1 : 0;
+    slopeX_[v] = front ? p.x() / -p.z() : 0.0f;
+    slopeY_[v] = front ? p.y() / -p.z() : 0.0f;
+  }
+  viewTriangles_.clear();
+  const size_t triangles = mesh_.triangleCount();
+  for (size_t t = 0; t < triangles; ++t) setUpTriangle(t, tanX, tanY);
+  // near to far, so that near walls hide whole triangles behind them from
+  // the tile test in render(); ties in mesh order
+  std::sort(viewTriangles_.begin(), viewTriangles_.end(),
+            [](const ViewTriangle& a, const ViewTriangle& b) {
+              return a.nearest != b.nearest ? a.nearest > b.nearest
+                                            : a.triangle < b.triangle;
+            });
+  viewPose_ = pose;
+  viewTanX_ = tanX;
+  viewTanY_ = tanY;
+  haveView_ = true;
+}
+
+void RasterRenderer::setUpTriangle(size_t t, float tanX, float tanY) {
+  const uint32_t* corner = mesh_.indices.data() + 3 * t;
+  const int front =
+      inFront_[corner[0]] + inFront_[corner[1]] + inFront_[corner[2]];
+  if (front == 0) return;  // wholly behind (or at) the eye
+  // the triangle's extent in ray slopes: its corners' where all three lie in
+  // front; otherwise those of the part of it at least kNearBound in front
+  float minX = std::numeric_limits<float>::infinity();
+  float maxX = -minX;
+  float minY = minX;
+  float maxY = -minX;
+  auto extend = [&](float x, float y) {
+    minX = std::min(minX, x);
+    maxX = std::max(maxX, x);
+    minY = std::min(minY, y);
+    maxY = std::max(maxY, y);
+  };
+  if (front == 3) {
+    for (int k = 0; k < 3; ++k) extend(slopeX_[corner[k]], slopeY_[corner[k]]);
+  } else {
+    for (int k = 0; k < 3; ++k) {
+      const uint32_t from = corner[k];
+      const uint32_t to = corner[(k + 1) % 3];
+      if (inFront_[from]) extend(slopeX_[from], slopeY_[from]);
+      if (inFront_[from] == inFront_[to]) continue;
+      // where the edge crosses the plane z = -kNearBound
+      const Vec3f& p = cameraVertices_[from];
+      const Vec3f& q = cameraVertices_[to];
+      const float along = (-kNearBound - p.z()) / (q.z() - p.z());
+      const Vec3f crossing = p + along * (q - p);
+      extend(crossing.x() / kNearBound, crossing.y() / kNearBound);
+    }
+  }
+  // pixel centres lie strictly inside the window
+  if (maxX < -tanX || minX > tanX || maxY < -tanY || minY > tanY) return;
+
+  // the nearest corner bounds the triangle's inverse depth (z-depth is
+  // linear over it); a corner not in front leaves it unbounded
+  float nearest = std::numeric_limits<float>::infinity();
+  if (front == 3) {
+    const float closest = std::min({-cameraVertices_[corner[0]].z(),
+                                    -cameraVertices_[corner[1]].z(),
+                                    -cameraVertices_[corner[2]].z()});
+    nearest = (1.0f + kNearestSlack) / closest;
+  }
+  viewTriangles_.push_back(
+      {minX, maxX, minY, maxY, nearest, static_cast<int32_t>(t)});
+}
+
+bool RasterRenderer::setUpEdges(size_t t) {
+  const uint32_t* corner = mesh_.indices.data() + 3 * t;
+  // edge planes through the eye, in double so that the triangles sharing an
+  // edge get exactly negated coefficients for it (the cross products of the
+  // same two corners in either order), which keeps the edge watertight
+  Eigen::Vector3d p[3];
+  for (int k = 0; k < 3; ++k) p[k] = cameraVertices_[corner[k]].cast<double>();
+  const Eigen::Vector3d normal[3] = {p[1].cross(p[2]), p[2].cross(p[0]),
+                                     p[0].cross(p[1])};
+  const double det = p[0].dot(normal[0]);
+  // the eye lies in the triangle's plane (or the triangle is degenerate):
+  // seen edge-on, it covers no pixel centre
+  if (!(det != 0.0) || !std::isfinite(det)) return false;
+  const double sign = det > 0.0 ? 1.0 : -1.0;
+  EdgeFunctions& f = edges_[t];
+  double sum[3] = {0.0, 0.0, 0.0};
+  for (int i = 0; i < 3; ++i) {
+    // (x, y, z) . (X, Y, -1)
+    const double a = sign * normal[i].x();
+    const double b = sign * normal[i].y();
+    const double c = -sign * normal[i].z();
+    f.a[i] = static_cast<float>(a);
+    f.b[i] = static_cast<float>(b);
+    f.c[i] = static_cast<float>(c);
+    sum[0] += a;
+    sum[1] += b;
+    sum[2] += c;
+  }
+  const double inverseDet = 1.0 / std::abs(det);
+  f.a[3] = static_cast<float>(sum[0] * inverseDet);
+  f.b[3] = static_cast<float>(sum[1] * inverseDet);
+  f.c[3] = static_cast<float>(sum[2] * inverseDet);
+  return true;
+}
+
+void RasterRenderer::render(const CameraPose& pose,
+                            const CameraIntrinsics& camera, unsigned outputs,
+                            uint8_t* rgb, float* depth, int32_t* objects) {
+  updateRayTable(camera);
+  setUpView(pose, tanX_, tanY_);
+  if ((outputs & kColor) && !shader_) shader_.emplace(mesh_);
+  const int width = camera.width;
+  const int height = camera.height;
+  const size_t stride = stride_;
+  inverseDepth_.assign(stride * static_cast<size_t>(height), 0.0f);
+  visible_.assign(stride * static_cast<size_t>(height), -1);
+
+  // pixels whose centres may lie inside each triangle: a conservative
+  // bound, the edge functions decide
+  auto toPixel = [](float value, int size) {
+    return static_cast<int>(std::clamp(value, -1.0f, static_cast<float>(size)));
+  };
+  const int tilesX = (width + kTile - 1) / kTile;
+  const int tilesY = (height + kTile - 1) / kTile;
+  tileFarthest_.assign(
+      static_cast<size_t>(tilesX) * static_cast<size_t>(tilesY), 0.0f);
+  tileStale_.assign(tileFarthest_.size(), 0);
+  for (ViewTriangle& view : viewTriangles_) {
+    const PixelBounds bounds{
+        std::max(
+            0, toPixel(std::floor(view.maxY * rowScale_ + rowOffset_), height)),
+        std::min(
+            height - 1,
+            toPixel(std::ceil(view.minY * rowScale_ + rowOffset_), height)),
+        std::max(0,
+                 toPixel(std::floor(view.minX * columnScale_ + columnOffset_),
+                         width)),
+        std::min(width - 1,
+                 toPixel(std::ceil(view.maxX * columnScale_ + columnOffset_),
+                         width)),
+        columnScale_,
+        columnOffset_};
+    if (bounds.firstColumn > bounds.lastColumn ||
+        bounds.firstRow > bounds.lastRow)
+      continue;
+    // a triangle whose nearest point is no nearer than the farthest hit of
+    // every tile it overlaps cannot take a pixel (ties keep the stored hit)
+    const int firstTileX = bounds.firstColumn / kTile;
+    const int lastTileX = bounds.lastColumn / kTile;
+    const int firstTileY = bounds.firstRow / kTile;
+    const int lastTileY = bounds.lastRow / kTile;
+    bool hidden = true;
+    for (int ty = firstTileY; ty <= lastTileY && hidden; ++ty) {
+      for (int tx = firstTileX; tx <= lastTileX; ++tx) {
+        const size_t tile =
+            static_cast<size_t>(ty) * static_cast<size_t>(tilesX) +
+            static_cast<size_t>(tx);
+        if (view.nearest <= tileFarthest_[tile]) continue;
+        // drawn into since its farthest hit was taken: the bound may have
+        // grown
+        if (tileStale_[tile]) {
+          tileFarthest_[tile] =
+              farthestInTile(inverseDepth_.data(), stride, tx * kTile,
+                             ty * kTile, std::min(kTile, width - tx * kTile),
+                             std::min(kTile, height - ty * kTile));
+          tileStale_[tile] = 0;
+          if (view.nearest <= tileFarthest_[tile]) continue;
+        }
+        hidden = false;
+        break;
+      }
+    }
+    if (hidden) continue;
+    if (view.edges == EdgeState::kUnset)
+      view.edges = setUpEdges(static_cast<size_t>(view.triangle))
+                       ? EdgeState::kSet
+                       : EdgeState::kEdgeOn;
+    if (view.edges == EdgeState::kEdgeOn) continue;
+    rasterizeTriangle(columnX_.data(), rowY_.data(),
+                      edges_[static_cast<size_t>(view.triangle)], bounds,
+                      view.triangle, stride, inverseDepth_.data(),
+                      visible_.data());
+    // a tile already farther than this triangle's nearest point kept every
+    // pixel; the others' farthest hit is taken again when next needed
+    for (int ty = firstTileY; ty <= lastTileY; ++ty)
+      for (int tx = firstTileX; tx <= lastTileX; ++tx) {
+        const size_t tile =
+            static_cast<size_t>(ty) * static_cast<size_t>(tilesX) +
+            static_cast<size_t>(tx);
+        if (view.nearest > tileFarthest_[tile]) tileStale_[tile] = 1;
+      }
+  }
+
+  // resolve the visibility buffer
+  const auto& triangleObject = mesh_.triangle_object;
+  for (int row = 0; row < height; ++row) {
+    const size_t from = static_cast<size_t>(row) * stride;
+    const size_t to = static_cast<size_t>(row) * static_cast<size_t>(width);
+    if (outputs & kDepth)
+      depthFromInverse(inverseDepth_.data() + from, visible_.data() + from,
+                       static_cast<size_t>(width), depth + to);
+    if (outputs & kObject) {
+      for (int column = 0; column < width; ++column) {
+        const int32_t triangle = visible_[from + static_cast<size_t>(column)];
+        objects[to + static_cast<size_t>(column)] =
+            (triangle < 0 || triangleObject.empty())
+                ? -1
+                : triangleObject[static_cast<size_t>(triangle)];
+      }
+    }
+  }
+  if (outputs & kColor) shadeVisible(camera, rgb);
+}
+
+void RasterRenderer::shadeVisible(const CameraIntrinsics& camera,
+                                  uint8_t* rgb) {
+  const int width = camera.width;
+  // per row: the visible triangle's three edge functions at each pixel
+  // (scalar: each pixel reads its own triangle's), then the barycentrics of
+  // all pixels at once, then the shader eight pixels at a time
+  const size_t padded = (static_cast<size_t>(width) + 7) / 8 * 8;
+  edgeRow_.assign(3 * padded, 1.0f);
+  barycentricRow_.assign(2 * padded, 0.0f);
+  float* e0 = edgeRow_.data();
+  float* e1 = e0 + padded;
+  float* e2 = e1 + padded;
+  float* u = barycentricRow_.data();
+  float* v = u + padded;
+  for (int row = 0; row < camera.height; ++row) {
+    const float y = rowY_[static_cast<size_t>(row)];
+    const size_t rowStart =
+        static_cast<size_t>(row) * static_cast<size_t>(width);
+    const int32_t* visible =
+        visible_.data() + static_cast<size_t>(row) * stride_;
+    for (int column = 0; column < width; ++column) {
+      const int32_t triangle = visible[column];
+      if (triangle < 0) continue;
+      const EdgeFunctions& f = edges_[static_cast<size_t>(triangle)];
+      const float x = columnX_[static_cast<size_t>(column)];
+      e0[column] = f.a[0] * x + (f.b[0] * y + f.c[0]);
+      e1[column] = f.a[1] * x + (f.b[1] * y + f.c[1]);
+      e2[column] = f.a[2] * x + (f.b[2] * y + f.c[2]);
+    }
+    barycentrics(e0, e1, e2, padded, u, v);
+    for (int first = 0; first < width; first += 8) {
+      const int lanes = std::min(8, width - first);
+      alignas(32) uint32_t triangles[8] = {};
+      unsigned hits = 0;
+      for (int k = 0; k < lanes; ++k) {
+        const int32_t triangle = visible[first + k];
+        if (triangle < 0) continue;
+        triangles[k] = static_cast<uint32_t>(triangle);
+        hits |= 1u << k;
+      }
+      alignas(32) uint32_t colors[8];
+      shader_->shade8(triangles, u + first, v + first, hits, colors);
+      uint8_t* out = rgb + 3 * (rowStart + static_cast<size_t>(first));
+      for (int k = 0; k < lanes; ++k) {
+        out[3 * k] = static_cast<uint8_t>(colors[k]);
+        out[3 * k + 1] = static_cast<uint8_t>(colors[k] >> 8);
+        out[3 * k + 2] = static_cast<uint8_t>(colors[k] >> 16);
+      }
+    }
+  }
+}
+
+}  // namespace
+
+std::unique_ptr<Renderer> createRasterRenderer(const TriangleMesh& mesh) {
+  return std::make_unique<RasterRenderer>(mesh);
+}
+
+}  // namespace vln::sim
