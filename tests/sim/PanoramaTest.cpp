@@ -11,6 +11,7 @@
 #include <cmath>
 #include <vector>
 
+#include "sim/Renderer.h"
 #include "sim/SimTestScenes.h"
 #include "sim/SimTestSuites.h"
 #include "sim/Simulator.h"
@@ -49,11 +50,10 @@ class PanoramaTest : public test::SceneSuite<testScene>,
 
 INSTANTIATE_TEST_SUITE_P(Backends, PanoramaTest,
                          ::testing::Values(RendererBackend::kEmbree,
-                                           RendererBackend::kOsMesa),
+                                           RendererBackend::kOsMesa,
+                                           RendererBackend::kRaster),
                          [](const auto& info) {
-                           return info.param == RendererBackend::kEmbree
-                                      ? std::string("Embree")
-                                      : std::string("OsMesa");
+                           return std::string(rendererBackendName(info.param));
                          });
 
 TEST_P(PanoramaTest, EveryViewIsTheSingleViewObservationAtItsHeading) {

@@ -140,7 +140,7 @@ TEST_F(SimBinaryTest, RenderingFarOutsideTheSceneIsAnError) {
   const fs::path file = dir_ / "room.obj";
   saveScene(file, test::roomWithTable());
   std::string output;
-  for (const std::string backend : {"embree", "osmesa"}) {
+  for (const std::string backend : {"embree", "osmesa", "raster"}) {
     EXPECT_EQ(run("render --scene " + file.string() +
                       " --position 1e30,0,0 --heading 0 --backend " + backend +
                       " --width 8 --height 8 --out " + (dir_ / "out").string(),

@@ -11,6 +11,7 @@
 
 #include "common/Config.h"
 #include "sim/Mesh.h"
+#include "sim/Renderer.h"
 #include "sim/SimTestScenes.h"
 #include "sim/SimTestSuites.h"
 #include "support/TestPaths.h"
@@ -276,8 +277,8 @@ SimConfig lookConfig(RendererBackend backend) {
 
 TEST_F(SimulatorTest, PitchedCameraSeesFloorAndCeilingAtHandComputedDepths) {
   for (RendererBackend backend :
-       {RendererBackend::kEmbree, RendererBackend::kOsMesa}) {
-    SCOPED_TRACE(backend == RendererBackend::kEmbree ? "embree" : "osmesa");
+       {RendererBackend::kEmbree, RendererBackend::kOsMesa, RendererBackend::kRaster}) {
+    SCOPED_TRACE(rendererBackendName(backend));
     const CameraIntrinsics camera{33, 33, 90.0f};
     Simulator sim(scene_, lookConfig(backend), TaskConfig{});
     // facing -Z from z = 1: level, the wall at z = -3 is 4 m ahead
