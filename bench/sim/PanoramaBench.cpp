@@ -130,6 +130,16 @@ BENCHMARK(BM_Panorama)
     ->ArgsProduct({{2}, {1, 2}, {0, 64}})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+// Two environments side by side, each rendering its own panoramas on one
+// thread (what parallel environments of a training run do): the suffix
+// ".../threads:2" is Google Benchmark's two copies of the loop, and
+// items_per_second their sum.
+BENCHMARK(BM_Panorama)
+    ->ArgNames({"osmesa", "threads", "size"})
+    ->ArgsProduct({{0, 2}, {1}, {0}})
+    ->Threads(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 // The single-view observation of the same two cameras (the low-level
 // agents' observation): the panorama ideally costs 12 of these per thread.

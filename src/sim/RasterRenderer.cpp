@@ -96,12 +96,10 @@ struct PixelBounds {
 using Floats8 = float __attribute__((vector_size(32)));
 using Ints8 = int32_t __attribute__((vector_size(32)));
 constexpr Ints8 kLanes = {0, 1, 2, 3, 4, 5, 6, 7};
-inline Floats8 splat(float value) {
-  return Floats8{value, value, value, value, value, value, value, value};
-}
-inline Ints8 splatInt(int32_t value) {
-  return Ints8{value, value, value, value, value, value, value, value};
-}
+// A value in every lane is written `value - Floats8{}` (x - 0 is x exactly,
+// -0 included) or `value + Ints8{}`, inside the cloned function itself: a
+// helper would be lowered for the baseline before inlining and then build
+// the vector lane by lane in the AVX2 clone too.
 
 // Draws one triangle into the visibility buffer: each pixel centre inside it
 // (all three edge functions >= 0) whose stored hit is farther takes it.
@@ -120,8 +118,8 @@ VLN_RASTER_CLONES void rasterizeTriangle(
   const float a0 = f.a[0], a1 = f.a[1], a2 = f.a[2], as = f.a[3];
   const float b0 = f.b[0], b1 = f.b[1], b2 = f.b[2], bs = f.b[3];
   const float c0 = f.c[0], c1 = f.c[1], c2 = f.c[2], cs = f.c[3];
-  const Floats8 a0v = splat(a0), a1v = splat(a1), a2v = splat(a2),
-                asv = splat(as);
+  const Floats8 a0v = (a0 - Floats8{}), a1v = (a1 - Floats8{}),
+                a2v = (a2 - Floats8{}), asv = (as - Floats8{});
   const float firstColumnF = static_cast<float>(bounds.firstColumn);
   const float lastColumnF = static_cast<float>(bounds.lastColumn);
   // edge i is >= 0 on one side of the column where a_i X + r_i = 0, i.e.
@@ -166,18 +164,18 @@ VLN_RASTER_CLONES void rasterizeTriangle(
     // outside [first, last] masked
     float* depthRow = inverseDepth + static_cast<size_t>(row) * stride;
     int32_t* visibleRow = visible + static_cast<size_t>(row) * stride;
-    const Floats8 e0Row = splat(r0), e1Row = splat(r1), e2Row = splat(r2),
-                  sRow = splat(rs);
-    const Floats8 zero = splat(0.0f);
-    const Ints8 firstColumn = splatInt(first), lastColumn = splatInt(last);
-    const Ints8 id = splatInt(triangle);
+    const Floats8 e0Row = (r0 - Floats8{}), e1Row = (r1 - Floats8{}),
+                  e2Row = (r2 - Floats8{}), sRow = (rs - Floats8{});
+    const Floats8 zero = (0.0f - Floats8{});
+    const Ints8 firstColumn = (first + Ints8{}), lastColumn = (last + Ints8{});
+    const Ints8 id = (triangle + Ints8{});
     for (int block = first & ~7; block <= last; block += 8) {
       Floats8 x, stored;
       Ints8 ids;
       std::memcpy(&x, columnX + block, sizeof x);
       std::memcpy(&stored, depthRow + block, sizeof stored);
       std::memcpy(&ids, visibleRow + block, sizeof ids);
-      const Ints8 column = splatInt(block) + kLanes;
+      const Ints8 column = (block + Ints8{}) + kLanes;
       const Floats8 e0 = a0v * x + e0Row;
       const Floats8 e1 = a1v * x + e1Row;
       const Floats8 e2 = a2v * x + e2Row;
@@ -202,16 +200,81 @@ VLN_RASTER_CLONES void depthFromInverse(const float* __restrict inverseDepth,
     depth[p] = visible[p] < 0 ? 0.0f : 1.0f / inverseDepth[p];
 }
 
-// Barycentrics of hits from their edge functions: each over their sum
-// (corner 1's is Embree's u, corner 2's its v).
-VLN_RASTER_CLONES void barycentrics(const float* __restrict e0,
-                                    const float* __restrict e1,
-                                    const float* __restrict e2, size_t count,
-                                    float* __restrict u, float* __restrict v) {
-  for (size_t k = 0; k < count; ++k) {
-    const float sum = e0[k] + e1[k] + e2[k];
-    u[k] = e1[k] / sum;
-    v[k] = e2[k] / sum;
+// Barycentrics (Embree's u and v: corner 1's and corner 2's) of the
+// visible triangle at each pixel of one row, from its edge functions: each
+// over their sum. `count` is a multiple of eight (the padded row). A run of
+// eight pixels that shows one triangle is computed at once; others pixel by
+// pixel (each reads its own triangle's functions), with the same operations.
+VLN_RASTER_CLONES void rowBarycentrics(const EdgeFunctions* edges,
+                                       const int32_t* visible,
+                                       const float* columnX, float y,
+                                       size_t count, float* u, float* v) {
+  for (size_t first = 0; first < count; first += 8) {
+    const int32_t shown = visible[first];
+    bool one = shown >= 0;
+    for (size_t k = 1; k < 8; ++k) one = one && visible[first + k] == shown;
+    Floats8 e0, e1, e2;
+    if (one) {
+      const EdgeFunctions& f = edges[static_cast<size_t>(shown)];
+      Floats8 x;
+      std::memcpy(&x, columnX + first, sizeof x);
+      e0 = (f.a[0] - Floats8{}) * x + ((f.b[0] * y + f.c[0]) - Floats8{});
+      e1 = (f.a[1] - Floats8{}) * x + ((f.b[1] * y + f.c[1]) - Floats8{});
+      e2 = (f.a[2] - Floats8{}) * x + ((f.b[2] * y + f.c[2]) - Floats8{});
+    } else {
+      for (size_t k = 0; k < 8; ++k) {
+        const int32_t triangle = visible[first + k];
+        if (triangle < 0) {
+          // no hit: any finite barycentrics (the shader skips the lane)
+          e0[k] = e1[k] = e2[k] = 1.0f;
+          continue;
+        }
+        const EdgeFunctions& f = edges[static_cast<size_t>(triangle)];
+        const float x = columnX[first + k];
+        e0[k] = f.a[0] * x + (f.b[0] * y + f.c[0]);
+        e1[k] = f.a[1] * x + (f.b[1] * y + f.c[1]);
+        e2[k] = f.a[2] * x + (f.b[2] * y + f.c[2]);
+      }
+    }
+    const Floats8 sum = e0 + e1 + e2;
+    const Floats8 uk = e1 / sum;
+    const Floats8 vk = e2 / sum;
+    std::memcpy(u + first, &uk, sizeof uk);
+    std::memcpy(v + first, &vk, sizeof vk);
+  }
+}
+
+// The mesh's vertices in a camera frame (rotation `toCamera`, row-major,
+// and eye `eye`), with their ray slopes (x / -z, y / -z) where they lie at
+// least kNearBound in front of the eye (else 0 and not in front), from
+// positions stored as three arrays. Written out component by component so
+// that both clones compute the same bits.
+VLN_RASTER_CLONES void transformVertices(
+    const float* __restrict x, const float* __restrict y,
+    const float* __restrict z, size_t count, const float toCamera[9],
+    const float eye[3], float* __restrict cameraX, float* __restrict cameraY,
+    float* __restrict cameraZ, float* __restrict slopeX,
+    float* __restrict slopeY, int32_t* __restrict inFront) {
+  const float r00 = toCamera[0], r01 = toCamera[1], r02 = toCamera[2];
+  const float r10 = toCamera[3], r11 = toCamera[4], r12 = toCamera[5];
+  const float r20 = toCamera[6], r21 = toCamera[7], r22 = toCamera[8];
+  const float ex = eye[0], ey = eye[1], ez = eye[2];
+  for (size_t v = 0; v < count; ++v) {
+    const float dx = x[v] - ex;
+    const float dy = y[v] - ey;
+    const float dz = z[v] - ez;
+    const float cx = r00 * dx + r01 * dy + r02 * dz;
+    const float cy = r10 * dx + r11 * dy + r12 * dz;
+    const float cz = r20 * dx + r21 * dy + r22 * dz;
+    cameraX[v] = cx;
+    cameraY[v] = cy;
+    cameraZ[v] = cz;
+    const bool front = cz <= -kNearBound;
+    // a vertex not in front divides by 1 (its slopes are never read)
+    const float depth = front ? -cz : 1.0f;
+    slopeX[v] = front ? cx / depth : 0.0f;
+    slopeY[v] = front ? cy / depth : 0.0f;
+    inFront[v] = front ? 1 : 0;
   }
 }
 
@@ -220,7 +283,13 @@ class RasterRenderer final : public Renderer {
   explicit RasterRenderer(const TriangleMesh& mesh)
       : Renderer("RasterRenderer", mesh),
         mesh_(mesh),
-        edges_(mesh.triangleCount()) {}
+        edges_(mesh.triangleCount()) {
+    for (const Vec3f& position : mesh.positions) {
+      positionX_.push_back(position.x());
+      positionY_.push_back(position.y());
+      positionZ_.push_back(position.z());
+    }
+  }
 
  private:
   enum class EdgeState : uint8_t { kUnset, kSet, kEdgeOn };
@@ -258,6 +327,10 @@ class RasterRenderer final : public Renderer {
                                               uint8_t* rgb);
 
   const TriangleMesh& mesh_;
+  // the mesh's vertex positions as three arrays (for transformVertices())
+  std::vector<float> positionX_;
+  std::vector<float> positionY_;
+  std::vector<float> positionZ_;
   // built on the first colour render: depth-only renderers never pay for it
   std::optional<HitShader> shader_;
   // per triangle, written when it is set up for the current view
@@ -284,11 +357,17 @@ class RasterRenderer final : public Renderer {
   CameraPose viewPose_;
   float viewTanX_ = 0.0f;
   float viewTanY_ = 0.0f;
-  std::vector<Vec3f> cameraVertices_;
+  std::vector<float> cameraX_;
+  std::vector<float> cameraY_;
+  std::vector<float> cameraZ_;
   std::vector<float> slopeX_;
   std::vector<float> slopeY_;
-  std::vector<uint8_t> inFront_;
+  std::vector<int32_t> inFront_;
+  Vec3f cameraVertex(uint32_t v) const {
+    return {cameraX_[v], cameraY_[v], cameraZ_[v]};
+  }
   std::vector<ViewTriangle> viewTriangles_;
+  std::vector<ViewTriangle> sortedTriangles_;  // scratch of the sort
 
   // the visibility buffer: 1 / z-depth and triangle per pixel, and per tile
   // of kTile x kTile pixels the smallest inverse depth (the farthest hit, 0
@@ -297,8 +376,7 @@ class RasterRenderer final : public Renderer {
   std::vector<int32_t> visible_;
   std::vector<float> tileFarthest_;
   std::vector<uint8_t> tileStale_;
-  // one row's edge functions and barycentrics while shading
-  std::vector<float> edgeRow_;
+  // one row's barycentrics while shading
   std::vector<float> barycentricRow_;
 };
 
@@ -336,30 +414,39 @@ void RasterRenderer::setUpView(const CameraPose& pose, float tanX, float tanY) {
       pose.heading == viewPose_.heading && pose.pitch == viewPose_.pitch &&
       tanX == viewTanX_ && tanY == viewTanY_)
     return;
-  const Eigen::Matrix3f toCamera = cameraToWorld(pose).transpose();
-  const size_t count = mesh_.positions.size();
-  cameraVertices_.resize(count);
-  slopeX_.resize(count);
-  slopeY_.resize(count);
+  const Eigen::Matrix3f rotation = cameraToWorld(pose).transpose();
+  float toCamera[9];
+  for (int row = 0; row < 3; ++row)
+    for (int column = 0; column < 3; ++column)
+      toCamera[3 * row + column] = rotation(row, column);
+  const float eye[3] = {pose.eye.x(), pose.eye.y(), pose.eye.z()};
+  const size_t count = positionX_.size();
+  for (auto* buffer : {&cameraX_, &cameraY_, &cameraZ_, &slopeX_, &slopeY_})
+    buffer->resize(count);
   inFront_.resize(count);
-  for (size_t v = 0; v < count; ++v) {
-    const Vec3f p = toCamera * (mesh_.positions[v] - pose.eye);
-    cameraVertices_[v] = p;
-    const bool front = p.z() <= -kNearBound;
-    inFront_[v] = front ? 1 : 0;
-    slopeX_[v] = front ? p.x() / -p.z() : 0.0f;
-    slopeY_[v] = front ? p.y() / -p.z() : 0.0f;
-  }
+  transformVertices(positionX_.data(), positionY_.data(), positionZ_.data(),
+                    count, toCamera, eye, cameraX_.data(), cameraY_.data(),
+                    cameraZ_.data(), slopeX_.data(), slopeY_.data(),
+                    inFront_.data());
   viewTriangles_.clear();
   const size_t triangles = mesh_.triangleCount();
   for (size_t t = 0; t < triangles; ++t) setUpTriangle(t, tanX, tanY);
   // near to far, so that near walls hide whole triangles behind them from
-  // the tile test in render(); ties in mesh order
-  std::sort(viewTriangles_.begin(), viewTriangles_.end(),
-            [](const ViewTriangle& a, const ViewTriangle& b) {
-              return a.nearest != b.nearest ? a.nearest > b.nearest
-                                            : a.triangle < b.triangle;
-            });
+  // the tile test in render(): a counting sort into slices of depth (of
+  // each triangle's nearest corner), mesh order within a slice
+  constexpr int kSlices = 256;
+  constexpr float kSlicesPerMetre = 16.0f;
+  auto slice = [&](const ViewTriangle& view) {
+    const float depth = 1.0f / view.nearest;  // 0 when unbounded
+    return std::min(kSlices - 1, static_cast<int>(depth * kSlicesPerMetre));
+  };
+  size_t start[kSlices + 1] = {};
+  for (const ViewTriangle& view : viewTriangles_) ++start[slice(view) + 1];
+  for (int k = 0; k < kSlices; ++k) start[k + 1] += start[k];
+  sortedTriangles_.resize(viewTriangles_.size());
+  for (const ViewTriangle& view : viewTriangles_)
+    sortedTriangles_[start[slice(view)]++] = view;
+  viewTriangles_.swap(sortedTriangles_);
   viewPose_ = pose;
   viewTanX_ = tanX;
   viewTanY_ = tanY;
@@ -392,8 +479,8 @@ void RasterRenderer::setUpTriangle(size_t t, float tanX, float tanY) {
       if (inFront_[from]) extend(slopeX_[from], slopeY_[from]);
       if (inFront_[from] == inFront_[to]) continue;
       // where the edge crosses the plane z = -kNearBound
-      const Vec3f& p = cameraVertices_[from];
-      const Vec3f& q = cameraVertices_[to];
+      const Vec3f p = cameraVertex(from);
+      const Vec3f q = cameraVertex(to);
       const float along = (-kNearBound - p.z()) / (q.z() - p.z());
       const Vec3f crossing = p + along * (q - p);
       extend(crossing.x() / kNearBound, crossing.y() / kNearBound);
@@ -406,9 +493,8 @@ void RasterRenderer::setUpTriangle(size_t t, float tanX, float tanY) {
   // linear over it); a corner not in front leaves it unbounded
   float nearest = std::numeric_limits<float>::infinity();
   if (front == 3) {
-    const float closest = std::min({-cameraVertices_[corner[0]].z(),
-                                    -cameraVertices_[corner[1]].z(),
-                                    -cameraVertices_[corner[2]].z()});
+    const float closest = std::min(
+        {-cameraZ_[corner[0]], -cameraZ_[corner[1]], -cameraZ_[corner[2]]});
     nearest = (1.0f + kNearestSlack) / closest;
   }
   viewTriangles_.push_back(
@@ -421,7 +507,7 @@ bool RasterRenderer::setUpEdges(size_t t) {
   // edge get exactly negated coefficients for it (the cross products of the
   // same two corners in either order), which keeps the edge watertight
   Eigen::Vector3d p[3];
-  for (int k = 0; k < 3; ++k) p[k] = cameraVertices_[corner[k]].cast<double>();
+  for (int k = 0; k < 3; ++k) p[k] = cameraVertex(corner[k]).cast<double>();
   const Eigen::Vector3d normal[3] = {p[1].cross(p[2]), p[2].cross(p[0]),
                                      p[0].cross(p[1])};
   const double det = p[0].dot(normal[0]);
@@ -562,33 +648,19 @@ void RasterRenderer::render(const CameraPose& pose,
 void RasterRenderer::shadeVisible(const CameraIntrinsics& camera,
                                   uint8_t* rgb) {
   const int width = camera.width;
-  // per row: the visible triangle's three edge functions at each pixel
-  // (scalar: each pixel reads its own triangle's), then the barycentrics of
-  // all pixels at once, then the shader eight pixels at a time
-  const size_t padded = (static_cast<size_t>(width) + 7) / 8 * 8;
-  edgeRow_.assign(3 * padded, 1.0f);
-  barycentricRow_.assign(2 * padded, 0.0f);
-  float* e0 = edgeRow_.data();
-  float* e1 = e0 + padded;
-  float* e2 = e1 + padded;
+  // per row: the barycentrics of every pixel's visible triangle, then the
+  // shader eight pixels at a time
+  const size_t padded = stride_;
+  barycentricRow_.resize(2 * padded);
   float* u = barycentricRow_.data();
   float* v = u + padded;
   for (int row = 0; row < camera.height; ++row) {
-    const float y = rowY_[static_cast<size_t>(row)];
     const size_t rowStart =
         static_cast<size_t>(row) * static_cast<size_t>(width);
     const int32_t* visible =
         visible_.data() + static_cast<size_t>(row) * stride_;
-    for (int column = 0; column < width; ++column) {
-      const int32_t triangle = visible[column];
-      if (triangle < 0) continue;
-      const EdgeFunctions& f = edges_[static_cast<size_t>(triangle)];
-      const float x = columnX_[static_cast<size_t>(column)];
-      e0[column] = f.a[0] * x + (f.b[0] * y + f.c[0]);
-      e1[column] = f.a[1] * x + (f.b[1] * y + f.c[1]);
-      e2[column] = f.a[2] * x + (f.b[2] * y + f.c[2]);
-    }
-    barycentrics(e0, e1, e2, padded, u, v);
+    rowBarycentrics(edges_.data(), visible, columnX_.data(),
+                    rowY_[static_cast<size_t>(row)], padded, u, v);
     for (int first = 0; first < width; first += 8) {
       const int lanes = std::min(8, width - first);
       alignas(32) uint32_t triangles[8] = {};

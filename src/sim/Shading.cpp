@@ -154,20 +154,40 @@ void shade8Avx2(const TriangleShade* table, const PackedTextures& textures,
       _mm256_maskload_epi32(reinterpret_cast<const int*>(triangles), lanes);
   const __m256 u = _mm256_maskload_ps(uIn, lanes);
   const __m256 v = _mm256_maskload_ps(vIn, lanes);
-  // in most runs of eight pixels every lane shows the same large triangle
-  // (walls, floors); broadcasting its record then replaces the gathers
-  const unsigned firstLane =
-      static_cast<unsigned>(__builtin_ctz(mask | 0x100u));
-  const uint32_t firstPrimitive = firstLane < 8 ? triangles[firstLane] : 0u;
-  const __m256i same = _mm256_cmpeq_epi32(
-      primitive, _mm256_set1_epi32(static_cast<int>(firstPrimitive)));
-  const bool uniform = _mm256_testc_si256(same, lanes) !=
-                       0;  // every lane of `mask` is the first's
+  // most runs of eight pixels show one triangle (74% in a house's
+  // panoramas) or two or three (23%): broadcasting their records and
+  // blending them by lane then replaces the sixteen gathers of the fields
+  constexpr int kBroadcastMost = 3;
+  uint32_t distinct[kBroadcastMost] = {0u, 0u, 0u};
+  __m256i distinctLanes[kBroadcastMost];
+  int distinctCount = 0;
+  __m256i remaining = lanes;
+  while (!_mm256_testz_si256(remaining, remaining) &&
+         distinctCount < kBroadcastMost) {
+    const auto lane = static_cast<unsigned>(__builtin_ctz(static_cast<unsigned>(
+        _mm256_movemask_ps(_mm256_castsi256_ps(remaining)))));
+    distinct[distinctCount] = triangles[lane];
+    const __m256i same = _mm256_and_si256(
+        remaining,
+        _mm256_cmpeq_epi32(
+            primitive, _mm256_set1_epi32(static_cast<int>(triangles[lane]))));
+    distinctLanes[distinctCount++] = same;
+    remaining = _mm256_andnot_si256(same, remaining);
+  }
+  const bool broadcast = _mm256_testz_si256(remaining, remaining) != 0;
   const __m256i record = _mm256_slli_epi32(primitive, 4);
   const auto* base = reinterpret_cast<const float*>(table);
-  const float* uniformRecord = base + 16 * static_cast<size_t>(firstPrimitive);
   auto field = [&](int index) {
-    if (uniform) return _mm256_set1_ps(uniformRecord[index]);
+    if (broadcast) {
+      __m256 value =
+          _mm256_set1_ps(base[16 * static_cast<size_t>(distinct[0]) + index]);
+      for (int d = 1; d < distinctCount; ++d)
+        value = _mm256_blendv_ps(
+            value,
+            _mm256_set1_ps(base[16 * static_cast<size_t>(distinct[d]) + index]),
+            _mm256_castsi256_ps(distinctLanes[d]));
+      return value;
+    }
     return _mm256_mask_i32gather_ps(
         zerof, base, _mm256_add_epi32(record, _mm256_set1_epi32(index)), lanesf,
         4);
@@ -197,11 +217,22 @@ void shade8Avx2(const TriangleShade* table, const PackedTextures& textures,
         _mm256_cmp_ps(_mm256_and_ps(t, absMask), limit, _CMP_LT_OQ), t);
     s = _mm256_sub_ps(s, _mm256_floor_ps(s));
     t = _mm256_sub_ps(t, _mm256_floor_ps(t));
-    // per-texture size and offset, broadcast when all lanes share a triangle
-    const int uniformTexture = table[firstPrimitive].texture;
+    // per-texture size and offset, broadcast and blended as the fields (a
+    // triangle without a texture has no entry: its lanes are not textured,
+    // so any value does)
     auto textureField = [&](const std::vector<int32_t>& values) {
-      if (uniform)
-        return _mm256_set1_epi32(values[static_cast<size_t>(uniformTexture)]);
+      if (broadcast) {
+        auto entry = [&](uint32_t triangle) {
+          const int32_t id = table[triangle].texture;
+          return _mm256_set1_epi32(id >= 0 ? values[static_cast<size_t>(id)]
+                                           : 0);
+        };
+        __m256i value = entry(distinct[0]);
+        for (int d = 1; d < distinctCount; ++d)
+          value =
+              _mm256_blendv_epi8(value, entry(distinct[d]), distinctLanes[d]);
+        return value;
+      }
       return _mm256_mask_i32gather_epi32(zero, values.data(), texture, textured,
                                          4);
     };

@@ -74,10 +74,13 @@ TEST(HitShaderTest, EightLanePathShadesThePortableBits) {
     alignas(32) uint32_t triangles[8];
     alignas(32) float u[8];
     alignas(32) float v[8];
-    // every fourth round all lanes show one triangle (the broadcast path)
-    const uint32_t shared = triangle(rng);
+    // rounds with one, two or three triangles over the lanes (broadcast and
+    // blended records) and with up to eight (gathered)
+    const uint32_t few[3] = {triangle(rng), triangle(rng), triangle(rng)};
+    const int distinct = 1 + round % 4;
     for (int k = 0; k < 8; ++k) {
-      triangles[k] = round % 4 == 0 ? shared : triangle(rng);
+      triangles[k] =
+          distinct <= 3 ? few[(k * 5 + round) % distinct] : triangle(rng);
       u[k] = weight(rng);
       v[k] = (1.0f - u[k]) * weight(rng);
     }
