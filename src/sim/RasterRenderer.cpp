@@ -35,7 +35,9 @@ constexpr float kNearBound = 1e-5f;
 constexpr float kNearestSlack = 1e-4f;
 
 // Side of the square pixel tiles whose farthest hit render() keeps, to skip
-// triangles that lie wholly behind what is already drawn.
+// triangles (and runs of a triangle's rows) that lie wholly behind what is
+// already drawn. Equal to the eight columns a row is drawn in at once, so a
+// block of a row lies in one tile.
 constexpr int kTile = 8;
 
 // The smallest inverse depth of the pixels [x0, x0 + columns) x [y0, y0 +
@@ -87,6 +89,15 @@ struct PixelBounds {
   float columnScale, columnOffset;
 };
 
+// The tiles' farthest hits as rasterizeTriangle() reads them: lower bounds
+// on the inverse depth of every pixel in each tile (row-major, `tilesX` per
+// row), and the triangle's own upper bound.
+struct Occlusion {
+  const float* tileFarthest;
+  size_t tilesX;
+  float nearest;
+};
+
 // Eight lanes of GCC's vector extensions: the AVX2 clone below computes
 // with one register, the baseline with two SSE registers, lane for lane
 // the same IEEE operations.
@@ -111,8 +122,8 @@ constexpr Ints8 kLanes = {0, 1, 2, 3, 4, 5, 6, 7};
 // `stride` entries.
 VLN_RASTER_CLONES void rasterizeTriangle(
     const float* columnX, const float* rowY, const EdgeFunctions& f,
-    const PixelBounds& bounds, int32_t triangle, size_t stride,
-    float* inverseDepth, int32_t* visible) {
+    const PixelBounds& bounds, const Occlusion& occlusion, int32_t triangle,
+    size_t stride, float* inverseDepth, int32_t* visible) {
   // locals, so the stores below cannot alias them and the span loop
   // vectorises
   const float a0 = f.a[0], a1 = f.a[1], a2 = f.a[2], as = f.a[3];
@@ -169,7 +180,11 @@ VLN_RASTER_CLONES void rasterizeTriangle(
     const Floats8 zero = (0.0f - Floats8{});
     const Ints8 firstColumn = (first + Ints8{}), lastColumn = (last + Ints8{});
     const Ints8 id = (triangle + Ints8{});
+    const float* tileRow = occlusion.tileFarthest +
+                           static_cast<size_t>(row / kTile) * occlusion.tilesX;
     for (int block = first & ~7; block <= last; block += 8) {
+      // behind every pixel of the block's tile: nothing to take
+      if (occlusion.nearest <= tileRow[block / kTile]) continue;
       Floats8 x, stored;
       Ints8 ids;
       std::memcpy(&x, columnX + block, sizeof x);
@@ -196,8 +211,20 @@ VLN_RASTER_CLONES void rasterizeTriangle(
 VLN_RASTER_CLONES void depthFromInverse(const float* __restrict inverseDepth,
                                         const int32_t* __restrict visible,
                                         size_t count, float* __restrict depth) {
-  for (size_t p = 0; p < count; ++p)
-    depth[p] = visible[p] < 0 ? 0.0f : 1.0f / inverseDepth[p];
+  // eight lanes at a time (the source rows are padded to them), dividing in
+  // every lane, by 1 where nothing is visible
+  for (size_t first = 0; first < count; first += 8) {
+    Floats8 stored;
+    Ints8 shown;
+    std::memcpy(&stored, inverseDepth + first, sizeof stored);
+    std::memcpy(&shown, visible + first, sizeof shown);
+    const Ints8 hit = shown >= (0 + Ints8{});
+    const Floats8 inverse =
+        (1.0f - Floats8{}) / (hit ? stored : (1.0f - Floats8{}));
+    const Floats8 result = hit ? inverse : (0.0f - Floats8{});
+    std::memcpy(depth + first, &result,
+                sizeof(float) * std::min<size_t>(8, count - first));
+  }
 }
 
 // Barycentrics (Embree's u and v: corner 1's and corner 2's) of the
@@ -559,18 +586,16 @@ void RasterRenderer::render(const CameraPose& pose,
       static_cast<size_t>(tilesX) * static_cast<size_t>(tilesY), 0.0f);
   tileStale_.assign(tileFarthest_.size(), 0);
   for (ViewTriangle& view : viewTriangles_) {
+    // truncation floors the first row and column (negative ones become 0
+    // anyway) and one more stands in for the ceiling of the last (no libm
+    // calls in this loop)
     const PixelBounds bounds{
-        std::max(
-            0, toPixel(std::floor(view.maxY * rowScale_ + rowOffset_), height)),
-        std::min(
-            height - 1,
-            toPixel(std::ceil(view.minY * rowScale_ + rowOffset_), height)),
-        std::max(0,
-                 toPixel(std::floor(view.minX * columnScale_ + columnOffset_),
-                         width)),
+        std::max(0, toPixel(view.maxY * rowScale_ + rowOffset_, height)),
+        std::min(height - 1,
+                 toPixel(view.minY * rowScale_ + rowOffset_, height) + 1),
+        std::max(0, toPixel(view.minX * columnScale_ + columnOffset_, width)),
         std::min(width - 1,
-                 toPixel(std::ceil(view.maxX * columnScale_ + columnOffset_),
-                         width)),
+                 toPixel(view.maxX * columnScale_ + columnOffset_, width) + 1),
         columnScale_,
         columnOffset_};
     if (bounds.firstColumn > bounds.lastColumn ||
@@ -609,10 +634,11 @@ void RasterRenderer::render(const CameraPose& pose,
                        ? EdgeState::kSet
                        : EdgeState::kEdgeOn;
     if (view.edges == EdgeState::kEdgeOn) continue;
-    rasterizeTriangle(columnX_.data(), rowY_.data(),
-                      edges_[static_cast<size_t>(view.triangle)], bounds,
-                      view.triangle, stride, inverseDepth_.data(),
-                      visible_.data());
+    rasterizeTriangle(
+        columnX_.data(), rowY_.data(),
+        edges_[static_cast<size_t>(view.triangle)], bounds,
+        {tileFarthest_.data(), static_cast<size_t>(tilesX), view.nearest},
+        view.triangle, stride, inverseDepth_.data(), visible_.data());
     // a tile already farther than this triangle's nearest point kept every
     // pixel; the others' farthest hit is taken again when next needed
     for (int ty = firstTileY; ty <= lastTileY; ++ty)
