@@ -150,10 +150,13 @@ void shade8Avx2(const TriangleShade* table, const PackedTextures& textures,
   const __m256 lanesf = _mm256_castsi256_ps(lanes);
   const __m256i zero = _mm256_setzero_si256();
   const __m256 zerof = _mm256_setzero_ps();
+  // plain loads (all eight entries are readable): a masked load cannot take
+  // its data from the caller's stores still in flight, and waits for them;
+  // lanes outside `mask` only feed masked gathers and the masked result
   const __m256i primitive =
-      _mm256_maskload_epi32(reinterpret_cast<const int*>(triangles), lanes);
-  const __m256 u = _mm256_maskload_ps(uIn, lanes);
-  const __m256 v = _mm256_maskload_ps(vIn, lanes);
+      _mm256_loadu_si256(reinterpret_cast<const __m256i*>(triangles));
+  const __m256 u = _mm256_loadu_ps(uIn);
+  const __m256 v = _mm256_loadu_ps(vIn);
   // most runs of eight pixels show one triangle (74% in a house's
   // panoramas) or two or three (23%): broadcasting their records and
   // blending them by lane then replaces the sixteen gathers of the fields

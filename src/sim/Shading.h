@@ -77,7 +77,8 @@ class HitShader {
 
   /// Colours (as shadePortable()) of the hits in the lanes set in `mask`
   /// (bit k = lane k, k < 8): triangle ids and Embree's barycentrics u, v
-  /// of each lane; lanes outside `mask` get 0 and their ids are not read.
+  /// of each lane, eight readable entries each; lanes outside `mask` get 0
+  /// whatever their entries hold.
   void shade8(const uint32_t* triangles, const float* u, const float* v,
               unsigned mask, uint32_t colors[8]) const;
 

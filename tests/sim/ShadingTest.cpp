@@ -85,6 +85,13 @@ TEST(HitShaderTest, EightLanePathShadesThePortableBits) {
       v[k] = (1.0f - u[k]) * weight(rng);
     }
     const unsigned lanes = round % 3 == 0 ? 0xFFu : mask(rng);
+    // lanes outside the mask may hold anything (Embree's misses carry an
+    // invalid id)
+    for (int k = 0; k < 8; ++k)
+      if (!((lanes >> k) & 1u)) {
+        triangles[k] = 0xFFFFFFFFu;
+        u[k] = std::numeric_limits<float>::quiet_NaN();
+      }
     alignas(32) uint32_t a[8];
     alignas(32) uint32_t b[8];
     vector.shade8(triangles, u, v, lanes, a);
