@@ -509,8 +509,10 @@ inline void runRecipe(std::string_view bytes, const fs::path& dir,
   config.mesh.up_axis = (flags & 1) ? sim::UpAxis::kZ : sim::UpAxis::kY;
   config.mesh.scale = kScales[(flags >> 1) & 7];
   config.navmesh.cell_size = kCellSizes[(flags >> 4) & 3];
-  config.renderer = (flags & 64) ? sim::RendererBackend::kOsMesa
-                                 : sim::RendererBackend::kEmbree;
+  // the simulator's renderer: OSMesa, the rasteriser or Embree
+  config.renderer = (flags & 64)    ? sim::RendererBackend::kOsMesa
+                    : (flags & 128) ? sim::RendererBackend::kRaster
+                                    : sim::RendererBackend::kEmbree;
 
   // geometry, then what the agent and cameras do
   FileMesh mesh;
@@ -559,12 +561,12 @@ inline void runRecipe(std::string_view bytes, const fs::path& dir,
   }
   const Eigen::AlignedBox3f bounds = loaded.mesh.bounds();
 
-  // both renderers at every pose, and rays from there
+  // every renderer at every pose, and rays from there
   std::unique_ptr<sim::RayTracer> tracer;
   if (stage(report,
             [&] { tracer = std::make_unique<sim::RayTracer>(loaded.mesh); })) {
-    for (auto backend :
-         {sim::RendererBackend::kEmbree, sim::RendererBackend::kOsMesa}) {
+    for (auto backend : {sim::RendererBackend::kEmbree, sim::RendererBackend::kOsMesa,
+                         sim::RendererBackend::kRaster}) {
       std::unique_ptr<sim::Renderer> renderer;
       if (!stage(report, [&] {
             renderer = sim::createRenderer(loaded.mesh, *tracer, backend);

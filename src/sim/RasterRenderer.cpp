@@ -465,7 +465,10 @@ void RasterRenderer::setUpView(const CameraPose& pose, float tanX, float tanY) {
   constexpr float kSlicesPerMetre = 16.0f;
   auto slice = [&](const ViewTriangle& view) {
     const float depth = 1.0f / view.nearest;  // 0 when unbounded
-    return std::min(kSlices - 1, static_cast<int>(depth * kSlicesPerMetre));
+    // compared before the conversion: a far corner's depth may exceed any
+    // int (and NaN from hostile coordinates goes last)
+    const float scaled = depth * kSlicesPerMetre;
+    return scaled < static_cast<float>(kSlices - 1) ? static_cast<int>(scaled) : kSlices - 1;
   };
   size_t start[kSlices + 1] = {};
   for (const ViewTriangle& view : viewTriangles_) ++start[slice(view) + 1];
@@ -577,8 +580,10 @@ void RasterRenderer::render(const CameraPose& pose,
 
   // pixels whose centres may lie inside each triangle: a conservative
   // bound, the edge functions decide
+  // NaN (from hostile coordinates) counts as -1 rather than reaching the
+  // conversion; the edge functions decide what such a triangle covers
   auto toPixel = [](float value, int size) {
-    return static_cast<int>(std::clamp(value, -1.0f, static_cast<float>(size)));
+    return value >= -1.0f ? static_cast<int>(std::min(value, static_cast<float>(size))) : -1;
   };
   const int tilesX = (width + kTile - 1) / kTile;
   const int tilesY = (height + kTile - 1) / kTile;
