@@ -94,130 +94,6 @@ bool cpuHasAvx512() {
 // same instructions without the warning.
 constexpr __mmask16 kAll = 0xFFFF;
 
-// shadePortable() for the 16 lanes of a packet at once (the portable path
-// takes ~100 instructions per textured pixel; this ~15). Lanes outside
-// `hitMask` get 0. Every operation here has its twin there: change both.
-void shadePacketAvx512(const TriangleShade* table,
-                                  const PackedTextures& textures,
-                                  const RTCHit16& hits, unsigned hitMask,
-                                  uint32_t packed[kPacket]) {
-  const __mmask16 lanes = static_cast<__mmask16>(hitMask);
-  const __m512i zero = _mm512_setzero_si512();
-  const __m512 zerof = _mm512_setzero_ps();
-  // fields of each lane's TriangleShade record (16 floats per record). In
-  // most packets every lane hits the same large triangle (walls, floors);
-  // broadcasting its record then replaces 16 gathers, the dominant cost.
-  const __m512i primitive = _mm512_maskz_loadu_epi32(lanes, hits.primID);
-  const unsigned firstLane = static_cast<unsigned>(__builtin_ctz(hitMask | 0x10000u));
-  const uint32_t firstPrimitive = firstLane < kPacket ? hits.primID[firstLane] : 0u;
-  const bool uniform =
-      _mm512_mask_cmpneq_epi32_mask(lanes, primitive,
-                                    _mm512_set1_epi32(static_cast<int>(firstPrimitive))) == 0;
-  const __m512i record = _mm512_maskz_slli_epi32(kAll, primitive, 4);
-  const auto* base = reinterpret_cast<const float*>(table);
-  const float* uniformRecord = base + 16 * static_cast<size_t>(firstPrimitive);
-  auto field = [&](int index) {
-    if (uniform) return _mm512_set1_ps(uniformRecord[index]);
-    return _mm512_mask_i32gather_ps(zerof, lanes,
-                                    _mm512_add_epi32(record, _mm512_set1_epi32(index)),
-                                    base, 4);
-  };
-  const __m512 u = _mm512_maskz_loadu_ps(lanes, hits.u);
-  const __m512 v = _mm512_maskz_loadu_ps(lanes, hits.v);
-  __m512 r = _mm512_fmadd_ps(v, field(8), _mm512_fmadd_ps(u, field(4), field(0)));
-  __m512 g = _mm512_fmadd_ps(v, field(9), _mm512_fmadd_ps(u, field(5), field(1)));
-  __m512 b = _mm512_fmadd_ps(v, field(10), _mm512_fmadd_ps(u, field(6), field(2)));
-  const __m512i texture = _mm512_castps_si512(field(3));
-  const __mmask16 textured = _mm512_mask_cmpge_epi32_mask(lanes, texture, zero);
-
-  if (textured != 0) {
-    // uv, sanitised and wrapped into [0, 1) as in sampleBilinear()
-    __m512 s = _mm512_fmadd_ps(v, field(14), _mm512_fmadd_ps(u, field(12), field(7)));
-    __m512 t = _mm512_fmadd_ps(v, field(15), _mm512_fmadd_ps(u, field(13), field(11)));
-    const __m512 limit = _mm512_set1_ps(1e6f);
-    s = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(_mm512_abs_ps(s), limit, _CMP_LT_OQ), s);
-    t = _mm512_maskz_mov_ps(_mm512_cmp_ps_mask(_mm512_abs_ps(t), limit, _CMP_LT_OQ), t);
-    constexpr int kFloor = _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC;
-    s = _mm512_sub_ps(s, _mm512_maskz_roundscale_ps(kAll, s, kFloor));
-    t = _mm512_sub_ps(t, _mm512_maskz_roundscale_ps(kAll, t, kFloor));
-    // per-texture size and offset, broadcast when all lanes share a triangle
-    auto textureField = [&](const std::vector<int32_t>& values) {
-      if (uniform) return _mm512_set1_epi32(values[static_cast<size_t>(table[firstPrimitive].texture)]);
-      return _mm512_mask_i32gather_epi32(zero, textured, texture, values.data(), 4);
-    };
-    const __m512i width = textureField(textures.width);
-    const __m512i height = textureField(textures.height);
-    const __m512i offset = textureField(textures.offset);
-    const __m512 half = _mm512_set1_ps(0.5f);
-    const __m512 x = _mm512_fmsub_ps(s, _mm512_maskz_cvtepi32_ps(kAll, width), half);
-    const __m512 y = _mm512_fmsub_ps(t, _mm512_maskz_cvtepi32_ps(kAll, height), half);
-    const __m512 x0f = _mm512_maskz_roundscale_ps(kAll, x, kFloor);
-    const __m512 y0f = _mm512_maskz_roundscale_ps(kAll, y, kFloor);
-    const __m512 fx = _mm512_sub_ps(x, x0f);
-    const __m512 fy = _mm512_sub_ps(y, y0f);
-    // texel indices wrapped with one comparison each
-    __m512i x0 = _mm512_maskz_cvttps_epi32(kAll, x0f);
-    __m512i y0 = _mm512_maskz_cvttps_epi32(kAll, y0f);
-    const __m512i one = _mm512_set1_epi32(1);
-    __m512i x1 = _mm512_add_epi32(x0, one);
-    __m512i y1 = _mm512_add_epi32(y0, one);
-    x0 = _mm512_mask_add_epi32(x0, _mm512_cmplt_epi32_mask(x0, zero), x0, width);
-    y0 = _mm512_mask_add_epi32(y0, _mm512_cmplt_epi32_mask(y0, zero), y0, height);
-    x1 = _mm512_mask_sub_epi32(x1, _mm512_cmpge_epi32_mask(x1, width), x1, width);
-    y1 = _mm512_mask_sub_epi32(y1, _mm512_cmpge_epi32_mask(y1, height), y1, height);
-    // byte addresses of the four texels
-    const __m512i three = _mm512_set1_epi32(3);
-    const __m512i row0 = _mm512_mullo_epi32(y0, width);
-    const __m512i row1 = _mm512_mullo_epi32(y1, width);
-    auto address = [&](__m512i row, __m512i column) {
-      return _mm512_add_epi32(offset, _mm512_mullo_epi32(_mm512_add_epi32(row, column), three));
-    };
-    const auto* texels = reinterpret_cast<const int*>(textures.texels.data());
-    auto fetch = [&](__m512i at) {
-      return _mm512_mask_i32gather_epi32(zero, textured, at, texels, 1);
-    };
-    const __m512i t00 = fetch(address(row0, x0));
-    const __m512i t10 = fetch(address(row0, x1));
-    const __m512i t01 = fetch(address(row1, x0));
-    const __m512i t11 = fetch(address(row1, x1));
-    const __m512 inv255 = _mm512_set1_ps(1.0f / 255.0f);
-    const __m512 onef = _mm512_set1_ps(1.0f);
-    const __m512 gx = _mm512_sub_ps(onef, fx);
-    const __m512 gy = _mm512_sub_ps(onef, fy);
-    const __m512 w00 = _mm512_mul_ps(_mm512_mul_ps(gx, gy), inv255);
-    const __m512 w10 = _mm512_mul_ps(_mm512_mul_ps(fx, gy), inv255);
-    const __m512 w01 = _mm512_mul_ps(_mm512_mul_ps(gx, fy), inv255);
-    const __m512 w11 = _mm512_mul_ps(_mm512_mul_ps(fx, fy), inv255);
-    const __m512i byteMask = _mm512_set1_epi32(0xFF);
-    auto channel = [&](int shift) {
-      auto value = [&](__m512i texel) {
-        return _mm512_maskz_cvtepi32_ps(kAll, 
-            _mm512_and_si512(_mm512_maskz_srli_epi32(kAll, texel, static_cast<unsigned>(shift)), byteMask));
-      };
-      return _mm512_fmadd_ps(
-          w11, value(t11),
-          _mm512_fmadd_ps(w01, value(t01),
-                          _mm512_fmadd_ps(w10, value(t10), _mm512_mul_ps(w00, value(t00)))));
-    };
-    r = _mm512_mask_mul_ps(r, textured, r, channel(0));
-    g = _mm512_mask_mul_ps(g, textured, g, channel(8));
-    b = _mm512_mask_mul_ps(b, textured, b, channel(16));
-  }
-
-  // GL's float-to-unorm conversion, then r | g << 8 | b << 16
-  const __m512 scale = _mm512_set1_ps(255.0f);
-  const __m512 half = _mm512_set1_ps(0.5f);
-  const __m512 onef = _mm512_set1_ps(1.0f);
-  auto toByte = [&](__m512 c) {
-    c = _mm512_maskz_min_ps(kAll, _mm512_maskz_max_ps(kAll, c, zerof), onef);
-    return _mm512_maskz_cvttps_epi32(kAll, _mm512_fmadd_ps(c, scale, half));
-  };
-  const __m512i rgb = _mm512_or_si512(
-      toByte(r), _mm512_or_si512(_mm512_maskz_slli_epi32(kAll, toByte(g), 8),
-                                 _mm512_maskz_slli_epi32(kAll, toByte(b), 16)));
-  _mm512_storeu_si512(packed, _mm512_maskz_mov_epi32(lanes, rgb));
-}
-
 // Directions of the 16 primary rays of a 4x4 tile (lane k is column k % 4,
 // row k / 4), reset tfar and hit, and the valid mask for tiles overhanging
 // the image; the same bits as setupPacketPortable(). `columnX` and `rowY`
@@ -266,9 +142,9 @@ class EmbreeRenderer final : public Renderer {
       : Renderer("EmbreeRenderer", mesh),
         mesh_(mesh),
         scene_(static_cast<RTCScene>(rayTracer.embreeScene())) {
-    // the packet paths need AVX-512F (shading eight hits at a time, AVX2);
-    // VLN_EMBREE_SHADING=scalar forces the portable paths, which render the
-    // same bits (tests compare them)
+    // the packet ray set-up needs AVX-512F (shading: HitShader's vector
+    // paths); VLN_EMBREE_SHADING=scalar forces the portable paths of both,
+    // which render the same bits (tests compare them)
     const char* forced = std::getenv("VLN_EMBREE_SHADING");
     scalarOnly_ = forced != nullptr && std::string_view(forced) == "scalar";
     avx512_ = !scalarOnly_ && cpuHasAvx512();
@@ -279,16 +155,13 @@ class EmbreeRenderer final : public Renderer {
   void render(const CameraPose& pose, const CameraIntrinsics& camera,
               unsigned outputs, uint8_t* rgb, float* depth,
               int32_t* objects) override;
-  void shadePacket(const RTCHit16& hits, unsigned hitMask,
-                   uint32_t packed[kPacket]) const;
 
   const TriangleMesh& mesh_;
   RTCScene scene_;
   // built on the first colour render: depth-only renderers never pay for it
   std::optional<HitShader> shader_;
-  // packet ray setup and shading with AVX-512F (the CPU has it and the
-  // scalar path is not forced); shading also needs the textures to fit the
-  // gathers' 32-bit offsets
+  // the portable paths are forced; else packet ray set-up with AVX-512F
+  // where the CPU has it
   bool scalarOnly_ = false;
   bool avx512_ = false;
   // camera-frame ray slopes per column (x) and row (y) of the last intrinsics
@@ -362,7 +235,9 @@ void EmbreeRenderer::render(const CameraPose& pose,
         if (valid[k] != 0 && packet.hit.geomID[k] != RTC_INVALID_GEOMETRY_ID)
           hitMask |= 1u << k;
       alignas(64) uint32_t colors[kPacket];
-      if (outputs & kColor) shadePacket(packet.hit, hitMask, colors);
+      if (outputs & kColor)
+        shader_->shade16(packet.hit.primID, packet.hit.u, packet.hit.v, hitMask,
+                         colors);
 
       // write the tile's rows (the last tiles may overhang the image)
       const int rows = std::min(kTile, height - tileY);
@@ -389,19 +264,6 @@ void EmbreeRenderer::render(const CameraPose& pose,
       }
     }
   }
-}
-
-void EmbreeRenderer::shadePacket(const RTCHit16& hits, unsigned hitMask,
-                                 uint32_t packed[kPacket]) const {
-  if (avx512_ && shader_->packedTextures() != nullptr) {
-    shadePacketAvx512(shader_->table().data(), *shader_->packedTextures(), hits,
-                      hitMask, packed);
-    return;
-  }
-  // two halves of eight lanes
-  for (int half = 0; half < kPacket; half += 8)
-    shader_->shade8(hits.primID + half, hits.u + half, hits.v + half,
-                    hitMask >> half, packed + half);
 }
 
 }  // namespace

@@ -13,10 +13,10 @@ namespace vln::sim {
 /// unlit material rule of Renderer.h. `mesh` and `rayTracer` must outlive it.
 /// Creation is cheap (no copy of the scene; the first colour render builds a
 /// 64-byte shading record per triangle). On CPUs with AVX-512F whole packets
-/// are set up and shaded at once; elsewhere, or with VLN_EMBREE_SHADING=scalar
-/// set before creation, a portable path computes the same bits (the same
-/// fused multiply-adds in the same order), so images do not depend on the
-/// CPU.
+/// are set up and shaded at once, with AVX2 shaded in halves (HitShader,
+/// Shading.h); elsewhere, or with VLN_EMBREE_SHADING=scalar set before
+/// creation, portable paths compute the same bits (the same fused
+/// multiply-adds in the same order), so images do not depend on the CPU.
 std::unique_ptr<Renderer> createEmbreeRenderer(const TriangleMesh& mesh,
                                                const RayTracer& rayTracer);
 

@@ -66,9 +66,9 @@ uint32_t shadePortable(const TriangleShade& t, float u, float v,
 
 /// The material rule of one scene, ready to shade hits: the shading table,
 /// the textures and, for the vector paths, their packed copy. Shades eight
-/// hits at a time with AVX2 + FMA where the CPU has them, with the same
-/// operations in the same order as shadePortable(), so the bits do not
-/// depend on the CPU (tests compare the two).
+/// hits at a time with AVX2 + FMA, sixteen with AVX-512F, where the CPU has
+/// them, with the same operations in the same order as shadePortable(), so
+/// the bits do not depend on the CPU (tests compare them).
 class HitShader {
  public:
   /// `vectorized` false keeps to shadePortable() (for tests); so do CPUs
@@ -82,12 +82,12 @@ class HitShader {
   void shade8(const uint32_t* triangles, const float* u, const float* v,
               unsigned mask, uint32_t colors[8]) const;
 
-  /// The per-triangle records and packed textures, for a backend's own
-  /// wider vector path (null when the textures could not be packed).
-  const std::vector<TriangleShade>& table() const { return table_; }
-  const PackedTextures* packedTextures() const {
-    return packed_ ? &*packed_ : nullptr;
-  }
+  /// shade8() for sixteen lanes (Embree's packets), sixteen readable
+  /// entries each: at once with AVX-512F where the CPU has it (the same bits
+  /// again), else as two halves.
+  void shade16(const uint32_t* triangles, const float* u, const float* v,
+               unsigned mask, uint32_t colors[16]) const;
+
   /// Whether shade8() runs the AVX2 path.
   bool vectorized() const { return avx2_; }
 
@@ -96,6 +96,7 @@ class HitShader {
   std::vector<TextureView> textures_;
   std::optional<PackedTextures> packed_;
   bool avx2_ = false;
+  bool avx512_ = false;
 };
 
 /// The shading table of `mesh` (see TriangleShade), one record per triangle.

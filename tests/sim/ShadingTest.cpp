@@ -1,6 +1,7 @@
-// Tests src/sim/Shading.cpp: HitShader's eight-lane path (AVX2 + FMA, where
-// the CPU has them) against the portable rule hit by hit, bit for bit, and
-// the portable rule against colours worked out by hand.
+// Tests src/sim/Shading.cpp: HitShader's eight- and sixteen-lane paths
+// (AVX2 + FMA and AVX-512F, where the CPU has them) against the portable
+// rule hit by hit, bit for bit, and the portable rule against colours
+// worked out by hand.
 
 #include "sim/Shading.h"
 
@@ -102,6 +103,35 @@ TEST(HitShaderTest, EightLanePathShadesThePortableBits) {
         EXPECT_EQ(a[k], 0u);
       }
     }
+  }
+}
+
+TEST(HitShaderTest, SixteenLanePathShadesThePortableBits) {
+  // Embree's packets: AVX-512F where the CPU has it, else two halves
+  const TriangleMesh mesh = shadedMesh();
+  const HitShader vector(mesh);
+  const HitShader portable(mesh, /*vectorized=*/false);
+  std::mt19937 rng(13);
+  std::uniform_int_distribution<uint32_t> triangle(0, 23);
+  std::uniform_real_distribution<float> weight(0.0f, 1.0f);
+  std::uniform_int_distribution<unsigned> mask(0, 0xFFFF);
+  for (int round = 0; round < 1000; ++round) {
+    alignas(64) uint32_t triangles[16];
+    alignas(64) float u[16];
+    alignas(64) float v[16];
+    const uint32_t shared = triangle(rng);
+    for (int k = 0; k < 16; ++k) {
+      triangles[k] = round % 2 == 0 ? shared : triangle(rng);
+      u[k] = weight(rng);
+      v[k] = (1.0f - u[k]) * weight(rng);
+    }
+    const unsigned lanes = round % 3 == 0 ? 0xFFFFu : mask(rng);
+    alignas(64) uint32_t a[16];
+    alignas(64) uint32_t b[16];
+    vector.shade16(triangles, u, v, lanes, a);
+    portable.shade16(triangles, u, v, lanes, b);
+    for (int k = 0; k < 16; ++k)
+      ASSERT_EQ(a[k], b[k]) << "round " << round << " lane " << k;
   }
 }
 
