@@ -8,7 +8,6 @@
 #include <optional>
 #include <vector>
 
-#include "common/Check.h"
 #include "sim/Mesh.h"
 #include "sim/Shading.h"
 
@@ -98,12 +97,9 @@ struct Occlusion {
   float nearest;
 };
 
-// Eight lanes of GCC's vector extensions: the AVX2 clone below computes
-// with one register, the baseline with two SSE registers, lane for lane
-// the same IEEE operations.
-// The helpers returning them are inlined within this file, never an ABI
-// boundary, so GCC's note on passing 32-byte vectors without AVX is moot.
-#pragma GCC diagnostic ignored "-Wpsabi"
+// Eight lanes of GCC's vector extensions: the AVX2 clones compute with one
+// register, the baseline with two SSE registers, lane for lane the same
+// IEEE operations.
 using Floats8 = float __attribute__((vector_size(32)));
 using Ints8 = int32_t __attribute__((vector_size(32)));
 constexpr Ints8 kLanes = {0, 1, 2, 3, 4, 5, 6, 7};
@@ -339,19 +335,17 @@ class RasterRenderer final : public Renderer {
               int32_t* objects) override;
   void updateRayTable(const CameraIntrinsics& camera);
   // the triangles of the view from `pose` through the slope window
-  // |X| <= tanX, |Y| <= tanY, with their edge functions; kept while the
-  // pose and window stay (the colour and depth cameras of one view share
-  // them, whatever their sizes)
-  __attribute__((noinline)) void setUpView(const CameraPose& pose, float tanX,
-                                           float tanY);
+  // |X| <= tanX, |Y| <= tanY, near to far; kept while the pose and window
+  // stay (the colour and depth cameras of one view share them, whatever
+  // their sizes)
+  void setUpView(const CameraPose& pose, float tanX, float tanY);
   // sets up triangle `t` when it reaches into the window
   void setUpTriangle(size_t t, float tanX, float tanY);
   // writes edges_[t] for the current view; false when the triangle is seen
   // edge-on (or degenerate) and covers no pixel centre
   bool setUpEdges(size_t t);
   // the colour image of the visibility buffer
-  __attribute__((noinline)) void shadeVisible(const CameraIntrinsics& camera,
-                                              uint8_t* rgb);
+  void shadeVisible(const CameraIntrinsics& camera, uint8_t* rgb);
 
   const TriangleMesh& mesh_;
   // the mesh's vertex positions as three arrays (for transformVertices())
