@@ -8,6 +8,7 @@
 #include <optional>
 #include <vector>
 
+#include "common/Check.h"
 #include "sim/Mesh.h"
 #include "sim/Shading.h"
 
@@ -301,12 +302,23 @@ VLN_RASTER_CLONES void transformVertices(
   }
 }
 
+// The mesh's triangle count; throws std::invalid_argument when the
+// visibility buffer's int32 entries cannot index them all.
+size_t indexableTriangles(const TriangleMesh& mesh) {
+  const size_t count = mesh.triangleCount();
+  constexpr auto kMost =
+      static_cast<size_t>(std::numeric_limits<int32_t>::max());
+  VLN_CHECK_ARG(count < kMost, "RasterRenderer: the mesh has ", count,
+                " triangles, more than the ", kMost - 1, " it can index");
+  return count;
+}
+
 class RasterRenderer final : public Renderer {
  public:
   explicit RasterRenderer(const TriangleMesh& mesh)
       : Renderer("RasterRenderer", mesh),
         mesh_(mesh),
-        edges_(mesh.triangleCount()) {
+        edges_(indexableTriangles(mesh)) {
     for (const Vec3f& position : mesh.positions) {
       positionX_.push_back(position.x());
       positionY_.push_back(position.y());
