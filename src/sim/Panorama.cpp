@@ -1,5 +1,6 @@
 #include "sim/Panorama.h"
 
+#include <algorithm>
 #include <cmath>
 #include <span>
 
@@ -87,8 +88,18 @@ void PanoramaRenderer::renderViews(size_t thread, const AgentState& agent,
   const size_t rgbSize = static_cast<size_t>(rgb.width) * rgb.height * 3;
   const size_t depthSize = static_cast<size_t>(depth.width) * depth.height;
   const bool shared = rgb == depth;
-  for (int view = nextView_.fetch_add(1, std::memory_order_relaxed);
-       view < views; view = nextView_.fetch_add(1, std::memory_order_relaxed)) {
+  // work units: whole views, except that the last views (one per renderer)
+  // come as their colour and depth cameras apart, so that no renderer
+  // waits long for another's last view (with one renderer: whole views)
+  const int threads = static_cast<int>(renderers_.size());
+  const int whole =
+      (shared || threads == 1) ? views : std::max(0, views - threads);
+  const int units = whole + 2 * (views - whole);
+  for (int unit = nextView_.fetch_add(1, std::memory_order_relaxed);
+       unit < units; unit = nextView_.fetch_add(1, std::memory_order_relaxed)) {
+    const int view = unit < whole ? unit : whole + (unit - whole) / 2;
+    const bool colour = unit < whole || (unit - whole) % 2 == 0;
+    const bool depthToo = unit < whole || (unit - whole) % 2 == 1;
     // the camera poses of Simulator::observe() after turning to the view
     const float heading = panoramaViewHeading(agent.heading, view, views);
     const CameraPose rgbPose{agent.position + Vec3f(0.0f, rgb.position_y, 0.0f),
@@ -102,12 +113,16 @@ void PanoramaRenderer::renderViews(size_t thread, const AgentState& agent,
     if (shared) {
       renderer.renderRgbDepth(rgbPose, {rgb.width, rgb.height, rgb.hfov},
                               rgbView, depthView);
-    } else {
+      postprocessDepth(config_.depth, depthView);
+      continue;
+    }
+    if (colour)
       renderer.renderRgb(rgbPose, {rgb.width, rgb.height, rgb.hfov}, rgbView);
+    if (depthToo) {
       renderer.renderDepth(depthPose, {depth.width, depth.height, depth.hfov},
                            depthView);
+      postprocessDepth(config_.depth, depthView);
     }
-    postprocessDepth(config_.depth, depthView);
   }
 }
 

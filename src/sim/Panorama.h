@@ -117,7 +117,8 @@ class PanoramaRenderer {
   const PanoramaConfig& config() const { return config_; }
 
  private:
-  // renders the views left (taking them one by one from nextView_) with
+  // renders the work left (taking units one by one from nextView_: whole
+  // views, the last ones as separate colour and depth cameras) with
   // renderer `thread`
   void renderViews(size_t thread, const AgentState& agent, Panorama& out);
 

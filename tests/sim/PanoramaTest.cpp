@@ -122,21 +122,30 @@ TEST_P(PanoramaTest, ViewsGoCounterClockwiseFromTheHeading) {
 }
 
 TEST_P(PanoramaTest, TwoThreadsRenderTheSameImagesAsOne) {
-  Simulator one(scene_, backendConfig(GetParam()), TaskConfig{});
-  Simulator two(scene_, backendConfig(GetParam()), TaskConfig{});
-  Panorama a;
-  Panorama b;
-  for (const AgentState& state :
-       {AgentState{Vec3f(-1.5f, 0.0f, 1.5f), 0.9f},
-        AgentState{Vec3f(0.5f, 0.0f, -2.0f), -2.5f}}) {
-    one.reset(state);
-    two.reset(state);
-    one.observePanorama(smallPanorama(1), a);
-    // twice: the second render reuses the buffers and the renderers
-    two.observePanorama(smallPanorama(2), b);
-    two.observePanorama(smallPanorama(2), b);
-    EXPECT_EQ(a.rgb, b.rgb);
-    EXPECT_EQ(a.depth, b.depth);
+  // with several renderers the last views come as separate colour and
+  // depth units; three renderers split three views so
+  for (const int threads : {2, 3}) {
+    SCOPED_TRACE(::testing::Message() << threads << " threads");
+    Simulator one(scene_, backendConfig(GetParam()), TaskConfig{});
+    Simulator many(scene_, backendConfig(GetParam()), TaskConfig{});
+    Panorama a;
+    Panorama b;
+    for (const AgentState& state :
+         {AgentState{Vec3f(-1.5f, 0.0f, 1.5f), 0.9f},
+          AgentState{Vec3f(0.5f, 0.0f, -2.0f), -2.5f}}) {
+      one.reset(state);
+      many.reset(state);
+      one.observePanorama(smallPanorama(1), a);
+      // a fresh panorama first (unrendered views would stay empty), then
+      // again: the second render reuses the buffers and the renderers
+      b = Panorama{};
+      many.observePanorama(smallPanorama(threads), b);
+      EXPECT_EQ(a.rgb, b.rgb);
+      EXPECT_EQ(a.depth, b.depth);
+      many.observePanorama(smallPanorama(threads), b);
+      EXPECT_EQ(a.rgb, b.rgb);
+      EXPECT_EQ(a.depth, b.depth);
+    }
   }
 }
 
