@@ -70,13 +70,8 @@ VLN_PORTABLE_FMA void setupPacketPortable(
 }
 
 // ---------------------------------------------------------------------------
-// AVX-512 shading of a whole packet
+// AVX-512 ray set-up of a whole packet
 // ---------------------------------------------------------------------------
-
-bool cpuHasAvx512() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx512f") != 0;
-}
 
 // Everything up to the matching pop_options is compiled for AVX-512F + FMA
 // (lambdas included, which a function attribute would not cover) and only

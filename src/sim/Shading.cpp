@@ -328,11 +328,6 @@ void shade8Avx2(const TriangleShade* table, const PackedTextures& textures,
 #pragma GCC pop_options
 #endif
 
-bool cpuHasAvx512() {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx512f") != 0;
-}
-
 // Everything up to the matching pop_options is compiled for AVX-512F + FMA
 // (lambdas included) and only called after cpuHasAvx512().
 #if defined(__clang__)
@@ -501,6 +496,11 @@ void shade16Avx512(const TriangleShade* table, const PackedTextures& textures,
 #endif
 
 }  // namespace
+
+bool cpuHasAvx512() {
+  __builtin_cpu_init();
+  return __builtin_cpu_supports("avx512f") != 0;
+}
 
 std::vector<TriangleShade> buildShadeTable(const TriangleMesh& mesh) {
   std::vector<TriangleShade> table(mesh.triangleCount());

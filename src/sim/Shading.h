@@ -99,6 +99,10 @@ class HitShader {
   bool avx512_ = false;
 };
 
+/// Whether this CPU has AVX-512F (the vector paths that need it are chosen
+/// at run time).
+bool cpuHasAvx512();
+
 /// The shading table of `mesh` (see TriangleShade), one record per triangle.
 std::vector<TriangleShade> buildShadeTable(const TriangleMesh& mesh);
 
