@@ -67,7 +67,7 @@ void PanoramaRenderer::render(const AgentState& agent, Panorama& out) {
   out.depth_height = depth.height;
   out.depth.resize(static_cast<size_t>(views) * depth.width * depth.height);
 
-  nextView_.store(0, std::memory_order_relaxed);
+  nextUnit_.store(0, std::memory_order_relaxed);
   if (!pool_) {
     renderViews(0, agent, out);
     return;
@@ -95,8 +95,8 @@ void PanoramaRenderer::renderViews(size_t thread, const AgentState& agent,
   const int whole =
       (shared || threads == 1) ? views : std::max(0, views - threads);
   const int units = whole + 2 * (views - whole);
-  for (int unit = nextView_.fetch_add(1, std::memory_order_relaxed);
-       unit < units; unit = nextView_.fetch_add(1, std::memory_order_relaxed)) {
+  for (int unit = nextUnit_.fetch_add(1, std::memory_order_relaxed);
+       unit < units; unit = nextUnit_.fetch_add(1, std::memory_order_relaxed)) {
     const int view = unit < whole ? unit : whole + (unit - whole) / 2;
     const bool colour = unit < whole || (unit - whole) % 2 == 0;
     const bool depthToo = unit < whole || (unit - whole) % 2 == 1;

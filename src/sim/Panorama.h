@@ -117,7 +117,7 @@ class PanoramaRenderer {
   const PanoramaConfig& config() const { return config_; }
 
  private:
-  // renders the work left (taking units one by one from nextView_: whole
+  // renders the work left (taking units one by one from nextUnit_: whole
   // views, the last ones as separate colour and depth cameras) with
   // renderer `thread`
   void renderViews(size_t thread, const AgentState& agent, Panorama& out);
@@ -125,7 +125,7 @@ class PanoramaRenderer {
   PanoramaConfig config_;
   std::vector<std::unique_ptr<Renderer>> renderers_;
   std::unique_ptr<common::ThreadPool> pool_;  // null with one thread
-  std::atomic<int> nextView_{0};
+  std::atomic<int> nextUnit_{0};
 };
 
 }  // namespace vln::sim
