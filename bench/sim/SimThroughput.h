@@ -32,8 +32,7 @@ struct SimThroughputOptions {
 /// std::invalid_argument naming the option when one is out of range
 /// (--res in [1, 4096], --frames >= 1, --threads in [1, 256], --subdivide
 /// in [1, 64], --backend embree, osmesa or raster) or not exactly one of
-/// --scene and
-/// --procedural is given, and what loading the scene throws.
+/// --scene and --procedural is given, and what loading the scene throws.
 int runSimThroughput(const SimThroughputOptions& options);
 
 }  // namespace vln::bench

@@ -170,16 +170,10 @@ void EmbreeRenderer::updateRayTable(const CameraIntrinsics& camera) {
       camera.height == tableCamera_.height &&
       camera.hfov_deg == tableCamera_.hfov_deg)
     return;
-  // tiles overhang the image; padded entries repeat the last pixel so the
-  // masked-off lanes still carry finite rays
-  const int paddedWidth = (camera.width + kTile - 1) / kTile * kTile;
-  const int paddedHeight = (camera.height + kTile - 1) / kTile * kTile;
-  columnX_.resize(paddedWidth);
-  rowY_.resize(paddedHeight);
-  for (int i = 0; i < paddedWidth; ++i)
-    columnX_[i] = pixelDirection(camera, static_cast<float>(std::min(i, camera.width - 1)), 0.0f).x();
-  for (int j = 0; j < paddedHeight; ++j)
-    rowY_[j] = pixelDirection(camera, 0.0f, static_cast<float>(std::min(j, camera.height - 1))).y();
+  // tiles overhang the image: whole tiles of slopes
+  PixelSlopes slopes = pixelSlopes(camera, kTile);
+  columnX_ = std::move(slopes.columnX);
+  rowY_ = std::move(slopes.rowY);
   tableCamera_ = camera;
 }
 
@@ -249,12 +243,7 @@ void EmbreeRenderer::render(const CameraPose& pose,
             objects[pixel] = (hit && !triangleObject.empty())
                                  ? triangleObject[packet.hit.primID[k]]
                                  : -1;
-          if (outputs & kColor) {
-            uint8_t* out = rgb + 3 * pixel;
-            out[0] = static_cast<uint8_t>(colors[k]);
-            out[1] = static_cast<uint8_t>(colors[k] >> 8);
-            out[2] = static_cast<uint8_t>(colors[k] >> 16);
-          }
+          if (outputs & kColor) writeColor(colors[k], rgb + 3 * pixel);
         }
       }
     }

@@ -418,19 +418,11 @@ void RasterRenderer::updateRayTable(const CameraIntrinsics& camera) {
       camera.height == tableCamera_.height &&
       camera.hfov_deg == tableCamera_.hfov_deg)
     return;
-  // rows padded to whole blocks of eight columns; the padding repeats the
-  // last column's slope (masked off when drawing)
-  stride_ = (static_cast<size_t>(camera.width) + 7) / 8 * 8;
-  columnX_.resize(stride_);
-  for (size_t i = 0; i < stride_; ++i)
-    columnX_[i] = pixelDirection(camera,
-                                 static_cast<float>(std::min(
-                                     i, static_cast<size_t>(camera.width) - 1)),
-                                 0.0f)
-                      .x();
-  rowY_.resize(static_cast<size_t>(camera.height));
-  for (int j = 0; j < camera.height; ++j)
-    rowY_[j] = pixelDirection(camera, 0.0f, static_cast<float>(j)).y();
+  // rows padded to whole blocks of eight columns (masked off when drawing)
+  PixelSlopes slopes = pixelSlopes(camera, 8);
+  columnX_ = std::move(slopes.columnX);
+  rowY_ = std::move(slopes.rowY);
+  stride_ = columnX_.size();
   // pixelDirection(): X = (2 (column + 0.5) / width - 1) tan(hfov / 2), so
   // column = X * width / (2 tan) + width / 2 - 0.5; rows count downwards
   tanX_ = std::tan(degToRad(camera.hfov_deg) / 2.0f);
@@ -585,9 +577,8 @@ void RasterRenderer::render(const CameraPose& pose,
   visible_.assign(stride * static_cast<size_t>(height), -1);
 
   // pixels whose centres may lie inside each triangle: a conservative
-  // bound, the edge functions decide
-  // NaN (from hostile coordinates) counts as -1 rather than reaching the
-  // conversion; the edge functions decide what such a triangle covers
+  // bound, the edge functions decide (NaN from hostile coordinates counts
+  // as -1 rather than reaching the conversion)
   auto toPixel = [](float value, int size) {
     return value >= -1.0f ? static_cast<int>(std::min(value, static_cast<float>(size))) : -1;
   };
@@ -596,6 +587,10 @@ void RasterRenderer::render(const CameraPose& pose,
   tileFarthest_.assign(
       static_cast<size_t>(tilesX) * static_cast<size_t>(tilesY), 0.0f);
   tileStale_.assign(tileFarthest_.size(), 0);
+  auto tileAt = [&](int tx, int ty) {
+    return static_cast<size_t>(ty) * static_cast<size_t>(tilesX) +
+           static_cast<size_t>(tx);
+  };
   for (ViewTriangle& view : viewTriangles_) {
     // truncation floors the first row and column (negative ones become 0
     // anyway) and one more stands in for the ceiling of the last (no libm
@@ -621,9 +616,7 @@ void RasterRenderer::render(const CameraPose& pose,
     bool hidden = true;
     for (int ty = firstTileY; ty <= lastTileY && hidden; ++ty) {
       for (int tx = firstTileX; tx <= lastTileX; ++tx) {
-        const size_t tile =
-            static_cast<size_t>(ty) * static_cast<size_t>(tilesX) +
-            static_cast<size_t>(tx);
+        const size_t tile = tileAt(tx, ty);
         if (view.nearest <= tileFarthest_[tile]) continue;
         // drawn into since its farthest hit was taken: the bound may have
         // grown
@@ -653,12 +646,9 @@ void RasterRenderer::render(const CameraPose& pose,
     // a tile already farther than this triangle's nearest point kept every
     // pixel; the others' farthest hit is taken again when next needed
     for (int ty = firstTileY; ty <= lastTileY; ++ty)
-      for (int tx = firstTileX; tx <= lastTileX; ++tx) {
-        const size_t tile =
-            static_cast<size_t>(ty) * static_cast<size_t>(tilesX) +
-            static_cast<size_t>(tx);
-        if (view.nearest > tileFarthest_[tile]) tileStale_[tile] = 1;
-      }
+      for (int tx = firstTileX; tx <= lastTileX; ++tx)
+        if (view.nearest > tileFarthest_[tileAt(tx, ty)])
+          tileStale_[tileAt(tx, ty)] = 1;
   }
 
   // resolve the visibility buffer
@@ -711,11 +701,7 @@ void RasterRenderer::shadeVisible(const CameraIntrinsics& camera,
       alignas(32) uint32_t colors[8];
       shader_->shade8(triangles, u + first, v + first, hits, colors);
       uint8_t* out = rgb + 3 * (rowStart + static_cast<size_t>(first));
-      for (int k = 0; k < lanes; ++k) {
-        out[3 * k] = static_cast<uint8_t>(colors[k]);
-        out[3 * k + 1] = static_cast<uint8_t>(colors[k] >> 8);
-        out[3 * k + 2] = static_cast<uint8_t>(colors[k] >> 16);
-      }
+      for (int k = 0; k < lanes; ++k) writeColor(colors[k], out + 3 * k);
     }
   }
 }

@@ -133,6 +133,30 @@ Vec3f pixelDirection(const CameraIntrinsics& camera, float column, float row) {
   return {x, y, -1.0f};
 }
 
+PixelSlopes pixelSlopes(const CameraIntrinsics& camera, int multiple) {
+  VLN_ASSERT(multiple >= 1 && camera.width >= 1 && camera.height >= 1);
+  auto padded = [&](int size) {
+    return (size + multiple - 1) / multiple * multiple;
+  };
+  PixelSlopes slopes;
+  slopes.columnX.resize(static_cast<size_t>(padded(camera.width)));
+  slopes.rowY.resize(static_cast<size_t>(padded(camera.height)));
+  for (size_t i = 0; i < slopes.columnX.size(); ++i)
+    slopes.columnX[i] =
+        pixelDirection(
+            camera,
+            static_cast<float>(std::min(static_cast<int>(i), camera.width - 1)),
+            0.0f)
+            .x();
+  for (size_t j = 0; j < slopes.rowY.size(); ++j)
+    slopes.rowY[j] =
+        pixelDirection(camera, 0.0f,
+                       static_cast<float>(
+                           std::min(static_cast<int>(j), camera.height - 1)))
+            .y();
+  return slopes;
+}
+
 void checkRenderArgs(std::string_view method, const CameraPose& pose,
                      const CameraIntrinsics& camera, size_t bufferSize,
                      int channels) {

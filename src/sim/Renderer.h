@@ -11,6 +11,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "common/Math.h"
 #include "sim/SimConfig.h"
@@ -126,6 +127,16 @@ float tanHalfVerticalFov(const CameraIntrinsics& camera);
 /// backends sample the same points. Its distance along the optical axis is 1,
 /// hence a hit at ray parameter t has z-depth t.
 Vec3f pixelDirection(const CameraIntrinsics& camera, float column, float row);
+
+/// Camera-frame ray slopes of `camera`'s pixel centres (pixelDirection()):
+/// X per column and Y per row, each padded to a multiple of `multiple`
+/// entries that repeat the last pixel's, so that lanes past the image's edge
+/// still carry finite rays.
+struct PixelSlopes {
+  std::vector<float> columnX;
+  std::vector<float> rowY;
+};
+PixelSlopes pixelSlopes(const CameraIntrinsics& camera, int multiple);
 
 /// Throws std::invalid_argument naming `method` when the intrinsics are out
 /// of range (size < 1, hfov outside (0, 180) degrees), the pose is not

@@ -20,7 +20,7 @@ inline int floorToInt(float x) {
   return i - (x < static_cast<float>(i) ? 1 : 0);
 }
 
-// GL's float-to-unorm conversion as the packet path does it: max(c, 0) and
+// GL's float-to-unorm conversion as the vector paths do it: max(c, 0) and
 // min(c, 1) with SSE's rules (a NaN becomes 0), scale, round to nearest.
 inline uint32_t unormByte(float c) {
   c = c > 0.0f ? c : 0.0f;
@@ -28,9 +28,7 @@ inline uint32_t unormByte(float c) {
   return static_cast<uint32_t>(static_cast<int32_t>(std::fma(c, 255.0f, 0.5f)));
 }
 
-// shadePortable(); the clones' resolver stays in this file (GCC emits it
-// beside every caller of a target_clones function, and the callers in other
-// files cannot see the clones)
+// The portable rule for one hit (HitShader).
 VLN_PORTABLE_FMA uint32_t shadeHit(const TriangleShade& t, float u, float v,
                                    const std::vector<TextureView>& textures) {
   float color[3];
@@ -85,6 +83,48 @@ VLN_PORTABLE_FMA uint32_t shadeHit(const TriangleShade& t, float u, float v,
   }
   return unormByte(color[0]) | unormByte(color[1]) << 8 |
          unormByte(color[2]) << 16;
+}
+
+// The shading table of `mesh` (see TriangleShade), one record per triangle.
+std::vector<TriangleShade> buildShadeTable(const TriangleMesh& mesh) {
+  std::vector<TriangleShade> table(mesh.triangleCount());
+  for (size_t t = 0; t < table.size(); ++t) {
+    const uint32_t* corner = mesh.indices.data() + 3 * t;
+    std::array<float, 3> base{1.0f, 1.0f, 1.0f};
+    int texture = -1;
+    const int material =
+        mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
+    if (material >= 0) {
+      base = mesh.materials[static_cast<size_t>(material)].base_color;
+      texture = mesh.materials[static_cast<size_t>(material)].texture;
+    }
+    float color[3][3];
+    for (int k = 0; k < 3; ++k) {
+      for (int c = 0; c < 3; ++c) {
+        const float vertex = mesh.colors.empty()
+                                 ? 1.0f
+                                 : mesh.colors[corner[k]][c] * (1.0f / 255.0f);
+        color[k][c] = base[c] * vertex;
+      }
+    }
+    TriangleShade& shade = table[t];
+    for (int c = 0; c < 3; ++c) {
+      shade.color0[c] = color[0][c];
+      shade.dcolor1[c] = color[1][c] - color[0][c];
+      shade.dcolor2[c] = color[2][c] - color[0][c];
+    }
+    shade.texture = texture;
+    Vec2f uv[3] = {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()};
+    if (!mesh.uvs.empty())
+      for (int k = 0; k < 3; ++k) uv[k] = mesh.uvs[corner[k]];
+    shade.s0 = uv[0].x();
+    shade.t0 = uv[0].y();
+    shade.duv[0] = uv[1].x() - uv[0].x();
+    shade.duv[1] = uv[1].y() - uv[0].y();
+    shade.duv[2] = uv[2].x() - uv[0].x();
+    shade.duv[3] = uv[2].y() - uv[0].y();
+  }
+  return table;
 }
 
 std::vector<TextureView> textureViews(const TriangleMesh& mesh) {
@@ -500,52 +540,6 @@ void shade16Avx512(const TriangleShade* table, const PackedTextures& textures,
 bool cpuHasAvx512() {
   __builtin_cpu_init();
   return __builtin_cpu_supports("avx512f") != 0;
-}
-
-std::vector<TriangleShade> buildShadeTable(const TriangleMesh& mesh) {
-  std::vector<TriangleShade> table(mesh.triangleCount());
-  for (size_t t = 0; t < table.size(); ++t) {
-    const uint32_t* corner = mesh.indices.data() + 3 * t;
-    std::array<float, 3> base{1.0f, 1.0f, 1.0f};
-    int texture = -1;
-    const int material =
-        mesh.triangle_material.empty() ? -1 : mesh.triangle_material[t];
-    if (material >= 0) {
-      base = mesh.materials[static_cast<size_t>(material)].base_color;
-      texture = mesh.materials[static_cast<size_t>(material)].texture;
-    }
-    float color[3][3];
-    for (int k = 0; k < 3; ++k) {
-      for (int c = 0; c < 3; ++c) {
-        const float vertex = mesh.colors.empty()
-                                 ? 1.0f
-                                 : mesh.colors[corner[k]][c] * (1.0f / 255.0f);
-        color[k][c] = base[c] * vertex;
-      }
-    }
-    TriangleShade& shade = table[t];
-    for (int c = 0; c < 3; ++c) {
-      shade.color0[c] = color[0][c];
-      shade.dcolor1[c] = color[1][c] - color[0][c];
-      shade.dcolor2[c] = color[2][c] - color[0][c];
-    }
-    shade.texture = texture;
-    Vec2f uv[3] = {Vec2f::Zero(), Vec2f::Zero(), Vec2f::Zero()};
-    if (!mesh.uvs.empty())
-      for (int k = 0; k < 3; ++k) uv[k] = mesh.uvs[corner[k]];
-    shade.s0 = uv[0].x();
-    shade.t0 = uv[0].y();
-    shade.duv[0] = uv[1].x() - uv[0].x();
-    shade.duv[1] = uv[1].y() - uv[0].y();
-    shade.duv[2] = uv[2].x() - uv[0].x();
-    shade.duv[3] = uv[2].y() - uv[0].y();
-  }
-  return table;
-}
-
-uint32_t shadePortable(const TriangleShade& t, float u, float v,
-                       const std::vector<TextureView>& textures) {
-  return shadeHit(t, u, v, textures);
 }
 
 HitShader::HitShader(const TriangleMesh& mesh, bool vectorized)

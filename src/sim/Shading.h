@@ -12,11 +12,11 @@ namespace vln::sim {
 
 struct TriangleMesh;
 
-// The portable paths compute exactly what EmbreeRenderer.cpp's AVX-512
-// packet paths compute, operation for operation: each multiply-add that path
-// fuses is a std::fma here (one rounding), in the same order, and the clamps
-// keep its NaN rules. So a CPU without AVX-512 renders the same bits as one
-// with it, and runs on either machine train the same weights
+// The portable paths (the shading here, Embree's ray set-up) compute exactly
+// what their vector twins compute, operation for operation: each
+// multiply-add a vector path fuses is a std::fma there (one rounding), in
+// the same order, and the clamps keep its NaN rules. So the vector units of a
+// CPU never change an image, and runs on any machine train the same weights
 // (docs/reliability.md, "Across machines"). Built twice (target_clones): with
 // FMA instructions for every AVX2 CPU, and for the baseline, where std::fma is
 // libm's correctly rounded fmaf, slower and equal.
@@ -56,26 +56,23 @@ struct PackedTextures {
   std::vector<int32_t> height;
 };
 
-// Colour of one hit as r | g << 8 | b << 16: base colour x vertex colour x
-// texture, interpolated with the hit's barycentrics; the texture is sampled
-// bilinearly with wrap, as GL_LINEAR + GL_REPEAT without mipmaps (texel
-// centres at (i + 0.5) / size, row 0 at v = 0, the rows uploaded in the same
-// order by the rasteriser).
-uint32_t shadePortable(const TriangleShade& t, float u, float v,
-                       const std::vector<TextureView>& textures);
-
 /// The material rule of one scene, ready to shade hits: the shading table,
-/// the textures and, for the vector paths, their packed copy. Shades eight
-/// hits at a time with AVX2 + FMA, sixteen with AVX-512F, where the CPU has
-/// them, with the same operations in the same order as shadePortable(), so
-/// the bits do not depend on the CPU (tests compare them).
+/// the textures and, for the vector paths, their packed copy. A hit's colour
+/// (r | g << 8 | b << 16) is base colour x vertex colour x texture,
+/// interpolated with its barycentrics; the texture is sampled bilinearly
+/// with wrap, as GL_LINEAR + GL_REPEAT without mipmaps (texel centres at
+/// (i + 0.5) / size, row 0 at v = 0, the rows uploaded in the same order by
+/// the OSMesa rasteriser). One portable path computes it hit by hit; AVX2 +
+/// FMA (eight hits) and AVX-512F (sixteen) twins, where the CPU has them,
+/// run the same operations in the same order, so the bits do not depend on
+/// the CPU (tests compare them).
 class HitShader {
  public:
-  /// `vectorized` false keeps to shadePortable() (for tests); so do CPUs
+  /// `vectorized` false keeps to the portable path (for tests); so do CPUs
   /// without AVX2 and FMA, and textures beyond the gathers' 32-bit offsets.
   explicit HitShader(const TriangleMesh& mesh, bool vectorized = true);
 
-  /// Colours (as shadePortable()) of the hits in the lanes set in `mask`
+  /// Colours of the hits in the lanes set in `mask`
   /// (bit k = lane k, k < 8): triangle ids and Embree's barycentrics u, v
   /// of each lane, eight readable entries each; lanes outside `mask` get 0
   /// whatever their entries hold.
@@ -103,7 +100,12 @@ class HitShader {
 /// at run time).
 bool cpuHasAvx512();
 
-/// The shading table of `mesh` (see TriangleShade), one record per triangle.
-std::vector<TriangleShade> buildShadeTable(const TriangleMesh& mesh);
+/// Writes a colour as HitShader gives it (r | g << 8 | b << 16) to the
+/// three bytes of an RGB pixel.
+inline void writeColor(uint32_t color, uint8_t* rgb) {
+  rgb[0] = static_cast<uint8_t>(color);
+  rgb[1] = static_cast<uint8_t>(color >> 8);
+  rgb[2] = static_cast<uint8_t>(color >> 16);
+}
 
 }  // namespace vln::sim

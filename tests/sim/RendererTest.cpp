@@ -629,10 +629,10 @@ TEST(RendererAgreementTest, RasterAndEmbreeAgreeAtPixelCentres) {
 }
 
 TEST(EmbreeRendererTest, PacketAndPortablePathsRenderTheSameBits) {
-  // the AVX-512 packet paths (ray setup and shading, where the CPU has them)
-  // and the portable path of CPUs without AVX-512 fuse the same
-  // multiply-adds in the same order, so a machine's vector units never
-  // change an image, and with it the features and weights trained on it.
+  // the vector paths (AVX-512 ray set-up and shading, AVX2 shading, where
+  // the CPU has them) and the portable paths fuse the same multiply-adds in
+  // the same order, so a machine's vector units never change an image, and
+  // with it the features and weights trained on it.
   // The room's floor and box are textured with wrap, its walls are vertex
   // colour gradients; poses look everywhere in it.
   TriangleMesh mesh = testRoom();

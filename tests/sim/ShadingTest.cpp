@@ -59,45 +59,41 @@ TriangleMesh shadedMesh() {
   return mesh;
 }
 
-TEST(HitShaderTest, EightLanePathShadesThePortableBits) {
-  const TriangleMesh mesh = shadedMesh();
-  const HitShader vector(mesh);
-  const HitShader portable(mesh, /*vectorized=*/false);
-  EXPECT_FALSE(portable.vectorized());
-  if (!vector.vectorized())
-    GTEST_LOG_(INFO)
-        << "this CPU has no AVX2 + FMA: both run the portable path";
-  std::mt19937 rng(9);
+// `rounds` random runs of kLanes hits through `shade` (a vector path of
+// `vector`, or the same call on `portable`), compared lane by lane: runs of
+// one, two or three triangles over the lanes (broadcast and blended
+// records) and of up to kLanes (gathered); lanes outside the mask hold an
+// invalid id and NaN (as Embree's misses) and must come out 0.
+template <int kLanes, typename Shade>
+void expectPortableBits(const HitShader& vector, const HitShader& portable,
+                        Shade shade, uint32_t seed, int rounds) {
+  std::mt19937 rng(seed);
   std::uniform_int_distribution<uint32_t> triangle(0, 23);
   std::uniform_real_distribution<float> weight(0.0f, 1.0f);
-  std::uniform_int_distribution<unsigned> mask(0, 255);
-  for (int round = 0; round < 2000; ++round) {
-    alignas(32) uint32_t triangles[8];
-    alignas(32) float u[8];
-    alignas(32) float v[8];
-    // rounds with one, two or three triangles over the lanes (broadcast and
-    // blended records) and with up to eight (gathered)
+  std::uniform_int_distribution<unsigned> mask(0, (1u << kLanes) - 1u);
+  for (int round = 0; round < rounds; ++round) {
+    alignas(64) uint32_t triangles[kLanes];
+    alignas(64) float u[kLanes];
+    alignas(64) float v[kLanes];
     const uint32_t few[3] = {triangle(rng), triangle(rng), triangle(rng)};
     const int distinct = 1 + round % 4;
-    for (int k = 0; k < 8; ++k) {
+    for (int k = 0; k < kLanes; ++k) {
       triangles[k] =
           distinct <= 3 ? few[(k * 5 + round) % distinct] : triangle(rng);
       u[k] = weight(rng);
       v[k] = (1.0f - u[k]) * weight(rng);
     }
-    const unsigned lanes = round % 3 == 0 ? 0xFFu : mask(rng);
-    // lanes outside the mask may hold anything (Embree's misses carry an
-    // invalid id)
-    for (int k = 0; k < 8; ++k)
+    const unsigned lanes = round % 3 == 0 ? (1u << kLanes) - 1u : mask(rng);
+    for (int k = 0; k < kLanes; ++k)
       if (!((lanes >> k) & 1u)) {
         triangles[k] = 0xFFFFFFFFu;
         u[k] = std::numeric_limits<float>::quiet_NaN();
       }
-    alignas(32) uint32_t a[8];
-    alignas(32) uint32_t b[8];
-    vector.shade8(triangles, u, v, lanes, a);
-    portable.shade8(triangles, u, v, lanes, b);
-    for (int k = 0; k < 8; ++k) {
+    alignas(64) uint32_t a[kLanes];
+    alignas(64) uint32_t b[kLanes];
+    shade(vector, triangles, u, v, lanes, a);
+    shade(portable, triangles, u, v, lanes, b);
+    for (int k = 0; k < kLanes; ++k) {
       ASSERT_EQ(a[k], b[k]) << "round " << round << " lane " << k;
       if (!((lanes >> k) & 1u)) {
         EXPECT_EQ(a[k], 0u);
@@ -106,33 +102,33 @@ TEST(HitShaderTest, EightLanePathShadesThePortableBits) {
   }
 }
 
+TEST(HitShaderTest, EightLanePathShadesThePortableBits) {
+  const TriangleMesh mesh = shadedMesh();
+  const HitShader vector(mesh);
+  const HitShader portable(mesh, /*vectorized=*/false);
+  EXPECT_FALSE(portable.vectorized());
+  if (!vector.vectorized())
+    GTEST_LOG_(INFO)
+        << "this CPU has no AVX2 + FMA: both run the portable path";
+  expectPortableBits<8>(
+      vector, portable,
+      [](const HitShader& shader, const uint32_t* t, const float* u,
+         const float* v, unsigned lanes,
+         uint32_t* colors) { shader.shade8(t, u, v, lanes, colors); },
+      9, 2000);
+}
+
 TEST(HitShaderTest, SixteenLanePathShadesThePortableBits) {
   // Embree's packets: AVX-512F where the CPU has it, else two halves
   const TriangleMesh mesh = shadedMesh();
   const HitShader vector(mesh);
   const HitShader portable(mesh, /*vectorized=*/false);
-  std::mt19937 rng(13);
-  std::uniform_int_distribution<uint32_t> triangle(0, 23);
-  std::uniform_real_distribution<float> weight(0.0f, 1.0f);
-  std::uniform_int_distribution<unsigned> mask(0, 0xFFFF);
-  for (int round = 0; round < 1000; ++round) {
-    alignas(64) uint32_t triangles[16];
-    alignas(64) float u[16];
-    alignas(64) float v[16];
-    const uint32_t shared = triangle(rng);
-    for (int k = 0; k < 16; ++k) {
-      triangles[k] = round % 2 == 0 ? shared : triangle(rng);
-      u[k] = weight(rng);
-      v[k] = (1.0f - u[k]) * weight(rng);
-    }
-    const unsigned lanes = round % 3 == 0 ? 0xFFFFu : mask(rng);
-    alignas(64) uint32_t a[16];
-    alignas(64) uint32_t b[16];
-    vector.shade16(triangles, u, v, lanes, a);
-    portable.shade16(triangles, u, v, lanes, b);
-    for (int k = 0; k < 16; ++k)
-      ASSERT_EQ(a[k], b[k]) << "round " << round << " lane " << k;
-  }
+  expectPortableBits<16>(
+      vector, portable,
+      [](const HitShader& shader, const uint32_t* t, const float* u,
+         const float* v, unsigned lanes,
+         uint32_t* colors) { shader.shade16(t, u, v, lanes, colors); },
+      13, 1000);
 }
 
 TEST(HitShaderTest, PortableRuleIsBaseTimesVertexColourTimesTexture) {
