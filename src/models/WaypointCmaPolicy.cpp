@@ -124,6 +124,9 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
       "stop_key", torch::randn({hidden}) / std::sqrt(double(hidden)));
   query_linear =
       register_module("query_linear", nn::Linear(compressIn - prevDim, hidden));
+  if (config.progress_monitor)
+    progress_monitor =
+        register_module("progress_monitor", nn::Linear(hidden, 1));
 }
 
 EncodedInstruction WaypointCmaPolicyImpl::encodeInstruction(
@@ -263,6 +266,8 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
   if (textWeights.defined())
     out.text_attention = textWeights.view({steps, batch, -1});
   out.hidden = torch::stack({h1Last, h2Last}, 1);
+  if (progress_monitor)
+    out.progress = torch::tanh(progress_monitor(h2)).view({steps, batch});
   return out;
 }
 
@@ -279,6 +284,7 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::step(
   out.logits = out.logits.squeeze(0);
   if (out.text_attention.defined())
     out.text_attention = out.text_attention.squeeze(0);
+  if (out.progress.defined()) out.progress = out.progress.squeeze(0);
   return out;
 }
 

@@ -41,6 +41,10 @@
 //
 // model.dropout (training only, as PolicyImpl's): on the encoded
 // instruction, on the encoders' view features and on the query's input.
+// With model.progress_monitor a head reads GRU2's state,
+//   p_t   = tanh(W_p h2_t)
+// trained towards the progress made to the goal (the paper's progress
+// monitor, Ma et al. 2019; waypoint_agent training only, not exported).
 
 #include <torch/torch.h>
 
@@ -65,6 +69,7 @@ struct WaypointPolicyInputs {
 struct WaypointPolicyOutputs {
   torch::Tensor logits;  ///< [.., 1 + K]: STOP, then the candidates
   torch::Tensor hidden;  ///< [B, 2, hidden_size] after the last step
+  torch::Tensor progress;  ///< [..] in (-1, 1) with model.progress_monitor
   /// [.., L]: the instruction attention of s_t (weights over the tokens),
   /// or with model.leg_attention that of l_t; undefined with
   /// model.no_instruction
@@ -116,6 +121,7 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
   torch::nn::Linear candidate_linear{nullptr};
   torch::Tensor stop_key;  ///< [hidden]
   torch::nn::Linear query_linear{nullptr};
+  torch::nn::Linear progress_monitor{nullptr};  ///< W_p [1, hidden]
 
  private:
   // x, or x with model.dropout applied while training

@@ -250,6 +250,8 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
   std::vector<int> taken(static_cast<size_t>(n)),
       labels(static_cast<size_t>(n));
   std::vector<uint32_t> acceptable(static_cast<size_t>(n), 0u);
+  std::vector<float> goalDistances(static_cast<size_t>(n),
+                                   std::numeric_limits<float>::infinity());
   envs.forEach(envList, [&](int env) {
     const int64_t i = rowOf[static_cast<size_t>(env)];
     Slot& slot = *slots_[static_cast<size_t>(env)];
@@ -263,8 +265,12 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
                                         slot.referenceIndex, final);
       waypoint::ApproachConfig rule = config_.approach;
       if (!final) rule.success_distance = 0.0f;  // never stop short of the goal
+      const waypoint::PathCorridor corridor{
+          slot.episode->reference_path,
+          static_cast<float>(config_.oracle_corridor)};
       waypoint::OracleVerdict verdict = waypoint::oracleVerdict(
-          navmesh, agent_, state, cands, target, rule, config_.execution);
+          navmesh, agent_, state, cands, target, rule, config_.execution,
+          config_.oracle == "goal_near_path" ? &corridor : nullptr);
       if (verdict.choice < 0 && !final && !cands.empty()) {
         // at an intermediate waypoint with nothing closer: head for the goal
         verdict = waypoint::oracleVerdict(navmesh, agent_, state, cands,
@@ -272,6 +278,9 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
                                           config_.approach, config_.execution);
       }
       label = verdict.choice + 1;
+      if (!slot.episode->goals.empty())
+        goalDistances[static_cast<size_t>(i)] = navmesh.geodesicDistance(
+            state.position, slot.episode->goals.front().position);
       if (config_.label_tolerance > 0.0)
         acceptable[static_cast<size_t>(i)] = waypoint::acceptableChoices(
             verdict, static_cast<float>(config_.label_tolerance));
@@ -336,6 +345,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
       d.acceptable = acceptable[static_cast<size_t>(i)];
       d.taken = choice;
       d.position = slot.choices.back().position;
+      d.goal_distance = goalDistances[static_cast<size_t>(i)];
       slot.record.push_back(std::move(d));
     }
     ++slot.decisions;

@@ -28,6 +28,7 @@
 // per-episode generator (common::episodeSeed()).
 
 #include <ATen/core/Tensor.h>
+#include <limits>
 
 #include <cstdint>
 #include <memory>
@@ -60,6 +61,9 @@ struct WaypointDecision {
   /// Where the agent stood (world frame, metres), e.g. to tell which leg of
   /// the reference path it was about to walk (data::upcomingLeg()).
   Vec3f position = Vec3f::Zero();
+  /// The geodesic distance (m) from there to the episode's goal, e.g. for
+  /// the progress monitor's target; infinity where unknown or unreachable.
+  float goal_distance = std::numeric_limits<float>::infinity();
   /// The features of the mirrored panorama (mirrorPanoramaViews()), kept
   /// when collecting with WaypointCollection::mirror; else undefined.
   at::Tensor rgb_mirrored;

@@ -28,8 +28,13 @@ struct WaypointAgentConfig {
   /// (waypoint::teleportTarget(), sim::resolveTeleport()).
   waypoint::Execution execution = waypoint::Execution::kWalk;
   /// What the training oracle aims for: the episode's goal, or the next
-  /// reference-path waypoint not yet within stop_distance (then the goal).
+  /// reference-path waypoint not yet within stop_distance (then the goal),
+  /// or (goal_near_path) the goal by way of the candidates that end within
+  /// oracle_corridor of the reference path (waypoint::PathCorridor; all
+  /// candidates where none does).
   std::string oracle = "goal";
+  /// Metres from the reference path's segments, for oracle goal_near_path.
+  double oracle_corridor = 1.0;
   /// Added to the policy's STOP logit before it chooses (greedy or
   /// sampled): a decision threshold, not a weight. Positive values stop
   /// sooner. The oracle's labels and the training loss do not see it.
@@ -75,10 +80,15 @@ struct WaypointAgentConfig {
                   "with collisions and sliding) or teleported to (one step: "
                   "snapped to the navmesh on the agent's island, else the "
                   "agent stays)");
-    v.choice("oracle", oracle, {"goal", "reference_path"},
+    v.choice("oracle", oracle, {"goal", "reference_path", "goal_near_path"},
              "The training oracle picks the candidate whose approach ends "
              "nearest the goal, or nearest the next reference-path waypoint "
-             "not yet reached");
+             "not yet reached, or nearest the goal among those ending within "
+             "oracle_corridor of the reference path (all where none does)");
+    v.field("oracle_corridor", oracle_corridor,
+            "Metres from the reference path's segments within which the "
+            "goal_near_path oracle prefers its candidates' ends",
+            common::inRange(0.0, 100.0));
     v.field("stop_bias", stop_bias,
             "Added to the policy's STOP logit when it chooses (positive "
             "stops sooner; labels and loss are unchanged)",

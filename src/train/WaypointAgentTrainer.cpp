@@ -18,6 +18,7 @@
 #include "rollout/ObservationBatch.h"
 #include "train/Checkpoint.h"
 #include "train/CheckpointKeeper.h"
+#include "train/Collector.h"
 #include "train/MetricsLog.h"
 #include "train/PeriodicEvaluator.h"
 #include "train/TrainingData.h"
@@ -215,6 +216,27 @@ at::Tensor subInstructionTargets(
           for (int k = c.first; k < std::min<int64_t>(c.last, L); ++k)
             access[static_cast<int64_t>(t)][b][k] = 1.0f;
     }
+  }
+  return targets;
+}
+
+at::Tensor progressTargets(
+    std::span<const std::vector<rollout::WaypointDecision>* const> rows,
+    std::span<const data::Episode* const> episodes, bool clip) {
+  VLN_CHECK_ARG(rows.size() == episodes.size(),
+                "progressTargets(): ", rows.size(), " rows for ",
+                episodes.size(), " episodes");
+  size_t steps = 0;
+  for (const auto* row : rows) steps = std::max(steps, row->size());
+  at::Tensor targets = torch::zeros(
+      {static_cast<int64_t>(steps), static_cast<int64_t>(rows.size())});
+  auto t = targets.accessor<float, 2>();
+  for (size_t b = 0; b < rows.size(); ++b) {
+    const float start = episodes[b]->geodesic_distance.value_or(
+        std::numeric_limits<float>::infinity());
+    for (size_t s = 0; s < rows[b]->size(); ++s)
+      t[static_cast<int64_t>(s)][static_cast<int64_t>(b)] =
+          progressTarget(start, (*rows[b])[s].goal_distance, clip);
   }
   return targets;
 }
@@ -469,7 +491,8 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       std::vector<size_t> order(collected.size());
       std::iota(order.begin(), order.end(), size_t{0});
       common::deterministicShuffle(order, orderRng);
-      double lossSum = 0.0, contrastSum = 0.0, subInstructionSum = 0.0;
+      double lossSum = 0.0, contrastSum = 0.0, subInstructionSum = 0.0,
+             progressSum = 0.0;
       int64_t correct = 0, acceptedHits = 0, labelled = 0, batches = 0;
       // the first decision of each episode, where the instruction's opening
       // ("turn left ...") is all that tells the candidates apart
@@ -536,6 +559,15 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
           subInstructionSum += sub.item<double>();
           loss = loss + subInstructionWeight * sub;
         }
+        if (out.progress.defined()) {
+          const torch::Tensor progressLoss = models::progressLoss(
+              out.progress,
+              progressTargets(rows, instructions, tc.clip_progress_target)
+                  .to(device),
+              batch.labels.to(device).ge(0));
+          progressSum += progressLoss.item<double>();
+          loss = loss + tc.progress_loss_weight * progressLoss;
+        }
         optimizer.zero_grad();
         loss.backward();
         optimizer.step();
@@ -571,6 +603,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       const double meanContrast = batches > 0 ? contrastSum / batches : 0.0;
       const double meanSubInstruction =
           batches > 0 ? subInstructionSum / batches : 0.0;
+      const double meanProgress = batches > 0 ? progressSum / batches : 0.0;
       const double accuracy =
           labelled > 0 ? static_cast<double>(correct) / labelled : 0.0;
       const double acceptedAccuracy =
@@ -580,18 +613,19 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                             : 0.0;
       spdlog::info(
           "{}: iteration {} epoch {}: {} updates, loss {:.4f} (instruction "
-          "contrast {:.4f}, sub-instruction {:.4f}), label accuracy {:.3f} "
-          "over {} decisions ({:.3f} at the first decision, {:.3f} an "
-          "accepted choice), {:.1f} s",
+          "contrast {:.4f}, sub-instruction {:.4f}, progress {:.4f}), label "
+          "accuracy {:.3f} over {} decisions ({:.3f} at the first decision, "
+          "{:.3f} an accepted choice), {:.1f} s",
           kTask, iteration.iteration, epoch.epoch, batches, meanLoss,
-          meanContrast, meanSubInstruction, accuracy, labelled, firstAccuracy,
-          acceptedAccuracy, epochClock.seconds());
+          meanContrast, meanSubInstruction, meanProgress, accuracy, labelled,
+          firstAccuracy, acceptedAccuracy, epochClock.seconds());
       metrics.write("epoch",
                     {{"iteration", iteration.iteration},
                      {"epoch", epoch.epoch},
                      {"loss", meanLoss},
                      {"instruction_contrast", meanContrast},
                      {"sub_instruction", meanSubInstruction},
+                     {"progress", meanProgress},
                      {"accuracy", accuracy},
                      {"first_decision_accuracy", firstAccuracy},
                      {"accepted_accuracy", acceptedAccuracy},

@@ -152,6 +152,14 @@ at::Tensor subInstructionTargets(
 torch::Tensor subInstructionLoss(const torch::Tensor& attention,
                                  const torch::Tensor& targets);
 
+/// The progress monitor's targets [T, B] for `rows` (T the longest row):
+/// progressTarget() of each decision's goal_distance against its episode's
+/// info.geodesic_distance (clipped to [-1, 1] with `clip`); 0 at padding
+/// steps and where either distance is unknown.
+at::Tensor progressTargets(
+    std::span<const std::vector<rollout::WaypointDecision>* const> rows,
+    std::span<const data::Episode* const> episodes, bool clip);
+
 /// trainer.task = waypoint_cma. Expects logging set up.
 void runWaypointAgentTraining(const ExperimentConfig& config,
                               const std::filesystem::path& runDir);

@@ -1,5 +1,6 @@
 #include "waypoint/WaypointApproach.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -62,23 +63,46 @@ sim::AgentState executionEnd(const sim::NavMesh& navmesh,
   return planApproach(navmesh, agent, start, heading, distance, config).end;
 }
 
+float distanceToPath(const Vec3f& point, std::span<const Vec3f> path) {
+  if (path.empty()) return std::numeric_limits<float>::infinity();
+  float best = (point - path.front()).norm();
+  for (size_t i = 1; i < path.size(); ++i) {
+    const Vec3f a = path[i - 1], ab = path[i] - a;
+    const float length2 = ab.squaredNorm();
+    const float t = length2 > 0.0f
+                        ? std::clamp((point - a).dot(ab) / length2, 0.0f, 1.0f)
+                        : 0.0f;
+    best = std::min(best, (point - (a + t * ab)).norm());
+  }
+  return best;
+}
+
 OracleVerdict oracleVerdict(const sim::NavMesh& navmesh,
                             const sim::AgentConfig& agent,
                             const sim::AgentState& state,
                             std::span<const Candidate> candidates,
                             const Vec3f& goal, const ApproachConfig& config,
-                            Execution execution) {
+                            Execution execution, const PathCorridor* corridor) {
   OracleVerdict verdict;
   const float here = navmesh.geodesicDistance(state.position, goal);
   if (here <= config.stop_distance) return verdict;
-  float bestDistance = std::numeric_limits<float>::infinity();
+  std::vector<bool> inside(candidates.size(), true);
+  bool anyInside = false;
   for (size_t i = 0; i < candidates.size(); ++i) {
     const sim::AgentState end =
         executionEnd(navmesh, agent, state, candidates[i].heading,
                      candidates[i].distance, config, execution);
-    const float d = navmesh.geodesicDistance(end.position, goal);
-    verdict.end_distances.push_back(d);
-    if (d < bestDistance) {
+    verdict.end_distances.push_back(
+        navmesh.geodesicDistance(end.position, goal));
+    if (corridor != nullptr)
+      inside[i] =
+          distanceToPath(end.position, corridor->path) <= corridor->width;
+    anyInside = anyInside || inside[i];
+  }
+  float bestDistance = std::numeric_limits<float>::infinity();
+  for (size_t i = 0; i < candidates.size(); ++i) {
+    const float d = verdict.end_distances[i];
+    if ((inside[i] || !anyInside) && d < bestDistance) {
       bestDistance = d;
       verdict.choice = static_cast<int>(i);
     }

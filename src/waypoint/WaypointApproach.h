@@ -118,18 +118,34 @@ struct OracleVerdict {
   std::vector<float> end_distances;
 };
 
+/// A band around the path an instruction describes: the oracle may prefer
+/// the candidates whose execution ends inside it (oracleVerdict()).
+struct PathCorridor {
+  std::span<const Vec3f> path;  ///< the reference path's points, in order
+  float width = 1.0f;           ///< metres from the path's segments
+};
+
+/// The distance (m) from `point` to the nearest segment of `path` (to its
+/// one point when it has one); infinity for an empty path.
+float distanceToPath(const Vec3f& point, std::span<const Vec3f> path);
+
 /// The oracle's verdict for an agent at `state` heading for `goal` (world
 /// frame): the candidate whose execution (executionEnd() under `execution`)
 /// ends at the smallest geodesic distance to the goal. STOP (-1) when the
 /// agent is within config.stop_distance, or within config.success_distance
 /// and no candidate ends config.min_progress closer, or when there is no
 /// candidate (or none reaches the goal's island) at all.
+/// With a `corridor`, only the candidates whose execution ends within
+/// corridor->width of its path compete (all of them when none does): the
+/// way the words describe, not a shortcut they never mention.
+/// end_distances lists every candidate either way.
 OracleVerdict oracleVerdict(const sim::NavMesh& navmesh,
                             const sim::AgentConfig& agent,
                             const sim::AgentState& state,
                             std::span<const Candidate> candidates,
                             const Vec3f& goal, const ApproachConfig& config,
-                            Execution execution = Execution::kWalk);
+                            Execution execution = Execution::kWalk,
+                            const PathCorridor* corridor = nullptr);
 
 /// The choices as good as the verdict's within `tolerance` metres, as bits
 /// in the policy's coding (bit 0 STOP, bit j + 1 candidate j): the chosen

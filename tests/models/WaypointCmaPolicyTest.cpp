@@ -22,6 +22,9 @@ constexpr int64_t kSlots = 4;
 
 ModelConfig config() {
   ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  // the tiny config's progress monitor is a head of its own here (its
+  // test below); these tests keep the draws they were written with
+  c.progress_monitor = false;
   c.fine_tune_embeddings = true;
   return c;
 }
@@ -127,6 +130,48 @@ TEST(WaypointCmaPolicyTest, ACandidateReadsTheViewAtItsHeading) {
   const double base = (before[0][0][1] - before[0][0][0]).item<double>();
   EXPECT_GT(std::abs(changed(3).item<double>() - base),
             std::abs(changed(7).item<double>() - base));
+}
+
+// model.progress_monitor: one value in (-1, 1) per decision, the same
+// stepping as in a sequence, read from GRU2's state (the logits unchanged
+// by the head's presence); none without the option
+TEST(WaypointCmaPolicyTest, TheProgressMonitorReadsTheSecondState) {
+  ModelConfig c = config();
+  c.progress_monitor = true;
+  torch::manual_seed(4);
+  WaypointCmaPolicy policy(c, kViews, kRgb, kDepth);
+  policy->eval();
+  torch::NoGradGuard noGrad;
+  const torch::Tensor tokens = test::randomTokens({5, 3}, 6, 23);
+  const auto instruction = policy->encodeInstruction(tokens);
+  const WaypointPolicyInputs in = randomInputs(3, {2, 3});
+  const WaypointPolicyOutputs sequence =
+      policy->forwardSequence(instruction, in, policy->initialHidden(2));
+  ASSERT_EQ(sequence.progress.sizes(), (std::vector<int64_t>{3, 2}));
+  EXPECT_TRUE(sequence.progress.abs().lt(1.0).all().item<bool>());
+  // by hand from the state after the last step: tanh(W_p h2)
+  const torch::Tensor last =
+      torch::tanh(policy->progress_monitor(sequence.hidden.select(1, 1)))
+          .squeeze(-1);
+  EXPECT_TRUE(torch::allclose(last, sequence.progress[2], 1e-6, 1e-6));
+  torch::Tensor hidden = policy->initialHidden(2);
+  for (int64_t t = 0; t < 3; ++t) {
+    const WaypointPolicyOutputs step =
+        policy->step(instruction, stepOf(in, t), hidden);
+    ASSERT_EQ(step.progress.sizes(), (std::vector<int64_t>{2}));
+    EXPECT_TRUE(
+        torch::allclose(step.progress, sequence.progress[t], 1e-5, 1e-5));
+    hidden = step.hidden;
+  }
+  torch::manual_seed(4);
+  WaypointCmaPolicy plain(config(), kViews, kRgb, kDepth);
+  plain->eval();
+  const WaypointPolicyOutputs without = plain->forwardSequence(
+      plain->encodeInstruction(tokens), in, plain->initialHidden(2));
+  EXPECT_FALSE(without.progress.defined());
+  const torch::Tensor finite = torch::isfinite(without.logits);
+  EXPECT_TRUE(torch::equal(without.logits.masked_fill(~finite, 0),
+                           sequence.logits.masked_fill(~finite, 0)));
 }
 
 TEST(WaypointCmaPolicyTest, WithoutTheInstructionThereIsNoEncoder) {

@@ -35,6 +35,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using vln::test::binary;
 
 class WaypointAgentTrainerTest : public test::TinyWorldBinaryTest {
@@ -717,6 +718,69 @@ TEST_F(WaypointAgentTrainerTest, LabelToleranceTrains) {
   EXPECT_TRUE(policiesDiffer(exact, tolerant))
       << "accepting near-ties changed nothing";
   EXPECT_THAT(log, HasSubstr("an accepted choice"));
+}
+
+// the progress monitor's targets: (d0 - d) / d0 per decision, 0 at padding
+// and where a distance is unknown, clipped on request
+TEST(ProgressTargetsTest, AreTheProgressMadeTowardsTheGoal) {
+  data::Episode episode;
+  episode.geodesic_distance = 8.0f;
+  data::Episode unknown;  // no info.geodesic_distance (a test split)
+  std::vector<rollout::WaypointDecision> row(3);
+  row[0].goal_distance = 8.0f;
+  row[1].goal_distance = 2.0f;
+  row[2].goal_distance = 28.0f;                        // walked away: below -1
+  std::vector<rollout::WaypointDecision> shortRow(1);  // goal unreachable
+  const std::vector<const std::vector<rollout::WaypointDecision>*> rows{
+      &row, &shortRow, &row};
+  const std::vector<const data::Episode*> episodes{&episode, &episode,
+                                                   &unknown};
+  const at::Tensor raw = progressTargets(rows, episodes, false);
+  ASSERT_EQ(raw.sizes(), (torch::IntArrayRef{3, 3}));
+  EXPECT_FLOAT_EQ(raw[0][0].item<float>(), 0.0f);
+  EXPECT_FLOAT_EQ(raw[1][0].item<float>(), 0.75f);
+  EXPECT_FLOAT_EQ(raw[2][0].item<float>(), -2.5f);
+  for (int64_t t = 0; t < 3; ++t) {
+    EXPECT_EQ(raw[t][1].item<float>(), 0.0f) << t;
+    EXPECT_EQ(raw[t][2].item<float>(), 0.0f) << t;
+  }
+  EXPECT_FLOAT_EQ(progressTargets(rows, episodes, true)[2][0].item<float>(),
+                  -1.0f);
+  EXPECT_THROW(progressTargets(rows, std::span(episodes).first(2), false),
+               std::invalid_argument);
+}
+
+// the progress monitor and the corridor oracle train from the binary, each
+// to other weights than the recipe without them; the log reports the
+// progress loss
+TEST_F(WaypointAgentTrainerTest, ProgressMonitorAndCorridorOracleTrain) {
+  const fs::path config = writeConfig("  max_decisions: 6\n");
+  std::string log;
+  // (the tiny run's model section turns the head on)
+  const Checkpoint plain =
+      trainOnce(config, " --set model.progress_monitor=false", dir_ / "plain");
+  const Checkpoint monitored = trainOnce(
+      config, " --set model.progress_monitor=true", dir_ / "monitored", &log);
+  // the head is there, and its loss reaches the weights the two share
+  bool hasHead = false, sharedDiffer = false;
+  for (const auto& [name, weight] : monitored.policy) {
+    hasHead = hasHead || name.find("progress_monitor") != std::string::npos;
+    for (const auto& [plainName, plainWeight] : plain.policy)
+      if (plainName == name && !torch::equal(plainWeight, weight))
+        sharedDiffer = true;
+  }
+  EXPECT_TRUE(hasHead);
+  EXPECT_TRUE(sharedDiffer) << "the progress loss changed no shared weight";
+  EXPECT_THAT(log, HasSubstr("progress 0."));
+  EXPECT_THAT(log, Not(HasSubstr("progress 0.0000)")));
+  const Checkpoint corridor =
+      trainOnce(config,
+                " --set model.progress_monitor=false"
+                " --set waypoint_agent.oracle=goal_near_path"
+                " --set waypoint_agent.oracle_corridor=0.3",
+                dir_ / "corridor");
+  EXPECT_TRUE(policiesDiffer(plain, corridor))
+      << "a narrow corridor changed no label";
 }
 
 TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {

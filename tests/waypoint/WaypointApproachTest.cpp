@@ -147,6 +147,53 @@ TEST_F(WaypointApproachTest, VerdictAcceptsCandidatesWithinTheTolerance) {
                std::invalid_argument);
 }
 
+// With a corridor around the described path the oracle prefers the way the
+// words go over a shortcut; without a candidate in the corridor it is the
+// goal oracle again
+TEST_F(WaypointApproachTest, ACorridorKeepsTheOracleOnTheDescribedPath) {
+  const sim::AgentState start = at(-1.0f, 2.0f, 0.0f);
+  const Vec3f goal = *scene_->navmesh().snapPoint({-1.0f, 0.0f, -2.5f});
+  const std::vector<Candidate> candidates = {
+      candidateAt(0, 7, 0.5f),   // ahead (-Z), 2 m: straight for the goal
+      candidateAt(30, 3, 0.2f),  // left (-X), 1 m
+  };
+  // the described path goes left first, then ahead to the goal
+  const std::vector<Vec3f> path = {
+      start.position, *scene_->navmesh().snapPoint({-2.0f, 0.0f, 2.0f}),
+      *scene_->navmesh().snapPoint({-2.0f, 0.0f, -2.5f}), goal};
+  const PathCorridor corridor{path, 0.5f};
+  const OracleVerdict free = oracleVerdict(scene_->navmesh(), agent_, start,
+                                           candidates, goal, config_);
+  const OracleVerdict kept =
+      oracleVerdict(scene_->navmesh(), agent_, start, candidates, goal, config_,
+                    Execution::kWalk, &corridor);
+  EXPECT_EQ(free.choice, 0);
+  EXPECT_EQ(kept.choice, 1);
+  // every candidate's distance is reported either way
+  EXPECT_EQ(kept.end_distances, free.end_distances);
+
+  // a corridor no candidate ends in leaves the goal oracle's choice
+  const std::vector<Vec3f> elsewhere = {
+      *scene_->navmesh().snapPoint({2.5f, 0.0f, 2.5f}),
+      *scene_->navmesh().snapPoint({2.5f, 0.0f, 1.0f})};
+  const PathCorridor far{elsewhere, 0.5f};
+  EXPECT_EQ(oracleVerdict(scene_->navmesh(), agent_, start, candidates, goal,
+                          config_, Execution::kWalk, &far)
+                .choice,
+            0);
+}
+
+TEST(DistanceToPathTest, MeasuresToTheNearestSegment) {
+  const std::vector<Vec3f> path = {
+      {0.0f, 0.0f, 0.0f}, {2.0f, 0.0f, 0.0f}, {2.0f, 0.0f, 2.0f}};
+  EXPECT_FLOAT_EQ(distanceToPath({1.0f, 0.0f, 0.5f}, path), 0.5f);
+  EXPECT_FLOAT_EQ(distanceToPath({3.0f, 0.0f, 1.0f}, path), 1.0f);
+  EXPECT_FLOAT_EQ(distanceToPath({-3.0f, 0.0f, -4.0f}, path), 5.0f);
+  EXPECT_FLOAT_EQ(distanceToPath({1.0f, 0.0f, 1.0f}, std::span(path).first(1)),
+                  std::sqrt(2.0f));
+  EXPECT_TRUE(std::isinf(distanceToPath({0.0f, 0.0f, 0.0f}, {})));
+}
+
 TEST_F(WaypointApproachTest, OracleStopsNearTheGoalOrWithoutProgress) {
   const std::vector<Candidate> ahead = {candidateAt(0, 7, 1.0f)};
   // within stop_distance (1.5 m): STOP whatever the candidates
