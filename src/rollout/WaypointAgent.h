@@ -28,9 +28,9 @@
 // per-episode generator (common::episodeSeed()).
 
 #include <ATen/core/Tensor.h>
-#include <limits>
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <random>
 #include <span>

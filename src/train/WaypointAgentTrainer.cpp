@@ -564,7 +564,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
               out.progress,
               progressTargets(rows, instructions, tc.clip_progress_target)
                   .to(device),
-              batch.labels.to(device).ge(0));
+              labels.ge(0).view_as(out.progress));
           progressSum += progressLoss.item<double>();
           loss = loss + tc.progress_loss_weight * progressLoss;
         }
