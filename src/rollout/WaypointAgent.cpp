@@ -13,6 +13,7 @@
 #include "sim/Simulator.h"
 #include "waypoint/DepthWaypointBaseline.h"
 #include "waypoint/WaypointApproach.h"
+#include "world/ViewLabels.h"
 
 namespace vln::rollout {
 
@@ -29,6 +30,10 @@ struct WaypointAgent::Slot {
   std::vector<WaypointChoice> choices;
   EpisodeDraws draws;
   sim::Panorama panorama;
+  // with view_labels: the scene the labels were last taken in and its
+  // renderer (declared after the scene it reads, so destroyed before it)
+  std::shared_ptr<const sim::Scene> labelScene;
+  std::unique_ptr<sim::Renderer> labelRenderer;
 };
 
 WaypointAgent::WaypointAgent(std::unique_ptr<WaypointDecisionModel> model,
@@ -50,6 +55,12 @@ WaypointAgent::WaypointAgent(std::unique_ptr<WaypointDecisionModel> model,
   VLN_CHECK_ARG(panorama.num_views == model_->numViews(),
                 "WaypointAgent: panorama.num_views is ", panorama.num_views,
                 ", the policy reads ", model_->numViews(), " views");
+  VLN_CHECK_ARG(!config.view_labels || (model_->config().usesRgb() &&
+                                        model_->config().rgb_semantic_outputs ==
+                                            world::viewLabelSize()),
+                "WaypointAgent: waypoint_agent.view_labels needs a policy "
+                "reading RGB features of ",
+                world::viewLabelSize(), " numbers per view");
   for (int i = 0; i < numEnvs; ++i) slots_.push_back(std::make_unique<Slot>());
 }
 
@@ -177,7 +188,9 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
   const int64_t views = panorama_.num_views;
   const models::ModelConfig& model = model_->config();
   torch::Tensor rgb, depth;
-  if (model.usesRgb()) {
+  // with view_labels the policy's RGB features are the views' labels, set
+  // below; the encoders see depth alone
+  if (model.usesRgb() && !config_.view_labels) {
     const int64_t h = panorama_.rgb.height, w = panorama_.rgb.width;
     rgb = torch::empty({n, views, h, w, 3}, torch::kUInt8);
     for (int64_t i = 0; i < n; ++i) {
@@ -195,12 +208,19 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
                   p.depth.size() * sizeof(float));
     }
   }
-  const PanoramaFeatures features = model_->encode(rgb, depth);
+  PanoramaFeatures features = model_->encode(rgb, depth);
   PanoramaFeatures mirrored;
   if (collecting_ && collection_.mirror)
     mirrored =
         model_->encode(rgb.defined() ? mirrorPanoramaViews(rgb) : rgb,
                        depth.defined() ? mirrorPanoramaViews(depth) : depth);
+  if (config_.view_labels) {
+    features.rgb = viewLabels(envs, envList);
+    // the mirror image's view k is view (N - k) mod N; labels have no side
+    if (collecting_ && collection_.mirror)
+      mirrored.rgb = features.rgb.index_select(
+          1, torch::remainder(views - torch::arange(views), views));
+  }
 
   // candidates
   std::vector<std::vector<waypoint::Candidate>> candidates;
@@ -356,6 +376,34 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
       slot.prevDistance = c.distance;
     }
   }
+}
+
+at::Tensor WaypointAgent::viewLabels(VectorEnv& envs,
+                                     std::span<const int> envList) {
+  const auto size = world::viewLabelSize();
+  const int64_t views = panorama_.num_views;
+  at::Tensor out =
+      torch::empty({static_cast<int64_t>(envList.size()), views, size});
+  std::vector<int64_t> rowOf(slots_.size(), -1);
+  for (size_t i = 0; i < envList.size(); ++i)
+    rowOf[static_cast<size_t>(envList[i])] = static_cast<int64_t>(i);
+  envs.forEach(envList, [&](int env) {
+    Slot& slot = *slots_[static_cast<size_t>(env)];
+    const sim::Simulator& simulator = envs.simulator(env);
+    const sim::Scene& scene = simulator.scene();
+    if (slot.labelScene.get() != &scene) {
+      // the old renderer goes before the scene it read
+      slot.labelRenderer = sim::createRenderer(scene.mesh(), scene.rayTracer(),
+                                               simulator.config().renderer);
+      slot.labelScene = simulator.scenePtr();
+    }
+    const std::vector<float> labels = world::viewLabelFeatures(
+        *slot.labelRenderer, scene.semantics(), envs.state(env).agent,
+        panorama_, static_cast<float>(config_.view_label_min_fraction));
+    std::memcpy(out[rowOf[static_cast<size_t>(env)]].data_ptr<float>(),
+                labels.data(), labels.size() * sizeof(float));
+  });
+  return out;
 }
 
 WaypointBatch batchDecisions(

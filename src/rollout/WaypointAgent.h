@@ -119,6 +119,9 @@ class WaypointAgent : public Agent {
  private:
   struct Slot;
   void decide(VectorEnv& envs, std::span<const int> deciding);
+  // with view_labels: the views' labels of environments `envList` (row i is
+  // envList[i]), [n, N, world::viewLabelSize()] float
+  at::Tensor viewLabels(VectorEnv& envs, std::span<const int> envList);
 
   std::unique_ptr<WaypointDecisionModel> model_;
   WaypointAgentConfig config_;

@@ -57,6 +57,16 @@ struct WaypointAgentConfig {
   /// probability of the accepted set instead of the label's. 0: the label
   /// alone (cross-entropy).
   double label_tolerance = 0.0;
+  /// A diagnostic, not an agent: the policy's RGB features are replaced by
+  /// what a perfect recogniser would say each view shows
+  /// (world::viewLabelFeatures(): the object categories covering at least
+  /// view_label_min_fraction of the view's semantic render, their colours,
+  /// the room type under the agent), the targets of the RGB encoder's
+  /// semantic pretraining. Needs model.no_rgb false and
+  /// model.rgb_semantic_outputs = world::viewLabelSize(); the RGB encoder is
+  /// not run, and such a run cannot be exported (an archive sees images).
+  bool view_labels = false;
+  double view_label_min_fraction = 0.02;
   waypoint::ApproachConfig approach;
   waypoint::DepthBaselineConfig depth_baseline;
 
@@ -113,6 +123,15 @@ struct WaypointAgentConfig {
             "farther from the oracle's target (-log of the accepted set's "
             "probability); 0: the oracle's choice alone",
             common::inRange(0.0, 10.0));
+    v.field("view_labels", view_labels,
+            "Diagnostic: the policy reads each view's true labels (object "
+            "categories in view, their colours, the room type) instead of "
+            "the RGB encoder's features; needs model.no_rgb false and "
+            "model.rgb_semantic_outputs 50; not exportable");
+    v.field("view_label_min_fraction", view_label_min_fraction,
+            "With view_labels: the share of a view's pixels an object must "
+            "cover to count as in view",
+            common::inRange(0.0, 1.0));
     v.section("approach", approach,
               "Executing a waypoint and the oracle's stopping rule");
     v.section("depth_baseline", depth_baseline,

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <map>
 #include <mutex>
 #include <numeric>
 #include <random>
@@ -39,59 +38,11 @@ constexpr int kMaxViewDraws = 100;
 // held-out images per forward pass
 constexpr int64_t kEvalChunk = 256;
 
-int64_t vocabularyIndex(const std::vector<std::string>& vocabulary,
-                        const std::string& name) {
-  const auto it = std::find(vocabulary.begin(), vocabulary.end(), name);
-  return it == vocabulary.end() ? -1 : static_cast<int64_t>(it - vocabulary.begin());
-}
-
 }  // namespace
 
 // ===========================================================================
-// labels, network, metrics
+// network, metrics
 // ===========================================================================
-
-ViewLabels labelView(const sim::SceneSemantics& semantics,
-                     std::span<const int32_t> objectIds, const Vec3f& position,
-                     float minFraction) {
-  const auto& categories = world::houseObjectCategories();
-  const auto& colors = world::houseColorNames();
-  const auto& rooms = world::houseRoomTypes();
-  ViewLabels out;
-  out.categories.assign(categories.size(), 0);
-  out.colors.assign(colors.size(), 0);
-
-  // the room under the camera
-  const int room = semantics.roomAt(position);
-  if (room >= 0) {
-    const std::string& type = semantics.rooms[static_cast<size_t>(room)].type;
-    const int64_t index = vocabularyIndex(rooms, type);
-    VLN_CHECK_ARG(index >= 0, "labelView(): room ", room, " has type '", type,
-                  "', which is not a generator room type");
-    out.room = static_cast<int>(index);
-  }
-
-  // objects covering enough of the image
-  std::map<int32_t, int64_t> pixels;
-  for (int32_t id : objectIds)
-    if (id >= 0) ++pixels[id];
-  const double threshold = static_cast<double>(minFraction) * static_cast<double>(objectIds.size());
-  for (const auto& [id, count] : pixels) {
-    if (static_cast<double>(count) < threshold) continue;
-    const sim::SemanticObject* object = semantics.object(id);
-    VLN_CHECK_ARG(object != nullptr, "labelView(): object id ", id,
-                  " in the semantic render is not in the scene's semantics");
-    const int64_t category = vocabularyIndex(categories, object->category);
-    VLN_CHECK_ARG(category >= 0, "labelView(): object ", id, " has category '",
-                  object->category, "', which is not a generator category");
-    const int64_t color = vocabularyIndex(colors, object->color);
-    VLN_CHECK_ARG(color >= 0, "labelView(): object ", id, " has colour '", object->color,
-                  "', which is not a generator colour");
-    out.categories[static_cast<size_t>(category)] = 1;
-    out.colors[static_cast<size_t>(color)] = 1;
-  }
-  return out;
-}
 
 double averagePrecision(std::span<const float> scores, std::span<const uint8_t> labels) {
   VLN_CHECK_ARG(scores.size() == labels.size(), "averagePrecision(): ", scores.size(),

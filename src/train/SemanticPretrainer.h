@@ -45,26 +45,14 @@
 #include "models/SemanticNet.h"
 #include "sim/Mesh.h"
 #include "train/ExperimentConfig.h"
+#include "world/ViewLabels.h"
 
 namespace vln::train {
 
-/// The targets of one view.
-struct ViewLabels {
-  int room = -1;  ///< index into world::houseRoomTypes()
-  /// [houseObjectCategories().size()] 0/1: a category in view.
-  std::vector<uint8_t> categories;
-  /// [houseColorNames().size()] 0/1: the colour of an object in view.
-  std::vector<uint8_t> colors;
-};
-
-/// Labels of the view whose semantic render is `objectIds` (object id per
-/// pixel, -1 for none) taken at feet position `position` (world frame) in a
-/// house with `semantics`. room is -1 when the position is in no room.
-/// Throws std::invalid_argument naming the object (or room) whose
-/// category, colour (or type) is not in the generator's vocabulary.
-ViewLabels labelView(const sim::SceneSemantics& semantics,
-                     std::span<const int32_t> objectIds,
-                     const Vec3f& position, float minFraction);
+// the labels (world/ViewLabels.h), under the names the tests and the
+// pretraining have always used
+using world::labelView;
+using world::ViewLabels;
 
 /// Average precision of `scores` for the 0/1 `labels` of one label: the
 /// mean, over the positives, of the precision at their score. Equal scores

@@ -29,6 +29,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
+constexpr const char* kViewLabelsNotExported =
+    "waypoint_agent.view_labels is a diagnostic whose policy reads the "
+    "views' true labels, which an archive given images cannot compute; it "
+    "cannot be exported";
+
 // `checkpoint` with `config`'s model (policy strictly loaded, the
 // observation encoders with their pretrained weights) as TorchScript: the
 // low-level agents (trainer.task vln) or the waypoint CMA (waypoint_cma)
@@ -36,6 +41,8 @@ void exportCheckpoint(const fs::path& checkpoint,
                       const ExperimentConfig& config, const fs::path& out) {
   const Checkpoint ckpt = loadCheckpoint(checkpoint);
   if (config.trainer.task == "waypoint_cma") {
+    VLN_CHECK_ARG(!config.waypoint_agent.view_labels,
+                  "export: ", kViewLabelsNotExported);
     // an agent of the learned predictor's candidates carries the predictor
     // and its suppression (models/WaypointExport.h: propose()); the
     // depth-only baseline's leaves the candidates to the caller
@@ -127,6 +134,10 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
           config.trainer.task == "waypoint_cma",
       "train --export: trainer.task '", config.trainer.task,
       "' trains an encoder, not a policy; it is saved to pretrain.encoder_out");
+  // refused before training rather than after it
+  VLN_CHECK_ARG(
+      options.export_path.empty() || !config.waypoint_agent.view_labels,
+      "train --export: ", kViewLabelsNotExported);
   if (options.dry_run) {
     out << yaml;
     return 0;

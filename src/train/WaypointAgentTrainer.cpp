@@ -24,6 +24,7 @@
 #include "train/TrainingData.h"
 #include "train/TrainingSchedule.h"
 #include "train/WaypointPretrainer.h"
+#include "world/ViewLabels.h"
 
 namespace vln::train {
 namespace fs = std::filesystem;
@@ -276,6 +277,17 @@ void validateWaypointAgentConfig(const ExperimentConfig& config) {
                 ": waypoint_agent.sub_instruction_weight needs R2R-format "
                 "training splits with sub-instruction files (dataset.format "
                 "is rxr)");
+  if (config.waypoint_agent.view_labels) {
+    VLN_CHECK_ARG(config.model.usesRgb() && config.model.rgb_semantic_outputs ==
+                                                world::viewLabelSize(),
+                  kTask,
+                  ": waypoint_agent.view_labels takes the place of the RGB "
+                  "features: it needs model.no_rgb false and "
+                  "model.rgb_semantic_outputs ",
+                  world::viewLabelSize(), " (got no_rgb ", config.model.no_rgb,
+                  ", rgb_semantic_outputs ", config.model.rgb_semantic_outputs,
+                  ")");
+  }
   VLN_CHECK_ARG(config.trainer.mode == "dagger", kTask,
                 ": trainer.mode must be dagger (the agent's rounds are "
                 "collected by the waypoint oracle)");
@@ -322,7 +334,11 @@ WaypointAgentModels makeWaypointAgentModels(const ExperimentConfig& config,
   out.policy = newWaypointPolicy(config);
   if (withEmbeddings && m.usesInstruction())
     out.policy->setWordEmbeddings(embeddingTensor(config));
-  out.encoder = models::ObservationEncoder(m);
+  // with view_labels the policy's RGB features are the views' labels: no
+  // RGB encoder runs (or needs weights)
+  models::ModelConfig encoderConfig = m;
+  if (config.waypoint_agent.view_labels) encoderConfig.no_rgb = true;
+  out.encoder = models::ObservationEncoder(encoderConfig);
   out.encoder->loadPretrained();
   if (config.waypoint_agent.candidates == "predictor") {
     const fs::path file = config.waypoint_agent.predictor_weights;

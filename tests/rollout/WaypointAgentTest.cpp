@@ -4,7 +4,7 @@
 // (waypoint_agent.execution) takes one recorded step per waypoint with teleport
 // labels and the caps, recorded decisions batch into padded training tensors,
 // and decisions mirror (panorama views, headings, the words left and right) for
-// mirrored replays.
+// mirrored replays; with view_labels the policy reads the views' true labels.
 
 #include "rollout/WaypointAgent.h"
 
@@ -18,6 +18,7 @@
 #include "sim/NavMesh.h"
 #include "sim/Panorama.h"
 #include "waypoint/WaypointApproach.h"
+#include "world/ViewLabels.h"
 
 namespace vln::rollout {
 namespace {
@@ -493,6 +494,58 @@ TEST(WaypointMirrorTest, CollectionKeepsTheMirroredPanoramasFeatures) {
       EXPECT_EQ(d.depth_mirrored.scalar_type(), torch::kHalf);
       EXPECT_FALSE(torch::equal(d.rgb_mirrored, d.rgb));
     }
+  }
+}
+
+// waypoint_agent.view_labels: the policy's RGB features are the views'
+// true labels (world::viewLabelFeatures() where the agent stands), the
+// mirrored panorama's are the same views in the mirror's order, and no RGB
+// encoder is needed
+TEST(WaypointViewLabelsTest, ThePolicyReadsTheViewsLabels) {
+  const auto& w = rolloutTestWorld();
+  torch::manual_seed(2);
+  models::ModelConfig model = test::tinyModel(models::PolicyType::kCma);
+  model.no_rgb = false;
+  model.rgb_semantic_outputs = static_cast<int>(world::viewLabelSize());
+  TinyWaypointAgent t;
+  t.policy = std::make_shared<models::WaypointCmaPolicyImpl>(
+      model, 12, world::viewLabelSize(),
+      flat(models::depthFeatureShape(model)));
+  models::ModelConfig depthOnly = model;
+  depthOnly.no_rgb = true;
+  t.encoder = models::ObservationEncoder(depthOnly);
+  t.config.candidates = "depth_baseline";
+  t.config.view_labels = true;
+  t.panorama.rgb = {32, 32, 90.0f, 1.25f};
+  t.panorama.depth.camera = {32, 32, 90.0f, 1.25f};
+
+  auto agent = makeAgent(t, 1, false);
+  WaypointCollection how{/*beta=*/1.0, /*sample=*/true, /*seed=*/3};
+  how.mirror = true;
+  agent->collect(how);
+  const data::Episode& episode = w.episodes.front();
+  run(*agent, {episode}, 1, 1);
+  const std::vector<WaypointDecision> decisions = agent->takeDecisions(0);
+  ASSERT_GE(decisions.size(), 2u);
+
+  // the first decision: where the episode starts, facing its start heading
+  auto renderer = sim::createRenderer(w.scene->mesh(), w.scene->rayTracer(),
+                                      w.sim.renderer);
+  sim::AgentState start;
+  start.position = decisions.front().position;
+  start.heading = episode.startHeading();
+  const std::vector<float> expected = world::viewLabelFeatures(
+      *renderer, w.scene->semantics(), start, t.panorama,
+      static_cast<float>(t.config.view_label_min_fraction));
+  const at::Tensor first = decisions.front().rgb.to(torch::kFloat);
+  ASSERT_EQ(first.sizes(), (at::IntArrayRef{12, world::viewLabelSize()}));
+  EXPECT_TRUE(torch::equal(first.flatten(), torch::tensor(expected)));
+  EXPECT_GT(first.sum().item<float>(), 0.0f) << "a furnished house unseen";
+
+  const at::Tensor order = torch::remainder(12 - torch::arange(12), 12);
+  for (const WaypointDecision& d : decisions) {
+    ASSERT_EQ(d.rgb.sizes(), first.sizes());
+    EXPECT_TRUE(torch::equal(d.rgb_mirrored, d.rgb.index_select(0, order)));
   }
 }
 

@@ -1,9 +1,9 @@
-// Tests of src/train/SemanticPretrainer.cpp: view labels from a hand-made
-// semantic render, average precision and F1 against values worked out by
-// hand, config errors, and one tiny end-to-end run that must beat the
-// label-prior predictor on a held-out house, is repeatable by seed, and
-// whose RGB encoder loads strictly into a VLN model's frozen RGB encoder
-// but not into a different one.
+// Tests of src/train/SemanticPretrainer.cpp (its view labels are
+// tests/world/ViewLabelsTest.cpp's): average precision and F1 against
+// values worked out by hand, config errors, and one tiny end-to-end run that
+// must beat the label-prior predictor on a held-out house, is repeatable by
+// seed, and whose RGB encoder loads strictly into a VLN model's frozen RGB
+// encoder but not into a different one.
 
 #include "train/SemanticPretrainer.h"
 
@@ -17,7 +17,6 @@
 #include "support/TestPaths.h"
 #include "train/PretrainTasks.h"
 #include "train/PretrainTestUtil.h"
-#include "world/HouseGenerator.h"
 
 namespace vln::train {
 namespace {
@@ -43,72 +42,6 @@ ExperimentConfig tinyConfig(const fs::path& runDir) {
   c.pretrain.min_object_fraction = 0.03f;
   c.pretrain.encoder_out = (runDir / "rgb_cnn.pt").string();
   return c;
-}
-
-int64_t indexOf(const std::vector<std::string>& names, const std::string& name) {
-  return std::find(names.begin(), names.end(), name) - names.begin();
-}
-
-// ---------------------------------------------------------------------------
-// labels
-
-TEST(LabelViewTest, ObjectsAboveTheFractionTheirColoursAndTheRoom) {
-  sim::SceneSemantics s;
-  sim::Room kitchen;
-  kitchen.id = 0;
-  kitchen.type = "kitchen";
-  kitchen.footprint = Eigen::AlignedBox2f(Vec2f(0, 0), Vec2f(4, 4));
-  sim::Room bedroom = kitchen;
-  bedroom.id = 1;
-  bedroom.type = "bedroom";
-  bedroom.footprint = Eigen::AlignedBox2f(Vec2f(4, 0), Vec2f(8, 4));
-  s.rooms = {kitchen, bedroom};
-  auto object = [](int id, const char* category, const char* color) {
-    sim::SemanticObject o;
-    o.id = id;
-    o.category = category;
-    o.color = color;
-    return o;
-  };
-  s.objects = {object(0, "bed", "blue"), object(1, "chair", "red"), object(2, "sofa", "red")};
-
-  // 100 pixels: bed 10, chair 3, sofa 2 + 2 (split, still one object), rest none
-  std::vector<int32_t> ids(100, -1);
-  std::fill(ids.begin(), ids.begin() + 10, 0);
-  std::fill(ids.begin() + 10, ids.begin() + 13, 1);
-  std::fill(ids.begin() + 20, ids.begin() + 22, 2);
-  std::fill(ids.begin() + 50, ids.begin() + 52, 2);
-  const auto& categories = world::houseObjectCategories();
-  const auto& colors = world::houseColorNames();
-
-  ViewLabels l = labelView(s, ids, Vec3f(5.0f, 0.0f, 1.0f), /*minFraction=*/0.04f);
-  EXPECT_EQ(l.room, indexOf(world::houseRoomTypes(), "bedroom"));
-  ASSERT_EQ(l.categories.size(), categories.size());
-  ASSERT_EQ(l.colors.size(), colors.size());
-  std::vector<uint8_t> expectCategories(categories.size(), 0), expectColors(colors.size(), 0);
-  expectCategories[static_cast<size_t>(indexOf(categories, "bed"))] = 1;
-  expectCategories[static_cast<size_t>(indexOf(categories, "sofa"))] = 1;  // 4 pixels in two parts
-  expectColors[static_cast<size_t>(indexOf(colors, "blue"))] = 1;
-  expectColors[static_cast<size_t>(indexOf(colors, "red"))] = 1;  // the sofa's
-  EXPECT_EQ(l.categories, expectCategories);
-  EXPECT_EQ(l.colors, expectColors);
-
-  // a lower threshold adds the chair; outside every room there is no room
-  l = labelView(s, ids, Vec3f(9.0f, 0.0f, 1.0f), 0.03f);
-  EXPECT_EQ(l.room, -1);
-  EXPECT_EQ(l.categories[static_cast<size_t>(indexOf(categories, "chair"))], 1);
-
-  // names outside the generator's vocabulary are data errors naming them
-  s.objects[0].color = "mauve";
-  try {
-    labelView(s, ids, Vec3f(1.0f, 0.0f, 1.0f), 0.04f);
-    FAIL() << "accepted an unknown colour";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("object 0"));
-    EXPECT_THAT(e.what(), HasSubstr("'mauve'"));
-  }
-  ids[0] = 9;  // no object 9
-  EXPECT_THROW(labelView(s, ids, Vec3f(1.0f, 0.0f, 1.0f), 0.0001f), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------

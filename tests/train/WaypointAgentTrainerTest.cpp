@@ -29,6 +29,7 @@
 #include "train/Checkpoint.h"
 #include "train/TinyWorldBinaryTest.h"
 #include "waypoint/WaypointHeatmap.h"
+#include "world/ViewLabels.h"
 
 namespace vln::train {
 namespace {
@@ -781,6 +782,50 @@ TEST_F(WaypointAgentTrainerTest, ProgressMonitorAndCorridorOracleTrain) {
                 dir_ / "corridor");
   EXPECT_TRUE(policiesDiffer(plain, corridor))
       << "a narrow corridor changed no label";
+}
+
+// waypoint_agent.view_labels (a diagnostic): the policy's RGB projection
+// reads the 50 labels per view and trains without an RGB encoder's
+// weights; the config must size the features for them, and the run cannot
+// be exported (refused before training)
+TEST_F(WaypointAgentTrainerTest, ViewLabelsTrainAndAreNotExported) {
+  const fs::path config =
+      writeConfig("  max_decisions: 6\n  candidates: depth_baseline\n");
+  const std::string labels =
+      " --set model.no_rgb=false --set model.rgb_semantic_outputs=" +
+      std::to_string(world::viewLabelSize()) +
+      " --set waypoint_agent.view_labels=true";
+  const Checkpoint trained = trainOnce(config, labels, dir_ / "labels");
+  bool found = false;
+  for (const auto& [name, weight] : trained.policy)
+    if (name == "rgb_linear.weight") {
+      found = true;
+      EXPECT_EQ(weight.size(1), world::viewLabelSize());
+    }
+  EXPECT_TRUE(found) << "no RGB projection in the policy";
+
+  ExperimentConfig c = loadExperimentConfig(config);
+  c.waypoint_agent.candidates = "depth_baseline";
+  c.waypoint_agent.view_labels = true;
+  c.model.no_rgb = false;
+  try {
+    validateWaypointAgentConfig(c);
+    ADD_FAILURE() << "labels without rgb_semantic_outputs must be an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("rgb_semantic_outputs"));
+    EXPECT_THAT(e.what(), HasSubstr("view_labels"));
+  }
+
+  std::string output;
+  EXPECT_NE(vln::test::runCommand(
+                binary("train") + " --config " + config.string() + labels +
+                    " --set output.dir=" + (dir_ / "exported").string() +
+                    " --export " + (dir_ / "labels.pt").string() + " 2>&1",
+                &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("cannot be exported"));
+  EXPECT_FALSE(fs::exists(dir_ / "exported" / "checkpoints"))
+      << "trained before refusing";
 }
 
 TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {
