@@ -167,9 +167,14 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
       instructions.push_back(&s.instructions[m]);
       hiddens.push_back(s.hiddens[m]);
     }
+    // features from encode() are already there; the waypoint agent's view
+    // labels (waypoint_agent.view_labels) come from the CPU
+    auto onDevice = [&](const torch::Tensor& t) {
+      return t.defined() ? t.to(device) : t;
+    };
     models::WaypointPolicyInputs inputs{
-        features.rgb,    features.depth,  candidates.to(device),
-        mask.to(device), prev.to(device), notDone.to(device)};
+        onDevice(features.rgb), onDevice(features.depth), candidates.to(device),
+        mask.to(device),        prev.to(device),          notDone.to(device)};
     const models::EncodedInstruction instruction =
         policy.config().usesInstruction() ? stackInstructions(instructions)
                                           : models::EncodedInstruction{};
