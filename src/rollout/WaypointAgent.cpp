@@ -138,6 +138,13 @@ std::vector<sim::Action> WaypointAgent::act(VectorEnv& envs,
 
 namespace {
 
+// the mirror image's view k is view (N - k) mod N of `views` (view k looks
+// k * 2 pi / N to the left): the order of mirrorPanoramaViews() and of
+// features that have no side of their own
+at::Tensor mirroredViewOrder(int64_t views) {
+  return torch::remainder(views - torch::arange(views), views);
+}
+
 // the oracle's target: the goal, or with oracle reference_path the next
 // reference waypoint not yet within stop_distance (advancing the index)
 Vec3f oracleTarget(const WaypointAgentConfig& config,
@@ -218,8 +225,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     features.rgb = viewLabels(envs, envList);
     // the mirror image's view k is view (N - k) mod N; labels have no side
     if (collecting_ && collection_.mirror)
-      mirrored.rgb = features.rgb.index_select(
-          1, torch::remainder(views - torch::arange(views), views));
+      mirrored.rgb = features.rgb.index_select(1, mirroredViewOrder(views));
   }
 
   // candidates
@@ -472,11 +478,7 @@ at::Tensor mirrorPanoramaViews(const at::Tensor& images) {
                 "mirrorPanoramaViews(): images must be "
                 "[n, N, h, w, c], got ",
                 images.sizes());
-  const int64_t views = images.size(1);
-  std::vector<int64_t> order(static_cast<size_t>(views));
-  for (int64_t k = 0; k < views; ++k)
-    order[static_cast<size_t>(k)] = (views - k) % views;
-  return images.index_select(1, torch::tensor(order, torch::kLong))
+  return images.index_select(1, mirroredViewOrder(images.size(1)))
       .flip({3})
       .contiguous();
 }
