@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
+#include <mutex>
 #include <numeric>
 #include <string>
 #include <vector>
@@ -180,8 +181,22 @@ void checkGl(const char* what) {
 // OsMesaRenderer
 // ---------------------------------------------------------------------------
 
+// Held by whichever thread creates, uses or destroys an OSMesa context: the
+// process renders with one context at a time. llvmpipe (Mesa 22.3) is not safe
+// with contexts on several threads at once: before each read-back it asks
+// every context of the process whether its pending scene uses the image,
+// reading the other contexts' scenes while their threads change them (seen as
+// crashes inside glReadPixels when two threads rendered panorama views), and
+// OSMesaMakeCurrent() shares one unlocked list of buffers among all contexts.
+// llvmpipe's own rasteriser threads (LP_NUM_THREADS) still use every core.
+std::mutex& osMesaMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+
 struct ContextDeleter {
   void operator()(osmesa_context* context) const {
+    std::lock_guard lock(osMesaMutex());
     // destroying the context frees every GL object created in it
     OSMesaDestroyContext(context);
   }
@@ -200,7 +215,21 @@ class OsMesaRenderer final : public Renderer {
   explicit OsMesaRenderer(const TriangleMesh& mesh);
 
  private:
-  void makeCurrent();
+  // Takes osMesaMutex() and makes the context current on the calling thread
+  // until it goes out of scope. The context is released again after each
+  // call, as the panorama renderer hands its renderers to whichever pool
+  // thread is free: a context left current on one thread would be flushed
+  // from it when that thread next binds another.
+  class Binding {
+   public:
+    explicit Binding(OsMesaRenderer& renderer);
+    ~Binding();
+    Binding(const Binding&) = delete;
+    Binding& operator=(const Binding&) = delete;
+
+   private:
+    std::lock_guard<std::mutex> lock_;
+  };
   void uploadMesh(const TriangleMesh& mesh);
   void ensureTarget(int width, int height);
   void render(const CameraPose& pose, const CameraIntrinsics& camera,
@@ -241,12 +270,15 @@ OsMesaRenderer::OsMesaRenderer(const TriangleMesh& mesh)
                             OSMESA_CONTEXT_MINOR_VERSION,
                             3,
                             0};
-  context_.reset(OSMesaCreateContextAttribs(attributes, nullptr));
+  {
+    std::lock_guard lock(osMesaMutex());
+    context_.reset(OSMesaCreateContextAttribs(attributes, nullptr));
+  }
   VLN_CHECK_IO(context_ != nullptr,
                "OsMesaRenderer: OSMesaCreateContextAttribs could not create "
                "an OpenGL 3.3 core context (is libOSMesa's llvmpipe "
                "available?)");
-  makeCurrent();
+  const Binding binding(*this);
 
   // reversed-Z needs glClipControl (GL 4.5 / ARB_clip_control): a float
   // depth buffer storing near/z keeps ~7 significant digits at every
@@ -276,13 +308,17 @@ OsMesaRenderer::OsMesaRenderer(const TriangleMesh& mesh)
   checkGl("mesh upload");
 }
 
-void OsMesaRenderer::makeCurrent() {
-  // the current context is per thread; switching is only needed when this
-  // thread last used another context (or none)
-  if (OSMesaGetCurrentContext() == context_.get()) return;
-  const GLboolean ok = OSMesaMakeCurrent(context_.get(), defaultBuffer_.data(),
-                                         GL_UNSIGNED_BYTE, 1, 1);
+OsMesaRenderer::Binding::Binding(OsMesaRenderer& renderer)
+    : lock_(osMesaMutex()) {
+  const GLboolean ok =
+      OSMesaMakeCurrent(renderer.context_.get(), renderer.defaultBuffer_.data(),
+                        GL_UNSIGNED_BYTE, 1, 1);
   VLN_CHECK_IO(ok == GL_TRUE, "OsMesaRenderer: OSMesaMakeCurrent failed");
+}
+
+OsMesaRenderer::Binding::~Binding() {
+  // a null context and buffer release the calling thread's context
+  OSMesaMakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
 }
 
 void OsMesaRenderer::uploadMesh(const TriangleMesh& mesh) {
@@ -420,7 +456,7 @@ void OsMesaRenderer::ensureTarget(int width, int height) {
 void OsMesaRenderer::render(const CameraPose& pose,
                             const CameraIntrinsics& camera, unsigned outputs,
                             uint8_t* rgb, float* depth, int32_t* objects) {
-  makeCurrent();
+  const Binding binding(*this);
   ensureTarget(camera.width, camera.height);
   glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_);
   glViewport(0, 0, camera.width, camera.height);

@@ -36,8 +36,10 @@ struct CameraIntrinsics {
   float hfov_deg = 90.0f;
 };
 
-/// Renders one scene. Not thread-safe: create one per thread (creation is
-/// cheap for Embree; OSMesa uploads the mesh once per renderer).
+/// Renders one scene. Not thread-safe: one thread at a time uses a renderer
+/// (it may move between threads), so give each thread its own (creation is
+/// cheap for Embree; OSMesa uploads the mesh once per renderer, and OSMesa
+/// renders of one process run one at a time, see OsMesaRenderer.h).
 ///
 /// The public methods check the camera, the buffer sizes and that the eye
 /// lies within the scene's bounds grown by kPoseMargin (GeometryCheck.h),

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <barrier>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -425,38 +426,54 @@ TEST_P(RendererBackendTest, CamerasFarOutsideTheSceneAreRefused) {
   for (float d : depth) EXPECT_GE(d, 0.0f);
 }
 
-TEST_P(RendererBackendTest, OneRendererPerThreadRunsConcurrently) {
-  // the supported multi-threading model: a renderer per thread over one
-  // shared mesh and ray tracer
+TEST_P(RendererBackendTest, RenderersOnSeveralThreadsRunConcurrently) {
+  // the multi-threading model of the panorama renderer: one renderer per
+  // thread at any moment, over one shared mesh and ray tracer, the renderers
+  // changing threads between rounds (a pool hands them to whichever thread
+  // is free). Colour and depth are both read back: OSMesa's contexts once
+  // crashed here, in the depth read-back of two threads at once.
   TriangleMesh mesh = testRoom();
   RayTracer tracer(mesh);
   const CameraIntrinsics camera{48, 40, 90.0f};
+  const size_t pixels = 48 * 40;
   std::vector<CameraPose> poses;
   for (int i = 0; i < 6; ++i)
     poses.push_back({Vec3f(-1.0f + 0.4f * i, 1.25f, 1.0f), 0.9f * i, -0.1f});
   auto reference = createRenderer(mesh, tracer, GetParam());
-  std::vector<std::vector<uint8_t>> expected;
+  std::vector<std::vector<uint8_t>> expectedRgb;
+  std::vector<std::vector<float>> expectedDepth;
   for (const CameraPose& pose : poses) {
-    expected.emplace_back(48 * 40 * 3);
-    reference->renderRgb(pose, camera, expected.back());
+    expectedRgb.emplace_back(pixels * 3);
+    reference->renderRgb(pose, camera, expectedRgb.back());
+    expectedDepth.emplace_back(pixels);
+    reference->renderDepth(pose, camera, expectedDepth.back());
   }
+  constexpr int kThreads = 2;
   std::vector<std::unique_ptr<Renderer>> renderers;
-  for (int t = 0; t < 2; ++t) renderers.push_back(createRenderer(mesh, tracer, GetParam()));
-  std::vector<int> mismatches(2, 0);
+  for (int t = 0; t < kThreads; ++t)
+    renderers.push_back(createRenderer(mesh, tracer, GetParam()));
+  std::vector<int> mismatches(kThreads, 0);
+  std::barrier roundDone(kThreads);
   std::vector<std::thread> threads;
-  for (int t = 0; t < 2; ++t) {
+  for (int t = 0; t < kThreads; ++t) {
     threads.emplace_back([&, t] {
-      std::vector<uint8_t> rgb(48 * 40 * 3);
-      for (int round = 0; round < 10; ++round) {
+      std::vector<uint8_t> rgb(pixels * 3);
+      std::vector<float> depth(pixels);
+      for (int round = 0; round < 20; ++round) {
+        Renderer& renderer =
+            *renderers[static_cast<size_t>((t + round) % kThreads)];
         for (size_t i = 0; i < poses.size(); ++i) {
-          renderers[static_cast<size_t>(t)]->renderRgb(poses[i], camera, rgb);
-          if (rgb != expected[i]) ++mismatches[static_cast<size_t>(t)];
+          renderer.renderRgb(poses[i], camera, rgb);
+          renderer.renderDepth(poses[i], camera, depth);
+          if (rgb != expectedRgb[i] || depth != expectedDepth[i])
+            ++mismatches[static_cast<size_t>(t)];
         }
+        roundDone.arrive_and_wait();
       }
     });
   }
   for (auto& thread : threads) thread.join();
-  EXPECT_EQ(mismatches, (std::vector<int>{0, 0}));
+  EXPECT_EQ(mismatches, std::vector<int>(kThreads, 0));
 }
 
 TEST_P(RendererBackendTest, ImageSizeMayChangeBetweenRenders) {
