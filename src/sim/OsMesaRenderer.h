@@ -14,10 +14,11 @@ namespace vln::sim {
 /// and released after it, so the renderer may move between threads but must
 /// never be used by two at once. All OSMesa renderers of the process render
 /// one at a time (a process-wide lock): llvmpipe in Mesa 22.3 crashes when
-/// contexts render on two threads at once. llvmpipe reads LP_NUM_THREADS from the environment when the first
-/// context is created (rasteriser threads; 0 = rasterise on the calling
-/// thread); this code never sets it. Throws std::runtime_error when no
-/// suitable context (OpenGL 3.3 core with clip control) can be created.
+/// contexts render on two threads at once. llvmpipe reads LP_NUM_THREADS
+/// from the environment when the first context is created (rasteriser
+/// threads; 0 = rasterise on the calling thread); this code never sets it.
+/// Throws std::runtime_error when no suitable context (OpenGL 3.3 core with
+/// clip control) can be created.
 std::unique_ptr<Renderer> createOsMesaRenderer(const TriangleMesh& mesh);
 
 }  // namespace vln::sim
