@@ -223,7 +223,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
                        depth.defined() ? mirrorPanoramaViews(depth) : depth);
   if (config_.view_labels) {
     features.rgb = viewLabels(envs, envList);
-    // the mirror image's view k is view (N - k) mod N; labels have no side
+    // labels have no side: the mirror image only reorders the views
     if (collecting_ && collection_.mirror)
       mirrored.rgb = features.rgb.index_select(1, mirroredViewOrder(views));
   }

@@ -435,7 +435,7 @@ TEST_P(RendererBackendTest, RenderersOnSeveralThreadsRunConcurrently) {
   TriangleMesh mesh = testRoom();
   RayTracer tracer(mesh);
   const CameraIntrinsics camera{48, 40, 90.0f};
-  const size_t pixels = 48 * 40;
+  const size_t pixels = static_cast<size_t>(camera.width) * camera.height;
   std::vector<CameraPose> poses;
   for (int i = 0; i < 6; ++i)
     poses.push_back({Vec3f(-1.0f + 0.4f * i, 1.25f, 1.0f), 0.9f * i, -0.1f});
