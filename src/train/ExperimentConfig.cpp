@@ -50,6 +50,11 @@ void ExperimentConfig::validate() const {
                 "config: trainer.mode recollect trains by teacher forcing on "
                 "the ground truth; trainer.dagger_iterations must be 0 (use "
                 "mode dagger for DAgger)");
+  // the recollect trainer has no rounds or epochs of a store to anneal over
+  VLN_CHECK_ARG(!recollect || trainer.lr_schedule == "constant",
+                "config: trainer.lr_schedule '", trainer.lr_schedule,
+                "' needs trainer.mode dagger; mode recollect trains at the "
+                "constant trainer.lr");
   VLN_CHECK_ARG(trainer.effective_batch_size == -1 ||
                     (trainer.effective_batch_size > 0 &&
                      trainer.effective_batch_size % trainer.batch_size == 0),

@@ -36,6 +36,9 @@ struct TrainerConfig {
   double lr = 2.5e-4;
   /// Multiplier of the learning rate per DAgger iteration (1: constant).
   double lr_decay = 1.0;
+  /// Within a round: "constant", or "cosine" (each round's epochs anneal
+  /// from its rate towards zero along half a cosine).
+  std::string lr_schedule = "constant";
   int batch_size = 5;
   double inflection_weight = 3.2;
   double progress_loss_weight = 1.0;
@@ -112,6 +115,10 @@ struct TrainerConfig {
             "epochs train at lr * lr_decay^n (1: constant, as VLN-CE; "
             "teacher forcing is iteration 0)",
             common::inRange(1e-6, 1.0));
+    v.choice("lr_schedule", lr_schedule, {"constant", "cosine"},
+             "Learning rate over a round's epochs: constant, or cosine: "
+             "epoch e of E trains at the round's rate x (1 + cos(pi e / "
+             "E)) / 2, so the last epochs take small steps");
     v.field("batch_size", batch_size, "Whole episodes per update (paper: 5)",
             common::inRange(1, 100000));
     v.field("inflection_weight", inflection_weight,

@@ -58,9 +58,12 @@ class TrainingSchedule {
   int epochsPerIteration() const;
   /// The probability that round `iteration` takes the oracle's action.
   double beta(int iteration) const;
-  /// The learning rate of iteration `iteration`'s epochs:
-  /// trainer.lr * trainer.lr_decay^iteration.
-  double learningRate(int iteration) const;
+  /// The learning rate of epoch `epoch` (within its iteration) of
+  /// iteration `iteration`: trainer.lr * trainer.lr_decay^iteration, times
+  /// (1 + cos(pi epoch / epochsPerIteration())) / 2 with
+  /// trainer.lr_schedule "cosine". A function of the two indices alone, so
+  /// a resumed run trains at the rates of an uninterrupted one.
+  double learningRate(int iteration, int epoch) const;
 
   /// The episodes of round `iteration` as indices into a pool of
   /// `poolSize` episodes, slot by slot (see the file comment).

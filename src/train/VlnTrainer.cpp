@@ -225,8 +225,9 @@ struct VlnTrainer::Impl {
   // epoch `epoch` of iteration `iteration`; its batch order is a function
   // of (seed, iteration, epoch) only
   void trainEpoch(int iteration, int epoch) {
-    // from the iteration alone, so a resumed run trains at the same rate
-    setAdamLearningRate(learner->optimizer(), schedule.learningRate(iteration));
+    // from the indices alone, so a resumed run trains at the same rate
+    setAdamLearningRate(learner->optimizer(),
+                        schedule.learningRate(iteration, epoch));
     const EpochResult r = learner->trainEpoch(
         *store,
         common::deriveSeed(static_cast<uint64_t>(config.trainer.seed),

@@ -514,7 +514,8 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       // ("turn left ...") is all that tells the candidates apart
       int64_t firstCorrect = 0, firstLabelled = 0;
       policy->train();
-      setAdamLearningRate(optimizer, schedule.learningRate(iteration.iteration));
+      const double lr = schedule.learningRate(iteration.iteration, epoch.epoch);
+      setAdamLearningRate(optimizer, lr);
       for (size_t start = 0; start < order.size(); start += tc.batch_size) {
         const size_t end = std::min(order.size(), start + tc.batch_size);
         std::vector<const std::vector<rollout::WaypointDecision>*> rows;
@@ -645,7 +646,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                      {"accuracy", accuracy},
                      {"first_decision_accuracy", firstAccuracy},
                      {"accepted_accuracy", acceptedAccuracy},
-                     {"lr", schedule.learningRate(iteration.iteration)},
+                     {"lr", lr},
                      {"updates", progress.updates},
                      {"seconds", epochClock.seconds()}},
                     {{"train/epoch_loss", meanLoss},

@@ -28,6 +28,20 @@ TEST(ExperimentConfigTest, SixActionModelNeedsTheLookActions) {
   EXPECT_THAT(errorOf([&] { c.validate(); }), Not(HasSubstr("num_actions")));
 }
 
+// the recollect trainer trains at trainer.lr throughout: a schedule it
+// would ignore is refused
+TEST(ExperimentConfigTest, CosineLearningRateNeedsTheDaggerMode) {
+  ExperimentConfig c;
+  c.trainer.lr_schedule = "cosine";
+  EXPECT_EQ(errorOf([&] { c.validate(); }), "");
+  c.trainer.mode = "recollect";
+  EXPECT_THAT(errorOf([&] { c.validate(); }),
+              HasSubstr("trainer.lr_schedule 'cosine' needs trainer.mode "
+                        "dagger"));
+  c.trainer.lr_schedule = "constant";
+  EXPECT_EQ(errorOf([&] { c.validate(); }), "");
+}
+
 // rxr_text features are looked up by RxR's instruction ids: R2R episode
 // files have none
 TEST(ExperimentConfigTest, TextFeaturesNeedTheRxrFormatAndAValidFilter) {

@@ -128,13 +128,35 @@ TEST(TrainingScheduleTest, BetaIsTheBasesPowerAsVlnCe) {
 TEST(TrainingScheduleTest, LearningRateDecaysPerIteration) {
   TrainerConfig t = dagger(3, 1, 10, 0.75);
   t.lr = 1e-3;
-  EXPECT_EQ(TrainingSchedule(t).learningRate(0), 1e-3);
-  EXPECT_EQ(TrainingSchedule(t).learningRate(2), 1e-3);  // constant
+  EXPECT_EQ(TrainingSchedule(t).learningRate(0, 0), 1e-3);
+  EXPECT_EQ(TrainingSchedule(t).learningRate(2, 0), 1e-3);  // constant
   t.lr_decay = 0.5;
   const TrainingSchedule decaying(t);
-  EXPECT_EQ(decaying.learningRate(0), 1e-3);
-  EXPECT_DOUBLE_EQ(decaying.learningRate(1), 5e-4);
-  EXPECT_DOUBLE_EQ(decaying.learningRate(2), 2.5e-4);
+  EXPECT_EQ(decaying.learningRate(0, 0), 1e-3);
+  EXPECT_DOUBLE_EQ(decaying.learningRate(1, 0), 5e-4);
+  EXPECT_DOUBLE_EQ(decaying.learningRate(2, 0), 2.5e-4);
+}
+
+TEST(TrainingScheduleTest, CosineScheduleAnnealsEachRoundsEpochs) {
+  TrainerConfig t = dagger(2, 4, 10, 0.75);
+  t.lr = 1e-3;
+  t.lr_decay = 0.5;
+  EXPECT_EQ(TrainingSchedule(t).learningRate(1, 3), 5e-4);  // constant
+  t.lr_schedule = "cosine";
+  const TrainingSchedule cosine(t);
+  // epoch e of 4 at (1 + cos(pi e / 4)) / 2 of its round's rate
+  EXPECT_DOUBLE_EQ(cosine.learningRate(0, 0), 1e-3);
+  EXPECT_DOUBLE_EQ(cosine.learningRate(0, 1), 1e-3 * (2 + std::sqrt(2.0)) / 4);
+  EXPECT_DOUBLE_EQ(cosine.learningRate(0, 2), 5e-4);
+  EXPECT_DOUBLE_EQ(cosine.learningRate(0, 3), 1e-3 * (2 - std::sqrt(2.0)) / 4);
+  // the next round starts again from its own (decayed) rate
+  EXPECT_DOUBLE_EQ(cosine.learningRate(1, 0), 5e-4);
+  EXPECT_DOUBLE_EQ(cosine.learningRate(1, 2), 2.5e-4);
+  // teacher forcing anneals over trainer.epochs
+  TrainerConfig tf = teacherForcing(8);
+  tf.lr = 1e-3;
+  tf.lr_schedule = "cosine";
+  EXPECT_DOUBLE_EQ(TrainingSchedule(tf).learningRate(0, 4), 5e-4);
 }
 
 TEST(TrainingScheduleTest, TeacherForcingRunsThePoolInOrder) {
