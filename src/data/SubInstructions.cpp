@@ -153,4 +153,18 @@ int upcomingLeg(const std::vector<Vec3f>& path, const Vec3f& position,
   return static_cast<int>(it - legStart.begin()) - 1;
 }
 
+std::vector<SubInstructionTokens> clausesAhead(
+    const std::vector<SubInstructionTokens>& clauses,
+    const std::vector<Vec3f>& path, const Vec3f& position) {
+  if (path.size() < 2) return {};
+  const int leg = upcomingLeg(path, position, kLegLookahead);
+  int target = std::numeric_limits<int>::max();
+  for (const SubInstructionTokens& c : clauses)
+    if (c.leg >= leg) target = std::min(target, c.leg);
+  std::vector<SubInstructionTokens> out;
+  for (const SubInstructionTokens& c : clauses)
+    if (c.leg == target) out.push_back(c);
+  return out;
+}
+
 }  // namespace vln::data

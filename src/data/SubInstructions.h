@@ -80,4 +80,18 @@ std::vector<SubInstructionTokens> subInstructionTokens(
 int upcomingLeg(const std::vector<Vec3f>& path, const Vec3f& position,
                 float lookahead);
 
+/// How far past its projection onto the reference path an agent's position
+/// is moved to tell the leg it is about to walk (upcomingLeg()): a waypoint
+/// agent decides where its last waypoint ended, often a little short of or
+/// past a reference node; half a metre on lies on the next leg.
+inline constexpr float kLegLookahead = 0.5f;
+
+/// The clauses an agent at `position` follows next: those of the first leg
+/// at or after upcomingLeg(path, position, kLegLookahead) that some clause
+/// of `clauses` describes (a straight leg is often left unsaid); empty when
+/// none is left or `path` has fewer than two points.
+std::vector<SubInstructionTokens> clausesAhead(
+    const std::vector<SubInstructionTokens>& clauses,
+    const std::vector<Vec3f>& path, const Vec3f& position);
+
 }  // namespace vln::data

@@ -192,6 +192,15 @@ void useSplitTextFeatures(rollout::Agent& agent,
       dir, split.name, config.model.text_feature_dim));
 }
 
+// a waypoint agent with waypoint_agent.leg_words_only reads the clauses of
+// the split it runs on
+void useSplitLegWords(rollout::Agent& agent,
+                      const train::ExperimentConfig& config,
+                      const data::Split& split) {
+  auto* waypoint = dynamic_cast<rollout::WaypointAgent*>(&agent);
+  if (waypoint != nullptr) train::readSplitLegWords(*waypoint, config, split);
+}
+
 // ---------------------------------------------------------------------------
 // one split
 
@@ -526,6 +535,7 @@ EvalCommandResult runEvaluation(const EvalCommandOptions& options,
     if (!options.report.empty()) agent->keepInstructionAttention(true);
     for (const data::Split* split : todo) {
       useSplitTextFeatures(*agent, settings, *split);
+      useSplitLegWords(*agent, settings, *split);
       SplitReport report = evaluateSplit(*agent, candidate, *split, ctx);
       out << summaryLine(report) << "\n";
       out.flush();

@@ -204,6 +204,16 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
     textKeys = repeatOverSteps(instruction.keys, steps);
     textStates = repeatOverSteps(instruction.states, steps);
     textMask = repeatOverSteps(instruction.mask, steps);
+    if (inputs.text_mask.defined()) {
+      const int64_t L = textMask.size(1);
+      VLN_CHECK_ARG(inputs.text_mask.size(-1) >= L,
+                    "WaypointCmaPolicy: text_mask has ",
+                    inputs.text_mask.size(-1), " columns for ", L, " tokens");
+      const torch::Tensor allowed = textMask.logical_and(
+          inputs.text_mask.reshape({n, -1}).slice(1, 0, L));
+      // a decision that may read none of its words reads them all
+      textMask = torch::where(allowed.any(1, true), allowed, textMask);
+    }
     // text_attention reports the leg attention when there is one
     const torch::Tensor text = attend(state_q(h1), textKeys, textStates,
                                       textMask, leg_q ? nullptr : &textWeights);
@@ -279,7 +289,8 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::step(
   };
   WaypointPolicyInputs one{seq(inputs.rgb),        seq(inputs.depth),
                            seq(inputs.candidates), seq(inputs.candidate_mask),
-                           seq(inputs.prev),       seq(inputs.not_done)};
+                           seq(inputs.prev),       seq(inputs.not_done),
+                           seq(inputs.text_mask)};
   WaypointPolicyOutputs out = forwardSequence(instruction, one, hidden);
   out.logits = out.logits.squeeze(0);
   if (out.text_attention.defined())

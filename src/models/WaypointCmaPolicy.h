@@ -64,6 +64,11 @@ struct WaypointPolicyInputs {
   torch::Tensor candidate_mask;  ///< [.., K] bool, true at real candidates
   torch::Tensor prev;            ///< [.., 2] heading, distance of a_{t-1}
   torch::Tensor not_done;        ///< [..] float 0/1, 0 at an episode's start
+  /// [.., L'] bool, optional: the words each decision may read (true), its
+  /// first L columns against an instruction of L tokens (L' >= L); every
+  /// word when undefined, and where a decision's row allows none of its
+  /// instruction's words. What waypoint_agent.leg_words_only feeds.
+  torch::Tensor text_mask = {};
 };
 
 struct WaypointPolicyOutputs {

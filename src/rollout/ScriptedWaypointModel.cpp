@@ -155,7 +155,12 @@ at::Tensor ScriptedWaypointModel::step(std::span<const int> envs,
                                        const at::Tensor& candidates,
                                        const at::Tensor& mask,
                                        const at::Tensor& prev,
-                                       const at::Tensor& notDone) {
+                                       const at::Tensor& notDone,
+                                       const at::Tensor& textMask) {
+  // an archive's step reads every word (leg_words_only refuses export)
+  VLN_CHECK_ARG(!textMask.defined(), kWho,
+                "::step(): an exported policy reads the whole instruction; "
+                "waypoint_agent.leg_words_only needs a checkpoint");
   torch::NoGradGuard noGrad;
   const auto n = static_cast<int64_t>(envs.size());
   std::vector<const std::vector<int64_t>*> rows;

@@ -46,7 +46,8 @@ class ScriptedWaypointModel : public WaypointDecisionModel {
       const PanoramaFeatures& features) override;
   at::Tensor step(std::span<const int> envs, const PanoramaFeatures& features,
                   const at::Tensor& candidates, const at::Tensor& mask,
-                  const at::Tensor& prev, const at::Tensor& notDone) override;
+                  const at::Tensor& prev, const at::Tensor& notDone,
+                  const at::Tensor& textMask) override;
 
  private:
   struct EnvState {

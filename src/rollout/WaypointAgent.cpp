@@ -26,6 +26,8 @@ struct WaypointAgent::Slot {
   float prevHeading = 0.0f;
   float prevDistance = 0.0f;
   int referenceIndex = 1;  // oracle: reference_path's next waypoint
+  // with leg_words_only: the episode's clauses
+  const std::vector<data::SubInstructionTokens>* clauses = nullptr;
   std::vector<WaypointDecision> record;
   std::vector<WaypointChoice> choices;
   EpisodeDraws draws;
@@ -82,6 +84,16 @@ void WaypointAgent::collect(const WaypointCollection& collection) {
   collection_ = collection;
 }
 
+void WaypointAgent::readLegWordsOnly(EpisodeClauses clauses,
+                                     int maxInstructionLength) {
+  VLN_CHECK_ARG(maxInstructionLength >= 1,
+                "WaypointAgent::readLegWordsOnly(): maxInstructionLength must "
+                "be at least 1, got ",
+                maxInstructionLength);
+  legClauses_ = std::move(clauses);
+  legWordsWidth_ = maxInstructionLength;
+}
+
 void WaypointAgent::reset(int env, const data::Episode& episode) {
   VLN_CHECK_ARG(env >= 0 && env < static_cast<int>(slots_.size()),
                 "WaypointAgent::reset(): environment ", env, " out of range");
@@ -98,6 +110,15 @@ void WaypointAgent::reset(int env, const data::Episode& episode) {
   if (collecting_)
     VLN_CHECK_ARG(!episode.goals.empty(), "WaypointAgent: episode ",
                   episode.episode_id, " has no goal for the oracle");
+  slot.clauses = nullptr;
+  if (config_.leg_words_only) {
+    const auto it = legClauses_.find(&episode);
+    VLN_CHECK_ARG(it != legClauses_.end() && legWordsWidth_ > 0,
+                  "WaypointAgent: waypoint_agent.leg_words_only: no "
+                  "sub-instructions for episode ",
+                  episode.episode_id, " (readLegWordsOnly())");
+    slot.clauses = &it->second;
+  }
   model_->reset(env, episode);
 }
 
@@ -264,8 +285,21 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
     prev[i][1] = slot.prevDistance;
     notDone[i] = slot.decisions > 0 ? 1.0f : 0.0f;
   }
+  // with leg_words_only: the words of the clauses ahead of each agent
+  torch::Tensor textMask;
+  if (config_.leg_words_only) {
+    textMask = torch::zeros({n, legWordsWidth_}, torch::kBool);
+    for (int64_t i = 0; i < n; ++i) {
+      const Slot& slot = *slots_[static_cast<size_t>(envList[i])];
+      for (const data::SubInstructionTokens& c :
+           data::clausesAhead(*slot.clauses, slot.episode->reference_path,
+                              envs.state(envList[i]).agent.position))
+        for (int k = c.first; k < std::min(c.last, legWordsWidth_); ++k)
+          textMask[i][k] = true;
+    }
+  }
   torch::Tensor logits =
-      model_->step(envList, features, polar, mask, prev, notDone);
+      model_->step(envList, features, polar, mask, prev, notDone, textMask);
   if (config_.stop_bias != 0.0) {
     logits = logits.clone();
     logits.select(1, 0).add_(config_.stop_bias);

@@ -31,11 +31,13 @@
 
 #include <cstdint>
 #include <limits>
+#include <map>
 #include <memory>
 #include <random>
 #include <span>
 #include <vector>
 
+#include "data/SubInstructions.h"
 #include "models/Policy.h"
 #include "rollout/Agent.h"
 #include "rollout/WaypointAgentConfig.h"
@@ -79,6 +81,11 @@ struct WaypointCollection {
   bool mirror = false;
 };
 
+/// Per episode, its sub-instructions as token ranges
+/// (data::subInstructionTokens()), for waypoint_agent.leg_words_only.
+using EpisodeClauses =
+    std::map<const data::Episode*, std::vector<data::SubInstructionTokens>>;
+
 class WaypointAgent : public Agent {
  public:
   /// `agent` is the low-level action space (sim.agent). Throws
@@ -103,6 +110,13 @@ class WaypointAgent : public Agent {
   /// Label every decision with the oracle, follow it with probability
   /// `collection.beta` and record the decisions (takeDecisions()).
   void collect(const WaypointCollection& collection);
+  /// With waypoint_agent.leg_words_only: the clauses of every episode the
+  /// agent will be reset to (keyed by the episode objects reset() is given)
+  /// and the instruction length cap (dataset.max_instruction_length). Each
+  /// decision's policy then reads only data::clausesAhead()'s words (all of
+  /// them where none is ahead). reset() throws std::invalid_argument for an
+  /// episode without clauses.
+  void readLegWordsOnly(EpisodeClauses clauses, int maxInstructionLength);
 
   void reset(int env, const data::Episode& episode) override;
   std::vector<sim::Action> act(VectorEnv& envs,
@@ -132,6 +146,8 @@ class WaypointAgent : public Agent {
   bool collecting_ = false;
   WaypointCollection collection_;
   std::vector<std::unique_ptr<Slot>> slots_;
+  EpisodeClauses legClauses_;
+  int legWordsWidth_ = 0;
 };
 
 /// The recorded episodes `episodes` (each a decision sequence, in order) as

@@ -67,6 +67,14 @@ struct WaypointAgentConfig {
   /// not run, and such a run cannot be exported (an archive sees images).
   bool view_labels = false;
   double view_label_min_fraction = 0.02;
+  /// A diagnostic, not an agent: at each decision the policy reads only the
+  /// words of the clauses it is to follow next (data::clausesAhead() of the
+  /// episode's sub-instructions and reference path at the agent's
+  /// position): what knowing exactly where along the instruction it is
+  /// would be worth. Needs the split's sub-instruction files (the generator
+  /// writes them for evaluation splits with
+  /// splits.evaluation_sub_instructions) and cannot be exported.
+  bool leg_words_only = false;
   waypoint::ApproachConfig approach;
   waypoint::DepthBaselineConfig depth_baseline;
 
@@ -128,6 +136,12 @@ struct WaypointAgentConfig {
             "categories in view, their colours, the room type) instead of "
             "the RGB encoder's features; needs model.no_rgb false and "
             "model.rgb_semantic_outputs 50; not exportable");
+    v.field("leg_words_only", leg_words_only,
+            "Diagnostic: at each decision the policy reads only the words "
+            "of the clauses describing the reference path's leg ahead of the "
+            "agent (an oracle of where along the instruction it is), in "
+            "training and evaluation; needs the splits' sub-instruction "
+            "files; not exportable");
     v.field("view_label_min_fraction", view_label_min_fraction,
             "With view_labels: the share of a view's pixels an object must "
             "cover to count as in view",

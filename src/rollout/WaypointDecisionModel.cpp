@@ -148,7 +148,8 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
                                      const at::Tensor& candidates,
                                      const at::Tensor& mask,
                                      const at::Tensor& prev,
-                                     const at::Tensor& notDone) {
+                                     const at::Tensor& notDone,
+                                     const at::Tensor& textMask) {
   torch::NoGradGuard noGrad;
   for (int env : envs)
     VLN_CHECK_ARG(!state(env).hiddens.empty(),
@@ -174,7 +175,8 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
     };
     models::WaypointPolicyInputs inputs{
         onDevice(features.rgb), onDevice(features.depth), candidates.to(device),
-        mask.to(device),        prev.to(device),          notDone.to(device)};
+        mask.to(device),        prev.to(device),          notDone.to(device),
+        onDevice(textMask)};
     const models::EncodedInstruction instruction =
         policy.config().usesInstruction() ? stackInstructions(instructions)
                                           : models::EncodedInstruction{};

@@ -64,13 +64,16 @@ class WaypointDecisionModel {
       const PanoramaFeatures& features) = 0;
   /// One decision of environments `envs` (row i is envs[i]), all inputs on
   /// the CPU: `candidates` float [n, K, 2] (heading, distance), `mask` bool
-  /// [n, K], `prev` float [n, 2], `notDone` float [n]. Returns the logits
-  /// float64 [n, 1 + K] on the CPU (0 STOP, j + 1 candidate j; -inf at
-  /// masked slots) and advances each environment's recurrent state.
+  /// [n, K], `prev` float [n, 2], `notDone` float [n]; `textMask` bool
+  /// [n, L'] the words each decision may read (models::WaypointPolicyInputs::
+  /// text_mask), undefined for all of them. Returns the logits float64
+  /// [n, 1 + K] on the CPU (0 STOP, j + 1 candidate j; -inf at masked
+  /// slots) and advances each environment's recurrent state.
   virtual at::Tensor step(std::span<const int> envs,
                           const PanoramaFeatures& features,
                           const at::Tensor& candidates, const at::Tensor& mask,
-                          const at::Tensor& prev, const at::Tensor& notDone) = 0;
+                          const at::Tensor& prev, const at::Tensor& notDone,
+                          const at::Tensor& textMask) = 0;
 };
 
 /// The probabilities of an ensemble's members averaged: `memberLogits`
@@ -114,7 +117,8 @@ class NativeWaypointModel : public WaypointDecisionModel {
       const PanoramaFeatures& features) override;
   at::Tensor step(std::span<const int> envs, const PanoramaFeatures& features,
                   const at::Tensor& candidates, const at::Tensor& mask,
-                  const at::Tensor& prev, const at::Tensor& notDone) override;
+                  const at::Tensor& prev, const at::Tensor& notDone,
+                  const at::Tensor& textMask) override;
 
  private:
   struct EnvState;

@@ -29,10 +29,19 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kViewLabelsNotExported =
-    "waypoint_agent.view_labels is a diagnostic whose policy reads the "
-    "views' true labels, which an archive given images cannot compute; it "
-    "cannot be exported";
+// why a waypoint run cannot be exported: its policy reads what an archive
+// given images and words cannot compute; empty when it can be
+std::string diagnosticNotExported(const ExperimentConfig& config) {
+  if (config.waypoint_agent.view_labels)
+    return "waypoint_agent.view_labels is a diagnostic whose policy reads "
+           "the views' true labels, which an archive given images cannot "
+           "compute; it cannot be exported";
+  if (config.waypoint_agent.leg_words_only)
+    return "waypoint_agent.leg_words_only is a diagnostic whose policy reads "
+           "only the words of the reference path's leg ahead, which an "
+           "archive given the instruction cannot know; it cannot be exported";
+  return "";
+}
 
 // `checkpoint` with `config`'s model (policy strictly loaded, the
 // observation encoders with their pretrained weights) as TorchScript: the
@@ -41,8 +50,8 @@ void exportCheckpoint(const fs::path& checkpoint,
                       const ExperimentConfig& config, const fs::path& out) {
   const Checkpoint ckpt = loadCheckpoint(checkpoint);
   if (config.trainer.task == "waypoint_cma") {
-    VLN_CHECK_ARG(!config.waypoint_agent.view_labels,
-                  "export: ", kViewLabelsNotExported);
+    VLN_CHECK_ARG(diagnosticNotExported(config).empty(),
+                  "export: ", diagnosticNotExported(config));
     // an agent of the learned predictor's candidates carries the predictor
     // and its suppression (models/WaypointExport.h: propose()); the
     // depth-only baseline's leaves the candidates to the caller
@@ -136,8 +145,8 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
       "' trains an encoder, not a policy; it is saved to pretrain.encoder_out");
   // refused before training rather than after it
   VLN_CHECK_ARG(
-      options.export_path.empty() || !config.waypoint_agent.view_labels,
-      "train --export: ", kViewLabelsNotExported);
+      options.export_path.empty() || diagnosticNotExported(config).empty(),
+      "train --export: ", diagnosticNotExported(config));
   if (options.dry_run) {
     out << yaml;
     return 0;

@@ -163,12 +163,9 @@ torch::Tensor instructionContrastLoss(
                                      labels.ge(0));
 }
 
-SubInstructionTokensByEpisode loadSubInstructionTokens(
-    const ExperimentConfig& config, const TrainingData& data) {
-  const std::string option = "waypoint_agent.sub_instruction_weight";
-  std::vector<const data::Split*> splits{&data.train};
-  if (data.aug) splits.push_back(data.aug.get());
-  for (const auto& extra : data.extra) splits.push_back(extra.get());
+SubInstructionTokensByEpisode loadEpisodeClauses(
+    const ExperimentConfig& config, std::span<const data::Split* const> splits,
+    std::string_view option) {
   SubInstructionTokensByEpisode out;
   for (const data::Split* split : splits) {
     const fs::path file =
@@ -176,7 +173,9 @@ SubInstructionTokensByEpisode loadSubInstructionTokens(
     VLN_CHECK_ARG(fs::exists(file), kTask, ": ", option, " needs '",
                   file.string(),
                   "', which does not exist (vlnce-data generate writes it for "
-                  "the training splits of a generated world)");
+                  "the training splits of a generated world, and for its "
+                  "evaluation splits with "
+                  "splits.evaluation_sub_instructions)");
     const data::SubInstructions subs = data::readSubInstructions(file);
     data::checkSubInstructions(subs, split->episodes,
                                strCat(option, ": '", file.string(), "'"));
@@ -185,6 +184,27 @@ SubInstructionTokensByEpisode loadSubInstructionTokens(
                                            subs.at(e.episode_id));
   }
   return out;
+}
+
+SubInstructionTokensByEpisode loadSubInstructionTokens(
+    const ExperimentConfig& config, const TrainingData& data) {
+  std::vector<const data::Split*> splits{&data.train};
+  if (data.aug) splits.push_back(data.aug.get());
+  for (const auto& extra : data.extra) splits.push_back(extra.get());
+  return loadEpisodeClauses(config, splits,
+                            config.waypoint_agent.sub_instruction_weight > 0.0
+                                ? "waypoint_agent.sub_instruction_weight"
+                                : "waypoint_agent.leg_words_only");
+}
+
+void readSplitLegWords(rollout::WaypointAgent& agent,
+                       const ExperimentConfig& config,
+                       const data::Split& split) {
+  if (!config.waypoint_agent.leg_words_only) return;
+  const data::Split* splits[] = {&split};
+  agent.readLegWordsOnly(
+      loadEpisodeClauses(config, splits, "waypoint_agent.leg_words_only"),
+      config.dataset.max_instruction_length);
 }
 
 at::Tensor subInstructionTargets(
@@ -205,18 +225,11 @@ at::Tensor subInstructionTargets(
     if (it == tokens.end() || episode.reference_path.size() < 2) continue;
     const auto& clauses = it->second;
     const auto& row = *rows[static_cast<size_t>(b)];
-    for (size_t t = 0; t < row.size(); ++t) {
-      // the first leg at or after the one ahead that some clause describes
-      int leg = data::upcomingLeg(episode.reference_path, row[t].position,
-                                  kSubInstructionLookahead);
-      int target = std::numeric_limits<int>::max();
-      for (const data::SubInstructionTokens& c : clauses)
-        if (c.leg >= leg) target = std::min(target, c.leg);
-      for (const data::SubInstructionTokens& c : clauses)
-        if (c.leg == target)
-          for (int k = c.first; k < std::min<int64_t>(c.last, L); ++k)
-            access[static_cast<int64_t>(t)][b][k] = 1.0f;
-    }
+    for (size_t t = 0; t < row.size(); ++t)
+      for (const data::SubInstructionTokens& c :
+           data::clausesAhead(clauses, episode.reference_path, row[t].position))
+        for (int k = c.first; k < std::min<int64_t>(c.last, L); ++k)
+          access[static_cast<int64_t>(t)][b][k] = 1.0f;
   }
   return targets;
 }
@@ -277,6 +290,19 @@ void validateWaypointAgentConfig(const ExperimentConfig& config) {
                 ": waypoint_agent.sub_instruction_weight needs R2R-format "
                 "training splits with sub-instruction files (dataset.format "
                 "is rxr)");
+  VLN_CHECK_ARG(!config.waypoint_agent.leg_words_only ||
+                    (config.model.usesInstruction() && !config.dataset.isRxr()),
+                kTask,
+                ": waypoint_agent.leg_words_only needs the instruction and "
+                "R2R-format splits with sub-instruction files (no_instruction ",
+                config.model.no_instruction, ", dataset.format ",
+                config.dataset.format, ")");
+  VLN_CHECK_ARG(!config.waypoint_agent.leg_words_only ||
+                    config.trainer.instruction_contrast_weight == 0.0,
+                kTask,
+                ": waypoint_agent.leg_words_only and "
+                "trainer.instruction_contrast_weight cannot be combined (the "
+                "leg's words are another instruction's tokens)");
   if (config.waypoint_agent.view_labels) {
     VLN_CHECK_ARG(config.model.usesRgb() && config.model.rgb_semantic_outputs ==
                                                 world::viewLabelSize(),
@@ -440,9 +466,12 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       common::deriveSeed(static_cast<uint64_t>(tc.seed), 23));
   const double subInstructionWeight =
       config.waypoint_agent.sub_instruction_weight;
+  // with leg_words_only each decision reads the words of the clauses ahead
+  const bool legWordsOnly = config.waypoint_agent.leg_words_only;
   const SubInstructionTokensByEpisode subInstructionTokens =
-      subInstructionWeight > 0.0 ? loadSubInstructionTokens(config, data)
-                                 : SubInstructionTokensByEpisode{};
+      subInstructionWeight > 0.0 || legWordsOnly
+          ? loadSubInstructionTokens(config, data)
+          : SubInstructionTokensByEpisode{};
 
   const TrainingSchedule schedule(tc);
   TrainingProgress progress;
@@ -465,6 +494,9 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
         episodes.push_back(data.pool[i]);
       const std::unique_ptr<rollout::WaypointAgent> agent =
           makeWaypointAgent(config, nets, tc.num_envs, false, 0);
+      if (legWordsOnly)
+        agent->readLegWordsOnly(subInstructionTokens,
+                                config.dataset.max_instruction_length);
       rollout::WaypointCollection how;
       how.beta = schedule.beta(iteration.iteration);
       how.sample = tc.dagger_action == "sample";
@@ -551,6 +583,12 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
         if (mirrorProbability > 0.0 && config.model.usesInstruction())
           tokens = rollout::swapLeftAndRight(
               tokens, mirrored, mirrorTokens.left, mirrorTokens.right);
+        if (legWordsOnly)
+          in.text_mask =
+              subInstructionTargets(rows, instructions, subInstructionTokens,
+                                    tokens.size(1))
+                  .gt(0.0f)
+                  .to(device);
         const models::EncodedInstruction instruction =
             policy->encodeInstruction(tokens.to(device));
         const models::WaypointPolicyOutputs out = policy->forwardSequence(
@@ -664,10 +702,12 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
         const int index = progress.checkpoint_index;
         const double spl = evaluator->evaluateAgent(
             index, progress.updates,
-            [&](const data::Split&) -> std::unique_ptr<rollout::Agent> {
-              return makeWaypointAgent(config, nets, ec.num_envs,
-                                       ec.sample_actions,
-                                       static_cast<uint64_t>(ec.seed));
+            [&](const data::Split& split) -> std::unique_ptr<rollout::Agent> {
+              std::unique_ptr<rollout::WaypointAgent> agent = makeWaypointAgent(
+                  config, nets, ec.num_envs, ec.sample_actions,
+                  static_cast<uint64_t>(ec.seed));
+              readSplitLegWords(*agent, config, split);
+              return agent;
             },
             &metrics);
         policy->train();

@@ -32,6 +32,7 @@
 #include <map>
 #include <memory>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "data/SubInstructions.h"
@@ -115,29 +116,31 @@ torch::Tensor instructionContrastLoss(
     const std::vector<const data::Episode*>& instructions, int maxLength,
     const torch::Device& device);
 
-/// How far past its projection onto the reference path an agent's position
-/// is moved to tell the leg it is about to walk (data::upcomingLeg()): a
-/// decision is taken where the last waypoint ended, often a little short
-/// of or past a reference node; half a metre on lies on the next leg.
-inline constexpr float kSubInstructionLookahead = 0.5f;
-
-/// Per training episode, its sub-instructions as token ranges (data::
-/// subInstructionTokens()), read from every pool split's
+/// Per episode of `splits`, its sub-instructions as token ranges (data::
+/// subInstructionTokens()), read from each split's
 /// <split>_sub_instructions.json.gz under dataset.data_path and checked
 /// against the split (data::checkSubInstructions()). Throws
-/// std::invalid_argument naming waypoint_agent.sub_instruction_weight and
-/// the file when one is missing.
-using SubInstructionTokensByEpisode =
-    std::map<const data::Episode*, std::vector<data::SubInstructionTokens>>;
+/// std::invalid_argument naming `option` (what needs them) and the file
+/// when one is missing.
+using SubInstructionTokensByEpisode = rollout::EpisodeClauses;
+SubInstructionTokensByEpisode loadEpisodeClauses(
+    const ExperimentConfig& config, std::span<const data::Split* const> splits,
+    std::string_view option);
+/// loadEpisodeClauses() of the training pool's splits (train, the aug
+/// split, the extra splits), naming waypoint_agent.sub_instruction_weight
+/// (or leg_words_only when the weight is 0).
 SubInstructionTokensByEpisode loadSubInstructionTokens(
     const ExperimentConfig& config, const TrainingData& data);
+/// With waypoint_agent.leg_words_only, hands `agent` the clauses of
+/// `split`'s episodes (loadEpisodeClauses()); nothing otherwise.
+void readSplitLegWords(rollout::WaypointAgent& agent,
+                       const ExperimentConfig& config,
+                       const data::Split& split);
 
 /// The tokens the sub-instruction loss asks decision t of batch episode b
 /// (`rows[b]`, the instruction of `episodes[b]`) to attend to: the tokens
-/// of the clauses describing the leg of the episode's reference path ahead
-/// of where the agent stood (data::upcomingLeg() with
-/// kSubInstructionLookahead), or, when no clause describes that leg (a
-/// straight leg left unsaid), those of the next leg some clause describes.
+/// of the clauses the agent was to follow next where it stood
+/// (data::clausesAhead()).
 /// [T, B, L] float 0/1 with T the longest row; all zero at padding steps,
 /// for episodes without sub-instructions and where the clauses' tokens lie
 /// beyond the first `L`.

@@ -202,6 +202,7 @@ struct SplitConfig {
   int aug_per_house = 60;
   int extra_train_houses = 0;
   int extra_unseen_houses = 0;
+  bool evaluation_sub_instructions = false;
 
   void visit(common::ConfigVisitor& v) {
     v.field("val_unseen_fraction", val_unseen_fraction,
@@ -237,6 +238,12 @@ struct SplitConfig {
             "published, as val_unseen's) forming the val_unseen_extra split. "
             "The other splits, the vocabulary and GloVe stay unchanged",
             common::inRange(0, 100000));
+    v.field("evaluation_sub_instructions", evaluation_sub_instructions,
+            "Also write <split>_sub_instructions.json.gz for val_seen, "
+            "val_unseen and val_unseen_extra (not test), for diagnostics "
+            "that tell an agent where along its instruction it is "
+            "(waypoint_agent.leg_words_only); new files only, the splits' "
+            "own files are unchanged");
   }
   void validate() const {
     VLN_CHECK_ARG(val_unseen_fraction + test_fraction < 1.0f,

@@ -421,9 +421,12 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
   std::map<std::string, double> pathLength, geodesic, actions, tokens,
       unknownTokens;
   std::vector<std::string> trainCorpus;
-  // for the training splits only: the evaluation splits' files are frozen
-  // and an agent is not told how its instruction divides
+  // for the training splits: an agent is not told how its instruction
+  // divides; the evaluation splits' (never test's) on request, as new files
+  // beside their frozen ones, for diagnostics
   std::map<std::string, data::SubInstructions> subInstructions;
+  const bool evaluationSubInstructions =
+      config.splits.evaluation_sub_instructions;
   int trajectoryId = 0;
   for (const std::string& split : splitNames) {
     int episodeId = 0;
@@ -458,7 +461,8 @@ WorldSummary generateWorld(const WorldConfig& config, const WorldOutput& output,
           }
           if (split == kTrain || split == kTrainAug)
             trainCorpus.push_back(text);
-          if (split == kTrain || split == kTrainAug || split == kTrainExtra)
+          if (split == kTrain || split == kTrainAug || split == kTrainExtra ||
+              (evaluationSubInstructions && split != kTest))
             subInstructions[split][e.episode_id] = t.sub_instructions[k];
           datasets[split].episodes.push_back(std::move(e));
         }

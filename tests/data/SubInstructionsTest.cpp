@@ -164,5 +164,27 @@ TEST(SubInstructionsTest, UpcomingLegLooksAheadAlongTheNearestSegment) {
                std::invalid_argument);
 }
 
+// the clauses of the leg ahead, or of the next leg a clause describes when
+// the one ahead has none (a straight leg left unsaid)
+TEST(SubInstructionsTest, ClausesAheadAreThoseOfTheNextDescribedLeg) {
+  const std::vector<Vec3f> path = episode(1).reference_path;  // legs 0, 1, 2
+  const std::vector<SubInstructionTokens> clauses = {
+      {0, 3, 0}, {3, 5, 0}, {5, 9, 2}};
+  auto firstTokens = [&](const Vec3f& at) {
+    std::vector<int> out;
+    for (const SubInstructionTokens& c : clausesAhead(clauses, path, at))
+      out.push_back(c.first);
+    return out;
+  };
+  using ::testing::ElementsAre;
+  EXPECT_THAT(firstTokens(Vec3f(0, 0, 0)), ElementsAre(0, 3));
+  // leg 1 is left unsaid: its walker reads the stop's clause
+  EXPECT_THAT(firstTokens(Vec3f(1.0f, 0, -2.2f)), ElementsAre(5));
+  EXPECT_THAT(firstTokens(Vec3f(5.0f, 0, -2.0f)), ElementsAre(5));
+  // nothing ahead, or no path to be along
+  EXPECT_TRUE(clausesAhead({{0, 3, 0}}, path, Vec3f(5.0f, 0, -2.0f)).empty());
+  EXPECT_TRUE(clausesAhead(clauses, {Vec3f::Zero()}, Vec3f::Zero()).empty());
+}
+
 }  // namespace
 }  // namespace vln::data

@@ -1,8 +1,8 @@
 // Tests src/models/WaypointCmaPolicy.cpp: shapes, the candidate mask, that
 // stepping equals the sequence, that candidates read the view at their
 // heading, the no-instruction ablation, training-only dropout, the heading
-// harmonics' input widths, the second (leg) attention, and that it can fit
-// labels.
+// harmonics' input widths, the second (leg) attention, the words' mask of
+// each decision, and that it can fit labels.
 
 #include "models/WaypointCmaPolicy.h"
 
@@ -51,8 +51,13 @@ WaypointPolicyInputs randomInputs(int64_t T,
 }
 
 WaypointPolicyInputs stepOf(const WaypointPolicyInputs& in, int64_t t) {
-  return {in.rgb[t],  in.depth[t],   in.candidates[t], in.candidate_mask[t],
-          in.prev[t], in.not_done[t]};
+  return {in.rgb[t],
+          in.depth[t],
+          in.candidates[t],
+          in.candidate_mask[t],
+          in.prev[t],
+          in.not_done[t],
+          in.text_mask.defined() ? in.text_mask[t] : torch::Tensor()};
 }
 
 TEST(WaypointCmaPolicyTest, LogitsAreStopThenTheCandidatesMasked) {
@@ -102,6 +107,65 @@ TEST(WaypointCmaPolicyTest, SteppingEqualsTheSequence) {
     hidden = step.hidden;
   }
   EXPECT_TRUE(torch::allclose(hidden, sequence.hidden, 1e-5, 1e-5));
+}
+
+// waypoint_agent.leg_words_only's mask: each decision attends to its
+// allowed words only (wider masks are cut to the instruction), a row that
+// allows none of its words reads them all, and stepping honours it too
+TEST(WaypointCmaPolicyTest, TheTextMaskLimitsTheWordsEachDecisionAttendsTo) {
+  torch::manual_seed(3);
+  WaypointCmaPolicy policy(config(), kViews, kRgb, kDepth);
+  policy->eval();
+  torch::NoGradGuard noGrad;
+  const auto instruction =
+      policy->encodeInstruction(test::randomTokens({6, 4}, 6, 23));
+  WaypointPolicyInputs in = randomInputs(3, {3, 2});
+  const WaypointPolicyOutputs all =
+      policy->forwardSequence(instruction, in, policy->initialHidden(2));
+
+  // 8 columns for 6 tokens; row 1's tokens 4-5 are padding
+  in.text_mask = torch::zeros({3, 2, 8}, torch::kBool);
+  in.text_mask[0][0].slice(0, 0, 2) = true;
+  in.text_mask[1][0].slice(0, 2, 5) = true;
+  in.text_mask[2][0].slice(0, 5, 8) = true;
+  in.text_mask[0][1] = true;                 // every word
+  in.text_mask[1][1].slice(0, 4, 8) = true;  // padding only: none
+  in.text_mask[2][1][1] = true;
+  const WaypointPolicyOutputs masked =
+      policy->forwardSequence(instruction, in, policy->initialHidden(2));
+  const torch::Tensor weights = masked.text_attention;  // [3, 2, 6]
+  ASSERT_EQ(weights.sizes(), (std::vector<int64_t>{3, 2, 6}));
+  const torch::Tensor allowed =
+      in.text_mask.slice(2, 0, 6).logical_and(instruction.mask.unsqueeze(0));
+  for (int64_t t = 0; t < 3; ++t)
+    for (int64_t b = 0; b < 2; ++b) {
+      const torch::Tensor w = weights[t][b];
+      if (allowed[t][b].any().item<bool>()) {
+        EXPECT_EQ(
+            w.masked_select(allowed[t][b].logical_not()).sum().item<float>(),
+            0.0f)
+            << t << ", " << b;
+      }
+      EXPECT_NEAR(w.sum().item<float>(), 1.0f, 1e-5);
+    }
+  EXPECT_NEAR(weights[2][1][1].item<float>(), 1.0f, 1e-6);
+  // all words allowed at the first decision of row 1: as without a mask
+  EXPECT_TRUE(
+      torch::allclose(masked.text_attention[0][1], all.text_attention[0][1]));
+  // no word of row 1 allowed at its second decision: all of them read
+  EXPECT_GT(weights[1][1].slice(0, 0, 4).min().item<float>(), 0.0f);
+  // the first row reads other words and chooses otherwise
+  EXPECT_FALSE(torch::allclose(masked.logits[0][0].slice(0, 0, 4),
+                               all.logits[0][0].slice(0, 0, 4)));
+
+  torch::Tensor hidden = policy->initialHidden(2);
+  for (int64_t t = 0; t < 3; ++t) {
+    const WaypointPolicyOutputs step =
+        policy->step(instruction, stepOf(in, t), hidden);
+    EXPECT_TRUE(torch::allclose(step.text_attention, weights[t], 1e-5, 1e-5))
+        << "t = " << t;
+    hidden = step.hidden;
+  }
 }
 
 TEST(WaypointCmaPolicyTest, ACandidateReadsTheViewAtItsHeading) {

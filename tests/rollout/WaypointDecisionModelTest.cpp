@@ -81,7 +81,8 @@ std::vector<torch::Tensor> twoDecisions(WaypointDecisionModel& model) {
   const int envs[] = {0, 1, 2};
   std::vector<torch::Tensor> out;
   for (int step = 0; step < 2; ++step)
-    out.push_back(model.step(envs, features, candidates, mask, prev, notDone));
+    out.push_back(model.step(envs, features, candidates, mask, prev, notDone,
+                             at::Tensor()));
   return out;
 }
 

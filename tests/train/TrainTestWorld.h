@@ -44,6 +44,8 @@ inline world::WorldConfig tinyWorldConfig() {
   c.instructions.per_trajectory = 1;
   c.glove.dim = 8;
   c.glove.epochs = 5;
+  // for waypoint_agent.leg_words_only's evaluations (new files only)
+  c.splits.evaluation_sub_instructions = true;
   return c;
 }
 
@@ -64,7 +66,7 @@ inline const TinyWorld& tinyWorld() {
     try {
       // a world from before the sub-instruction files is generated again
       if (!fs::exists(root / "done") ||
-          !fs::exists(data::splitSubInstructionsPath(w.data, "train"))) {
+          !fs::exists(data::splitSubInstructionsPath(w.data, "val_unseen"))) {
         world::WorldOutput output;
         output.out = w.data;
         output.scenes_dir = w.scenes;

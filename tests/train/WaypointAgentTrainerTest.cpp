@@ -7,7 +7,8 @@
 // key named; waypoint_agent.execution teleport trains and evaluates;
 // mirrored replays (waypoint_agent.mirror_probability) and the
 // sub-instruction loss (waypoint_agent.sub_instruction_weight) train, and
-// so does a label tolerance (acceptedSetLoss()).
+// so does a label tolerance (acceptedSetLoss()); the leg-words diagnostic
+// (waypoint_agent.leg_words_only) trains and evaluates.
 
 #include "train/WaypointAgentTrainer.h"
 
@@ -688,6 +689,75 @@ TEST_F(WaypointAgentTrainerTest, SubInstructionLossTrainsAndNeedsItsFiles) {
   const SubInstructionTokensByEpisode loaded =
       loadSubInstructionTokens(c, TrainingData::load(c));
   EXPECT_FALSE(loaded.empty());
+}
+
+// waypoint_agent.leg_words_only, a diagnostic, trains (every epoch at its
+// cosine rate here), validates and evaluates from the binaries with the
+// splits' sub-instruction files; without a split's file eval names the
+// option and the file; it is not exported
+TEST_F(WaypointAgentTrainerTest, LegWordsOnlyTrainsEvaluatesAndIsNotExported) {
+  const fs::path config = writeConfig("  max_decisions: 6\n");
+  const std::string legWords =
+      " --set waypoint_agent.leg_words_only=true"
+      " --set trainer.dagger_iterations=1 --set trainer.dagger_epochs=2"
+      " --set trainer.lr_schedule=cosine";
+  const fs::path run = dir_ / "legs";
+  std::string output;
+  ASSERT_EQ(vln::test::runCommand(
+                binary("train") + " --config " + config.string() + legWords +
+                    " --set output.dir=" + run.string() + " 2>&1",
+                &output),
+            0)
+      << output;
+  std::vector<double> rates;
+  for (const auto& r : vln::test::readJsonLines(run / "metrics.jsonl"))
+    if (r["type"] == "epoch") rates.push_back(r["lr"].get<double>());
+  const double lr = loadExperimentConfig(config).trainer.lr;
+  ASSERT_EQ(rates.size(), 2u);
+  EXPECT_DOUBLE_EQ(rates[0], lr);
+  EXPECT_DOUBLE_EQ(rates[1], lr / 2);
+  for (int i : {0, 1})
+    EXPECT_TRUE(
+        fs::exists(run / "eval" / rollout::statsFileName(i, "val_unseen")));
+  // the words ahead are not all the words: other weights than without
+  const Checkpoint withLegs =
+      loadCheckpoint(listCheckpoints(run / "checkpoints").front());
+  // (the first epoch trains at the full rate under either schedule)
+  const Checkpoint without = trainOnce(config, "", dir_ / "all_words");
+  EXPECT_TRUE(policiesDiffer(withLegs, without));
+
+  if (!fs::exists(binary("eval"))) GTEST_SKIP() << "build the eval binary";
+  const fs::path checkpoint = listCheckpoints(run / "checkpoints").back();
+  auto evaluate = [&](const std::string& sets, const fs::path& out) {
+    return vln::test::runCommand(
+        binary("eval") + " --config " + (run / "config.yaml").string() +
+            " --checkpoint " + checkpoint.string() + sets +
+            " --split val_unseen --out " + out.string() + " 2>&1",
+        &output);
+  };
+  ASSERT_EQ(evaluate("", dir_ / "legs_eval"), 0) << output;
+  EXPECT_GT(rollout::readStatsFile(dir_ / "legs_eval" /
+                                   rollout::statsFileName(1, "val_unseen"))
+                .num_episodes,
+            0);
+  const fs::path copy = dir_ / "world";
+  fs::copy(world_->data, copy, fs::copy_options::recursive);
+  fs::remove(data::splitSubInstructionsPath(copy, "val_unseen"));
+  EXPECT_NE(evaluate(" --set dataset.data_path=" + copy.string(),
+                     dir_ / "legs_eval_missing"),
+            0);
+  EXPECT_THAT(output, HasSubstr("waypoint_agent.leg_words_only"));
+  EXPECT_THAT(output, HasSubstr("val_unseen_sub_instructions.json.gz"));
+
+  EXPECT_NE(vln::test::runCommand(
+                binary("train") + " --config " + config.string() + legWords +
+                    " --set output.dir=" + (dir_ / "exported").string() +
+                    " --export " + (dir_ / "legs.pt").string() + " 2>&1",
+                &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("leg_words_only is a diagnostic"));
+  EXPECT_FALSE(fs::exists(dir_ / "exported" / "checkpoints"))
+      << "trained before refusing";
 }
 
 // waypoint_agent.execution teleport trains and evaluates from the binaries:

@@ -167,6 +167,38 @@ TEST_F(WorldGeneratorTest, SubInstructionsAreWrittenForTheTrainingSplitsOnly) {
   }
 }
 
+// splits.evaluation_sub_instructions adds the validation splits' files
+// (never test's, public or hidden) and changes no other byte
+TEST_F(WorldGeneratorTest, EvaluationSubInstructionsAreNewFilesOnly) {
+  test::TempDir more;
+  WorldConfig config = tinyConfig();
+  config.splits.evaluation_sub_instructions = true;
+  generateWorld(config, {more.path() / "data", more.path() / "scenes", 2});
+  const fs::path root = more.path() / "data";
+  auto before = readTree(datasetRoot());
+  const auto after = readTree(root);
+  before.erase("generation_stats.json");
+  for (const auto& [name, bytes] : before) {
+    ASSERT_TRUE(after.count(name)) << name;
+    EXPECT_TRUE(after.at(name) == bytes) << name << " changed";
+  }
+  std::set<std::string> added;
+  for (const auto& [name, bytes] : after)
+    if (!before.count(name) && name != "generation_stats.json")
+      added.insert(name);
+  EXPECT_EQ(added, (std::set<std::string>{
+                       "val_seen/val_seen_sub_instructions.json.gz",
+                       "val_unseen/val_unseen_sub_instructions.json.gz"}));
+  for (const std::string split : {"val_seen", "val_unseen"}) {
+    const data::EpisodeDataset dataset =
+        data::readEpisodes(data::splitEpisodesPath(root, split));
+    const data::SubInstructions subs =
+        data::readSubInstructions(data::splitSubInstructionsPath(root, split));
+    EXPECT_EQ(subs.size(), dataset.episodes.size()) << split;
+    EXPECT_NO_THROW(data::checkSubInstructions(subs, dataset.episodes, split));
+  }
+}
+
 TEST_F(WorldGeneratorTest, TestGoalsAndGroundTruthGoToTheHiddenFolderOnly) {
   // hidden/test/ holds the test episodes as the public file has them, plus
   // the goals, geodesic distances and reference paths it lacks
