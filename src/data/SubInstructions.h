@@ -3,8 +3,9 @@
 // its reference path, in the spirit of Fine-Grained R2R's "chunk_view"
 // (Hong et al. 2020, "Sub-Instruction Aware Vision-and-Language
 // Navigation"). A file of this project, written by world::generateWorld()
-// for the training splits (train, train_aug, train_extra; the frozen
-// evaluation files are untouched), `{split}/{split}_sub_instructions.json.gz`:
+// for the training splits (train, train_aug, train_extra) and, with
+// splits.evaluation_sub_instructions, for the validation splits as new files
+// beside their frozen ones, `{split}/{split}_sub_instructions.json.gz`:
 //   {"<episode_id>": [{"begin": int, "end": int, "leg": int}, ...], ...}
 // [begin, end) are byte offsets into the episode's instruction_text, in text
 // order; `leg` is the reference path's leg the text describes: leg i runs
