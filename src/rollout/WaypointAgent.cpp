@@ -113,7 +113,7 @@ void WaypointAgent::reset(int env, const data::Episode& episode) {
   slot.clauses = nullptr;
   if (config_.leg_words_only) {
     const auto it = legClauses_.find(&episode);
-    VLN_CHECK_ARG(it != legClauses_.end() && legWordsWidth_ > 0,
+    VLN_CHECK_ARG(it != legClauses_.end(),
                   "WaypointAgent: waypoint_agent.leg_words_only: no "
                   "sub-instructions for episode ",
                   episode.episode_id, " (readLegWordsOnly())");
