@@ -1,6 +1,7 @@
 #include "data/SubInstructions.h"
 
 #include <algorithm>
+#include <cctype>
 #include <limits>
 
 #include "common/Check.h"
@@ -120,6 +121,55 @@ std::vector<SubInstructionTokens> subInstructionTokens(
   for (const SubInstruction& s : subInstructions)
     out.push_back({tokensBefore(s.begin), tokensBefore(s.end), s.leg});
   return out;
+}
+
+std::vector<SubInstructionTokens> ruleClauses(std::string_view text) {
+  auto isWord = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '\'' ||
+           c == '-' || c == '_';
+  };
+  // the word starting at byte i (lower case), empty unless i starts one
+  auto wordAt = [&](size_t i) {
+    if (i >= text.size() || !isWord(text[i]) || (i > 0 && isWord(text[i - 1])))
+      return std::string();
+    std::string word;
+    while (i < text.size() && isWord(text[i]))
+      word.push_back(static_cast<char>(
+          std::tolower(static_cast<unsigned char>(text[i++]))));
+    return word;
+  };
+  std::vector<size_t> cuts{0};
+  std::string previousWord;
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (std::string_view(".,;:!?").find(text[i]) != std::string_view::npos) {
+      cuts.push_back(i + 1);
+      previousWord.clear();
+      continue;
+    }
+    const std::string word = wordAt(i);
+    if (word.empty()) continue;
+    if (word == "and" || (word == "then" && previousWord != "and"))
+      cuts.push_back(i);
+    previousWord = word;
+  }
+  cuts.push_back(text.size());
+  // byte cuts -> token boundaries (cuts lie between words, as
+  // subInstructionTokens() assumes of a file's spans)
+  std::vector<int> bounds;
+  for (size_t cut : cuts)
+    bounds.push_back(static_cast<int>(tokenize(text.substr(0, cut)).size()));
+  std::vector<SubInstructionTokens> out;
+  for (size_t k = 0; k + 1 < bounds.size(); ++k)
+    if (bounds[k + 1] > bounds[k])
+      out.push_back({bounds[k], bounds[k + 1], static_cast<int>(out.size())});
+  return out;
+}
+
+int clauseHolding(const std::vector<SubInstructionTokens>& clauses, int token) {
+  int holding = 0;
+  for (size_t k = 0; k < clauses.size(); ++k)
+    if (clauses[k].first <= token) holding = static_cast<int>(k);
+  return holding;
 }
 
 int upcomingLeg(const std::vector<Vec3f>& path, const Vec3f& position,

@@ -95,4 +95,18 @@ std::vector<SubInstructionTokens> clausesAhead(
     const std::vector<SubInstructionTokens>& clauses,
     const std::vector<Vec3f>& path, const Vec3f& position);
 
+/// The clauses of `text` as a rule finds them, with no sub-instruction
+/// file (what an agent can know at test time): the text is cut after each
+/// of . , ; : ! ? and before each word "and" or "then" (not before a "then"
+/// right after "and"), and the pieces' token ranges in tokenize(text) are
+/// returned in order, empty pieces dropped. `leg` is the clause's index.
+/// On the default world's train_extra the cuts find 98.2% of the
+/// generator's clause starts, 0.889 of them being one (docs/waypoints.md).
+std::vector<SubInstructionTokens> ruleClauses(std::string_view text);
+
+/// The index of the clause of `clauses` (in token order, as ruleClauses()
+/// returns them) holding token `token`: the last one starting at or before
+/// it; 0 when none does or `clauses` is empty.
+int clauseHolding(const std::vector<SubInstructionTokens>& clauses, int token);
+
 }  // namespace vln::data

@@ -102,6 +102,8 @@ struct ModelConfig {
   int heading_harmonics = 1;
   bool leg_attention = false;
   bool candidate_text = false;
+  bool clause_tracker = false;
+  int clause_window = 2;
   double dropout = 0.0;
   int depth_resnet_base_planes = 32;
   int rgb_height = 224;
@@ -238,6 +240,19 @@ struct ModelConfig {
             "describe it (a landmark in its view, a turn towards its "
             "heading) whichever words the state attends to (measured and "
             "not adopted, docs/results.md)");
+    v.field("clause_tracker", clause_tracker,
+            "Waypoint CMA only: the instruction is cut into clauses by a "
+            "rule (data::ruleClauses()), a pointer moves along them (at "
+            "each decision a head on the first GRU's state chooses to stay "
+            "or to advance one or two clauses, never back) and the "
+            "decision's attention reads only the words of clause_window "
+            "clauses from the pointer on; the head is trained towards the "
+            "clauses of the reference path's leg ahead "
+            "(waypoint_agent.clause_tracker_weight)");
+    v.field("clause_window", clause_window,
+            "With clause_tracker: how many clauses from the pointer on a "
+            "decision reads",
+            common::inRange(1, 16));
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "
             "on the instruction's encoded states, on the visual feature maps "

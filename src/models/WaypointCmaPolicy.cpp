@@ -110,6 +110,15 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
       candidate_text_linear =
           register_module("candidate_text_linear", nn::Linear(textDim, hidden));
     }
+    if (config.clause_tracker) {
+      clause_hidden =
+          register_module("clause_hidden", nn::Linear(hidden, hidden));
+      clause_text = register_module("clause_text", nn::Linear(textDim, hidden));
+      clause_advance = register_parameter(
+          "clause_advance",
+          torch::randn({kClauseAdvances, hidden}) / std::sqrt(double(hidden)));
+      clause_score = register_module("clause_score", nn::Linear(hidden, 1));
+    }
   } else {
     visual_query = register_parameter(
         "visual_query", torch::randn({hidden}) / std::sqrt(double(hidden)));
@@ -165,6 +174,96 @@ torch::Tensor WaypointCmaPolicyImpl::encodeViews(
   return torch::relu(view_linear(torch::cat(parts, 2)));
 }
 
+torch::Tensor WaypointCmaPolicyImpl::trackClauses(
+    const EncodedInstruction& instruction, const WaypointPolicyInputs& inputs,
+    const torch::Tensor& h1, int64_t steps, int64_t batch,
+    WaypointPolicyOutputs& out) {
+  const int64_t L = instruction.mask.size(1);
+  const int64_t H = config_.hidden_size;
+  VLN_CHECK_ARG(
+      inputs.clause_of_token.defined() && inputs.clause_of_token.dim() == 2 &&
+          inputs.clause_of_token.size(0) == batch &&
+          inputs.clause_of_token.size(1) >= L,
+      "WaypointCmaPolicy: model.clause_tracker needs clause_of_token "
+      "[",
+      batch, ", >= ", L, "], got ",
+      inputs.clause_of_token.defined() ? inputs.clause_of_token.sizes()
+                                       : at::IntArrayRef{});
+  VLN_CHECK_ARG(!inputs.text_mask.defined(),
+                "WaypointCmaPolicy: text_mask and model.clause_tracker both "
+                "choose the words a decision reads");
+  const torch::Device device = h1.device();
+  // each token's clause, -1 at padding; a row's clauses, at least one
+  const torch::Tensor clauseOf =
+      inputs.clause_of_token.slice(1, 0, L)
+          .to(device, torch::kLong)
+          .masked_fill(instruction.mask.logical_not(), -1);
+  const torch::Tensor counts = std::get<0>(clauseOf.max(1)).add(1).clamp_min(1);
+  const int64_t C = counts.max().item<int64_t>();
+  // r_j: each clause's mean encoded word, [B, C, H]
+  const torch::Tensor member =
+      clauseOf.unsqueeze(2)
+          .eq(torch::arange(C, clauseOf.options()).view({1, 1, C}))
+          .to(instruction.states.scalar_type());  // [B, L, C]
+  const torch::Tensor sizes = member.sum(1).clamp_min(1.0).unsqueeze(2);
+  const torch::Tensor clauses = clause_text(
+      torch::bmm(member.transpose(1, 2), instruction.states) / sizes);
+  const torch::Tensor query = clause_hidden(h1).view({steps, batch, H});
+
+  const torch::Tensor advances =
+      torch::arange(kClauseAdvances, clauseOf.options()).unsqueeze(0);
+  torch::Tensor pointer =
+      inputs.clause_start.defined()
+          ? inputs.clause_start.to(device, torch::kLong).reshape({batch})
+          : torch::zeros({batch}, clauseOf.options());
+  pointer = torch::minimum(pointer, counts - 1);
+  const bool teacher = inputs.clause_targets.defined();
+  torch::Tensor targets, followers;
+  if (teacher) {
+    // within the clauses of the words the policy reads (-1 stays -1)
+    targets =
+        inputs.clause_targets.to(device, torch::kLong).reshape({steps, batch});
+    targets =
+        torch::where(targets.ge(0),
+                     torch::minimum(targets, counts.unsqueeze(0) - 1), targets);
+    out.clause_targets = targets;
+    followers =
+        inputs.clause_teacher.defined()
+            ? inputs.clause_teacher.to(device, torch::kBool).reshape({batch})
+            : torch::ones({batch}, clauseOf.options().dtype(torch::kBool));
+  }
+  std::vector<torch::Tensor> logits, before, read;
+  for (int64_t t = 0; t < steps; ++t) {
+    const torch::Tensor index = pointer.unsqueeze(1) + advances;  // [B, A]
+    const torch::Tensor valid = index.lt(counts.unsqueeze(1));
+    const torch::Tensor reached =
+        torch::gather(clauses, 1,
+                      torch::minimum(index, counts.unsqueeze(1) - 1)
+                          .unsqueeze(2)
+                          .expand({batch, kClauseAdvances, H}));
+    const torch::Tensor z =
+        clause_score(torch::tanh(query[t].unsqueeze(1) + reached +
+                                 clause_advance.unsqueeze(0)))
+            .squeeze(2)
+            .masked_fill(valid.logical_not(),
+                         -std::numeric_limits<float>::infinity());
+    before.push_back(pointer);
+    torch::Tensor next = pointer + z.detach().argmax(1);
+    if (teacher) next = torch::where(followers, targets[t].clamp_min(0), next);
+    logits.push_back(z);
+    read.push_back(next);
+    pointer = next;
+  }
+  out.clause_logits = torch::stack(logits);
+  out.clause_before = torch::stack(before);
+  out.clause_pointer = torch::stack(read);
+  // the words of clauses p_t .. p_t + window - 1: [n, L]
+  const torch::Tensor first = out.clause_pointer.reshape({steps * batch, 1});
+  const torch::Tensor tokens = repeatOverSteps(clauseOf, steps);
+  return tokens.ge(first).logical_and(
+      tokens.lt(first + static_cast<int64_t>(config_.clause_window)));
+}
+
 WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
     const EncodedInstruction& instruction, const WaypointPolicyInputs& inputs,
     const torch::Tensor& hidden) {
@@ -196,6 +295,7 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
       state_encoder(gru1In, hidden.select(1, 0), inputs.not_done);
   const torch::Tensor h1 = h1Seq.reshape({n, H});
 
+  WaypointPolicyOutputs out;
   std::vector<torch::Tensor> context{h1};
   torch::Tensor visualQuery, textWeights;
   torch::Tensor textKeys, textStates, textMask;  // [n, L, ..]
@@ -204,13 +304,18 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
     textKeys = repeatOverSteps(instruction.keys, steps);
     textStates = repeatOverSteps(instruction.states, steps);
     textMask = repeatOverSteps(instruction.mask, steps);
-    if (inputs.text_mask.defined()) {
+    torch::Tensor readable;  // [n, L]: the words each step may read
+    if (clause_score) {
+      readable = trackClauses(instruction, inputs, h1, steps, batch, out);
+    } else if (inputs.text_mask.defined()) {
       const int64_t L = textMask.size(1);
       VLN_CHECK_ARG(inputs.text_mask.size(-1) >= L,
                     "WaypointCmaPolicy: text_mask has ",
                     inputs.text_mask.size(-1), " columns for ", L, " tokens");
-      const torch::Tensor allowed = textMask.logical_and(
-          inputs.text_mask.reshape({n, -1}).slice(1, 0, L));
+      readable = inputs.text_mask.reshape({n, -1}).slice(1, 0, L);
+    }
+    if (readable.defined()) {
+      const torch::Tensor allowed = textMask.logical_and(readable);
       // a decision that may read none of its words reads them all
       textMask = torch::where(allowed.any(1, true), allowed, textMask);
     }
@@ -271,7 +376,6 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
   logits = logits.masked_fill(valid.logical_not(),
                               -std::numeric_limits<float>::infinity());
 
-  WaypointPolicyOutputs out;
   out.logits = logits.view({steps, batch, K + 1});
   if (textWeights.defined())
     out.text_attention = textWeights.view({steps, batch, -1});
@@ -287,15 +391,21 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::step(
   auto seq = [](const torch::Tensor& t) {
     return t.defined() ? t.unsqueeze(0) : t;
   };
+  // clause_of_token, clause_start and clause_teacher are per episode
   WaypointPolicyInputs one{seq(inputs.rgb),        seq(inputs.depth),
                            seq(inputs.candidates), seq(inputs.candidate_mask),
                            seq(inputs.prev),       seq(inputs.not_done),
-                           seq(inputs.text_mask)};
+                           seq(inputs.text_mask),  inputs.clause_of_token,
+                           inputs.clause_start,    seq(inputs.clause_targets),
+                           inputs.clause_teacher};
   WaypointPolicyOutputs out = forwardSequence(instruction, one, hidden);
-  out.logits = out.logits.squeeze(0);
-  if (out.text_attention.defined())
-    out.text_attention = out.text_attention.squeeze(0);
-  if (out.progress.defined()) out.progress = out.progress.squeeze(0);
+  auto unseq = [](torch::Tensor& t) {
+    if (t.defined()) t = t.squeeze(0);
+  };
+  for (torch::Tensor* t :
+       {&out.logits, &out.text_attention, &out.progress, &out.clause_logits,
+        &out.clause_before, &out.clause_pointer, &out.clause_targets})
+    unseq(*t);
   return out;
 }
 

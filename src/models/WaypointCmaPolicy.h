@@ -29,6 +29,16 @@
 // in its view, a turn towards its heading) reach its key directly
 // (measured and not adopted: docs/results.md, "Candidates that read the
 // words, a slower learning rate and the better RGB encoder again").
+// With model.clause_tracker the instruction is cut into clauses by a rule
+// (data::ruleClauses(); r_j = W_r of the mean encoded word of clause j) and
+// a pointer p_t moves along them, never back:
+//   z_t(a) = w_z . tanh(W_z h1_t + r_{p_{t-1} + a} + E_a),  a = 0, 1, 2
+//   p_t    = p_{t-1} + argmax_a z_t(a)       (p_{-1} = clause_start)
+// or, in training, the oracle's clause where an episode follows it; s_t
+// (and l_t) then attend only to the words of clauses p_t .. p_t +
+// model.clause_window - 1. The head reads h1_t, which has not read the
+// words, so its logits need no mask; the trainer fits z_t to the advance
+// that reaches the oracle's clause (waypoint_agent.clause_tracker_weight).
 // With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
 // of m times the heading for m = 1 .. M (measured and not adopted:
 // docs/results.md, "Four more levers for the waypoint agent").
@@ -69,6 +79,19 @@ struct WaypointPolicyInputs {
   /// word when undefined, and where a decision's row allows none of its
   /// instruction's words. What waypoint_agent.leg_words_only feeds.
   torch::Tensor text_mask = {};
+  /// With model.clause_tracker: long [B, L'], the rule clause of each of an
+  /// episode's tokens (its index in data::ruleClauses(), -1 for none), one
+  /// row per episode (not per step), its first L columns read.
+  torch::Tensor clause_of_token = {};
+  /// With model.clause_tracker: long [B], the pointer before the first step
+  /// (the clause the previous decision read); zeros when undefined.
+  torch::Tensor clause_start = {};
+  /// With model.clause_tracker, optional (training): long [.., ] the clause
+  /// each step is to read (the oracle's), and bool [B] the episodes that
+  /// read it; the others, and every episode when these are undefined, read
+  /// their own pointer.
+  torch::Tensor clause_targets = {};
+  torch::Tensor clause_teacher = {};
 };
 
 struct WaypointPolicyOutputs {
@@ -79,7 +102,22 @@ struct WaypointPolicyOutputs {
   /// or with model.leg_attention that of l_t; undefined with
   /// model.no_instruction
   torch::Tensor text_attention;
+  /// With model.clause_tracker: [.., kClauseAdvances] the head's logits of
+  /// advancing 0, 1, 2 clauses from clause_before (-inf past the last
+  /// clause); long [..] the pointer before each step and the clause the
+  /// step read.
+  torch::Tensor clause_logits;
+  torch::Tensor clause_before;
+  torch::Tensor clause_pointer;
+  /// With clause_targets: they, within the clauses of the words read (the
+  /// last one for a target past them; -1 stays -1).
+  torch::Tensor clause_targets;
 };
+
+/// How many clauses the clause tracker's pointer can advance at a decision,
+/// plus one (staying): a waypoint is a few metres, at most two clauses'
+/// worth of path.
+inline constexpr int64_t kClauseAdvances = 3;
 
 class WaypointCmaPolicyImpl : public torch::nn::Module {
  public:
@@ -127,12 +165,23 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
   torch::Tensor stop_key;  ///< [hidden]
   torch::nn::Linear query_linear{nullptr};
   torch::nn::Linear progress_monitor{nullptr};  ///< W_p [1, hidden]
+  /// W_z, W_r, E_a, w_z with model.clause_tracker
+  torch::nn::Linear clause_hidden{nullptr}, clause_text{nullptr};
+  torch::Tensor clause_advance;  ///< [kClauseAdvances, hidden]
+  torch::nn::Linear clause_score{nullptr};
 
  private:
   // x, or x with model.dropout applied while training
   torch::Tensor trainingDropout(const torch::Tensor& x);
   // views [n, N, H] from the features of n steps
   torch::Tensor encodeViews(const WaypointPolicyInputs& inputs, int64_t n);
+  // model.clause_tracker over `steps` steps of `batch` episodes from GRU1's
+  // states h1 [steps * batch, H]: fills `out`'s clause outputs ([steps,
+  // batch, ..]) and returns the words each step reads, bool [n, L]
+  torch::Tensor trackClauses(const EncodedInstruction& instruction,
+                             const WaypointPolicyInputs& inputs,
+                             const torch::Tensor& h1, int64_t steps,
+                             int64_t batch, WaypointPolicyOutputs& out);
 
   ModelConfig config_;
   int64_t numViews_;

@@ -438,6 +438,10 @@ torch::jit::Module buildWaypointExportModule(
     WaypointCmaPolicyImpl& policy, ObservationEncoderImpl* encoder,
     const ExportedPredictor& predictor) {
   const ModelConfig& config = policy.config();
+  VLN_CHECK_ARG(!config.clause_tracker,
+                "exportWaypointPolicy(): model.clause_tracker's pointer and "
+                "rule clauses are not in the TorchScript archive yet; such a "
+                "policy is scored from its checkpoint");
   if (encoder != nullptr) checkEncoder(policy, *encoder);
   if (predictor.predictor != nullptr) checkPredictor(policy, predictor);
 

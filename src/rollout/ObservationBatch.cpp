@@ -7,6 +7,7 @@
 
 #include "common/Check.h"
 #include "data/RxrTextFeatures.h"
+#include "data/SubInstructions.h"
 #include "data/Vocabulary.h"
 
 namespace vln::rollout {
@@ -77,6 +78,22 @@ torch::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
     }
   }
   return tokens;
+}
+
+torch::Tensor batchRuleClauses(std::span<const data::Episode* const> episodes,
+                               int64_t width) {
+  VLN_CHECK_ARG(width >= 1, "batchRuleClauses(): width must be >= 1");
+  auto out = torch::full({static_cast<int64_t>(episodes.size()), width}, -1,
+                         torch::kInt64);
+  auto access = out.accessor<int64_t, 2>();
+  for (size_t k = 0; k < episodes.size(); ++k) {
+    const auto row = static_cast<int64_t>(k);
+    for (const data::SubInstructionTokens& c :
+         data::ruleClauses(episodes[k]->instruction.instruction_text))
+      for (int64_t j = c.first; j < std::min<int64_t>(c.last, width); ++j)
+        access[row][j] = c.leg;
+  }
+  return out;
 }
 
 InstructionFeatureSource rxrTextFeatureSource(

@@ -35,6 +35,12 @@ ObservationBatch batchObservations(const VectorEnv& envs,
 at::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
                                 int maxLength);
 
+/// The rule clause of each instruction token of `episodes` (its index in
+/// data::ruleClauses() of instruction_text; model.clause_tracker's
+/// clause_of_token), int64 [N, width], -1 past the last clause.
+at::Tensor batchRuleClauses(std::span<const data::Episode* const> episodes,
+                            int64_t width);
+
 /// The text features of an episode's instruction, float [L, D] on the CPU
 /// holding its real rows (trailing zero rows may remain; they are padding):
 /// what a policy with model.instruction_features: rxr_text reads.

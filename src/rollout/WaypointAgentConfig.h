@@ -51,6 +51,15 @@ struct WaypointAgentConfig {
   /// (data/SubInstructions.h). 0: off (0.5 and 2 measured and not
   /// adopted: docs/results.md, "Sub-instruction attention ...").
   double sub_instruction_weight = 0.0;
+  /// Training only, with model.clause_tracker: weight of the tracker's
+  /// cross-entropy towards the advance that reaches the rule clause holding
+  /// the first word of data::clausesAhead() (train::clauseTargets()); needs
+  /// the training splits' sub-instruction files.
+  double clause_tracker_weight = 1.0;
+  /// Training only, with model.clause_tracker: probability that an episode
+  /// of a batch reads the oracle's clause at every decision rather than
+  /// its own pointer's (which it reads at evaluation).
+  double clause_teacher_probability = 0.5;
   /// Training only: the loss accepts every candidate whose execution ends
   /// at most this many metres farther from the oracle's target than the
   /// oracle's choice (waypoint::acceptableChoices()): -log of the
@@ -125,6 +134,17 @@ struct WaypointAgentConfig {
             "of every training split, which vlnce-data generate writes); 0 "
             "turns it off",
             common::inRange(0.0, 100.0));
+    v.field("clause_tracker_weight", clause_tracker_weight,
+            "Training only, with model.clause_tracker: weight of the "
+            "tracker's loss, which asks it to advance its pointer to the "
+            "rule clause where the words of the reference path's leg ahead "
+            "begin (from the training splits' sub-instruction files)",
+            common::inRange(0.0, 100.0));
+    v.field("clause_teacher_probability", clause_teacher_probability,
+            "Training only, with model.clause_tracker: probability that an "
+            "episode of a batch reads the oracle's clause at each decision "
+            "instead of its own pointer's (evaluation always reads its own)",
+            common::inRange(0.0, 1.0));
     v.field("label_tolerance", label_tolerance,
             "Training only: the loss accepts, besides the oracle's choice, "
             "every candidate whose execution ends at most this many metres "

@@ -12,6 +12,10 @@ struct NativeWaypointModel::EnvState {
   // per policy
   std::vector<models::EncodedInstruction> instructions;
   std::vector<torch::Tensor> hiddens;  // each [1, 2, H]
+  // with model.clause_tracker: the clause pointer (the clause the last
+  // decision read) per policy, and the episode's batchRuleClauses() row
+  std::vector<int64_t> clausePointers;
+  torch::Tensor clauseOfToken;  // [1, maxInstructionLength]
 };
 
 at::Tensor ensembleLogits(std::span<const at::Tensor> memberLogits) {
@@ -97,6 +101,8 @@ void NativeWaypointModel::reset(int env, const data::Episode& episode) {
   const torch::Tensor tokens = batchInstructions(one, maxInstructionLength_);
   s.instructions.clear();
   s.hiddens.clear();
+  s.clausePointers.assign(policies_.size(), 0);
+  s.clauseOfToken = batchRuleClauses(one, maxInstructionLength_);
   for (const auto& policy : policies_) {
     policy->eval();
     const torch::Device device = policy->view_linear->weight.device();
@@ -162,11 +168,14 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
     policy.eval();
     const torch::Device device = policy.view_linear->weight.device();
     std::vector<const models::EncodedInstruction*> instructions;
-    std::vector<torch::Tensor> hiddens;
+    std::vector<torch::Tensor> hiddens, clauseOfToken;
+    std::vector<int64_t> clauseStart;
     for (int env : envs) {
       const EnvState& s = state(env);
       instructions.push_back(&s.instructions[m]);
       hiddens.push_back(s.hiddens[m]);
+      clauseOfToken.push_back(s.clauseOfToken);
+      clauseStart.push_back(s.clausePointers[m]);
     }
     // features from encode() are already there; the waypoint agent's view
     // labels (waypoint_agent.view_labels) come from the CPU
@@ -177,6 +186,10 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
         onDevice(features.rgb), onDevice(features.depth), candidates.to(device),
         mask.to(device),        prev.to(device),          notDone.to(device),
         onDevice(textMask)};
+    if (policy.config().clause_tracker) {
+      inputs.clause_of_token = torch::cat(clauseOfToken, 0).to(device);
+      inputs.clause_start = torch::tensor(clauseStart).to(device);
+    }
     const models::EncodedInstruction instruction =
         policy.config().usesInstruction() ? stackInstructions(instructions)
                                           : models::EncodedInstruction{};
@@ -185,6 +198,9 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
     for (size_t i = 0; i < envs.size(); ++i) {
       const auto row = static_cast<int64_t>(i);
       state(envs[i]).hiddens[m] = out.hidden.slice(0, row, row + 1).clone();
+      if (out.clause_pointer.defined())
+        state(envs[i]).clausePointers[m] =
+            out.clause_pointer[row].item<int64_t>();
     }
     memberLogits.push_back(
         out.logits.to(torch::kCPU, torch::kFloat64).contiguous());

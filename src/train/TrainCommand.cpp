@@ -30,7 +30,8 @@ namespace fs = std::filesystem;
 namespace {
 
 // why a waypoint run cannot be exported: its policy reads what an archive
-// given images and words cannot compute; empty when it can be
+// given images and words cannot compute, or what the archive does not hold
+// yet; empty when it can be
 std::string diagnosticNotExported(const ExperimentConfig& config) {
   if (config.waypoint_agent.view_labels)
     return "waypoint_agent.view_labels is a diagnostic whose policy reads "
@@ -40,6 +41,10 @@ std::string diagnosticNotExported(const ExperimentConfig& config) {
     return "waypoint_agent.leg_words_only is a diagnostic whose policy reads "
            "only the words of the reference path's leg ahead, which an "
            "archive given the instruction cannot know; it cannot be exported";
+  if (config.model.clause_tracker)
+    return "model.clause_tracker's pointer and rule clauses are not in the "
+           "TorchScript archive yet; such a policy is scored from its "
+           "checkpoint";
   return "";
 }
 

@@ -194,7 +194,9 @@ SubInstructionTokensByEpisode loadSubInstructionTokens(
   return loadEpisodeClauses(config, splits,
                             config.waypoint_agent.sub_instruction_weight > 0.0
                                 ? "waypoint_agent.sub_instruction_weight"
-                                : "waypoint_agent.leg_words_only");
+                            : config.waypoint_agent.leg_words_only
+                                ? "waypoint_agent.leg_words_only"
+                                : "model.clause_tracker");
 }
 
 void readSplitLegWords(rollout::WaypointAgent& agent,
@@ -230,6 +232,37 @@ at::Tensor subInstructionTargets(
            data::clausesAhead(clauses, episode.reference_path, row[t].position))
         for (int k = c.first; k < std::min<int64_t>(c.last, L); ++k)
           access[static_cast<int64_t>(t)][b][k] = 1.0f;
+  }
+  return targets;
+}
+
+at::Tensor clauseTargets(
+    std::span<const std::vector<rollout::WaypointDecision>* const> rows,
+    std::span<const data::Episode* const> episodes,
+    const SubInstructionTokensByEpisode& tokens) {
+  VLN_CHECK_ARG(rows.size() == episodes.size(),
+                "clauseTargets(): ", rows.size(), " rows for ", episodes.size(),
+                " episodes");
+  int64_t T = 0;
+  for (const auto* row : rows) T = std::max<int64_t>(T, row->size());
+  const auto B = static_cast<int64_t>(rows.size());
+  at::Tensor targets = torch::full({T, B}, -1, torch::kInt64);
+  auto access = targets.accessor<int64_t, 2>();
+  for (int64_t b = 0; b < B; ++b) {
+    const data::Episode& episode = *episodes[static_cast<size_t>(b)];
+    const auto it = tokens.find(&episode);
+    VLN_CHECK_ARG(it != tokens.end(), "clauseTargets(): episode ",
+                  episode.episode_id, " has no sub-instructions");
+    const std::vector<data::SubInstructionTokens> rule =
+        data::ruleClauses(episode.instruction.instruction_text);
+    const int last = std::max(0, static_cast<int>(rule.size()) - 1);
+    const auto& row = *rows[static_cast<size_t>(b)];
+    for (size_t t = 0; t < row.size(); ++t) {
+      const std::vector<data::SubInstructionTokens> ahead = data::clausesAhead(
+          it->second, episode.reference_path, row[t].position);
+      access[static_cast<int64_t>(t)][b] =
+          ahead.empty() ? last : data::clauseHolding(rule, ahead.front().first);
+    }
   }
   return targets;
 }
@@ -303,6 +336,18 @@ void validateWaypointAgentConfig(const ExperimentConfig& config) {
                 ": waypoint_agent.leg_words_only and "
                 "trainer.instruction_contrast_weight cannot be combined (the "
                 "leg's words are another instruction's tokens)");
+  VLN_CHECK_ARG(
+      !config.model.clause_tracker ||
+          (!config.dataset.isRxr() && !config.waypoint_agent.leg_words_only &&
+           config.trainer.instruction_contrast_weight == 0.0),
+      kTask,
+      ": model.clause_tracker needs R2R-format training splits with "
+      "sub-instruction files, and chooses the words itself: it "
+      "cannot be combined with waypoint_agent.leg_words_only or "
+      "trainer.instruction_contrast_weight (dataset.format ",
+      config.dataset.format, ", leg_words_only ",
+      config.waypoint_agent.leg_words_only, ", instruction_contrast_weight ",
+      config.trainer.instruction_contrast_weight, ")");
   if (config.waypoint_agent.view_labels) {
     VLN_CHECK_ARG(config.model.usesRgb() && config.model.rgb_semantic_outputs ==
                                                 world::viewLabelSize(),
@@ -468,8 +513,13 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       config.waypoint_agent.sub_instruction_weight;
   // with leg_words_only each decision reads the words of the clauses ahead
   const bool legWordsOnly = config.waypoint_agent.leg_words_only;
+  // with model.clause_tracker the pointer's targets, and the episodes that
+  // read the oracle's clause in each batch
+  const bool clauseTracker = config.model.clause_tracker;
+  std::mt19937_64 clauseRng(
+      common::deriveSeed(static_cast<uint64_t>(tc.seed), 29));
   const SubInstructionTokensByEpisode subInstructionTokens =
-      subInstructionWeight > 0.0 || legWordsOnly
+      subInstructionWeight > 0.0 || legWordsOnly || clauseTracker
           ? loadSubInstructionTokens(config, data)
           : SubInstructionTokensByEpisode{};
 
@@ -540,8 +590,10 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       std::iota(order.begin(), order.end(), size_t{0});
       common::deterministicShuffle(order, orderRng);
       double lossSum = 0.0, contrastSum = 0.0, subInstructionSum = 0.0,
-             progressSum = 0.0;
+             progressSum = 0.0, clauseSum = 0.0;
       int64_t correct = 0, acceptedHits = 0, labelled = 0, batches = 0;
+      // the tracker's advances that matched their targets
+      int64_t clauseHits = 0, clauseCounted = 0;
       // the first decision of each episode, where the instruction's opening
       // ("turn left ...") is all that tells the candidates apart
       int64_t firstCorrect = 0, firstLabelled = 0;
@@ -589,6 +641,24 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                                     tokens.size(1))
                   .gt(0.0f)
                   .to(device);
+        torch::Tensor clauseTarget;  // [T, B]
+        if (clauseTracker) {
+          clauseTarget =
+              clauseTargets(rows, instructions, subInstructionTokens);
+          std::vector<uint8_t> teacher;
+          for (size_t b = 0; b < rows.size(); ++b)
+            teacher.push_back(
+                common::uniform01(clauseRng) <
+                        config.waypoint_agent.clause_teacher_probability
+                    ? 1
+                    : 0);
+          in.clause_of_token =
+              rollout::batchRuleClauses(instructions, tokens.size(1))
+                  .to(device);
+          in.clause_targets = clauseTarget.to(device);
+          in.clause_teacher =
+              torch::tensor(teacher).to(torch::kBool).to(device);
+        }
         const models::EncodedInstruction instruction =
             policy->encodeInstruction(tokens.to(device));
         const models::WaypointPolicyOutputs out = policy->forwardSequence(
@@ -613,6 +683,29 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
               subInstructionLoss(out.text_attention, targets.to(device));
           subInstructionSum += sub.item<double>();
           loss = loss + subInstructionWeight * sub;
+        }
+        if (clauseTracker && out.clause_targets.ge(0).any().item<bool>()) {
+          // the advance from the pointer before each decision that reaches
+          // the oracle's clause (staying where it is past it, two at most)
+          const torch::Tensor target =
+              (out.clause_targets - out.clause_before)
+                  .clamp(0, models::kClauseAdvances - 1)
+                  .reshape({-1});
+          const torch::Tensor counted =
+              out.clause_targets.reshape({-1}).ge(0).logical_and(labels.ge(0));
+          const torch::Tensor clauseLogits =
+              out.clause_logits.reshape({-1, models::kClauseAdvances})
+                  .index({counted});
+          const torch::Tensor clauseLoss = torch::nn::functional::cross_entropy(
+              clauseLogits, target.index({counted}));
+          clauseSum += clauseLoss.item<double>();
+          clauseHits += clauseLogits.argmax(1)
+                            .eq(target.index({counted}))
+                            .sum()
+                            .item<int64_t>();
+          clauseCounted += clauseLogits.size(0);
+          loss =
+              loss + config.waypoint_agent.clause_tracker_weight * clauseLoss;
         }
         if (out.progress.defined()) {
           const torch::Tensor progressLoss = models::progressLoss(
@@ -659,6 +752,10 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
       const double meanSubInstruction =
           batches > 0 ? subInstructionSum / batches : 0.0;
       const double meanProgress = batches > 0 ? progressSum / batches : 0.0;
+      const double meanClause = batches > 0 ? clauseSum / batches : 0.0;
+      const double clauseAccuracy =
+          clauseCounted > 0 ? static_cast<double>(clauseHits) / clauseCounted
+                            : 0.0;
       const double accuracy =
           labelled > 0 ? static_cast<double>(correct) / labelled : 0.0;
       const double acceptedAccuracy =
@@ -668,12 +765,14 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                             : 0.0;
       spdlog::info(
           "{}: iteration {} epoch {}: {} updates, loss {:.4f} (instruction "
-          "contrast {:.4f}, sub-instruction {:.4f}, progress {:.4f}), label "
-          "accuracy {:.3f} over {} decisions ({:.3f} at the first decision, "
-          "{:.3f} an accepted choice), {:.1f} s",
+          "contrast {:.4f}, sub-instruction {:.4f}, progress {:.4f}, clause "
+          "tracker {:.4f}), label accuracy {:.3f} over {} decisions ({:.3f} at "
+          "the first decision, {:.3f} an accepted choice; the clause "
+          "tracker's {:.3f}), {:.1f} s",
           kTask, iteration.iteration, epoch.epoch, batches, meanLoss,
-          meanContrast, meanSubInstruction, meanProgress, accuracy, labelled,
-          firstAccuracy, acceptedAccuracy, epochClock.seconds());
+          meanContrast, meanSubInstruction, meanProgress, meanClause, accuracy,
+          labelled, firstAccuracy, acceptedAccuracy, clauseAccuracy,
+          epochClock.seconds());
       metrics.write("epoch",
                     {{"iteration", iteration.iteration},
                      {"epoch", epoch.epoch},
@@ -681,6 +780,8 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                      {"instruction_contrast", meanContrast},
                      {"sub_instruction", meanSubInstruction},
                      {"progress", meanProgress},
+                     {"clause_tracker", meanClause},
+                     {"clause_accuracy", clauseAccuracy},
                      {"accuracy", accuracy},
                      {"first_decision_accuracy", firstAccuracy},
                      {"accepted_accuracy", acceptedAccuracy},

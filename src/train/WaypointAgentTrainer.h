@@ -127,8 +127,9 @@ SubInstructionTokensByEpisode loadEpisodeClauses(
     const ExperimentConfig& config, std::span<const data::Split* const> splits,
     std::string_view option);
 /// loadEpisodeClauses() of the training pool's splits (train, the aug
-/// split, the extra splits), naming waypoint_agent.sub_instruction_weight
-/// (or leg_words_only when the weight is 0).
+/// split, the extra splits), naming the option that needs them
+/// (waypoint_agent.sub_instruction_weight, leg_words_only or
+/// model.clause_tracker).
 SubInstructionTokensByEpisode loadSubInstructionTokens(
     const ExperimentConfig& config, const TrainingData& data);
 /// With waypoint_agent.leg_words_only, hands `agent` the clauses of
@@ -148,6 +149,18 @@ at::Tensor subInstructionTargets(
     std::span<const std::vector<rollout::WaypointDecision>* const> rows,
     std::span<const data::Episode* const> episodes,
     const SubInstructionTokensByEpisode& tokens, int64_t L);
+
+/// model.clause_tracker's targets: for decision t of batch episode b
+/// (`rows[b]`, the instruction of `episodes[b]`), the rule clause
+/// (data::ruleClauses() of its instruction_text) holding the first word of
+/// the clauses it was to follow next where it stood (data::clausesAhead()
+/// of its sub-instructions `tokens`), the last rule clause where none is
+/// ahead. long [T, B], T the longest row, -1 at padding steps. Throws
+/// std::invalid_argument for an episode missing from `tokens`.
+at::Tensor clauseTargets(
+    std::span<const std::vector<rollout::WaypointDecision>* const> rows,
+    std::span<const data::Episode* const> episodes,
+    const SubInstructionTokensByEpisode& tokens);
 
 /// -log of the instruction attention's mass on the targets (`attention`
 /// and `targets` [T, B, L]), averaged over the decisions that have a

@@ -186,5 +186,36 @@ TEST(SubInstructionsTest, ClausesAheadAreThoseOfTheNextDescribedLeg) {
   EXPECT_TRUE(clausesAhead(clauses, {Vec3f::Zero()}, Vec3f::Zero()).empty());
 }
 
+// the rule's clauses: cut after punctuation and before "and" / "then"
+// ("and then" once), as token ranges of tokenize()
+TEST(SubInstructionsTest, RuleClausesCutAtPunctuationAndConnectives) {
+  auto spans = [](std::string_view text) {
+    std::vector<std::pair<int, int>> out;
+    for (const SubInstructionTokens& c : ruleClauses(text)) {
+      EXPECT_EQ(c.leg, static_cast<int>(out.size()));
+      out.emplace_back(c.first, c.last);
+    }
+    return out;
+  };
+  using P = std::pair<int, int>;
+  using ::testing::ElementsAre;
+  // turn left | then walk past the sofa . | stop by the tv .
+  EXPECT_THAT(spans(kText), ElementsAre(P(0, 2), P(2, 8), P(8, 13)));
+  // "And then" cuts once; "sandy" and "Thence" are not connectives
+  EXPECT_THAT(spans("Go up the stairs and then turn left; pass the sandy rug "
+                    "Thence stop!"),
+              ElementsAre(P(0, 4), P(4, 9), P(9, 16)));
+  EXPECT_THAT(spans("walk and wait"), ElementsAre(P(0, 1), P(1, 3)));
+  // no tokens, no clause
+  EXPECT_TRUE(ruleClauses("").empty());
+  EXPECT_TRUE(ruleClauses(" , ,").empty());
+  const auto clauses = ruleClauses(kText);
+  EXPECT_EQ(clauseHolding(clauses, 0), 0);
+  EXPECT_EQ(clauseHolding(clauses, 7), 1);
+  EXPECT_EQ(clauseHolding(clauses, 8), 2);
+  EXPECT_EQ(clauseHolding(clauses, 99), 2);
+  EXPECT_EQ(clauseHolding({}, 3), 0);
+}
+
 }  // namespace
 }  // namespace vln::data

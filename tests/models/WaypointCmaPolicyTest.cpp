@@ -356,6 +356,109 @@ TEST(WaypointCmaPolicyTest, LegAttentionIsASecondAttentionOverTheWords) {
   EXPECT_THROW(c.validate(), std::invalid_argument);
 }
 
+// model.clause_tracker: the pointer starts at clause_start, never moves
+// back nor more than two clauses, stays within the row's clauses (-inf
+// logits past them), and each decision reads the words of its window; an
+// episode that follows the oracle reads its (clamped) clauses; stepping
+// with the last pointer as clause_start computes what the sequence does
+TEST(WaypointCmaPolicyTest, TheClauseTrackerMovesAPointerAlongTheClauses) {
+  ModelConfig c = config();
+  c.clause_tracker = true;
+  c.clause_window = 1;
+  EXPECT_NO_THROW(c.validate());
+  torch::manual_seed(8);
+  WaypointCmaPolicy policy(c, kViews, kRgb, kDepth);
+  ASSERT_TRUE(policy->clause_score);
+  policy->eval();
+  torch::NoGradGuard noGrad;
+  // instructions of 6 and 4 tokens; 8 columns of clauses
+  const auto instruction =
+      policy->encodeInstruction(test::randomTokens({6, 4}, 6, 23));
+  constexpr int64_t T = 5;
+  WaypointPolicyInputs in = randomInputs(T, {3, 2});
+  in.clause_of_token = torch::tensor(
+      {{0, 0, 1, 1, 2, 3, -1, -1}, {0, 0, 0, 1, -1, -1, -1, -1}}, torch::kLong);
+  in.clause_start = torch::tensor({1, 0}, torch::kLong);
+  EXPECT_THROW(policy->forwardSequence(
+                   instruction,
+                   [&] {
+                     WaypointPolicyInputs both = in;
+                     both.text_mask = torch::ones({T, 2, 8}, torch::kBool);
+                     return both;
+                   }(),
+                   policy->initialHidden(2)),
+               std::invalid_argument);
+  // steer row 0 to advance one clause at a time: E_1 dominates
+  policy->clause_advance[1].fill_(3.0f);
+  policy->clause_score->weight.fill_(1.0f);
+  const WaypointPolicyOutputs own =
+      policy->forwardSequence(instruction, in, policy->initialHidden(2));
+  ASSERT_EQ(own.clause_logits.sizes(),
+            (std::vector<int64_t>{T, 2, kClauseAdvances}));
+  const std::vector<int64_t> counts{4, 2};
+  for (int64_t b = 0; b < 2; ++b) {
+    EXPECT_EQ(own.clause_before[0][b].item<int64_t>(),
+              in.clause_start[b].item<int64_t>());
+    for (int64_t t = 0; t < T; ++t) {
+      const int64_t before = own.clause_before[t][b].item<int64_t>();
+      const int64_t read = own.clause_pointer[t][b].item<int64_t>();
+      EXPECT_GE(read, before);
+      EXPECT_LE(read, before + 2);
+      EXPECT_LT(read, counts[static_cast<size_t>(b)]);
+      if (t > 0)
+        EXPECT_EQ(before, own.clause_pointer[t - 1][b].item<int64_t>());
+      for (int64_t a = 0; a < kClauseAdvances; ++a)
+        EXPECT_EQ(std::isinf(own.clause_logits[t][b][a].item<float>()),
+                  before + a >= counts[static_cast<size_t>(b)]);
+      // the attention rests on the words of clause `read` alone
+      const torch::Tensor words =
+          in.clause_of_token[b].slice(0, 0, 6).eq(read).logical_and(
+              instruction.mask[b]);
+      EXPECT_NEAR(
+          own.text_attention[t][b].masked_select(words).sum().item<float>(),
+          1.0f, 1e-5);
+    }
+  }
+  EXPECT_EQ(own.clause_pointer[0][0].item<int64_t>(), 2);
+  EXPECT_EQ(own.clause_pointer[T - 1][0].item<int64_t>(), 3);
+  EXPECT_FALSE(own.clause_targets.defined());
+
+  // row 0 follows the oracle's clauses (7 is past its last: 3), row 1 not
+  WaypointPolicyInputs taught = in;
+  taught.clause_targets =
+      torch::tensor({{0, 0}, {2, 0}, {2, 1}, {7, 1}, {-1, 1}}, torch::kLong);
+  taught.clause_teacher = torch::tensor({true, false});
+  const WaypointPolicyOutputs teacher =
+      policy->forwardSequence(instruction, taught, policy->initialHidden(2));
+  EXPECT_TRUE(torch::equal(teacher.clause_pointer.select(1, 0),
+                           torch::tensor({0, 2, 2, 3, 0}, torch::kLong)));
+  EXPECT_TRUE(torch::equal(teacher.clause_targets.select(1, 0),
+                           torch::tensor({0, 2, 2, 3, -1}, torch::kLong)));
+  EXPECT_TRUE(torch::equal(teacher.clause_pointer.select(1, 1),
+                           own.clause_pointer.select(1, 1)));
+
+  // stepping: each step starts where the last one's pointer ended
+  torch::Tensor hidden = policy->initialHidden(2);
+  torch::Tensor pointer = in.clause_start;
+  for (int64_t t = 0; t < T; ++t) {
+    WaypointPolicyInputs one = stepOf(in, t);
+    one.clause_of_token = in.clause_of_token;
+    one.clause_start = pointer;
+    const WaypointPolicyOutputs step = policy->step(instruction, one, hidden);
+    EXPECT_TRUE(torch::equal(step.clause_pointer, own.clause_pointer[t]));
+    const torch::Tensor finite = torch::isfinite(own.logits[t]);
+    EXPECT_TRUE(torch::allclose(step.logits.masked_fill(~finite, 0),
+                                own.logits[t].masked_fill(~finite, 0), 1e-5,
+                                1e-5))
+        << "t = " << t;
+    hidden = step.hidden;
+    pointer = step.clause_pointer;
+  }
+
+  c.no_instruction = true;
+  EXPECT_THROW(c.validate(), std::invalid_argument);
+}
+
 // model.candidate_text adds each candidate's own attention over the words
 // to its key: with W_u zeroed the logits are the plain policy's, and the
 // step mode computes what the sequence mode does

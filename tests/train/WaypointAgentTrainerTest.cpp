@@ -38,6 +38,7 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
+using ::testing::ThrowsMessage;
 using vln::test::binary;
 
 class WaypointAgentTrainerTest : public test::TinyWorldBinaryTest {
@@ -582,6 +583,45 @@ TEST(InstructionContrastLossTest, MeasuresHowMuchTheWordsDecide) {
   EXPECT_GT(encoderGradient, 0.0);
 }
 
+// clauseTargets() points each decision at the rule clause where the words
+// of the leg ahead begin (the stop's where nothing is ahead), -1 at padding
+TEST(ClauseTargetsTest, PointAtTheRuleClauseOfTheLegAhead) {
+  data::Episode episode;
+  episode.episode_id = 4;
+  // rule clauses: walk ahead | then turn right | and go past the sofa . |
+  // stop at the tv .
+  episode.instruction.instruction_text =
+      "Walk ahead, then turn right and go past the sofa. Stop at the tv.";
+  episode.reference_path = {Vec3f(0, 0, 0), Vec3f(0, 0, -4), Vec3f(4, 0, -4),
+                            Vec3f(4, 0, -8)};
+  data::Episode unsaid = episode;  // only leg 0 is described
+  SubInstructionTokensByEpisode tokens;
+  tokens[&episode] = {{0, 2, 0}, {2, 5, 1}, {5, 11, 1}, {11, 16, 3}};
+  tokens[&unsaid] = {{0, 2, 0}};
+  std::vector<rollout::WaypointDecision> row(4);
+  row[0].position = Vec3f(0, 0, -0.2f);  // leg 0
+  row[1].position = Vec3f(0, 0, -3.8f);  // at the first turn: leg 1
+  row[2].position = Vec3f(4, 0, -4.2f);  // leg 2, unsaid: the stop's words
+  row[3].position = Vec3f(4, 0, -7.9f);  // at the goal: the stop
+  std::vector<rollout::WaypointDecision> shortRow(1);
+  shortRow[0].position = Vec3f(4, 0, -7.9f);
+  const std::vector<const std::vector<rollout::WaypointDecision>*> rows{
+      &row, &shortRow};
+  const std::vector<const data::Episode*> episodes{&episode, &unsaid};
+  const torch::Tensor targets = clauseTargets(rows, episodes, tokens);
+  ASSERT_EQ(targets.sizes(), (torch::IntArrayRef{4, 2}));
+  EXPECT_TRUE(torch::equal(targets.select(1, 0),
+                           torch::tensor({0, 1, 3, 3}, torch::kLong)));
+  // nothing described ahead: the last rule clause; then padding
+  EXPECT_TRUE(torch::equal(targets.select(1, 1),
+                           torch::tensor({3, -1, -1, -1}, torch::kLong)));
+  data::Episode stranger = episode;
+  const std::vector<const data::Episode*> unknown{&stranger, &unsaid};
+  EXPECT_THAT([&] { clauseTargets(rows, unknown, tokens); },
+              ThrowsMessage<std::invalid_argument>(
+                  HasSubstr("episode 4 has no sub-instructions")));
+}
+
 // subInstructionTargets() marks the clauses of the leg ahead of each
 // decision (or of the next described leg), and subInstructionLoss() is
 // -log of the attention mass on them
@@ -758,6 +798,73 @@ TEST_F(WaypointAgentTrainerTest, LegWordsOnlyTrainsEvaluatesAndIsNotExported) {
   EXPECT_THAT(output, HasSubstr("leg_words_only is a diagnostic"));
   EXPECT_FALSE(fs::exists(dir_ / "exported" / "checkpoints"))
       << "trained before refusing";
+}
+
+// model.clause_tracker trains (its loss and accuracy in the epoch
+// records), changes what the policy learns, and evaluates from the binary
+// with no sub-instruction file for the split (the rule's clauses are the
+// instruction's own); it is not exported
+TEST_F(WaypointAgentTrainerTest, TheClauseTrackerTrainsAndEvaluatesOnItsOwn) {
+  const fs::path config = writeConfig("  max_decisions: 6\n");
+  const std::string tracker =
+      " --set model.clause_tracker=true"
+      " --set waypoint_agent.clause_teacher_probability=0.5";
+  std::string log;
+  const fs::path run = dir_ / "tracker";
+  const Checkpoint tracked = trainOnce(config, tracker, run, &log);
+  EXPECT_THAT(log, HasSubstr("clause tracker"));
+  int epochs = 0;
+  for (const auto& r : vln::test::readJsonLines(run / "metrics.jsonl")) {
+    if (r["type"] != "epoch") continue;
+    ++epochs;
+    EXPECT_GT(r["clause_tracker"].get<double>(), 0.0);
+    EXPECT_GE(r["clause_accuracy"].get<double>(), 0.0);
+    EXPECT_LE(r["clause_accuracy"].get<double>(), 1.0);
+  }
+  EXPECT_EQ(epochs, 1);
+  const Checkpoint plain = trainOnce(config, "", dir_ / "plain");
+  EXPECT_GT(tracked.policy.size(), plain.policy.size());
+
+  if (!fs::exists(binary("eval"))) GTEST_SKIP() << "build the eval binary";
+  const fs::path copy = dir_ / "world";
+  fs::copy(world_->data, copy, fs::copy_options::recursive);
+  fs::remove(data::splitSubInstructionsPath(copy, "val_unseen"));
+  std::string output;
+  ASSERT_EQ(vln::test::runCommand(
+                binary("eval") + " --config " + (run / "config.yaml").string() +
+                    " --checkpoint " +
+                    listCheckpoints(run / "checkpoints").back().string() +
+                    " --set dataset.data_path=" + copy.string() +
+                    " --split val_unseen --out " +
+                    (dir_ / "tracker_eval").string() + " 2>&1",
+                &output),
+            0)
+      << output;
+  EXPECT_GT(rollout::readStatsFile(dir_ / "tracker_eval" /
+                                   rollout::statsFileName(0, "val_unseen"))
+                .num_episodes,
+            0);
+
+  EXPECT_NE(vln::test::runCommand(
+                binary("train") + " --config " + config.string() + tracker +
+                    " --set output.dir=" + (dir_ / "exported").string() +
+                    " --export " + (dir_ / "tracker.pt").string() + " 2>&1",
+                &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("model.clause_tracker"));
+  EXPECT_FALSE(fs::exists(dir_ / "exported" / "checkpoints"))
+      << "trained before refusing";
+  // and without the training splits' sub-instruction files it names them
+  fs::remove(data::splitSubInstructionsPath(copy, "train"));
+  EXPECT_NE(
+      vln::test::runCommand(
+          binary("train") + " --config " + config.string() + tracker +
+              " --set dataset.data_path=" + copy.string() +
+              " --set output.dir=" + (dir_ / "unsplit").string() + " 2>&1",
+          &output),
+      0);
+  EXPECT_THAT(output, HasSubstr("model.clause_tracker"));
+  EXPECT_THAT(output, HasSubstr("train_sub_instructions.json.gz"));
 }
 
 // waypoint_agent.execution teleport trains and evaluates from the binaries:
