@@ -69,7 +69,8 @@ struct MetricsOptions {
 /// goal oracle's verdict on the same candidates (waypoint::oracleVerdict()):
 /// its choice and, per candidate, the geodesic distance from where that
 /// candidate's execution ends to the goal (infinity when unreachable; empty
-/// when the oracle planned nothing, within its stop distance).
+/// when the oracle planned nothing, within its stop distance). With
+/// model.clause_tracker, the clause the decision read from (its pointer).
 struct WaypointChoice {
   /// `oracle` when the goal was not known (a test split without its
   /// ground truth).
@@ -79,6 +80,8 @@ struct WaypointChoice {
   int chosen = -1;
   int oracle = kNoOracle;
   std::vector<float> end_distances;
+  /// data::ruleClauses() index; -1 without model.clause_tracker
+  int clause = -1;
 };
 
 /// One evaluated episode as the evaluator records it.

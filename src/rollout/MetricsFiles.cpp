@@ -158,6 +158,7 @@ nlohmann::json episodesToJson(std::span<const EpisodeResult> episodes) {
                                             : nlohmann::json());
           choice["end_distances"] = std::move(ends);
         }
+        if (c.clause >= 0) choice["clause"] = c.clause;
         choices.push_back(std::move(choice));
       }
       episode["waypoint_choices"] = std::move(choices);
@@ -230,6 +231,11 @@ std::vector<EpisodeResult> episodesFromJson(const nlohmann::json& json,
           return choice;
         };
         c.chosen = choiceField("chosen");
+        if (choices[k].contains("clause")) {
+          c.clause = common::requireField<int>(choices[k], "clause", at);
+          VLN_CHECK_ARG(c.clause >= 0, at,
+                        ".clause' must be a clause index >= 0, got ", c.clause);
+        }
         if (choices[k].contains("oracle")) {
           c.oracle = choiceField("oracle");
           const auto ends = common::requireField<nlohmann::json>(

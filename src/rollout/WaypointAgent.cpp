@@ -358,6 +358,7 @@ void WaypointAgent::decide(VectorEnv& envs, std::span<const int> deciding) {
       mark.candidates.push_back(
           waypoint::fromPolar(state, c.heading, c.distance));
     mark.chosen = choice - 1;
+    mark.clause = model_->clauseRead(env);
     if (!collecting_ && !slot.episode->goals.empty()) {
       // the goal oracle's view of the same decision, for analyses of where
       // the agent's choices part from it (what training would label, with

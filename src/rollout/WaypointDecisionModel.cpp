@@ -149,6 +149,15 @@ std::vector<std::vector<waypoint::Candidate>> NativeWaypointModel::propose(
   return out;
 }
 
+int NativeWaypointModel::clauseRead(int env) const {
+  if (!config().clause_tracker || env < 0 ||
+      static_cast<size_t>(env) >= states_.size() ||
+      states_[static_cast<size_t>(env)]->clausePointers.empty())
+    return -1;
+  return static_cast<int>(
+      states_[static_cast<size_t>(env)]->clausePointers.front());
+}
+
 at::Tensor NativeWaypointModel::step(std::span<const int> envs,
                                      const PanoramaFeatures& features,
                                      const at::Tensor& candidates,

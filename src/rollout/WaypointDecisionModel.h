@@ -69,6 +69,9 @@ class WaypointDecisionModel {
   /// text_mask), undefined for all of them. Returns the logits float64
   /// [n, 1 + K] on the CPU (0 STOP, j + 1 candidate j; -inf at masked
   /// slots) and advances each environment's recurrent state.
+  /// With model.clause_tracker, the clause environment `env`'s last step()
+  /// read from (the first policy's pointer); -1 otherwise.
+  virtual int clauseRead(int /*env*/) const { return -1; }
   virtual at::Tensor step(std::span<const int> envs,
                           const PanoramaFeatures& features,
                           const at::Tensor& candidates, const at::Tensor& mask,
@@ -119,6 +122,7 @@ class NativeWaypointModel : public WaypointDecisionModel {
                   const at::Tensor& candidates, const at::Tensor& mask,
                   const at::Tensor& prev, const at::Tensor& notDone,
                   const at::Tensor& textMask) override;
+  int clauseRead(int env) const override;
 
  private:
   struct EnvState;

@@ -503,6 +503,7 @@ TEST(MetricsTest, EpisodesFileKeepsWaypointChoices) {
   r.waypoint_choices[0].end_distances = {
       1.5f, std::numeric_limits<float>::infinity()};
   r.waypoint_choices[1].oracle = -1;
+  r.waypoint_choices[2].clause = 3;  // the clause tracker's pointer
   const std::vector<EpisodeResult> results = {{r, {}}};
   const nlohmann::json json = episodesToJson(results);
   const nlohmann::json& written = json["episodes"][0]["waypoint_choices"];
@@ -510,6 +511,8 @@ TEST(MetricsTest, EpisodesFileKeepsWaypointChoices) {
   EXPECT_TRUE(written[1]["end_distances"].empty());
   EXPECT_FALSE(written[2].contains("oracle"));
   EXPECT_FALSE(written[2].contains("end_distances"));
+  EXPECT_FALSE(written[0].contains("clause"));
+  EXPECT_EQ(written[2]["clause"], 3);
   const auto back = episodesFromJson(json, "wp.json");
   ASSERT_EQ(back[0].record.waypoint_choices.size(), 3u);
   for (size_t k = 0; k < 3; ++k) {
@@ -519,6 +522,7 @@ TEST(MetricsTest, EpisodesFileKeepsWaypointChoices) {
     EXPECT_EQ(got.chosen, r.waypoint_choices[k].chosen);
     EXPECT_EQ(got.oracle, r.waypoint_choices[k].oracle);
     EXPECT_EQ(got.end_distances, r.waypoint_choices[k].end_distances);
+    EXPECT_EQ(got.clause, r.waypoint_choices[k].clause);
   }
   EXPECT_EQ(back[0].record.waypoint_choices[2].oracle,
             WaypointChoice::kNoOracle);

@@ -844,6 +844,20 @@ TEST_F(WaypointAgentTrainerTest, TheClauseTrackerTrainsAndEvaluatesOnItsOwn) {
                                    rollout::statsFileName(0, "val_unseen"))
                 .num_episodes,
             0);
+  // each decision records the clause its pointer read, from 0 up
+  int decisions = 0;
+  for (const rollout::EpisodeResult& e :
+       rollout::readEpisodesFile(dir_ / "tracker_eval" /
+                                 rollout::episodesFileName(0, "val_unseen"))) {
+    int last = 0;
+    for (const rollout::WaypointChoice& c : e.record.waypoint_choices) {
+      EXPECT_GE(c.clause, last);
+      EXPECT_LE(c.clause, last + 2);
+      last = c.clause;
+      ++decisions;
+    }
+  }
+  EXPECT_GT(decisions, 0);
 
   EXPECT_NE(vln::test::runCommand(
                 binary("train") + " --config " + config.string() + tracker +
