@@ -50,6 +50,9 @@ void ModelConfig::validate() const {
   VLN_CHECK_ARG(!clause_tracker || !no_instruction,
                 "ModelConfig::validate(): model.clause_tracker follows the "
                 "instruction, and model.no_instruction is true");
+  VLN_CHECK_ARG(!clause_tracker_memory || clause_tracker,
+                "ModelConfig::validate(): model.clause_tracker_memory is a "
+                "part of model.clause_tracker, which is false");
   if (usesDepth() && depth_encoder != EncoderType::kSmallCnn) {
     VLN_CHECK_ARG(depth_height >= 64 && depth_width >= 64,
                   "ModelConfig::validate(): model.depth_encoder '",

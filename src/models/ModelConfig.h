@@ -104,6 +104,7 @@ struct ModelConfig {
   bool candidate_text = false;
   bool clause_tracker = false;
   int clause_window = 2;
+  bool clause_tracker_memory = false;
   double dropout = 0.0;
   int depth_resnet_base_planes = 32;
   int rgb_height = 224;
@@ -253,6 +254,11 @@ struct ModelConfig {
             "With clause_tracker: how many clauses from the pointer on a "
             "decision reads",
             common::inRange(1, 16));
+    v.field("clause_tracker_memory", clause_tracker_memory,
+            "With clause_tracker: the head also reads the second GRU's state "
+            "after the previous decision, which has read the words the "
+            "previous pointer chose (training then runs an episode's "
+            "decisions one at a time)");
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "
             "on the instruction's encoded states, on the visual feature maps "

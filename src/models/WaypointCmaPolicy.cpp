@@ -118,6 +118,9 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
           "clause_advance",
           torch::randn({kClauseAdvances, hidden}) / std::sqrt(double(hidden)));
       clause_score = register_module("clause_score", nn::Linear(hidden, 1));
+      if (config.clause_tracker_memory)
+        clause_memory =
+            register_module("clause_memory", nn::Linear(hidden, hidden));
     }
   } else {
     visual_query = register_parameter(
@@ -176,8 +179,8 @@ torch::Tensor WaypointCmaPolicyImpl::encodeViews(
 
 torch::Tensor WaypointCmaPolicyImpl::trackClauses(
     const EncodedInstruction& instruction, const WaypointPolicyInputs& inputs,
-    const torch::Tensor& h1, int64_t steps, int64_t batch,
-    WaypointPolicyOutputs& out) {
+    const torch::Tensor& h1, const torch::Tensor& h2Before, int64_t steps,
+    int64_t batch, WaypointPolicyOutputs& out) {
   const int64_t L = instruction.mask.size(1);
   const int64_t H = config_.hidden_size;
   VLN_CHECK_ARG(
@@ -208,7 +211,13 @@ torch::Tensor WaypointCmaPolicyImpl::trackClauses(
   const torch::Tensor sizes = member.sum(1).clamp_min(1.0).unsqueeze(2);
   const torch::Tensor clauses = clause_text(
       torch::bmm(member.transpose(1, 2), instruction.states) / sizes);
-  const torch::Tensor query = clause_hidden(h1).view({steps, batch, H});
+  torch::Tensor query = clause_hidden(h1).view({steps, batch, H});
+  if (clause_memory) {
+    VLN_CHECK_ARG(steps == 1,
+                  "WaypointCmaPolicy: clause_tracker_memory "
+                  "tracks one step at a time");
+    query = query + clause_memory(h2Before).unsqueeze(0);
+  }
 
   const torch::Tensor advances =
       torch::arange(kClauseAdvances, clauseOf.options()).unsqueeze(0);
@@ -264,6 +273,51 @@ torch::Tensor WaypointCmaPolicyImpl::trackClauses(
       tokens.lt(first + static_cast<int64_t>(config_.clause_window)));
 }
 
+WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardStepwise(
+    const EncodedInstruction& instruction, const WaypointPolicyInputs& inputs,
+    const torch::Tensor& hidden) {
+  const int64_t steps = inputs.not_done.size(0);
+  auto at = [](const torch::Tensor& t, int64_t s) {
+    return t.defined() ? t.slice(0, s, s + 1) : t;
+  };
+  std::vector<WaypointPolicyOutputs> each;
+  torch::Tensor state = hidden, pointer = inputs.clause_start;
+  for (int64_t s = 0; s < steps; ++s) {
+    WaypointPolicyInputs one{at(inputs.rgb, s),
+                             at(inputs.depth, s),
+                             at(inputs.candidates, s),
+                             at(inputs.candidate_mask, s),
+                             at(inputs.prev, s),
+                             at(inputs.not_done, s),
+                             at(inputs.text_mask, s),
+                             inputs.clause_of_token,
+                             pointer,
+                             at(inputs.clause_targets, s),
+                             inputs.clause_teacher};
+    each.push_back(forwardSequence(instruction, one, state));
+    state = each.back().hidden;
+    pointer = each.back().clause_pointer.squeeze(0);
+  }
+  // the steps' outputs joined along the steps
+  auto join = [&](torch::Tensor WaypointPolicyOutputs::*field) {
+    if (!(each.front().*field).defined()) return torch::Tensor();
+    std::vector<torch::Tensor> parts;
+    for (const WaypointPolicyOutputs& o : each) parts.push_back(o.*field);
+    return torch::cat(parts, 0);
+  };
+  WaypointPolicyOutputs out;
+  for (auto field :
+       {&WaypointPolicyOutputs::logits, &WaypointPolicyOutputs::progress,
+        &WaypointPolicyOutputs::text_attention,
+        &WaypointPolicyOutputs::clause_logits,
+        &WaypointPolicyOutputs::clause_before,
+        &WaypointPolicyOutputs::clause_pointer,
+        &WaypointPolicyOutputs::clause_targets})
+    out.*field = join(field);
+  out.hidden = state;
+  return out;
+}
+
 WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
     const EncodedInstruction& instruction, const WaypointPolicyInputs& inputs,
     const torch::Tensor& hidden) {
@@ -273,6 +327,8 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
   const int64_t steps = inputs.not_done.size(0);
   const int64_t batch = inputs.not_done.size(1);
   const int64_t n = steps * batch;
+  if (clause_memory && steps > 1)
+    return forwardStepwise(instruction, inputs, hidden);
   const int64_t H = config_.hidden_size;
   const int64_t K = inputs.candidate_mask.size(-1);
   VLN_CHECK_ARG(hidden.dim() == 3 && hidden.size(0) == batch &&
@@ -306,7 +362,11 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
     textMask = repeatOverSteps(instruction.mask, steps);
     torch::Tensor readable;  // [n, L]: the words each step may read
     if (clause_score) {
-      readable = trackClauses(instruction, inputs, h1, steps, batch, out);
+      // GRU2's state before the step, zero at an episode's start
+      const torch::Tensor h2Before =
+          clause_memory ? hidden.select(1, 1) * notDone : torch::Tensor();
+      readable =
+          trackClauses(instruction, inputs, h1, h2Before, steps, batch, out);
     } else if (inputs.text_mask.defined()) {
       const int64_t L = textMask.size(1);
       VLN_CHECK_ARG(inputs.text_mask.size(-1) >= L,

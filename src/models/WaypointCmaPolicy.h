@@ -39,6 +39,10 @@
 // model.clause_window - 1. The head reads h1_t, which has not read the
 // words, so its logits need no mask; the trainer fits z_t to the advance
 // that reaches the oracle's clause (waypoint_agent.clause_tracker_weight).
+// With model.clause_tracker_memory the head also reads GRU2's state after
+// the previous decision, W_m h2_{t-1} joining W_z h1_t: what the words the
+// previous pointer chose made of the last decision. A training sequence
+// then runs its decisions one at a time (as step mode does).
 // With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
 // of m times the heading for m = 1 .. M (measured and not adopted:
 // docs/results.md, "Four more levers for the waypoint agent").
@@ -169,6 +173,7 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
   torch::nn::Linear clause_hidden{nullptr}, clause_text{nullptr};
   torch::Tensor clause_advance;  ///< [kClauseAdvances, hidden]
   torch::nn::Linear clause_score{nullptr};
+  torch::nn::Linear clause_memory{nullptr};  ///< W_m, clause_tracker_memory
 
  private:
   // x, or x with model.dropout applied while training
@@ -176,12 +181,19 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
   // views [n, N, H] from the features of n steps
   torch::Tensor encodeViews(const WaypointPolicyInputs& inputs, int64_t n);
   // model.clause_tracker over `steps` steps of `batch` episodes from GRU1's
-  // states h1 [steps * batch, H]: fills `out`'s clause outputs ([steps,
-  // batch, ..]) and returns the words each step reads, bool [n, L]
+  // states h1 [steps * batch, H] (and with clause_tracker_memory, one step,
+  // GRU2's state before it, h2Before [batch, H]): fills `out`'s clause
+  // outputs ([steps, batch, ..]) and returns the words each step reads,
+  // bool [n, L]
   torch::Tensor trackClauses(const EncodedInstruction& instruction,
                              const WaypointPolicyInputs& inputs,
-                             const torch::Tensor& h1, int64_t steps,
+                             const torch::Tensor& h1,
+                             const torch::Tensor& h2Before, int64_t steps,
                              int64_t batch, WaypointPolicyOutputs& out);
+  // forwardSequence() one decision at a time (clause_tracker_memory)
+  WaypointPolicyOutputs forwardStepwise(const EncodedInstruction& instruction,
+                                        const WaypointPolicyInputs& inputs,
+                                        const torch::Tensor& hidden);
 
   ModelConfig config_;
   int64_t numViews_;

@@ -459,6 +459,72 @@ TEST(WaypointCmaPolicyTest, TheClauseTrackerMovesAPointerAlongTheClauses) {
   EXPECT_THROW(c.validate(), std::invalid_argument);
 }
 
+// model.clause_tracker_memory: the head reads GRU2's state before each
+// decision as well; a training sequence runs step by step, so it equals
+// stepping, and GRU2's state changes the head's logits from the second
+// decision on (at the first it is zero)
+TEST(WaypointCmaPolicyTest, TheClauseTrackersMemoryIsTheSecondStateBefore) {
+  ModelConfig c = config();
+  c.clause_tracker = true;
+  c.clause_tracker_memory = true;
+  EXPECT_NO_THROW(c.validate());
+  torch::manual_seed(9);
+  WaypointCmaPolicy policy(c, kViews, kRgb, kDepth);
+  ASSERT_TRUE(policy->clause_memory);
+  policy->eval();
+  torch::NoGradGuard noGrad;
+  const auto instruction =
+      policy->encodeInstruction(test::randomTokens({6, 4}, 6, 23));
+  constexpr int64_t T = 4;
+  WaypointPolicyInputs in = randomInputs(T, {3, 2});
+  in.clause_of_token = torch::tensor(
+      {{0, 0, 1, 1, 2, 3, -1, -1}, {0, 0, 0, 1, -1, -1, -1, -1}}, torch::kLong);
+  in.clause_targets =
+      torch::tensor({{0, 0}, {1, 0}, {2, 1}, {3, 1}}, torch::kLong);
+  in.clause_teacher = torch::tensor({true, false});
+  const WaypointPolicyOutputs sequence =
+      policy->forwardSequence(instruction, in, policy->initialHidden(2));
+  ASSERT_EQ(sequence.clause_logits.sizes(),
+            (std::vector<int64_t>{T, 2, kClauseAdvances}));
+  ASSERT_EQ(sequence.logits.sizes(), (std::vector<int64_t>{T, 2, kSlots + 1}));
+  EXPECT_TRUE(torch::equal(sequence.clause_pointer.select(1, 0),
+                           torch::tensor({0, 1, 2, 3}, torch::kLong)));
+  torch::Tensor hidden = policy->initialHidden(2);
+  torch::Tensor pointer = torch::zeros({2}, torch::kLong);
+  for (int64_t t = 0; t < T; ++t) {
+    WaypointPolicyInputs one = stepOf(in, t);
+    one.clause_of_token = in.clause_of_token;
+    one.clause_start = pointer;
+    one.clause_targets = in.clause_targets[t];
+    one.clause_teacher = in.clause_teacher;
+    const WaypointPolicyOutputs step = policy->step(instruction, one, hidden);
+    EXPECT_TRUE(torch::equal(step.clause_pointer, sequence.clause_pointer[t]));
+    const torch::Tensor finite = torch::isfinite(sequence.clause_logits[t]);
+    EXPECT_TRUE(torch::allclose(
+        step.clause_logits.masked_fill(~finite, 0),
+        sequence.clause_logits[t].masked_fill(~finite, 0), 1e-5, 1e-5));
+    hidden = step.hidden;
+    pointer = step.clause_pointer;
+  }
+  EXPECT_TRUE(torch::allclose(hidden, sequence.hidden, 1e-5, 1e-5));
+  // with W_m's weight zeroed the first decision (h2 zero) is the same,
+  // later ones differ
+  policy->clause_memory->weight.zero_();
+  const WaypointPolicyOutputs forgetful =
+      policy->forwardSequence(instruction, in, policy->initialHidden(2));
+  const torch::Tensor finite = torch::isfinite(sequence.clause_logits);
+  auto logitsAt = [&](const torch::Tensor& l, int64_t t) {
+    return l.masked_fill(~finite, 0)[t];
+  };
+  EXPECT_TRUE(torch::allclose(logitsAt(forgetful.clause_logits, 0),
+                              logitsAt(sequence.clause_logits, 0)));
+  EXPECT_FALSE(torch::allclose(logitsAt(forgetful.clause_logits, 2),
+                               logitsAt(sequence.clause_logits, 2)));
+
+  c.clause_tracker = false;
+  EXPECT_THROW(c.validate(), std::invalid_argument);
+}
+
 // model.candidate_text adds each candidate's own attention over the words
 // to its key: with W_u zeroed the logits are the plain policy's, and the
 // step mode computes what the sequence mode does
