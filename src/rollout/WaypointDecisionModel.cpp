@@ -2,6 +2,8 @@
 
 #include <torch/torch.h>
 
+#include <algorithm>
+
 #include "common/Check.h"
 #include "rollout/ObservationBatch.h"
 #include "rollout/PolicyAgent.h"
@@ -102,7 +104,10 @@ void NativeWaypointModel::reset(int env, const data::Episode& episode) {
   s.instructions.clear();
   s.hiddens.clear();
   s.clausePointers.assign(policies_.size(), 0);
-  s.clauseOfToken = batchRuleClauses(one, maxInstructionLength_);
+  // the rule's clauses, for the policies with a clause tracker
+  if (std::any_of(policies_.begin(), policies_.end(),
+                  [](const auto& p) { return p->config().clause_tracker; }))
+    s.clauseOfToken = batchRuleClauses(one, maxInstructionLength_);
   for (const auto& policy : policies_) {
     policy->eval();
     const torch::Device device = policy->view_linear->weight.device();

@@ -356,6 +356,13 @@ TEST(WaypointCmaPolicyTest, LegAttentionIsASecondAttentionOverTheWords) {
   EXPECT_THROW(c.validate(), std::invalid_argument);
 }
 
+// the clause tracker's clauses of two instructions of 6 and 4 tokens
+// (randomTokens({6, 4}, ..)), in 8 columns: four clauses, and two
+torch::Tensor clausesOfTwoInstructions() {
+  return torch::tensor(
+      {{0, 0, 1, 1, 2, 3, -1, -1}, {0, 0, 0, 1, -1, -1, -1, -1}}, torch::kLong);
+}
+
 // model.clause_tracker: the pointer starts at clause_start, never moves
 // back nor more than two clauses, stays within the row's clauses (-inf
 // logits past them), and each decision reads the words of its window; an
@@ -371,13 +378,11 @@ TEST(WaypointCmaPolicyTest, TheClauseTrackerMovesAPointerAlongTheClauses) {
   ASSERT_TRUE(policy->clause_score);
   policy->eval();
   torch::NoGradGuard noGrad;
-  // instructions of 6 and 4 tokens; 8 columns of clauses
   const auto instruction =
       policy->encodeInstruction(test::randomTokens({6, 4}, 6, 23));
   constexpr int64_t T = 5;
   WaypointPolicyInputs in = randomInputs(T, {3, 2});
-  in.clause_of_token = torch::tensor(
-      {{0, 0, 1, 1, 2, 3, -1, -1}, {0, 0, 0, 1, -1, -1, -1, -1}}, torch::kLong);
+  in.clause_of_token = clausesOfTwoInstructions();
   in.clause_start = torch::tensor({1, 0}, torch::kLong);
   EXPECT_THROW(policy->forwardSequence(
                    instruction,
@@ -477,8 +482,7 @@ TEST(WaypointCmaPolicyTest, TheClauseTrackersMemoryIsTheSecondStateBefore) {
       policy->encodeInstruction(test::randomTokens({6, 4}, 6, 23));
   constexpr int64_t T = 4;
   WaypointPolicyInputs in = randomInputs(T, {3, 2});
-  in.clause_of_token = torch::tensor(
-      {{0, 0, 1, 1, 2, 3, -1, -1}, {0, 0, 0, 1, -1, -1, -1, -1}}, torch::kLong);
+  in.clause_of_token = clausesOfTwoInstructions();
   in.clause_targets =
       torch::tensor({{0, 0}, {1, 0}, {2, 1}, {3, 1}}, torch::kLong);
   in.clause_teacher = torch::tensor({true, false});

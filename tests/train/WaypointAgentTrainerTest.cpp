@@ -90,6 +90,22 @@ class WaypointAgentTrainerTest : public test::TinyWorldBinaryTest {
     return checkpoints.empty() ? Checkpoint{}
                                : loadCheckpoint(checkpoints.back());
   }
+
+  // `train --export` of `config` with `sets` fails before training, saying
+  // `why`
+  void expectExportRefused(const fs::path& config, const std::string& sets,
+                           const std::string& why) {
+    std::string output;
+    EXPECT_NE(vln::test::runCommand(
+                  binary("train") + " --config " + config.string() + sets +
+                      " --set output.dir=" + (dir_ / "exported").string() +
+                      " --export " + (dir_ / "refused.pt").string() + " 2>&1",
+                  &output),
+              0);
+    EXPECT_THAT(output, HasSubstr(why));
+    EXPECT_FALSE(fs::exists(dir_ / "exported" / "checkpoints"))
+        << "trained before refusing";
+  }
 };
 
 // whether two checkpoints' policies differ in any weight
@@ -789,15 +805,7 @@ TEST_F(WaypointAgentTrainerTest, LegWordsOnlyTrainsEvaluatesAndIsNotExported) {
   EXPECT_THAT(output, HasSubstr("waypoint_agent.leg_words_only"));
   EXPECT_THAT(output, HasSubstr("val_unseen_sub_instructions.json.gz"));
 
-  EXPECT_NE(vln::test::runCommand(
-                binary("train") + " --config " + config.string() + legWords +
-                    " --set output.dir=" + (dir_ / "exported").string() +
-                    " --export " + (dir_ / "legs.pt").string() + " 2>&1",
-                &output),
-            0);
-  EXPECT_THAT(output, HasSubstr("leg_words_only is a diagnostic"));
-  EXPECT_FALSE(fs::exists(dir_ / "exported" / "checkpoints"))
-      << "trained before refusing";
+  expectExportRefused(config, legWords, "leg_words_only is a diagnostic");
 }
 
 // model.clause_tracker trains (its loss and accuracy in the epoch
@@ -859,15 +867,7 @@ TEST_F(WaypointAgentTrainerTest, TheClauseTrackerTrainsAndEvaluatesOnItsOwn) {
   }
   EXPECT_GT(decisions, 0);
 
-  EXPECT_NE(vln::test::runCommand(
-                binary("train") + " --config " + config.string() + tracker +
-                    " --set output.dir=" + (dir_ / "exported").string() +
-                    " --export " + (dir_ / "tracker.pt").string() + " 2>&1",
-                &output),
-            0);
-  EXPECT_THAT(output, HasSubstr("model.clause_tracker"));
-  EXPECT_FALSE(fs::exists(dir_ / "exported" / "checkpoints"))
-      << "trained before refusing";
+  expectExportRefused(config, tracker, "model.clause_tracker");
   // and without the training splits' sub-instruction files it names them
   fs::remove(data::splitSubInstructionsPath(copy, "train"));
   EXPECT_NE(
@@ -1007,16 +1007,7 @@ TEST_F(WaypointAgentTrainerTest, ViewLabelsTrainAndAreNotExported) {
     EXPECT_THAT(e.what(), HasSubstr("view_labels"));
   }
 
-  std::string output;
-  EXPECT_NE(vln::test::runCommand(
-                binary("train") + " --config " + config.string() + labels +
-                    " --set output.dir=" + (dir_ / "exported").string() +
-                    " --export " + (dir_ / "labels.pt").string() + " 2>&1",
-                &output),
-            0);
-  EXPECT_THAT(output, HasSubstr("cannot be exported"));
-  EXPECT_FALSE(fs::exists(dir_ / "exported" / "checkpoints"))
-      << "trained before refusing";
+  expectExportRefused(config, labels, "cannot be exported");
 }
 
 TEST_F(WaypointAgentTrainerTest, TeleportingTrainsAndEvaluates) {
