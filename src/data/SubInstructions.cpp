@@ -153,11 +153,21 @@ std::vector<SubInstructionTokens> ruleClauses(std::string_view text) {
     previousWord = word;
   }
   cuts.push_back(text.size());
-  // byte cuts -> token boundaries (cuts lie between words, as
-  // subInstructionTokens() assumes of a file's spans)
-  std::vector<int> bounds;
-  for (size_t cut : cuts)
-    bounds.push_back(static_cast<int>(tokenize(text.substr(0, cut)).size()));
+  // byte cuts -> token boundaries, one piece at a time so that a long text
+  // with many cuts costs its length, not its length times its cuts: a cut
+  // after punctuation moves on to the next word, so that every cut starts
+  // a word and each piece ends where tokenize() ends a run of non-word
+  // characters (the pieces' tokens are the text's)
+  for (size_t& cut : cuts)
+    while (cut < text.size() && !isWord(text[cut])) ++cut;
+  std::sort(cuts.begin(), cuts.end());
+  cuts.erase(std::unique(cuts.begin(), cuts.end()), cuts.end());
+  std::vector<int> bounds{0};
+  for (size_t k = 1; k < cuts.size(); ++k)
+    bounds.push_back(
+        bounds.back() +
+        static_cast<int>(
+            tokenize(text.substr(cuts[k - 1], cuts[k] - cuts[k - 1])).size()));
   std::vector<SubInstructionTokens> out;
   for (size_t k = 0; k + 1 < bounds.size(); ++k)
     if (bounds[k + 1] > bounds[k])

@@ -209,6 +209,15 @@ TEST(SubInstructionsTest, RuleClausesCutAtPunctuationAndConnectives) {
   // no tokens, no clause
   EXPECT_TRUE(ruleClauses("").empty());
   EXPECT_TRUE(ruleClauses(" , ,").empty());
+  // repeated punctuation is one token; a long text with a cut every few
+  // bytes costs its length (a quadratic count would take minutes here)
+  EXPECT_THAT(spans("Go on... then stop"), ElementsAre(P(0, 3), P(3, 5)));
+  std::string longText;
+  for (int i = 0; i < 200000; ++i) longText += "go, ";
+  const auto many = ruleClauses(longText);
+  ASSERT_EQ(many.size(), 200000u);
+  EXPECT_EQ(many.back().first, 199999);
+  EXPECT_EQ(many.back().last, 200000);
   const auto clauses = ruleClauses(kText);
   EXPECT_EQ(clauseHolding(clauses, 0), 0);
   EXPECT_EQ(clauseHolding(clauses, 7), 1);
