@@ -9,6 +9,18 @@ namespace vln::models {
 namespace {
 
 constexpr double kTwoPi = 6.283185307179586;
+
+// the outputs with a steps dimension (all but the hidden state): what step
+// mode squeezes and a stepwise sequence joins
+constexpr torch::Tensor WaypointPolicyOutputs::*kPerStepOutputs[] = {
+    &WaypointPolicyOutputs::logits,
+    &WaypointPolicyOutputs::progress,
+    &WaypointPolicyOutputs::text_attention,
+    &WaypointPolicyOutputs::clause_logits,
+    &WaypointPolicyOutputs::clause_before,
+    &WaypointPolicyOutputs::clause_pointer,
+    &WaypointPolicyOutputs::clause_targets};
+
 // sin, cos of m * heading for m = 1 .. harmonics, stacked on a new last
 // dimension ([..] -> [.., 2 * harmonics])
 torch::Tensor headingFeatures(const torch::Tensor& heading, int64_t harmonics) {
@@ -306,14 +318,7 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardStepwise(
     return torch::cat(parts, 0);
   };
   WaypointPolicyOutputs out;
-  for (auto field :
-       {&WaypointPolicyOutputs::logits, &WaypointPolicyOutputs::progress,
-        &WaypointPolicyOutputs::text_attention,
-        &WaypointPolicyOutputs::clause_logits,
-        &WaypointPolicyOutputs::clause_before,
-        &WaypointPolicyOutputs::clause_pointer,
-        &WaypointPolicyOutputs::clause_targets})
-    out.*field = join(field);
+  for (auto field : kPerStepOutputs) out.*field = join(field);
   out.hidden = state;
   return out;
 }
@@ -459,13 +464,8 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::step(
                            inputs.clause_start,    seq(inputs.clause_targets),
                            inputs.clause_teacher};
   WaypointPolicyOutputs out = forwardSequence(instruction, one, hidden);
-  auto unseq = [](torch::Tensor& t) {
-    if (t.defined()) t = t.squeeze(0);
-  };
-  for (torch::Tensor* t :
-       {&out.logits, &out.text_attention, &out.progress, &out.clause_logits,
-        &out.clause_before, &out.clause_pointer, &out.clause_targets})
-    unseq(*t);
+  for (auto field : kPerStepOutputs)
+    if ((out.*field).defined()) out.*field = (out.*field).squeeze(0);
   return out;
 }
 

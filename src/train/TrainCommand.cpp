@@ -32,7 +32,7 @@ namespace {
 // why a waypoint run cannot be exported: its policy reads what an archive
 // given images and words cannot compute, or what the archive does not hold
 // yet; empty when it can be
-std::string diagnosticNotExported(const ExperimentConfig& config) {
+std::string whyNotExported(const ExperimentConfig& config) {
   if (config.waypoint_agent.view_labels)
     return "waypoint_agent.view_labels is a diagnostic whose policy reads "
            "the views' true labels, which an archive given images cannot "
@@ -55,8 +55,8 @@ void exportCheckpoint(const fs::path& checkpoint,
                       const ExperimentConfig& config, const fs::path& out) {
   const Checkpoint ckpt = loadCheckpoint(checkpoint);
   if (config.trainer.task == "waypoint_cma") {
-    VLN_CHECK_ARG(diagnosticNotExported(config).empty(),
-                  "export: ", diagnosticNotExported(config));
+    VLN_CHECK_ARG(whyNotExported(config).empty(),
+                  "export: ", whyNotExported(config));
     // an agent of the learned predictor's candidates carries the predictor
     // and its suppression (models/WaypointExport.h: propose()); the
     // depth-only baseline's leaves the candidates to the caller
@@ -149,9 +149,8 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
       "train --export: trainer.task '", config.trainer.task,
       "' trains an encoder, not a policy; it is saved to pretrain.encoder_out");
   // refused before training rather than after it
-  VLN_CHECK_ARG(
-      options.export_path.empty() || diagnosticNotExported(config).empty(),
-      "train --export: ", diagnosticNotExported(config));
+  VLN_CHECK_ARG(options.export_path.empty() || whyNotExported(config).empty(),
+                "train --export: ", whyNotExported(config));
   if (options.dry_run) {
     out << yaml;
     return 0;

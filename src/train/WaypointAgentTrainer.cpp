@@ -641,10 +641,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                                     tokens.size(1))
                   .gt(0.0f)
                   .to(device);
-        torch::Tensor clauseTarget;  // [T, B]
         if (clauseTracker) {
-          clauseTarget =
-              clauseTargets(rows, instructions, subInstructionTokens);
           std::vector<uint8_t> teacher;
           for (size_t b = 0; b < rows.size(); ++b)
             teacher.push_back(
@@ -655,7 +652,9 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
           in.clause_of_token =
               rollout::batchRuleClauses(instructions, tokens.size(1))
                   .to(device);
-          in.clause_targets = clauseTarget.to(device);
+          in.clause_targets =
+              clauseTargets(rows, instructions, subInstructionTokens)
+                  .to(device);
           in.clause_teacher =
               torch::tensor(teacher).to(torch::kBool).to(device);
         }
