@@ -50,6 +50,12 @@ void ModelConfig::validate() const {
   VLN_CHECK_ARG(!clause_tracker || !no_instruction,
                 "ModelConfig::validate(): model.clause_tracker follows the "
                 "instruction, and model.no_instruction is true");
+  VLN_CHECK_ARG(
+      !goal_match || (!no_instruction && !no_rgb && rgb_semantic_outputs > 0),
+      "ModelConfig::validate(): model.goal_match matches the "
+      "semantic heads' labels (model.rgb_semantic_outputs, got ",
+      rgb_semantic_outputs, ") with the instruction's, and needs both (no_rgb ",
+      no_rgb, ", no_instruction ", no_instruction, ")");
   VLN_CHECK_ARG(!clause_tracker_memory || clause_tracker,
                 "ModelConfig::validate(): model.clause_tracker_memory is a "
                 "part of model.clause_tracker, which is false");

@@ -105,6 +105,7 @@ struct ModelConfig {
   bool clause_tracker = false;
   int clause_window = 2;
   bool clause_tracker_memory = false;
+  bool goal_match = false;
   double dropout = 0.0;
   int depth_resnet_base_planes = 32;
   int rgb_height = 224;
@@ -259,6 +260,15 @@ struct ModelConfig {
             "after the previous decision, which has read the words the "
             "previous pointer chose (training then runs an episode's "
             "decisions one at a time)");
+    v.field("goal_match", goal_match,
+            "Waypoint CMA only: the RGB features are the semantic heads' "
+            "label probabilities (rgb_semantic_outputs, or the views' true "
+            "labels with waypoint_agent.view_labels), and they reach the "
+            "policy only as their match with the labels the instruction's "
+            "goal clause names (world::goalLabels()): per view the highest "
+            "probability of a named category, colour and room, beside the "
+            "depth features, and their highest over the views in the STOP "
+            "key");
     v.field("dropout", dropout,
             "Dropout probability while training (0: none; VLN-CE has none): "
             "on the instruction's encoded states, on the visual feature maps "

@@ -87,7 +87,11 @@ WaypointCmaPolicyImpl::WaypointCmaPolicyImpl(const ModelConfig& config,
   const int64_t prevDim = config.prev_action_embedding_dim;
   const int64_t polarIn = 2 * config.heading_harmonics + 1;
   int64_t viewIn = polarIn - 1;  // the view's heading
-  if (config.usesRgb()) {
+  if (config.goal_match) {
+    viewIn += 2 * kGoalGroups;
+    goal_stop =
+        register_module("goal_stop", nn::Linear(2 * kGoalGroups, hidden));
+  } else if (config.usesRgb()) {
     rgb_linear = register_module(
         "rgb_linear", nn::Linear(rgbFeatures, config.rgb_projection_size));
     viewIn += config.rgb_projection_size;
@@ -169,12 +173,40 @@ torch::Tensor WaypointCmaPolicyImpl::trainingDropout(const torch::Tensor& x) {
   return dropoutWhileTraining(x, config_.dropout, is_training());
 }
 
+torch::Tensor WaypointCmaPolicyImpl::matchGoal(
+    const WaypointPolicyInputs& inputs, int64_t steps, int64_t batch) const {
+  const int64_t n = steps * batch;
+  VLN_CHECK_ARG(inputs.goal_labels.defined() && inputs.goal_labels.dim() == 2 &&
+                    inputs.goal_labels.size(0) == batch &&
+                    inputs.goal_labels.size(1) == rgbFeatures_,
+                "WaypointCmaPolicy: model.goal_match needs goal_labels [",
+                batch, ", ", rgbFeatures_, "], got ",
+                inputs.goal_labels.defined() ? inputs.goal_labels.sizes()
+                                             : at::IntArrayRef{});
+  const torch::Tensor labels = inputs.rgb.reshape({n, numViews_, rgbFeatures_});
+  const torch::Tensor groups = repeatOverSteps(
+      inputs.goal_labels.to(labels.device(), labels.scalar_type()), steps);
+  std::vector<torch::Tensor> matched, named;
+  for (int64_t g = 1; g <= kGoalGroups; ++g) {
+    const torch::Tensor in = groups.eq(static_cast<double>(g));  // [n, F]
+    // probabilities are >= 0, so labels outside the group count as 0
+    matched.push_back(
+        (labels * in.unsqueeze(1).to(labels.scalar_type())).amax(2));
+    named.push_back(
+        in.any(1, true).to(labels.scalar_type()).expand({n, numViews_}));
+  }
+  matched.insert(matched.end(), named.begin(), named.end());
+  return torch::stack(matched, 2);  // [n, N, 2G]
+}
+
 torch::Tensor WaypointCmaPolicyImpl::encodeViews(
-    const WaypointPolicyInputs& inputs, int64_t n) {
+    const WaypointPolicyInputs& inputs, int64_t n, const torch::Tensor& goal) {
   // dropout on the frozen encoders' features reaches the views the state
   // reads and the candidates' keys alike
   std::vector<torch::Tensor> parts;
-  if (config_.usesRgb())
+  if (goal.defined())
+    parts.push_back(goal);
+  else if (config_.usesRgb())
     parts.push_back(torch::relu(rgb_linear(trainingDropout(
         inputs.rgb.reshape({n, numViews_, rgbFeatures_})))));
   if (config_.usesDepth())
@@ -305,7 +337,8 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardStepwise(
                              inputs.clause_of_token,
                              pointer,
                              at(inputs.clause_targets, s),
-                             inputs.clause_teacher};
+                             inputs.clause_teacher,
+                             inputs.goal_labels};
     each.push_back(forwardSequence(instruction, one, state));
     state = each.back().hidden;
     pointer = each.back().clause_pointer.squeeze(0);
@@ -341,7 +374,9 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
                 "WaypointCmaPolicy: hidden must be [", batch, ", 2, ", H,
                 "], got ", hidden.sizes());
 
-  const torch::Tensor views = encodeViews(inputs, n);  // [n, N, H]
+  const torch::Tensor goal =
+      goal_stop ? matchGoal(inputs, steps, batch) : torch::Tensor();
+  const torch::Tensor views = encodeViews(inputs, n, goal);  // [n, N, H]
   const torch::Tensor notDone = inputs.not_done.reshape({n, 1});
   const torch::Tensor prevFeatures = torch::cat(
       {polarFeatures(inputs.prev.reshape({n, 2}), config_.heading_harmonics) *
@@ -429,9 +464,11 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::forwardSequence(
         torch::bmm(torch::softmax(scores, 2), textStates);
     candidateKeys = candidateKeys + candidate_text_linear(words);
   }
+  torch::Tensor stopKey = stop_key.view({1, 1, H}).expand({n, 1, H});
+  if (goal_stop)  // the goal's best match over the views, and what is named
+    stopKey = stopKey + goal_stop(std::get<0>(goal.max(1))).unsqueeze(1);
   const torch::Tensor keys =
-      torch::cat({stop_key.view({1, 1, H}).expand({n, 1, H}), candidateKeys},
-                 1);  // [n, 1 + K, H]
+      torch::cat({stopKey, candidateKeys}, 1);  // [n, 1 + K, H]
   torch::Tensor logits = torch::bmm(keys, query.unsqueeze(2)).squeeze(2) /
                          std::sqrt(static_cast<double>(H));
   const torch::Tensor valid =
@@ -462,7 +499,7 @@ WaypointPolicyOutputs WaypointCmaPolicyImpl::step(
                            seq(inputs.prev),       seq(inputs.not_done),
                            seq(inputs.text_mask),  inputs.clause_of_token,
                            inputs.clause_start,    seq(inputs.clause_targets),
-                           inputs.clause_teacher};
+                           inputs.clause_teacher,  inputs.goal_labels};
   WaypointPolicyOutputs out = forwardSequence(instruction, one, hidden);
   for (auto field : kPerStepOutputs)
     if ((out.*field).defined()) out.*field = (out.*field).squeeze(0);

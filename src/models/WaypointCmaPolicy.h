@@ -43,6 +43,15 @@
 // the previous decision, W_m h2_{t-1} joining W_z h1_t: what the words the
 // previous pointer chose made of the last decision. A training sequence
 // then runs its decisions one at a time (as step mode does).
+// With model.goal_match the RGB features are label probabilities (the
+// semantic heads', or the views' true labels) and reach the policy only
+// as their match with the labels the goal clause names: per view k and
+// group g (category, colour, room) m_kg = max over the named labels of g
+// of the view's probability, and n_g = 1 if the clause names one of g;
+// [m_k, n] joins view k's depth features, and the STOP key becomes
+//   stop_key + W_g [max_k m_k, n]
+// so that the views that show the goal, and being where one does, can be
+// told apart without learning which word names which label.
 // With model.heading_harmonics = M > 1 every "sin, cos" above is sin, cos
 // of m times the heading for m = 1 .. M (measured and not adopted:
 // docs/results.md, "Four more levers for the waypoint agent").
@@ -96,6 +105,10 @@ struct WaypointPolicyInputs {
   /// their own pointer.
   torch::Tensor clause_targets = {};
   torch::Tensor clause_teacher = {};
+  /// With model.goal_match: float [B, F_rgb], one row per episode, the
+  /// label group world::goalLabels() gives each of the RGB features (0 for
+  /// a label the goal clause does not name, 1 category, 2 colour, 3 room).
+  torch::Tensor goal_labels = {};
 };
 
 struct WaypointPolicyOutputs {
@@ -122,6 +135,10 @@ struct WaypointPolicyOutputs {
 /// plus one (staying): a waypoint is a few metres, at most two clauses'
 /// worth of path.
 inline constexpr int64_t kClauseAdvances = 3;
+
+/// model.goal_match's label groups: categories, colours, rooms (the values
+/// 1, 2, 3 of goal_labels).
+inline constexpr int64_t kGoalGroups = 3;
 
 class WaypointCmaPolicyImpl : public torch::nn::Module {
  public:
@@ -174,12 +191,18 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
   torch::Tensor clause_advance;  ///< [kClauseAdvances, hidden]
   torch::nn::Linear clause_score{nullptr};
   torch::nn::Linear clause_memory{nullptr};  ///< W_m, clause_tracker_memory
+  torch::nn::Linear goal_stop{nullptr};      ///< W_g, model.goal_match
 
  private:
   // x, or x with model.dropout applied while training
   torch::Tensor trainingDropout(const torch::Tensor& x);
   // views [n, N, H] from the features of n steps
-  torch::Tensor encodeViews(const WaypointPolicyInputs& inputs, int64_t n);
+  torch::Tensor encodeViews(const WaypointPolicyInputs& inputs, int64_t n,
+                            const torch::Tensor& goal);
+  // model.goal_match's [m_k, n] for each of the n = steps * batch rows'
+  // views: [n, N, 2 * kGoalGroups]
+  torch::Tensor matchGoal(const WaypointPolicyInputs& inputs, int64_t steps,
+                          int64_t batch) const;
   // model.clause_tracker over `steps` steps of `batch` episodes from GRU1's
   // states h1 [steps * batch, H] (and with clause_tracker_memory, one step,
   // GRU2's state before it, h2Before [batch, H]): fills `out`'s clause

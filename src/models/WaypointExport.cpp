@@ -442,6 +442,10 @@ torch::jit::Module buildWaypointExportModule(
                 "exportWaypointPolicy(): model.clause_tracker's pointer and "
                 "rule clauses are not in the TorchScript archive yet; such a "
                 "policy is scored from its checkpoint");
+  VLN_CHECK_ARG(!config.goal_match,
+                "exportWaypointPolicy(): model.goal_match's goal labels (read "
+                "from the instruction's text) are not in the TorchScript "
+                "archive yet; such a policy is scored from its checkpoint");
   if (encoder != nullptr) checkEncoder(policy, *encoder);
   if (predictor.predictor != nullptr) checkPredictor(policy, predictor);
 

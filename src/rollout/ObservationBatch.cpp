@@ -9,6 +9,7 @@
 #include "data/RxrTextFeatures.h"
 #include "data/SubInstructions.h"
 #include "data/Vocabulary.h"
+#include "world/ViewLabels.h"
 
 namespace vln::rollout {
 
@@ -92,6 +93,18 @@ torch::Tensor batchRuleClauses(std::span<const data::Episode* const> episodes,
          data::ruleClauses(episodes[k]->instruction.instruction_text))
       for (int64_t j = c.first; j < std::min<int64_t>(c.last, width); ++j)
         access[row][j] = c.leg;
+  }
+  return out;
+}
+
+torch::Tensor batchGoalLabels(std::span<const data::Episode* const> episodes) {
+  auto out = torch::zeros(
+      {static_cast<int64_t>(episodes.size()), world::viewLabelSize()});
+  for (size_t k = 0; k < episodes.size(); ++k) {
+    const std::vector<float> row =
+        world::goalLabels(episodes[k]->instruction.instruction_text);
+    std::memcpy(out[static_cast<int64_t>(k)].data_ptr<float>(), row.data(),
+                row.size() * sizeof(float));
   }
   return out;
 }

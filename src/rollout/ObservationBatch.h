@@ -41,6 +41,11 @@ at::Tensor batchInstructions(std::span<const data::Episode* const> episodes,
 at::Tensor batchRuleClauses(std::span<const data::Episode* const> episodes,
                             int64_t width);
 
+/// The label groups world::goalLabels() finds in each of `episodes`'
+/// instruction_text (model.goal_match's goal_labels), float
+/// [N, world::viewLabelSize()].
+at::Tensor batchGoalLabels(std::span<const data::Episode* const> episodes);
+
 /// The text features of an episode's instruction, float [L, D] on the CPU
 /// holding its real rows (trailing zero rows may remain; they are padding):
 /// what a policy with model.instruction_features: rxr_text reads.

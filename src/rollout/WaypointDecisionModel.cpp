@@ -18,6 +18,8 @@ struct NativeWaypointModel::EnvState {
   // decision read) per policy, and the episode's batchRuleClauses() row
   std::vector<int64_t> clausePointers;
   torch::Tensor clauseOfToken;  // [1, maxInstructionLength]
+  // with model.goal_match: the episode's batchGoalLabels() row
+  torch::Tensor goalLabels;  // [1, F_rgb]
 };
 
 at::Tensor ensembleLogits(std::span<const at::Tensor> memberLogits) {
@@ -108,6 +110,9 @@ void NativeWaypointModel::reset(int env, const data::Episode& episode) {
   if (std::any_of(policies_.begin(), policies_.end(),
                   [](const auto& p) { return p->config().clause_tracker; }))
     s.clauseOfToken = batchRuleClauses(one, maxInstructionLength_);
+  if (std::any_of(policies_.begin(), policies_.end(),
+                  [](const auto& p) { return p->config().goal_match; }))
+    s.goalLabels = batchGoalLabels(one);
   for (const auto& policy : policies_) {
     policy->eval();
     const torch::Device device = policy->view_linear->weight.device();
@@ -182,13 +187,14 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
     policy.eval();
     const torch::Device device = policy.view_linear->weight.device();
     std::vector<const models::EncodedInstruction*> instructions;
-    std::vector<torch::Tensor> hiddens, clauseOfToken;
+    std::vector<torch::Tensor> hiddens, clauseOfToken, goalLabels;
     std::vector<int64_t> clauseStart;
     for (int env : envs) {
       const EnvState& s = state(env);
       instructions.push_back(&s.instructions[m]);
       hiddens.push_back(s.hiddens[m]);
       clauseOfToken.push_back(s.clauseOfToken);
+      goalLabels.push_back(s.goalLabels);
       clauseStart.push_back(s.clausePointers[m]);
     }
     // features from encode() are already there; the waypoint agent's view
@@ -204,6 +210,8 @@ at::Tensor NativeWaypointModel::step(std::span<const int> envs,
       inputs.clause_of_token = torch::cat(clauseOfToken, 0).to(device);
       inputs.clause_start = torch::tensor(clauseStart).to(device);
     }
+    if (policy.config().goal_match)
+      inputs.goal_labels = torch::cat(goalLabels, 0).to(device);
     const models::EncodedInstruction instruction =
         policy.config().usesInstruction() ? stackInstructions(instructions)
                                           : models::EncodedInstruction{};

@@ -348,6 +348,16 @@ void validateWaypointAgentConfig(const ExperimentConfig& config) {
       config.dataset.format, ", leg_words_only ",
       config.waypoint_agent.leg_words_only, ", instruction_contrast_weight ",
       config.trainer.instruction_contrast_weight, ")");
+  VLN_CHECK_ARG(
+      !config.model.goal_match ||
+          (config.model.rgb_semantic_outputs == world::viewLabelSize() &&
+           config.trainer.instruction_contrast_weight == 0.0),
+      kTask, ": model.goal_match reads the RGB features as the ",
+      world::viewLabelSize(), " view labels (model.rgb_semantic_outputs, got ",
+      config.model.rgb_semantic_outputs,
+      ") and cannot be combined with "
+      "trainer.instruction_contrast_weight (got ",
+      config.trainer.instruction_contrast_weight, ")");
   if (config.waypoint_agent.view_labels) {
     VLN_CHECK_ARG(config.model.usesRgb() && config.model.rgb_semantic_outputs ==
                                                 world::viewLabelSize(),
@@ -408,7 +418,10 @@ WaypointAgentModels makeWaypointAgentModels(const ExperimentConfig& config,
   // with view_labels the policy's RGB features are the views' labels: no
   // RGB encoder runs (or needs weights)
   models::ModelConfig encoderConfig = m;
-  if (config.waypoint_agent.view_labels) encoderConfig.no_rgb = true;
+  if (config.waypoint_agent.view_labels) {
+    encoderConfig.no_rgb = true;
+    encoderConfig.goal_match = false;  // the policy's, over the labels
+  }
   out.encoder = models::ObservationEncoder(encoderConfig);
   out.encoder->loadPretrained();
   if (config.waypoint_agent.candidates == "predictor") {
@@ -475,6 +488,13 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
   TrainingData data = TrainingData::load(config);
   WaypointAgentModels nets = makeWaypointAgentModels(config, true);
   const std::shared_ptr<models::WaypointCmaPolicyImpl>& policy = nets.policy;
+  // fine-tuning (with trainer.fine_tune_dagger: DAgger rounds on the
+  // agent's own paths from the first) starts from another run's weights
+  const std::string& init = tc.init_checkpoint;
+  if (!init.empty()) {
+    models::loadStateStrict(*policy, readPolicyWeights(init), init);
+    spdlog::info("{}: initialised the policy from {}", kTask, init);
+  }
   std::vector<torch::Tensor> parameters;
   for (const torch::Tensor& p : policy->parameters())
     if (p.requires_grad()) parameters.push_back(p);
@@ -493,6 +513,7 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
                      config.output.tensorboard ? runDir / "tb" : fs::path());
   metrics.write("start",
                 {{"resumed", false},
+                 {"init_checkpoint", init},
                  {"checkpoint", -1},
                  {"updates", 0},
                  {"setup_seconds", clock.seconds()}},
@@ -658,6 +679,8 @@ void runWaypointAgentTraining(const ExperimentConfig& config,
           in.clause_teacher =
               torch::tensor(teacher).to(torch::kBool).to(device);
         }
+        if (config.model.goal_match)
+          in.goal_labels = rollout::batchGoalLabels(instructions).to(device);
         const models::EncodedInstruction instruction =
             policy->encodeInstruction(tokens.to(device));
         const models::WaypointPolicyOutputs out = policy->forwardSequence(

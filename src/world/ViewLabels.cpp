@@ -5,7 +5,10 @@
 #include <string>
 
 #include "common/Check.h"
+#include "data/SubInstructions.h"
+#include "data/Vocabulary.h"
 #include "world/HouseGenerator.h"
+#include "world/InstructionGenerator.h"
 
 namespace vln::world {
 namespace {
@@ -92,6 +95,61 @@ std::vector<float> viewLabelFeatures(sim::Renderer& renderer,
     for (uint8_t c : labels.categories) row[at++] = c;
     for (uint8_t c : labels.colors) row[at++] = c;
     if (labels.room >= 0) row[at + static_cast<size_t>(labels.room)] = 1.0f;
+  }
+  return out;
+}
+
+namespace {
+
+// whether `phrase` (tokens) occurs in tokens [first, last) of `tokens`
+bool namesPhrase(const std::vector<std::string>& tokens, int first, int last,
+                 const std::vector<std::string>& phrase) {
+  const int n = static_cast<int>(phrase.size());
+  if (n == 0) return false;
+  for (int i = first; i + n <= last; ++i)
+    if (std::equal(phrase.begin(), phrase.end(), tokens.begin() + i))
+      return true;
+  return false;
+}
+
+}  // namespace
+
+std::vector<float> goalLabels(std::string_view instruction) {
+  const std::vector<std::string> tokens = data::tokenize(instruction);
+  const std::vector<data::SubInstructionTokens> clauses =
+      data::ruleClauses(instruction);
+  const std::vector<std::string>& categories = houseObjectCategories();
+  const std::vector<std::string>& colors = houseColorNames();
+  const std::vector<std::string>& rooms = houseRoomTypes();
+  // each label's phrases as tokens, in viewLabelFeatures()' order
+  struct Label {
+    std::vector<std::vector<std::string>> phrases;
+    float group;
+  };
+  std::vector<Label> labels;
+  auto add = [&](const std::vector<std::string>& words, float group) {
+    Label label{{}, group};
+    for (const std::string& w : words)
+      label.phrases.push_back(data::tokenize(w));
+    labels.push_back(std::move(label));
+  };
+  for (const std::string& c : categories)
+    add(objectCategoryWords(c), kGoalCategory);
+  for (const std::string& c : colors) add({c}, kGoalColor);
+  for (const std::string& r : rooms) add(roomTypeWords(r), kGoalRoom);
+
+  std::vector<float> out(labels.size(), 0.0f);
+  for (auto clause = clauses.rbegin(); clause != clauses.rend(); ++clause) {
+    bool namesPlace = false;
+    for (size_t i = 0; i < labels.size(); ++i)
+      for (const auto& phrase : labels[i].phrases)
+        if (namesPhrase(tokens, clause->first, clause->last, phrase)) {
+          out[i] = labels[i].group;
+          namesPlace = namesPlace || labels[i].group != kGoalColor;
+          break;
+        }
+    if (namesPlace) return out;
+    std::fill(out.begin(), out.end(), 0.0f);
   }
   return out;
 }

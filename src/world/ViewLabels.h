@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <span>
+#include <string_view>
 #include <vector>
 
 #include "common/Math.h"
@@ -53,5 +54,21 @@ std::vector<float> viewLabelFeatures(sim::Renderer& renderer,
                                      const sim::AgentState& agent,
                                      const sim::PanoramaConfig& config,
                                      float minFraction);
+
+/// Label groups of goalLabels(): what kind of label an instruction names.
+inline constexpr float kGoalCategory = 1.0f;
+inline constexpr float kGoalColor = 2.0f;
+inline constexpr float kGoalRoom = 3.0f;
+
+/// Which of viewLabelFeatures()' labels the goal clause of `instruction`
+/// names: the last clause of data::ruleClauses() that names an object
+/// category or a room type (R2R-style instructions end on where to stop,
+/// "... and wait by the grey tub"). Returns [viewLabelSize()], 0 for a label
+/// it does not name, else the label's group: kGoalCategory for a category
+/// named by any of objectCategoryWords(), kGoalColor for a colour,
+/// kGoalRoom for a room type named by any of roomTypeWords(); whole tokens
+/// of data::tokenize() are matched, so "tub" names the bathtub and "table"
+/// both tables. All 0 when no clause names a category or a room.
+std::vector<float> goalLabels(std::string_view instruction);
 
 }  // namespace vln::world

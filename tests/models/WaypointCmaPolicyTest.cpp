@@ -2,7 +2,7 @@
 // stepping equals the sequence, that candidates read the view at their
 // heading, the no-instruction ablation, training-only dropout, the heading
 // harmonics' input widths, the second (leg) attention, the words' mask of
-// each decision, and that it can fit labels.
+// each decision, the goal match, and that it can fit labels.
 
 #include "models/WaypointCmaPolicy.h"
 
@@ -194,6 +194,77 @@ TEST(WaypointCmaPolicyTest, ACandidateReadsTheViewAtItsHeading) {
   const double base = (before[0][0][1] - before[0][0][0]).item<double>();
   EXPECT_GT(std::abs(changed(3).item<double>() - base),
             std::abs(changed(7).item<double>() - base));
+}
+
+// model.goal_match: the RGB features reach the policy only as their match
+// with the goal's labels. A feature the goal does not name changes no
+// logit, a named one changes STOP's and the candidates'; stepping equals
+// the sequence; without goal_labels the policy says what it needs
+TEST(WaypointCmaPolicyTest, TheGoalMatchReadsOnlyTheNamedLabels) {
+  torch::manual_seed(4);
+  ModelConfig c = config();
+  c.rgb_semantic_outputs = kRgb;
+  c.goal_match = true;
+  WaypointCmaPolicy policy(c, kViews, kRgb, kDepth);
+  policy->eval();
+  torch::NoGradGuard noGrad;
+  const auto instruction =
+      policy->encodeInstruction(test::randomTokens({5, 3}, 5, 23));
+  WaypointPolicyInputs in = randomInputs(3, {3, 2});
+  in.rgb = torch::rand({3, 2, kViews, kRgb}) * 0.5;  // probabilities
+  // episode 0 names feature 2 (a category) and 9 (a colour), episode 1
+  // feature 15 (a room)
+  in.goal_labels = torch::zeros({2, kRgb});
+  in.goal_labels[0][2] = 1.0f;
+  in.goal_labels[0][9] = 2.0f;
+  in.goal_labels[1][15] = 3.0f;
+  const torch::Tensor base =
+      policy->forwardSequence(instruction, in, policy->initialHidden(2)).logits;
+  auto withFeature = [&](int64_t feature) {
+    WaypointPolicyInputs other = in;
+    other.rgb = in.rgb.clone();
+    other.rgb.select(3, feature).select(2, 4) = 1.0f;  // view 4 shows it
+    return policy->forwardSequence(instruction, other, policy->initialHidden(2))
+        .logits;
+  };
+  const torch::Tensor finite = torch::isfinite(base);
+  auto moved = [&](const torch::Tensor& logits, int64_t b, int64_t slot) {
+    return (logits.select(1, b).select(1, slot) -
+            base.select(1, b).select(1, slot))
+        .abs()
+        .max()
+        .item<double>();
+  };
+  const torch::Tensor unnamed = withFeature(5);
+  EXPECT_TRUE(torch::equal(unnamed.masked_fill(~finite, 0),
+                           base.masked_fill(~finite, 0)))
+      << "a label the goal does not name reached the logits";
+  const torch::Tensor category = withFeature(2);
+  EXPECT_GT(moved(category, 0, 0), 1e-4) << "STOP did not see the goal";
+  EXPECT_GT(moved(category, 0, 1), 1e-4);
+  EXPECT_LT(moved(category, 1, 0), 1e-7) << "episode 1 does not name it";
+  EXPECT_GT(moved(withFeature(15), 1, 0), 1e-4);
+
+  torch::Tensor hidden = policy->initialHidden(2);
+  for (int64_t t = 0; t < 3; ++t) {
+    WaypointPolicyInputs one = stepOf(in, t);
+    one.goal_labels = in.goal_labels;
+    const WaypointPolicyOutputs step = policy->step(instruction, one, hidden);
+    const torch::Tensor f = torch::isfinite(base[t]);
+    EXPECT_TRUE(torch::allclose(step.logits.masked_fill(~f, 0),
+                                base[t].masked_fill(~f, 0), 1e-5, 1e-5))
+        << "t = " << t;
+    hidden = step.hidden;
+  }
+
+  in.goal_labels = torch::Tensor();
+  try {
+    policy->forwardSequence(instruction, in, policy->initialHidden(2));
+    ADD_FAILURE() << "goal_match without goal_labels must be an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("goal_labels"), std::string::npos)
+        << e.what();
+  }
 }
 
 // model.progress_monitor: one value in (-1, 1) per decision, the same
@@ -410,8 +481,9 @@ TEST(WaypointCmaPolicyTest, TheClauseTrackerMovesAPointerAlongTheClauses) {
       EXPECT_GE(read, before);
       EXPECT_LE(read, before + 2);
       EXPECT_LT(read, counts[static_cast<size_t>(b)]);
-      if (t > 0)
+      if (t > 0) {
         EXPECT_EQ(before, own.clause_pointer[t - 1][b].item<int64_t>());
+      }
       for (int64_t a = 0; a < kClauseAdvances; ++a)
         EXPECT_EQ(std::isinf(own.clause_logits[t][b][a].item<float>()),
                   before + a >= counts[static_cast<size_t>(b)]);

@@ -3,7 +3,8 @@
 // reproduces WaypointCmaPolicyImpl::step() on raw panoramas and on features,
 // with masked candidate slots, episode starts mid-batch and the ablations;
 // an included candidate predictor gives its heatmap and suppresses it as
-// waypoint::heatmapNms() does.
+// waypoint::heatmapNms() does; the clause tracker and the goal match are
+// refused.
 
 #include "models/WaypointExport.h"
 
@@ -200,6 +201,27 @@ TEST(WaypointExportTest, ExportedModuleMatchesThePolicyOnRawPanoramas) {
     EXPECT_EQ(loaded.attr("model_config").toStringRef(),
               common::configToYaml(v.config));
     EXPECT_EQ(loaded.attr("num_views").toInt(), kViews);
+  }
+}
+
+// policies that read what the archive does not compute are refused, and
+// the message says which and how such a policy is scored
+TEST(WaypointExportTest, RefusesTheClauseTrackerAndTheGoalMatch) {
+  for (const char* option : {"clause_tracker", "goal_match"}) {
+    ModelConfig c = test::tinyConfig(PolicyType::kCma);
+    c.clause_tracker = std::string(option) == "clause_tracker";
+    c.goal_match = std::string(option) == "goal_match";
+    c.rgb_semantic_outputs = c.goal_match ? 11 : 0;
+    WaypointCmaPolicy policy(c, kViews, /*rgbFeatures=*/11,
+                             /*depthFeatures=*/13);
+    try {
+      buildWaypointExportModule(*policy, nullptr);
+      ADD_FAILURE() << option << " was exported";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_THAT(e.what(),
+                  ::testing::HasSubstr(std::string("model.") + option));
+      EXPECT_THAT(e.what(), ::testing::HasSubstr("scored from its checkpoint"));
+    }
   }
 }
 

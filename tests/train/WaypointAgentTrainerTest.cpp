@@ -8,7 +8,8 @@
 // mirrored replays (waypoint_agent.mirror_probability) and the
 // sub-instruction loss (waypoint_agent.sub_instruction_weight) train, and
 // so does a label tolerance (acceptedSetLoss()); the leg-words diagnostic
-// (waypoint_agent.leg_words_only) trains and evaluates.
+// (waypoint_agent.leg_words_only) trains and evaluates; trainer.init_checkpoint
+// starts a fine-tuning run from another run's weights.
 
 #include "train/WaypointAgentTrainer.h"
 
@@ -895,6 +896,102 @@ TEST_F(WaypointAgentTrainerTest, MirroredReplaysTrain) {
       trainOnce(config, mirror + "1", dir_ / "mirrored");
   EXPECT_TRUE(policiesDiffer(plain, mirrored))
       << "mirroring every replay changed nothing";
+}
+
+// model.goal_match over the views' true labels trains from the binary (the
+// labels reach the policy only through their match: no RGB projection),
+// evaluates from its checkpoint, and is not exported; without the labels'
+// layout in the RGB features it is refused, naming the key
+TEST_F(WaypointAgentTrainerTest, TheGoalMatchTrainsAndEvaluates) {
+  const fs::path config =
+      writeConfig("  max_decisions: 6\n  candidates: depth_baseline\n");
+  const std::string goal =
+      " --set model.no_rgb=false --set model.rgb_semantic_outputs=" +
+      std::to_string(world::viewLabelSize()) +
+      " --set waypoint_agent.view_labels=true --set model.goal_match=true";
+  const fs::path run = dir_ / "goal";
+  const Checkpoint trained = trainOnce(config, goal, run);
+  bool stopHead = false, projection = false;
+  for (const auto& [name, weight] : trained.policy) {
+    stopHead = stopHead || name == "goal_stop.weight";
+    projection = projection || name == "rgb_linear.weight";
+  }
+  EXPECT_TRUE(stopHead);
+  EXPECT_FALSE(projection);
+
+  if (fs::exists(binary("eval"))) {
+    std::string output;
+    ASSERT_EQ(vln::test::runCommand(
+                  binary("eval") + " --config " +
+                      (run / "config.yaml").string() + " --checkpoint " +
+                      listCheckpoints(run / "checkpoints").back().string() +
+                      " --split val_unseen --out " +
+                      (dir_ / "goal_eval").string() + " 2>&1",
+                  &output),
+              0)
+        << output;
+    EXPECT_GT(rollout::readStatsFile(dir_ / "goal_eval" /
+                                     rollout::statsFileName(0, "val_unseen"))
+                  .num_episodes,
+              0);
+  }
+
+  ExperimentConfig c = loadExperimentConfig(config);
+  c.waypoint_agent.candidates = "depth_baseline";
+  c.model.no_rgb = false;
+  c.model.goal_match = true;
+  c.model.rgb_semantic_outputs = 7;
+  try {
+    validateWaypointAgentConfig(c);
+    ADD_FAILURE() << "goal_match over 7 RGB features must be an error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("model.goal_match"));
+    EXPECT_THAT(e.what(), HasSubstr("got 7"));
+  }
+  // (the views' true labels are the first reason; WaypointExportTest
+  // refuses the goal match on its own)
+  expectExportRefused(config, goal, "cannot be exported");
+}
+
+// trainer.init_checkpoint starts the policy from another run's weights (a
+// run directory resolves to its best or last checkpoint), and with
+// fine_tune_dagger the first round is already DAgger's (beta < 1): with a
+// learning rate of 0 the fine-tuned weights are the base run's, a fresh
+// run's are not; a missing checkpoint is named
+TEST_F(WaypointAgentTrainerTest, FineTunesFromAnotherRunsWeights) {
+  const fs::path config = writeConfig("  max_decisions: 6\n");
+  const Checkpoint base = trainOnce(config, "", dir_ / "base");
+  const std::string still = " --set trainer.lr=0";
+  const std::string fineTune =
+      still +
+      " --set trainer.fine_tune_dagger=true"
+      " --set trainer.dagger_beta=0.5 --set trainer.init_checkpoint=";
+  const Checkpoint tuned =
+      trainOnce(config, fineTune + (dir_ / "base").string(), dir_ / "tuned");
+  EXPECT_FALSE(policiesDiffer(base, tuned))
+      << "the fine-tuned policy did not start from the base run's weights";
+  const Checkpoint fresh = trainOnce(config, still, dir_ / "fresh");
+  EXPECT_TRUE(policiesDiffer(base, fresh));
+  int collects = 0;
+  for (const auto& r :
+       vln::test::readJsonLines(dir_ / "tuned" / "metrics.jsonl")) {
+    if (r["type"] == "start") {
+      EXPECT_EQ(r["init_checkpoint"], (dir_ / "base").string());
+    }
+    if (r["type"] != "collect") continue;
+    ++collects;
+    EXPECT_DOUBLE_EQ(r["beta"].get<double>(), 0.5);
+  }
+  EXPECT_EQ(collects, 1);
+
+  std::string output;
+  EXPECT_NE(vln::test::runCommand(
+                binary("train") + " --config " + config.string() + fineTune +
+                    (dir_ / "nowhere.pth").string() + " --set output.dir=" +
+                    (dir_ / "missing").string() + " 2>&1",
+                &output),
+            0);
+  EXPECT_THAT(output, HasSubstr("nowhere.pth"));
 }
 
 // a tolerance that accepts every candidate the oracle did not rank far

@@ -1,7 +1,7 @@
 // Tests of src/world/ViewLabels.cpp: a view's labels from a hand-made
 // semantic render, and a panorama's labels on a generated house (their
 // layout, the views' order as the agent turns, the room shared by all
-// views).
+// views), and the labels an instruction's goal clause names (goalLabels()).
 
 #include "world/ViewLabels.h"
 
@@ -161,6 +161,58 @@ TEST(ViewLabelFeaturesTest, ViewsTurnWithTheAgentAndShareTheRoom) {
         EXPECT_EQ(none[static_cast<size_t>(view) * size + i], 0.0f);
   }
   EXPECT_GT(seen, 0) << "five panoramas in a furnished house saw nothing";
+}
+
+// ---------------------------------------------------------------------------
+// the labels an instruction's goal names
+
+TEST(GoalLabelsTest, AreWhatTheLastClauseNamingAPlaceNames) {
+  const auto& categories = houseObjectCategories();
+  const auto& colors = houseColorNames();
+  const auto& rooms = houseRoomTypes();
+  const auto C = static_cast<int64_t>(categories.size());
+  const auto K = static_cast<int64_t>(colors.size());
+  auto category = [&](const std::string& name) {
+    return indexOf(categories, name);
+  };
+  auto color = [&](const std::string& name) {
+    return C + indexOf(colors, name);
+  };
+  auto room = [&](const std::string& name) {
+    return C + K + indexOf(rooms, name);
+  };
+  auto named = [](const std::vector<float>& labels) {
+    std::vector<std::pair<int64_t, float>> out;
+    for (size_t i = 0; i < labels.size(); ++i)
+      if (labels[i] != 0.0f)
+        out.emplace_back(static_cast<int64_t>(i), labels[i]);
+    return out;
+  };
+  using Named = std::vector<std::pair<int64_t, float>>;
+
+  // the bathroom is left behind: the goal is the grey tub (a bathtub)
+  std::vector<float> labels = goalLabels(
+      "Turn left and leave the bathroom, then stand next to the grey tub.");
+  ASSERT_EQ(static_cast<int64_t>(labels.size()), viewLabelSize());
+  EXPECT_EQ(named(labels), (Named{{category("bathtub"), kGoalCategory},
+                                  {color("grey"), kGoalColor}}));
+  // a room type by another of its words
+  EXPECT_EQ(named(goalLabels("Turn left. Go left, then stop in the lounge.")),
+            (Named{{room("living room"), kGoalRoom}}));
+  // a last clause naming nothing falls back to the one before it
+  EXPECT_EQ(
+      named(goalLabels("Walk past the white sofa, then stop.")),
+      (Named{{category("sofa"), kGoalCategory}, {color("white"), kGoalColor}}));
+  // "table" names both tables; a two-word phrase is matched whole
+  EXPECT_EQ(named(goalLabels("Wait by the table")),
+            (Named{{category("coffee table"), kGoalCategory},
+                   {category("table"), kGoalCategory}}));
+  EXPECT_EQ(named(goalLabels("Stop at the washing machine")),
+            (Named{{category("washing machine"), kGoalCategory}}));
+  EXPECT_TRUE(named(goalLabels("Stop at the washing")).empty());
+  // a colour alone names no place; nothing, or no text, names nothing
+  EXPECT_TRUE(named(goalLabels("Go straight. Stop at the red one.")).empty());
+  EXPECT_TRUE(named(goalLabels("")).empty());
 }
 
 }  // namespace
