@@ -92,6 +92,26 @@ class WaypointAgentTrainerTest : public test::TinyWorldBinaryTest {
                                : loadCheckpoint(checkpoints.back());
   }
 
+  // `eval` of `run`'s last checkpoint on val_unseen (with `sets`) into
+  // `out` succeeds and scores episodes
+  void expectEvaluates(const fs::path& run, const fs::path& out,
+                       const std::string& sets = "") {
+    std::string output;
+    ASSERT_EQ(
+        vln::test::runCommand(
+            binary("eval") + " --config " + (run / "config.yaml").string() +
+                " --checkpoint " +
+                listCheckpoints(run / "checkpoints").back().string() + sets +
+                " --split val_unseen --out " + out.string() + " 2>&1",
+            &output),
+        0)
+        << output;
+    EXPECT_GT(
+        rollout::readStatsFile(out / rollout::statsFileName(0, "val_unseen"))
+            .num_episodes,
+        0);
+  }
+
   // `train --export` of `config` with `sets` fails before training, saying
   // `why`
   void expectExportRefused(const fs::path& config, const std::string& sets,
@@ -825,21 +845,8 @@ TEST_F(WaypointAgentTrainerTest, TheClauseTrackerTrainsAndEvaluatesOnItsOwn) {
   const fs::path copy = dir_ / "world";
   fs::copy(world_->data, copy, fs::copy_options::recursive);
   fs::remove(data::splitSubInstructionsPath(copy, "val_unseen"));
-  std::string output;
-  ASSERT_EQ(vln::test::runCommand(
-                binary("eval") + " --config " + (run / "config.yaml").string() +
-                    " --checkpoint " +
-                    listCheckpoints(run / "checkpoints").back().string() +
-                    " --set dataset.data_path=" + copy.string() +
-                    " --split val_unseen --out " +
-                    (dir_ / "tracker_eval").string() + " 2>&1",
-                &output),
-            0)
-      << output;
-  EXPECT_GT(rollout::readStatsFile(dir_ / "tracker_eval" /
-                                   rollout::statsFileName(0, "val_unseen"))
-                .num_episodes,
-            0);
+  expectEvaluates(run, dir_ / "tracker_eval",
+                  " --set dataset.data_path=" + copy.string());
   // each decision records the clause its pointer read, from 0 up
   int decisions = 0;
   for (const rollout::EpisodeResult& e :
@@ -858,6 +865,7 @@ TEST_F(WaypointAgentTrainerTest, TheClauseTrackerTrainsAndEvaluatesOnItsOwn) {
   expectExportRefused(config, tracker, "model.clause_tracker");
   // and without the training splits' sub-instruction files it names them
   fs::remove(data::splitSubInstructionsPath(copy, "train"));
+  std::string output;
   EXPECT_NE(
       vln::test::runCommand(
           binary("train") + " --config " + config.string() + tracker +
@@ -906,22 +914,7 @@ TEST_F(WaypointAgentTrainerTest, TheGoalMatchTrainsAndEvaluates) {
   EXPECT_TRUE(stopHead);
   EXPECT_FALSE(projection);
 
-  if (fs::exists(binary("eval"))) {
-    std::string output;
-    ASSERT_EQ(vln::test::runCommand(
-                  binary("eval") + " --config " +
-                      (run / "config.yaml").string() + " --checkpoint " +
-                      listCheckpoints(run / "checkpoints").back().string() +
-                      " --split val_unseen --out " +
-                      (dir_ / "goal_eval").string() + " 2>&1",
-                  &output),
-              0)
-        << output;
-    EXPECT_GT(rollout::readStatsFile(dir_ / "goal_eval" /
-                                     rollout::statsFileName(0, "val_unseen"))
-                  .num_episodes,
-              0);
-  }
+  if (fs::exists(binary("eval"))) expectEvaluates(run, dir_ / "goal_eval");
 
   ExperimentConfig c = loadExperimentConfig(config);
   c.waypoint_agent.candidates = "depth_baseline";
