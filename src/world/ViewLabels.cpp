@@ -102,14 +102,42 @@ std::vector<float> viewLabelFeatures(sim::Renderer& renderer,
 namespace {
 
 // whether `phrase` (tokens) occurs in tokens [first, last) of `tokens`
-bool namesPhrase(const std::vector<std::string>& tokens, int first, int last,
-                 const std::vector<std::string>& phrase) {
-  const int n = static_cast<int>(phrase.size());
+bool namesPhrase(const std::vector<std::string>& tokens, size_t first,
+                 size_t last, const std::vector<std::string>& phrase) {
+  const size_t n = phrase.size();
+  last = std::min(last, tokens.size());
   if (n == 0) return false;
-  for (int i = first; i + n <= last; ++i)
+  for (size_t i = first; i + n <= last; ++i)
     if (std::equal(phrase.begin(), phrase.end(), tokens.begin() + i))
       return true;
   return false;
+}
+
+// a label of viewLabelFeatures()' layout: the phrases (as tokens) that
+// name it and its goalLabels() group
+struct NamedLabel {
+  std::vector<std::vector<std::string>> phrases;
+  float group;
+};
+
+// every label in viewLabelFeatures()' order, tokenised once
+const std::vector<NamedLabel>& namedLabels() {
+  static const std::vector<NamedLabel> labels = [] {
+    std::vector<NamedLabel> out;
+    auto add = [&](const std::vector<std::string>& words, float group) {
+      NamedLabel label{{}, group};
+      for (const std::string& w : words)
+        label.phrases.push_back(data::tokenize(w));
+      out.push_back(std::move(label));
+    };
+    for (const std::string& c : houseObjectCategories())
+      add(objectCategoryWords(c), kGoalCategory);
+    for (const std::string& c : houseColorNames()) add({c}, kGoalColor);
+    for (const std::string& r : houseRoomTypes())
+      add(roomTypeWords(r), kGoalRoom);
+    return out;
+  }();
+  return labels;
 }
 
 }  // namespace
@@ -118,32 +146,14 @@ std::vector<float> goalLabels(std::string_view instruction) {
   const std::vector<std::string> tokens = data::tokenize(instruction);
   const std::vector<data::SubInstructionTokens> clauses =
       data::ruleClauses(instruction);
-  const std::vector<std::string>& categories = houseObjectCategories();
-  const std::vector<std::string>& colors = houseColorNames();
-  const std::vector<std::string>& rooms = houseRoomTypes();
-  // each label's phrases as tokens, in viewLabelFeatures()' order
-  struct Label {
-    std::vector<std::vector<std::string>> phrases;
-    float group;
-  };
-  std::vector<Label> labels;
-  auto add = [&](const std::vector<std::string>& words, float group) {
-    Label label{{}, group};
-    for (const std::string& w : words)
-      label.phrases.push_back(data::tokenize(w));
-    labels.push_back(std::move(label));
-  };
-  for (const std::string& c : categories)
-    add(objectCategoryWords(c), kGoalCategory);
-  for (const std::string& c : colors) add({c}, kGoalColor);
-  for (const std::string& r : rooms) add(roomTypeWords(r), kGoalRoom);
-
+  const std::vector<NamedLabel>& labels = namedLabels();
   std::vector<float> out(labels.size(), 0.0f);
   for (auto clause = clauses.rbegin(); clause != clauses.rend(); ++clause) {
     bool namesPlace = false;
     for (size_t i = 0; i < labels.size(); ++i)
       for (const auto& phrase : labels[i].phrases)
-        if (namesPhrase(tokens, clause->first, clause->last, phrase)) {
+        if (namesPhrase(tokens, static_cast<size_t>(clause->first),
+                        static_cast<size_t>(clause->last), phrase)) {
           out[i] = labels[i].group;
           namesPlace = namesPlace || labels[i].group != kGoalColor;
           break;

@@ -213,6 +213,11 @@ TEST(GoalLabelsTest, AreWhatTheLastClauseNamingAPlaceNames) {
   // a colour alone names no place; nothing, or no text, names nothing
   EXPECT_TRUE(named(goalLabels("Go straight. Stop at the red one.")).empty());
   EXPECT_TRUE(named(goalLabels("")).empty());
+  // a hostile length: 40,000 clauses that name nothing, the goal first
+  std::string longText = "Stop by the sofa";
+  for (int i = 0; i < 40000; ++i) longText += ", walk on";
+  EXPECT_EQ(named(goalLabels(longText)),
+            (Named{{category("sofa"), kGoalCategory}}));
 }
 
 }  // namespace
