@@ -104,13 +104,11 @@ namespace {
 // whether `phrase` (tokens) occurs in tokens [first, last) of `tokens`
 bool namesPhrase(const std::vector<std::string>& tokens, size_t first,
                  size_t last, const std::vector<std::string>& phrase) {
-  const size_t n = phrase.size();
   last = std::min(last, tokens.size());
-  if (n == 0) return false;
-  for (size_t i = first; i + n <= last; ++i)
-    if (std::equal(phrase.begin(), phrase.end(), tokens.begin() + i))
-      return true;
-  return false;
+  if (phrase.empty() || first >= last) return false;
+  const auto end = tokens.begin() + static_cast<std::ptrdiff_t>(last);
+  return std::search(tokens.begin() + static_cast<std::ptrdiff_t>(first), end,
+                     phrase.begin(), phrase.end()) != end;
 }
 
 // a label of viewLabelFeatures()' layout: the phrases (as tokens) that

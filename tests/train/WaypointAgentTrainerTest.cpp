@@ -129,6 +129,14 @@ class WaypointAgentTrainerTest : public test::TinyWorldBinaryTest {
   }
 };
 
+// the command line's settings that give the policy the views' true labels
+// as its RGB features (waypoint_agent.view_labels)
+std::string viewLabelSets() {
+  return " --set model.no_rgb=false --set model.rgb_semantic_outputs=" +
+         std::to_string(world::viewLabelSize()) +
+         " --set waypoint_agent.view_labels=true";
+}
+
 // validateWaypointAgentConfig() refuses `config` with a message holding
 // each of `says`
 void expectRefused(const ExperimentConfig& config,
@@ -900,10 +908,7 @@ TEST_F(WaypointAgentTrainerTest, MirroredReplaysTrain) {
 TEST_F(WaypointAgentTrainerTest, TheGoalMatchTrainsAndEvaluates) {
   const fs::path config =
       writeConfig("  max_decisions: 6\n  candidates: depth_baseline\n");
-  const std::string goal =
-      " --set model.no_rgb=false --set model.rgb_semantic_outputs=" +
-      std::to_string(world::viewLabelSize()) +
-      " --set waypoint_agent.view_labels=true --set model.goal_match=true";
+  const std::string goal = viewLabelSets() + " --set model.goal_match=true";
   const fs::path run = dir_ / "goal";
   const Checkpoint trained = trainOnce(config, goal, run);
   bool stopHead = false, projection = false;
@@ -1053,10 +1058,7 @@ TEST_F(WaypointAgentTrainerTest, ProgressMonitorAndCorridorOracleTrain) {
 TEST_F(WaypointAgentTrainerTest, ViewLabelsTrainAndAreNotExported) {
   const fs::path config =
       writeConfig("  max_decisions: 6\n  candidates: depth_baseline\n");
-  const std::string labels =
-      " --set model.no_rgb=false --set model.rgb_semantic_outputs=" +
-      std::to_string(world::viewLabelSize()) +
-      " --set waypoint_agent.view_labels=true";
+  const std::string labels = viewLabelSets();
   const Checkpoint trained = trainOnce(config, labels, dir_ / "labels");
   bool found = false;
   for (const auto& [name, weight] : trained.policy)
