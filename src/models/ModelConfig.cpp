@@ -56,6 +56,19 @@ void ModelConfig::validate() const {
       "semantic heads' labels (model.rgb_semantic_outputs, got ",
       rgb_semantic_outputs, ") with the instruction's, and needs both (no_rgb ",
       no_rgb, ", no_instruction ", no_instruction, ")");
+  VLN_CHECK_ARG(!rgb_cnn_channels.empty() &&
+                    rgb_cnn_channels.size() == rgb_cnn_strides.size(),
+                "ModelConfig::validate(): model.rgb_cnn_channels (",
+                rgb_cnn_channels.size(), " layers) and model.rgb_cnn_strides (",
+                rgb_cnn_strides.size(),
+                ") must name the same number of layers, at least one");
+  VLN_CHECK_ARG(rgb_encoder == EncoderType::kSmallCnn ||
+                    (rgb_cnn_channels == kSmallCnnRgbChannels &&
+                     rgb_cnn_strides == kSmallCnnStrides),
+                "ModelConfig::validate(): model.rgb_cnn_channels and "
+                "model.rgb_cnn_strides shape the small_cnn RGB encoder, and "
+                "model.rgb_encoder is '",
+                encoderName(rgb_encoder), "'");
   VLN_CHECK_ARG(!clause_tracker_memory || clause_tracker,
                 "ModelConfig::validate(): model.clause_tracker_memory is a "
                 "part of model.clause_tracker, which is false");
@@ -108,14 +121,15 @@ FeatureShape rgbFeatureShape(const ModelConfig& config) {
     case EncoderType::kResNet18:
       return {512, 4, 4};
     case EncoderType::kSmallCnn:
-      return {64, 4, 4};
+      return {config.rgb_cnn_channels.back(), 4, 4};
   }
   VLN_ASSERT(false);
   return {};
 }
 
 FeatureShape depthFeatureShape(const ModelConfig& config) {
-  if (config.depth_encoder == EncoderType::kSmallCnn) return {32, 4, 4};
+  if (config.depth_encoder == EncoderType::kSmallCnn)
+    return {kSmallCnnDepthChannels.back(), 4, 4};
   VLN_CHECK_ARG(config.depth_height >= 64 && config.depth_width >= 64,
                 "depthFeatureShape(): DD-PPO ResNet needs depth images of at "
                 "least 64x64, got ",

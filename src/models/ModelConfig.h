@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "common/Config.h"
 
@@ -64,6 +65,12 @@ inline constexpr int64_t kTurnRightAction = 3;
 /// turns either way: 180 degrees at VLN-CE's 15-degree turns.
 inline constexpr int64_t kMaxTurnCount = 12;
 
+/// The small CNN's layers (model.rgb_cnn_channels and rgb_cnn_strides): the
+/// RGB encoder's by default; the depth encoder's end on 32 channels.
+inline const std::vector<int> kSmallCnnRgbChannels = {32, 64, 64};
+inline const std::vector<int> kSmallCnnDepthChannels = {32, 64, 32};
+inline const std::vector<int> kSmallCnnStrides = {2, 2, 2};
+
 /// Shape of one observation's feature map, [channels, height, width].
 using FeatureShape = std::array<int64_t, 3>;
 
@@ -73,6 +80,8 @@ struct ModelConfig {
   PolicyType policy = PolicyType::kCma;
   EncoderType rgb_encoder = EncoderType::kResNet50;
   EncoderType depth_encoder = EncoderType::kResNet50;
+  std::vector<int> rgb_cnn_channels = kSmallCnnRgbChannels;
+  std::vector<int> rgb_cnn_strides = kSmallCnnStrides;
   std::string rgb_weights;
   std::string depth_weights;
   int rgb_semantic_outputs = 0;
@@ -121,6 +130,16 @@ struct ModelConfig {
                   "RGB CNN (torchvision ResNet or small CNN)");
     v.enumeration("depth_encoder", depth_encoder, kEncoderNames,
                   "Depth CNN (DD-PPO GroupNorm ResNet or small CNN)");
+    v.field("rgb_cnn_channels", rgb_cnn_channels,
+            "small_cnn RGB encoder only: the output channels of its 3x3 "
+            "convolutions (ReLU after each), in order; the last is the "
+            "feature map's depth. The default [32, 64, 64] is the small CNN "
+            "of the CPU main job",
+            common::inRange(1, 1024));
+    v.field("rgb_cnn_strides", rgb_cnn_strides,
+            "small_cnn RGB encoder only: the stride (1 or 2) of each of "
+            "model.rgb_cnn_channels' convolutions",
+            common::inRange(1, 2));
     v.field("rgb_weights", rgb_weights,
             "TorchScript file holding the RGB encoder's tensors by name, as "
             "scripts/convert_torchvision_resnet50.py writes (empty: random "

@@ -44,7 +44,8 @@ RgbEncoderImpl::RgbEncoderImpl(const ModelConfig& config)
   cnnConfig.rgb_semantic_outputs = 0;
   const FeatureShape cnnShape = rgbFeatureShape(cnnConfig);
   if (config.rgb_encoder == EncoderType::kSmallCnn) {
-    small = register_module("cnn", SmallCnn(3, cnnShape[0]));
+    small = register_module(
+        "cnn", SmallCnn(3, config.rgb_cnn_channels, config.rgb_cnn_strides));
   } else {
     resnet = register_module(
         "cnn", TorchVisionResNet(resnetLayers(config.rgb_encoder)));
@@ -133,7 +134,8 @@ torch::nn::Module& RgbEncoderImpl::cnnModule() {
 
 DepthEncoderImpl::DepthEncoderImpl(const ModelConfig& config) {
   if (config.depth_encoder == EncoderType::kSmallCnn) {
-    small = register_module("cnn", SmallCnn(1, depthFeatureShape(config)[0]));
+    small = register_module(
+        "cnn", SmallCnn(1, kSmallCnnDepthChannels, kSmallCnnStrides));
   } else {
     resnet = register_module(
         "cnn", DdppoResNetEncoder(resnetLayers(config.depth_encoder),

@@ -220,12 +220,21 @@ torch::Tensor DdppoResNetEncoderImpl::forward(const torch::Tensor& x) {
 // small CNN
 // ===========================================================================
 
-SmallCnnImpl::SmallCnnImpl(int64_t inChannels, int64_t outChannels) {
-  cnn = register_module(
-      "cnn", nn::Sequential(
-                 conv(inChannels, 32, 3, 2, 1, /*bias=*/true), nn::ReLU(),
-                 conv(32, 64, 3, 2, 1, /*bias=*/true), nn::ReLU(),
-                 conv(64, outChannels, 3, 2, 1, /*bias=*/true), nn::ReLU()));
+SmallCnnImpl::SmallCnnImpl(int64_t inChannels, const std::vector<int>& channels,
+                           const std::vector<int>& strides) {
+  VLN_CHECK_ARG(!channels.empty() && channels.size() == strides.size(),
+                "SmallCnn: ", channels.size(), " layer widths and ",
+                strides.size(), " strides");
+  nn::Sequential layers;
+  int64_t in = inChannels;
+  for (size_t i = 0; i < channels.size(); ++i) {
+    VLN_CHECK_ARG(channels[i] >= 1 && strides[i] >= 1, "SmallCnn: layer ", i,
+                  " has width ", channels[i], " and stride ", strides[i]);
+    layers->push_back(conv(in, channels[i], 3, strides[i], 1, /*bias=*/true));
+    layers->push_back(nn::ReLU());
+    in = channels[i];
+  }
+  cnn = register_module("cnn", layers);
 }
 
 torch::Tensor SmallCnnImpl::forward(const torch::Tensor& x) {

@@ -10,12 +10,14 @@
 //    "backbone.layer1.0.convs.0.weight", "compression.0.weight", ...
 //    (the checkpoint's actor_critic.net.visual_encoder.* with that prefix
 //    removed);
-//  - SmallCnn: three strided 3x3 convs for fast CPU runs.
+//  - SmallCnn: a few 3x3 convs (three strided ones by default) for fast CPU
+//    runs.
 // All take float images [N, C, H, W] and return feature maps [N, C', h, w].
 
 #include <torch/torch.h>
 
 #include <cstdint>
+#include <vector>
 
 namespace vln::models {
 
@@ -116,12 +118,15 @@ TORCH_MODULE(DdppoResNetEncoder);
 // small CNN (CPU runs)
 // ---------------------------------------------------------------------------
 
-/// Three 3x3 stride-2 convolutions (32, 64, `outChannels` wide, ReLU after
+/// 3x3 convolutions `channels` wide with `strides` (padding 1, ReLU after
 /// each) then adaptive average pooling to 4x4: [N, inChannels, H, W] ->
-/// [N, outChannels, 4, 4].
+/// [N, channels.back(), 4, 4]. The layers are "cnn.0", "cnn.2", ... (every
+/// ReLU takes an index). Throws std::invalid_argument when the lists are
+/// empty, differ in length or hold a size below 1.
 class SmallCnnImpl : public torch::nn::Module {
  public:
-  SmallCnnImpl(int64_t inChannels, int64_t outChannels);
+  SmallCnnImpl(int64_t inChannels, const std::vector<int>& channels,
+               const std::vector<int>& strides);
   torch::Tensor forward(const torch::Tensor& x);
 
   torch::nn::Sequential cnn{nullptr};

@@ -119,6 +119,11 @@ std::vector<Variant> variants() {
   ModelConfig turns = tinyConfig(PolicyType::kCma);
   turns.turn_count_embedding_dim = 8;
   out.push_back({"cma_turn_count", turns});
+  // a deeper small RGB CNN (model.rgb_cnn_channels, rgb_cnn_strides)
+  ModelConfig deeper = tinyConfig(PolicyType::kCma);
+  deeper.rgb_cnn_channels = {8, 8, 12, 16};
+  deeper.rgb_cnn_strides = {2, 1, 2, 2};
+  out.push_back({"cma_deeper_small_cnn", deeper});
   // the ResNet emitters (BatchNorm and GroupNorm paths) on 64 px images
   ModelConfig r = tinyConfig(PolicyType::kCma);
   r.rgb_encoder = EncoderType::kResNet18;

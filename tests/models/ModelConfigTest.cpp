@@ -124,6 +124,24 @@ TEST(ModelConfigTest, ValidateNamesFieldAndValue) {
                 common::loadConfigText<Root>("model:\n  dropout: 1.0\n");
               }),
               HasSubstr("model.dropout"));
+  EXPECT_THAT(errorOf([] {
+                common::loadConfigText<Root>(
+                    "model:\n  rgb_encoder: small_cnn\n"
+                    "  rgb_cnn_channels: [32, 64]\n");
+              }),
+              HasSubstr("model.rgb_cnn_channels (2 layers) and "
+                        "model.rgb_cnn_strides (3)"));
+  EXPECT_THAT(errorOf([] {
+                common::loadConfigText<Root>(
+                    "model:\n  rgb_cnn_channels: [32, 64, 128]\n");
+              }),
+              HasSubstr("model.rgb_encoder is 'resnet50'"));
+  EXPECT_THAT(errorOf([] {
+                common::loadConfigText<Root>(
+                    "model:\n  rgb_encoder: small_cnn\n"
+                    "  rgb_cnn_strides: [2, 3, 2]\n");
+              }),
+              HasSubstr("model.rgb_cnn_strides"));
   // small depth images are fine for the small CNN or without depth
   EXPECT_NO_THROW(common::loadConfigText<Root>(
       "model:\n  depth_height: 32\n  depth_encoder: small_cnn\n"));
@@ -148,6 +166,9 @@ TEST(ModelConfigTest, DepthFeatureShapesFollowDdppoCompression) {
   EXPECT_EQ(rgbFeatureShape(c), (FeatureShape{512, 4, 4}));
   c.rgb_encoder = EncoderType::kSmallCnn;
   EXPECT_EQ(rgbFeatureShape(c), (FeatureShape{64, 4, 4}));
+  c.rgb_cnn_channels = {32, 64, 64, 128};
+  c.rgb_cnn_strides = {2, 2, 1, 2};
+  EXPECT_EQ(rgbFeatureShape(c), (FeatureShape{128, 4, 4}));
 }
 
 }  // namespace

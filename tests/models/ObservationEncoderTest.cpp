@@ -260,5 +260,42 @@ TEST(ObservationEncoderTest,
   EXPECT_NO_THROW(makePolicy(c));
 }
 
+TEST(ObservationEncoderTest, SemanticHeadsOnADeeperSmallCnnLoadWithItsShape) {
+  torch::manual_seed(7);
+  ModelConfig c = tinyConfig(PolicyType::kCma);
+  c.no_depth = true;
+  c.rgb_cnn_channels = {8, 8, 16, 16};
+  c.rgb_cnn_strides = {2, 1, 2, 2};
+  SemanticNet net(c, /*categories=*/7, /*colors=*/5, /*rooms=*/3);
+  vln::test::TempDir dir;
+  saveModule(*net, dir / "semantic_net.pt");
+  c.rgb_semantic_outputs = 15;
+  c.rgb_weights = (dir / "semantic_net.pt").string();
+  ObservationEncoder encoder(c);
+  encoder->loadPretrained();
+  const torch::Tensor rgb = randomRgb({1, 2}, 32, 32);
+  torch::NoGradGuard g;
+  const SemanticLogits logits = net->forward(rgb.reshape({2, 32, 32, 3}));
+  EXPECT_TRUE(torch::allclose(
+      encoder->forward(rgb, {}).rgb,
+      torch::sigmoid(
+          torch::cat({logits.categories, logits.colors, logits.room}, 1))
+          .view({1, 2, 15, 1, 1}),
+      1e-5, 1e-6));
+  // the agent's config must shape the CNN as the pretraining did
+  ModelConfig shallow = c;
+  shallow.rgb_cnn_channels = kSmallCnnRgbChannels;
+  shallow.rgb_cnn_strides = kSmallCnnStrides;
+  ObservationEncoder wrong(shallow);
+  try {
+    wrong->loadPretrained();
+    ADD_FAILURE() << "expected a strict-loading error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("semantic_net.pt"));
+    EXPECT_THAT(e.what(), HasSubstr("cnn.0.weight expected [32, 3, 3, 3], "
+                                    "got [8, 3, 3, 3]"));
+  }
+}
+
 }  // namespace
 }  // namespace vln::models

@@ -6,6 +6,7 @@
 
 #include <map>
 
+#include "models/ModelConfig.h"
 #include "models/StateDict.h"
 
 namespace vln::models {
@@ -104,11 +105,34 @@ TEST(ResNetTest, DdppoCompressionAdaptsToImageSize) {
 }
 
 TEST(ResNetTest, SmallCnnPoolsToFourByFour) {
-  SmallCnn net(3, 64);
+  SmallCnn net(3, kSmallCnnRgbChannels, kSmallCnnStrides);
   EXPECT_EQ(sizesOf(net->forward(torch::rand({2, 3, 32, 32}))),
             (Shape{2, 64, 4, 4}));
   EXPECT_EQ(sizesOf(net->forward(torch::rand({1, 3, 50, 70}))),
             (Shape{1, 64, 4, 4}));
+}
+
+TEST(ResNetTest, SmallCnnLayersAreTheListedWidthsAndStrides) {
+  using Ints = std::vector<int>;
+  SmallCnn net(3, Ints{8, 16, 16, 24}, Ints{2, 1, 2, 1});
+  // the checkpoint names of the default three layers carry over: convs at
+  // the even indices, a ReLU after each
+  const auto params = net->named_parameters();
+  ASSERT_TRUE(params.contains("cnn.6.weight"));
+  EXPECT_EQ(sizesOf(params["cnn.0.weight"]), (Shape{8, 3, 3, 3}));
+  EXPECT_EQ(sizesOf(params["cnn.2.weight"]), (Shape{16, 8, 3, 3}));
+  EXPECT_EQ(sizesOf(params["cnn.6.weight"]), (Shape{24, 16, 3, 3}));
+  EXPECT_EQ(params.size(), 8u);
+  // strides 2, 1, 2, 1: 64 px -> 16 px before the pooling; a stride-1 layer
+  // keeps the size (a 16 px map from 32 px with the default strides would
+  // be 4 px)
+  const torch::Tensor maps = net->cnn->forward(torch::rand({1, 3, 64, 64}));
+  EXPECT_EQ(sizesOf(maps), (Shape{1, 24, 16, 16}));
+  EXPECT_EQ(sizesOf(net->forward(torch::rand({2, 3, 64, 64}))),
+            (Shape{2, 24, 4, 4}));
+  EXPECT_THROW(SmallCnn(3, Ints{8, 16}, Ints{2}), std::invalid_argument);
+  EXPECT_THROW(SmallCnn(3, Ints{}, Ints{}), std::invalid_argument);
+  EXPECT_THROW(SmallCnn(3, Ints{8, 0}, Ints{2, 2}), std::invalid_argument);
 }
 
 }  // namespace
