@@ -225,14 +225,21 @@ SmallCnnImpl::SmallCnnImpl(int64_t inChannels, const std::vector<int>& channels,
   VLN_CHECK_ARG(!channels.empty() && channels.size() == strides.size(),
                 "SmallCnn: ", channels.size(), " layer widths and ",
                 strides.size(), " strides");
-  nn::Sequential layers;
-  int64_t in = inChannels;
-  for (size_t i = 0; i < channels.size(); ++i) {
+  for (size_t i = 0; i < channels.size(); ++i)
     VLN_CHECK_ARG(channels[i] >= 1 && strides[i] >= 1, "SmallCnn: layer ", i,
                   " has width ", channels[i], " and stride ", strides[i]);
-    layers->push_back(conv(in, channels[i], 3, strides[i], 1, /*bias=*/true));
+  // the layers are initialised last to first: the order in which the
+  // three-layer CNN's constructor arguments were evaluated before the
+  // layers became configurable, so that a run from a seed draws the
+  // weights it drew then and reproduces its documented numbers
+  std::vector<nn::Conv2d> convs(channels.size(), nullptr);
+  for (size_t i = channels.size(); i-- > 0;)
+    convs[i] = conv(i == 0 ? inChannels : channels[i - 1], channels[i], 3,
+                    strides[i], 1, /*bias=*/true);
+  nn::Sequential layers;
+  for (const nn::Conv2d& c : convs) {
+    layers->push_back(c);
     layers->push_back(nn::ReLU());
-    in = channels[i];
   }
   cnn = register_module("cnn", layers);
 }
