@@ -16,6 +16,20 @@ using test::tinyConfig;
 using ::testing::HasSubstr;
 using Shape = std::vector<int64_t>;
 
+// loading `config`'s pretrained weights fails with a message naming `file`
+// and the mismatched `tensor`
+void expectStrictLoadError(const ModelConfig& config, const std::string& file,
+                           const std::string& tensor) {
+  ObservationEncoder wrong(config);
+  try {
+    wrong->loadPretrained();
+    ADD_FAILURE() << "expected a strict-loading error";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr(file));
+    EXPECT_THAT(e.what(), HasSubstr(tensor));
+  }
+}
+
 Shape sizesOf(const torch::Tensor& t) {
   return Shape(t.sizes().begin(), t.sizes().end());
 }
@@ -189,15 +203,8 @@ TEST(ObservationEncoderTest, PretrainedWeightsLoadStrictly) {
 
   // an RGB file given for the depth CNN fails and names the file
   c.depth_weights = c.rgb_weights;
-  ObservationEncoder wrong(c);
-  try {
-    wrong->loadPretrained();
-    FAIL() << "expected a strict-loading error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("rgb.pt"));
-    EXPECT_THAT(e.what(), HasSubstr("cnn.0.weight expected [32, 1, 3, 3], "
-                                    "got [32, 3, 3, 3]"));
-  }
+  expectStrictLoadError(
+      c, "rgb.pt", "cnn.0.weight expected [32, 1, 3, 3], got [32, 3, 3, 3]");
 }
 
 TEST(ObservationEncoderTest,
@@ -286,15 +293,9 @@ TEST(ObservationEncoderTest, SemanticHeadsOnADeeperSmallCnnLoadWithItsShape) {
   ModelConfig shallow = c;
   shallow.rgb_cnn_channels = kSmallCnnRgbChannels;
   shallow.rgb_cnn_strides = kSmallCnnStrides;
-  ObservationEncoder wrong(shallow);
-  try {
-    wrong->loadPretrained();
-    ADD_FAILURE() << "expected a strict-loading error";
-  } catch (const std::invalid_argument& e) {
-    EXPECT_THAT(e.what(), HasSubstr("semantic_net.pt"));
-    EXPECT_THAT(e.what(), HasSubstr("cnn.0.weight expected [32, 3, 3, 3], "
-                                    "got [8, 3, 3, 3]"));
-  }
+  expectStrictLoadError(
+      shallow, "semantic_net.pt",
+      "cnn.0.weight expected [32, 3, 3, 3], got [8, 3, 3, 3]");
 }
 
 }  // namespace
