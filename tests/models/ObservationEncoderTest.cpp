@@ -30,6 +30,13 @@ void expectStrictLoadError(const ModelConfig& config, const std::string& file,
   }
 }
 
+// what the encoder with semantic heads should output for images whose
+// pretraining logits are `logits`: the three heads' sigmoids in order
+torch::Tensor headProbabilities(const SemanticLogits& logits) {
+  return torch::sigmoid(
+      torch::cat({logits.categories, logits.colors, logits.room}, 1));
+}
+
 Shape sizesOf(const torch::Tensor& t) {
   return Shape(t.sizes().begin(), t.sizes().end());
 }
@@ -226,9 +233,7 @@ TEST(ObservationEncoderTest,
   EXPECT_EQ(sizesOf(features), (Shape{2, 3, 15, 1, 1}));
   const SemanticLogits logits = net->forward(rgb.reshape({6, 32, 32, 3}));
   const torch::Tensor expected =
-      torch::sigmoid(
-          torch::cat({logits.categories, logits.colors, logits.room}, 1))
-          .view({2, 3, 15, 1, 1});
+      headProbabilities(logits).view({2, 3, 15, 1, 1});
   EXPECT_TRUE(torch::allclose(features, expected, 1e-5, 1e-6));
   // frozen like the CNN
   for (const auto& p : encoder->rgb->semantic->parameters())
@@ -283,12 +288,9 @@ TEST(ObservationEncoderTest, SemanticHeadsOnADeeperSmallCnnLoadWithItsShape) {
   const torch::Tensor rgb = randomRgb({1, 2}, 32, 32);
   torch::NoGradGuard g;
   const SemanticLogits logits = net->forward(rgb.reshape({2, 32, 32, 3}));
-  EXPECT_TRUE(torch::allclose(
-      encoder->forward(rgb, {}).rgb,
-      torch::sigmoid(
-          torch::cat({logits.categories, logits.colors, logits.room}, 1))
-          .view({1, 2, 15, 1, 1}),
-      1e-5, 1e-6));
+  EXPECT_TRUE(torch::allclose(encoder->forward(rgb, {}).rgb,
+                              headProbabilities(logits).view({1, 2, 15, 1, 1}),
+                              1e-5, 1e-6));
   // the agent's config must shape the CNN as the pretraining did
   ModelConfig shallow = c;
   shallow.rgb_cnn_channels = kSmallCnnRgbChannels;
