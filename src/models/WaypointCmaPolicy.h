@@ -169,6 +169,11 @@ class WaypointCmaPolicyImpl : public torch::nn::Module {
 
   const ModelConfig& config() const { return config_; }
   int64_t numViews() const { return numViews_; }
+  /// The flattened encoder features of one view the policy reads (the
+  /// constructor's rgbFeatures, depthFeatures; with model.goal_match the
+  /// RGB labels, which no projection's width gives).
+  int64_t rgbFeatures() const { return rgbFeatures_; }
+  int64_t depthFeatures() const { return depthFeatures_; }
 
   InstructionEncoder instruction_encoder{nullptr};
   torch::nn::Linear rgb_linear{nullptr}, depth_linear{nullptr};

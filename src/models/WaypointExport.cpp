@@ -29,9 +29,8 @@ Sizes sizesOf(const WaypointCmaPolicyImpl& policy) {
   Sizes s;
   s.views = std::to_string(policy.numViews());
   s.hidden = std::to_string(c.hidden_size);
-  if (c.usesRgb()) s.rgb = std::to_string(policy.rgb_linear->weight.size(1));
-  if (c.usesDepth())
-    s.depth = std::to_string(policy.depth_linear->weight.size(1));
+  if (c.usesRgb()) s.rgb = std::to_string(policy.rgbFeatures());
+  if (c.usesDepth()) s.depth = std::to_string(policy.depthFeatures());
   s.scale = floatLiteral(std::sqrt(static_cast<double>(c.hidden_size)));
   return s;
 }
@@ -59,6 +58,41 @@ std::string polarFeatures(const std::string& heading,
          std::to_string(dim) + ")";
 }
 
+// the arguments step_features and forward take after the instruction (with
+// model.goal_match the goal's labels first, which the caller computes from
+// the instruction's text as it computes the tokens): typed for the
+// signature, or as passed on
+std::string argumentsAfterInstruction(const ModelConfig& config, bool typed) {
+  std::vector<std::string> names = {"candidates", "candidate_mask", "prev",
+                                    "not_done", "hidden"};
+  if (config.goal_match) names.insert(names.begin(), "goal_labels");
+  std::string out;
+  for (const std::string& name : names)
+    out += (out.empty() ? "" : ", ") + name + (typed ? ": Tensor" : "");
+  return out;
+}
+
+// goal [n, N, 2 * kGoalGroups] from the RGB features (label
+// probabilities): per view the highest probability of a label of each
+// group the goal clause names, then whether it names one, as
+// WaypointCmaPolicyImpl::matchGoal() for one step
+void emitGoalMatch(ScriptWriter& w, const Sizes& s) {
+  w.line(1, "labels = rgb_features.to({f32}).reshape([n, " + s.views + ", " +
+                s.rgb + "])");
+  w.line(1, "groups = goal_labels.to({f32}).reshape([n, " + s.rgb + "])");
+  w.line(1, "matched: List[Tensor] = []");
+  w.line(1, "named: List[Tensor] = []");
+  w.line(1, "for g in range(1, " + std::to_string(kGoalGroups + 1) + "):");
+  w.line(2, "in_group = groups == float(g)");
+  // probabilities are >= 0, so labels outside the group count as 0
+  w.line(2,
+         "matched.append(torch.amax(labels * in_group.unsqueeze(1).to({f32}), "
+         "[2]))");
+  w.line(2, "named.append(torch.any(in_group, 1, True).to({f32}).expand([n, " +
+                s.views + "]))");
+  w.line(1, "goal = torch.stack(matched + named, 2)");
+}
+
 // step_features: WaypointCmaPolicyImpl::forwardSequence() for one step,
 // block for block
 void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
@@ -66,20 +100,25 @@ void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
   const Sizes s = sizesOf(policy);
   w.line(0,
          "def step_features(self, rgb_features: Tensor, depth_features: "
-         "Tensor, instruction: Tensor, candidates: Tensor, candidate_mask: "
-         "Tensor, prev: Tensor, not_done: Tensor, hidden: Tensor) -> "
-         "Tuple[Tensor, Tensor]:");
+         "Tensor, instruction: Tensor, " +
+             argumentsAfterInstruction(config, /*typed=*/true) +
+             ") -> Tuple[Tensor, Tensor]:");
   w.line(1, "n = not_done.size(0)");
   w.line(1, "mask = not_done.to({f32}).unsqueeze(1)");
 
-  // views [n, N, H]: each view's projected features and its heading
+  // views [n, N, H]: each view's projected features (with model.goal_match
+  // the RGB features' match with the goal instead) and its heading
   w.line(1, "parts: List[Tensor] = []");
-  if (config.usesRgb())
+  if (config.goal_match) {
+    emitGoalMatch(w, s);
+    w.line(1, "parts.append(goal)");
+  } else if (config.usesRgb()) {
     w.line(1, "parts.append(torch.relu(" +
                   linear(w, "policy.rgb_linear",
                          "rgb_features.to({f32}).reshape([n, " + s.views +
                              ", " + s.rgb + "])") +
                   "))");
+  }
   if (config.usesDepth())
     w.line(1, "parts.append(torch.relu(" +
                   linear(w, "policy.depth_linear",
@@ -188,9 +227,15 @@ void emitStep(ScriptWriter& w, const WaypointCmaPolicyImpl& policy) {
                   linear(w, "policy.candidate_text_linear",
                          "torch.bmm(torch.softmax(scores_c, 2), states)"));
   }
-  w.line(1, "keys_c = torch.cat([" + w.ref("policy.stop_key") +
-                ".view([1, 1, " + s.hidden + "]).expand([n, 1, " + s.hidden +
-                "]), cand_keys], 1)");
+  w.line(1, "stop = " + w.ref("policy.stop_key") + ".view([1, 1, " + s.hidden +
+                "]).expand([n, 1, " + s.hidden + "])");
+  // with model.goal_match the goal's best match over the views, and what is
+  // named, move STOP's key
+  if (config.goal_match)
+    w.line(1, "stop = stop + " +
+                  linear(w, "policy.goal_stop", "torch.amax(goal, [1])") +
+                  ".unsqueeze(1)");
+  w.line(1, "keys_c = torch.cat([stop, cand_keys], 1)");
   w.line(1, "logits = torch.bmm(keys_c, query.unsqueeze(2)).squeeze(2) / " +
                 s.scale);
   w.line(1, "real = candidate_mask != 0");
@@ -223,9 +268,9 @@ void emitPanoramaFeatures(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
 void emitForward(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
                  ObservationEncoderImpl* encoder) {
   const std::string arguments =
-      "instruction: Tensor, candidates: Tensor, candidate_mask: Tensor, "
-      "prev: Tensor, not_done: Tensor, hidden: Tensor) -> Tuple[Tensor, "
-      "Tensor]:";
+      "instruction: Tensor, " +
+      argumentsAfterInstruction(policy.config(), /*typed=*/true) +
+      ") -> Tuple[Tensor, Tensor]:";
   if (encoder != nullptr) {
     w.line(0, "def forward(self, rgb: Tensor, depth: Tensor, " + arguments);
     w.line(1, "b = not_done.size(0)");
@@ -237,7 +282,8 @@ void emitForward(ScriptWriter& w, const WaypointCmaPolicyImpl& policy,
   }
   w.line(1,
          "return self.step_features(rgb_features, depth_features, "
-         "instruction, candidates, candidate_mask, prev, not_done, hidden)");
+         "instruction, " +
+             argumentsAfterInstruction(policy.config(), /*typed=*/false) + ")");
 }
 
 // heatmap_features, suppress, propose_features (and propose with an
@@ -399,18 +445,16 @@ void checkPredictor(const WaypointCmaPolicyImpl& policy,
                 exported.distance_radius);
   const ModelConfig& c = policy.config();
   auto check = [&](const torch::nn::Sequential& fc, bool used,
-                   const torch::nn::Linear& policyLinear, const char* what) {
+                   int64_t policyReads, const char* what) {
     if (fc.is_empty()) return;
     VLN_CHECK_ARG(used, kWho, ": the predictor reads ", what,
                   " features, the policy has none");
     const int64_t reads = fc->ptr(0)->as<torch::nn::LinearImpl>()->weight.size(1);
-    VLN_CHECK_ARG(reads == policyLinear->weight.size(1), kWho,
-                  ": the predictor reads ", reads, " ", what,
-                  " features per view, the policy ",
-                  policyLinear->weight.size(1));
+    VLN_CHECK_ARG(reads == policyReads, kWho, ": the predictor reads ", reads,
+                  " ", what, " features per view, the policy ", policyReads);
   };
-  check(predictor.depth_fc, c.usesDepth(), policy.depth_linear, "depth");
-  check(predictor.rgb_fc, c.usesRgb(), policy.rgb_linear, "RGB");
+  check(predictor.depth_fc, c.usesDepth(), policy.depthFeatures(), "depth");
+  check(predictor.rgb_fc, c.usesRgb(), policy.rgbFeatures(), "RGB");
 }
 
 // the encoder's features must be what the policy's projections read
@@ -420,14 +464,14 @@ void checkEncoder(const WaypointCmaPolicyImpl& policy,
   checkEncoderFits(config, encoder.config(), kWho);
   if (config.usesRgb()) {
     const int64_t features = flatSize(rgbFeatureShape(encoder.config()));
-    VLN_CHECK_ARG(policy.rgb_linear->weight.size(1) == features, kWho,
-                  ": the policy reads ", policy.rgb_linear->weight.size(1),
+    VLN_CHECK_ARG(policy.rgbFeatures() == features, kWho, ": the policy reads ",
+                  policy.rgbFeatures(),
                   " RGB features per view, the encoder gives ", features);
   }
   if (config.usesDepth()) {
     const int64_t features = flatSize(depthFeatureShape(encoder.config()));
-    VLN_CHECK_ARG(policy.depth_linear->weight.size(1) == features, kWho,
-                  ": the policy reads ", policy.depth_linear->weight.size(1),
+    VLN_CHECK_ARG(policy.depthFeatures() == features, kWho,
+                  ": the policy reads ", policy.depthFeatures(),
                   " depth features per view, the encoder gives ", features);
   }
 }
@@ -442,10 +486,6 @@ torch::jit::Module buildWaypointExportModule(
                 "exportWaypointPolicy(): model.clause_tracker's pointer and "
                 "rule clauses are not in the TorchScript archive yet; such a "
                 "policy is scored from its checkpoint");
-  VLN_CHECK_ARG(!config.goal_match,
-                "exportWaypointPolicy(): model.goal_match's goal labels (read "
-                "from the instruction's text) are not in the TorchScript "
-                "archive yet; such a policy is scored from its checkpoint");
   if (encoder != nullptr) checkEncoder(policy, *encoder);
   if (predictor.predictor != nullptr) checkPredictor(policy, predictor);
 

@@ -32,6 +32,15 @@
 //   slots; the agent takes the argmax or samples the softmax) and hidden
 //   [B, 2, H] for the next decision. Inputs of ablated modalities
 //   (model.no_rgb, no_depth, no_instruction) are ignored (pass any tensor).
+//   With model.goal_match (model_config says so) both methods take one
+//   more argument after instruction, goal_labels float [B, F_rgb]: for
+//   each row the label groups world::goalLabels() finds in its
+//   instruction's text (0 for a label the goal clause does not name, 1
+//   category, 2 colour, 3 room; one row per episode, the same at each of
+//   its decisions), computed by the caller as the tokens are. The RGB
+//   features are then the semantic heads' probabilities (what encode_rgb
+//   gives with model.rgb_semantic_outputs) and reach the policy only as
+//   their match with those labels (WaypointCmaPolicy.h).
 // Headings follow docs/waypoints.md: radians counter-clockwise seen from
 // above (turning left), relative to the agent's heading when the panorama
 // was taken; view k looks k * 2 pi / N to the left of view 0, and each

@@ -4,6 +4,8 @@
 
 #include "common/Check.h"
 #include "rollout/ExportedArchive.h"
+#include "rollout/ObservationBatch.h"
+#include "world/ViewLabels.h"
 
 namespace vln::rollout {
 
@@ -42,6 +44,14 @@ ScriptedWaypointModel::ScriptedWaypointModel(torch::jit::Module module,
                   module_.attr("has_predictor").isBool() &&
                   module_.attr("has_predictor").toBool();
   checkRunsOnObservations(module_, config_, file, kWho);
+  // the goal labels step() passes are world::goalLabels()' layout
+  VLN_CHECK_ARG(!config_.goal_match ||
+                    config_.rgb_semantic_outputs == world::viewLabelSize(),
+                kWho, ": '", file.string(),
+                "' matches the goal over model.rgb_semantic_outputs ",
+                config_.rgb_semantic_outputs,
+                " labels; the instruction's goal labels are ",
+                world::viewLabelSize());
   // the methods step() and propose() call
   std::vector<const char*> methods = {"step_features"};
   if (hasPredictor_)
@@ -64,6 +74,10 @@ ScriptedWaypointModel::EnvState& ScriptedWaypointModel::state(int env) {
 void ScriptedWaypointModel::reset(int env, const data::Episode& episode) {
   EnvState& s = state(env);
   s.tokens = archiveTokens(episode, config_, maxInstructionLength_, kWho);
+  if (config_.goal_match) {
+    const data::Episode* one[] = {&episode};
+    s.goalLabels = batchGoalLabels(one)[0];
+  }
   s.hidden = torch::zeros({2, config_.hidden_size},
                           torch::TensorOptions(device_).dtype(torch::kFloat32));
   s.started = true;
@@ -164,23 +178,28 @@ at::Tensor ScriptedWaypointModel::step(std::span<const int> envs,
   torch::NoGradGuard noGrad;
   const auto n = static_cast<int64_t>(envs.size());
   std::vector<const std::vector<int64_t>*> rows;
-  std::vector<at::Tensor> hiddens;
+  std::vector<at::Tensor> goalLabels, hiddens;
   for (int env : envs) {
     const EnvState& s = state(env);
     VLN_CHECK_ARG(s.started, kWho, "::step(): environment ", env,
                   " was never reset");
     rows.push_back(&s.tokens);
+    goalLabels.push_back(s.goalLabels);
     hiddens.push_back(s.hidden);
   }
+  // with model.goal_match the goal labels follow the instruction
+  // (models/WaypointExport.h)
+  std::vector<c10::IValue> arguments = {orPlaceholder(features.rgb, n),
+                                        orPlaceholder(features.depth, n),
+                                        tokenBatch(rows, config_).to(device_)};
+  if (config_.goal_match)
+    arguments.emplace_back(torch::stack(goalLabels, 0).to(device_));
+  for (const at::Tensor& t :
+       {candidates.to(device_), mask.to(device_), prev.to(device_),
+        notDone.to(device_), torch::stack(hiddens, 0)})
+    arguments.emplace_back(t);
   const auto output =
-      module_
-          .run_method("step_features", orPlaceholder(features.rgb, n),
-                      orPlaceholder(features.depth, n),
-                      tokenBatch(rows, config_).to(device_),
-                      candidates.to(device_), mask.to(device_),
-                      prev.to(device_), notDone.to(device_),
-                      torch::stack(hiddens, 0))
-          .toTuple();
+      module_.get_method("step_features")(std::move(arguments)).toTuple();
   VLN_CHECK_ARG(output->elements().size() == 2, kWho, ": '", file_.string(),
                 "' step_features returned ", output->elements().size(),
                 " values, expected 2");

@@ -4,7 +4,9 @@
 // (WaypointDecisionModel.h): the archive's encode_rgb / encode_depth give
 // the views' features, its propose_features the candidates (when it
 // includes the predictor), and step_features the choice, with the
-// instruction tokens and recurrent state kept per environment here. The
+// instruction tokens (with model.goal_match also the goal labels, built as
+// for the checkpoint: batchGoalLabels()) and recurrent state kept per
+// environment here. The
 // agent around it executes the waypoints as for a checkpoint (walk or
 // teleport, waypoint_agent.*), so `eval --checkpoint agent.pt` scores an
 // export like the checkpoint it came from. The model config, the views and
@@ -24,8 +26,10 @@ class ScriptedWaypointModel : public WaypointDecisionModel {
  public:
   /// Loads `file` onto `device` (loadExportedArchive()). Throws what that
   /// throws, and std::invalid_argument naming the file when it is not a
-  /// waypoint export, reads text features or lacks the encoders of the
-  /// modalities it uses.
+  /// waypoint export, reads text features, lacks the encoders of the
+  /// modalities it uses, or matches goal labels (model.goal_match) other
+  /// than world::goalLabels()' (model.rgb_semantic_outputs is not
+  /// world::viewLabelSize()).
   ScriptedWaypointModel(const std::filesystem::path& file,
                         int maxInstructionLength,
                         const std::string& device = "cpu");
@@ -53,7 +57,8 @@ class ScriptedWaypointModel : public WaypointDecisionModel {
   struct EnvState {
     bool started = false;
     std::vector<int64_t> tokens;
-    at::Tensor hidden;  // [2, H]
+    at::Tensor goalLabels;  // [F_rgb] with model.goal_match
+    at::Tensor hidden;      // [2, H]
   };
   EnvState& state(int env);
   // the tensor a method receives for an unused modality (ignored there)

@@ -45,10 +45,6 @@ std::string whyNotExported(const ExperimentConfig& config) {
     return "model.clause_tracker's pointer and rule clauses are not in the "
            "TorchScript archive yet; such a policy is scored from its "
            "checkpoint";
-  if (config.model.goal_match)
-    return "model.goal_match's goal labels (read from the instruction's "
-           "text) are not in the TorchScript archive yet; such a policy is "
-           "scored from its checkpoint";
   return "";
 }
 

@@ -3,8 +3,8 @@
 // reproduces WaypointCmaPolicyImpl::step() on raw panoramas and on features,
 // with masked candidate slots, episode starts mid-batch and the ablations;
 // an included candidate predictor gives its heatmap and suppresses it as
-// waypoint::heatmapNms() does; the clause tracker and the goal match are
-// refused.
+// waypoint::heatmapNms() does; the goal match takes the goal labels as one
+// more argument; the clause tracker is refused.
 
 #include "models/WaypointExport.h"
 
@@ -77,8 +77,39 @@ struct Outputs {
   torch::Tensor hidden;
 };
 
+// goal labels of the kBatch episodes over `features` labels, as
+// world::goalLabels() gives them (model.goal_match): row 0 names labels of
+// each group (1 category, 2 colour, 3 room), row 1 a room only, row 2
+// nothing; undefined without the goal match
+torch::Tensor goalLabelsOf(const ModelConfig& c, int64_t features) {
+  if (!c.goal_match) return {};
+  torch::Tensor labels = torch::zeros({kBatch, features});
+  labels[0][0] = 1.0f;
+  labels[0][3] = 1.0f;
+  labels[0][5] = 2.0f;
+  labels[0][features - 1] = 3.0f;
+  labels[1][features - 2] = 3.0f;
+  return labels;
+}
+
+// the arguments of forward / step_features: with model.goal_match the goal
+// labels follow the instruction
+std::vector<c10::IValue> scriptArguments(const torch::Tensor& rgb,
+                                         const torch::Tensor& depth,
+                                         const torch::Tensor& tokens,
+                                         const torch::Tensor& goalLabels,
+                                         const Decision& d,
+                                         const torch::Tensor& hidden) {
+  std::vector<c10::IValue> args = {rgb, depth, tokens};
+  if (goalLabels.defined()) args.emplace_back(goalLabels);
+  for (const torch::Tensor& t :
+       {d.candidates, d.mask, d.prev, d.notDone, hidden})
+    args.emplace_back(t);
+  return args;
+}
+
 Outputs runCpp(WaypointCmaPolicyImpl& policy, ObservationEncoderImpl& encoder,
-               const torch::Tensor& tokens,
+               const torch::Tensor& tokens, const torch::Tensor& goalLabels,
                const std::vector<Decision>& episode) {
   torch::NoGradGuard noGrad;
   Outputs out;
@@ -91,10 +122,10 @@ Outputs runCpp(WaypointCmaPolicyImpl& policy, ObservationEncoderImpl& encoder,
     auto views = [](const torch::Tensor& t) {
       return t.defined() ? t.reshape({kBatch, kViews, -1}) : t;
     };
-    const WaypointPolicyOutputs o = policy.step(
-        instruction,
-        {views(f.rgb), views(f.depth), d.candidates, d.mask, d.prev, d.notDone},
-        hidden);
+    WaypointPolicyInputs inputs{views(f.rgb), views(f.depth), d.candidates,
+                                d.mask,       d.prev,         d.notDone};
+    inputs.goal_labels = goalLabels;
+    const WaypointPolicyOutputs o = policy.step(instruction, inputs, hidden);
     out.logits.push_back(o.logits);
     hidden = o.hidden;
   }
@@ -103,14 +134,14 @@ Outputs runCpp(WaypointCmaPolicyImpl& policy, ObservationEncoderImpl& encoder,
 }
 
 Outputs runScript(torch::jit::Module& m, const ModelConfig& c,
-                  const torch::Tensor& tokens,
+                  const torch::Tensor& tokens, const torch::Tensor& goalLabels,
                   const std::vector<Decision>& episode) {
   torch::NoGradGuard noGrad;
   Outputs out;
   torch::Tensor hidden = torch::zeros({kBatch, 2, c.hidden_size});
   for (const Decision& d : episode) {
-    const auto tuple = m.forward({d.rgb, d.depth, tokens, d.candidates, d.mask,
-                                  d.prev, d.notDone, hidden})
+    const auto tuple = m.forward(scriptArguments(d.rgb, d.depth, tokens,
+                                                 goalLabels, d, hidden))
                            .toTuple();
     out.logits.push_back(tuple->elements()[0].toTensor());
     hidden = tuple->elements()[1].toTensor();
@@ -175,6 +206,9 @@ std::vector<Variant> variants() {
   c = base;
   c.rgb_semantic_outputs = 15;
   out.push_back({"rgb_semantic_outputs", c});
+  // those probabilities matched with the goal's labels (model.goal_match)
+  c.goal_match = true;
+  out.push_back({"goal_match", c});
   return out;
 }
 
@@ -189,12 +223,17 @@ TEST(WaypointExportTest, ExportedModuleMatchesThePolicyOnRawPanoramas) {
     const torch::Tensor tokens =
         test::randomTokens({5, 2, 7}, 8, v.config.vocab_size);
     const std::vector<Decision> episode = randomEpisode(v.config);
+    const torch::Tensor goalLabels =
+        goalLabelsOf(v.config, policy->rgbFeatures());
 
     vln::test::TempDir dir;
     exportWaypointPolicy(*policy, encoder.get(), dir / "agent.pt");
     torch::jit::Module loaded = torch::jit::load((dir / "agent.pt").string());
-    const Outputs expected = runCpp(*policy, *encoder, tokens, episode);
-    expectClose(expected, runScript(loaded, v.config, tokens, episode), v.name);
+    const Outputs expected =
+        runCpp(*policy, *encoder, tokens, goalLabels, episode);
+    expectClose(expected,
+                runScript(loaded, v.config, tokens, goalLabels, episode),
+                v.name);
     // the logits are STOP then the K slots
     EXPECT_EQ(expected.logits[0].sizes(),
               (std::vector<int64_t>{kBatch, 1 + kSlots}));
@@ -204,25 +243,68 @@ TEST(WaypointExportTest, ExportedModuleMatchesThePolicyOnRawPanoramas) {
   }
 }
 
-// policies that read what the archive does not compute are refused, and
+// a policy that reads what the archive does not compute is refused, and
 // the message says which and how such a policy is scored
-TEST(WaypointExportTest, RefusesTheClauseTrackerAndTheGoalMatch) {
-  for (const char* option : {"clause_tracker", "goal_match"}) {
-    ModelConfig c = test::tinyConfig(PolicyType::kCma);
-    c.clause_tracker = std::string(option) == "clause_tracker";
-    c.goal_match = std::string(option) == "goal_match";
-    c.rgb_semantic_outputs = c.goal_match ? 11 : 0;
-    WaypointCmaPolicy policy(c, kViews, /*rgbFeatures=*/11,
-                             /*depthFeatures=*/13);
-    try {
-      buildWaypointExportModule(*policy, nullptr);
-      ADD_FAILURE() << option << " was exported";
-    } catch (const std::invalid_argument& e) {
-      EXPECT_THAT(e.what(),
-                  ::testing::HasSubstr(std::string("model.") + option));
-      EXPECT_THAT(e.what(), ::testing::HasSubstr("scored from its checkpoint"));
-    }
+TEST(WaypointExportTest, RefusesTheClauseTracker) {
+  ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  c.clause_tracker = true;
+  WaypointCmaPolicy policy(c, kViews, /*rgbFeatures=*/11,
+                           /*depthFeatures=*/13);
+  try {
+    buildWaypointExportModule(*policy, nullptr);
+    ADD_FAILURE() << "clause_tracker was exported";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("model.clause_tracker"));
+    EXPECT_THAT(e.what(), HasSubstr("scored from its checkpoint"));
   }
+}
+
+// with model.goal_match the archive's methods take the goal labels after
+// the instruction, and the labels decide: other labels, other logits
+TEST(WaypointExportTest, GoalMatchTakesTheGoalLabels) {
+  torch::manual_seed(25);
+  ModelConfig c = test::tinyConfig(PolicyType::kCma);
+  c.rgb_semantic_outputs = 11;
+  c.goal_match = true;
+  // features of any size when no encoder is exported
+  WaypointCmaPolicy policy(c, kViews, /*rgbFeatures=*/11, /*depthFeatures=*/13);
+  policy->eval();
+  torch::jit::Module m = buildWaypointExportModule(*policy, nullptr);
+  const torch::Tensor tokens = test::randomTokens({4, 6, 1}, 6, c.vocab_size);
+  const Decision d = randomDecision(c, {3, 0, 2}, {1, 0, 1});
+  const torch::Tensor rgb = torch::rand({kBatch, kViews, 11});
+  const torch::Tensor depth = torch::rand({kBatch, kViews, 13});
+  const torch::Tensor hidden = torch::randn({kBatch, 2, c.hidden_size});
+  const torch::Tensor labels = goalLabelsOf(c, 11);
+  torch::NoGradGuard noGrad;
+  auto expected = [&](const torch::Tensor& goal) {
+    WaypointPolicyInputs inputs{rgb,    depth,  d.candidates,
+                                d.mask, d.prev, d.notDone};
+    inputs.goal_labels = goal;
+    return policy->step(policy->encodeInstruction(tokens), inputs, hidden);
+  };
+  const WaypointPolicyOutputs named = expected(labels);
+  for (const char* method : {"forward", "step_features"}) {
+    const auto out = m.get_method(method)(scriptArguments(rgb, depth, tokens,
+                                                          labels, d, hidden))
+                         .toTuple();
+    expectSameLogits(named.logits, out->elements()[0].toTensor(), method);
+    EXPECT_TRUE(torch::allclose(out->elements()[1].toTensor(), named.hidden,
+                                1e-4, 1e-5))
+        << method;
+  }
+  // naming nothing moves the STOP key and the views: the archive follows
+  const torch::Tensor none = torch::zeros_like(labels);
+  const WaypointPolicyOutputs unnamed = expected(none);
+  EXPECT_FALSE(torch::allclose(unnamed.logits.select(1, 0),
+                               named.logits.select(1, 0), 1e-3, 1e-3));
+  const auto out = m.get_method("step_features")(
+                        scriptArguments(rgb, depth, tokens, none, d, hidden))
+                       .toTuple();
+  expectSameLogits(unnamed.logits, out->elements()[0].toTensor(), "unnamed");
+  // without the labels the archive does not run
+  EXPECT_ANY_THROW(m.get_method("step_features")(
+      scriptArguments(rgb, depth, tokens, torch::Tensor(), d, hidden)));
 }
 
 TEST(WaypointExportTest, FeatureEntryPointMatchesStep) {
@@ -412,36 +494,18 @@ TEST(WaypointExportTest, PredictorThatDoesNotFitIsRejected) {
 }
 
 // Python's torch.jit.load runs the archive on a raw panorama and reproduces
-// the C++ outputs; tensors travel both ways as TorchScript tensor archives
+// the C++ outputs (with model.goal_match too, the goal labels passed after
+// the instruction); tensors travel both ways as TorchScript tensor archives
 TEST(WaypointExportTest, PythonTorchJitLoadReproducesOutputs) {
   if (vln::test::runCommand("/usr/bin/python3 -c 'import torch'") != 0)
     GTEST_SKIP() << "/usr/bin/python3 cannot import torch";
-  torch::manual_seed(23);
-  const ModelConfig c = test::tinyConfig(PolicyType::kCma);
-  WaypointCmaPolicy policy = makeWaypointPolicy(c);
-  ObservationEncoder encoder(c);
-  policy->eval();
-  const torch::Tensor tokens = test::randomTokens({3, 5, 2}, 6, c.vocab_size);
-  const Decision d = randomDecision(c, {1, 3, 0}, {1, 0, 1});
-  const torch::Tensor hidden = torch::randn({kBatch, 2, c.hidden_size});
-  vln::test::TempDir dir;
-  WaypointPredictor predictor = makeSmallPredictor(c);
-  exportWaypointPolicy(*policy, encoder.get(), dir / "agent.pt",
-                       ExportedPredictor{predictor.get()});
-  writeTensorFile(dir / "inputs.pt", {{"rgb", d.rgb},
-                                      {"depth", d.depth},
-                                      {"instruction", tokens},
-                                      {"candidates", d.candidates},
-                                      {"candidate_mask", d.mask},
-                                      {"prev", d.prev},
-                                      {"not_done", d.notDone},
-                                      {"hidden", hidden}});
   const std::string script = R"PY(
 import sys, torch
 agent = torch.jit.load(sys.argv[1])
 x = dict(torch.jit.load(sys.argv[2]).named_buffers())
+goal = [x["goal_labels"]] if "goal_labels" in x else []
 with torch.no_grad():
-    logits, hidden = agent(x["rgb"], x["depth"], x["instruction"],
+    logits, hidden = agent(x["rgb"], x["depth"], x["instruction"], *goal,
                            x["candidates"], x["candidate_mask"], x["prev"],
                            x["not_done"], x["hidden"])
     candidates, candidate_mask = agent.propose(x["rgb"], x["depth"])
@@ -454,36 +518,70 @@ out.register_buffer("candidates", candidates)
 out.register_buffer("candidate_mask", candidate_mask)
 torch.jit.script(out).save(sys.argv[3])
 )PY";
-  vln::test::writeText(dir / "run.py", script);
-  std::string log;
-  ASSERT_EQ(
-      vln::test::runCommand("/usr/bin/python3 " + (dir / "run.py").string() +
-                                " " + (dir / "agent.pt").string() + " " +
-                                (dir / "inputs.pt").string() + " " +
-                                (dir / "outputs.pt").string() + " 2>&1",
-                            &log),
-      0)
-      << log;
-  std::map<std::string, torch::Tensor> py;
-  for (auto& [name, t] : readTensorFile(dir / "outputs.pt")) py[name] = t;
+  ModelConfig goalMatch = test::tinyConfig(PolicyType::kCma);
+  goalMatch.rgb_semantic_outputs = 15;
+  goalMatch.goal_match = true;
+  for (const Variant& v : {Variant{"cma", test::tinyConfig(PolicyType::kCma)},
+                           Variant{"goal_match", goalMatch}}) {
+    SCOPED_TRACE(v.name);
+    const ModelConfig& c = v.config;
+    torch::manual_seed(23);
+    WaypointCmaPolicy policy = makeWaypointPolicy(c);
+    ObservationEncoder encoder(c);
+    policy->eval();
+    const torch::Tensor tokens = test::randomTokens({3, 5, 2}, 6, c.vocab_size);
+    const Decision d = randomDecision(c, {1, 3, 0}, {1, 0, 1});
+    const torch::Tensor hidden = torch::randn({kBatch, 2, c.hidden_size});
+    const torch::Tensor goalLabels = goalLabelsOf(c, policy->rgbFeatures());
+    vln::test::TempDir dir;
+    WaypointPredictor predictor = makeSmallPredictor(c);
+    exportWaypointPolicy(*policy, encoder.get(), dir / "agent.pt",
+                         ExportedPredictor{predictor.get()});
+    NamedTensors inputs = {{"rgb", d.rgb},
+                           {"depth", d.depth},
+                           {"instruction", tokens},
+                           {"candidates", d.candidates},
+                           {"candidate_mask", d.mask},
+                           {"prev", d.prev},
+                           {"not_done", d.notDone},
+                           {"hidden", hidden}};
+    if (goalLabels.defined()) inputs.emplace_back("goal_labels", goalLabels);
+    writeTensorFile(dir / "inputs.pt", inputs);
+    vln::test::writeText(dir / "run.py", script);
+    std::string log;
+    ASSERT_EQ(
+        vln::test::runCommand("/usr/bin/python3 " + (dir / "run.py").string() +
+                                  " " + (dir / "agent.pt").string() + " " +
+                                  (dir / "inputs.pt").string() + " " +
+                                  (dir / "outputs.pt").string() + " 2>&1",
+                              &log),
+        0)
+        << log;
+    std::map<std::string, torch::Tensor> py;
+    for (auto& [name, t] : readTensorFile(dir / "outputs.pt")) py[name] = t;
 
-  torch::NoGradGuard noGrad;
-  const VisualFeatures f = encoder->forward(d.rgb, d.depth);
-  const WaypointPolicyOutputs expected =
-      policy->step(policy->encodeInstruction(tokens),
-                   {f.rgb.reshape({kBatch, kViews, -1}),
-                    f.depth.reshape({kBatch, kViews, -1}), d.candidates, d.mask,
-                    d.prev, d.notDone},
-                   hidden);
-  expectSameLogits(expected.logits, py.at("logits"), "python");
-  EXPECT_TRUE(torch::allclose(py.at("hidden"), expected.hidden, 1e-4, 1e-5));
-  // the candidates Python gets are the ones C++ gets from the same archive
-  torch::jit::Module loaded = torch::jit::load((dir / "agent.pt").string());
-  const auto proposed = loaded.run_method("propose", d.rgb, d.depth).toTuple();
-  EXPECT_TRUE(
-      torch::equal(py.at("candidates"), proposed->elements()[0].toTensor()));
-  EXPECT_TRUE(torch::equal(py.at("candidate_mask"),
-                           proposed->elements()[1].toTensor()));
+    torch::NoGradGuard noGrad;
+    const VisualFeatures f = encoder->forward(d.rgb, d.depth);
+    WaypointPolicyInputs in{f.rgb.reshape({kBatch, kViews, -1}),
+                            f.depth.reshape({kBatch, kViews, -1}),
+                            d.candidates,
+                            d.mask,
+                            d.prev,
+                            d.notDone};
+    in.goal_labels = goalLabels;
+    const WaypointPolicyOutputs expected =
+        policy->step(policy->encodeInstruction(tokens), in, hidden);
+    expectSameLogits(expected.logits, py.at("logits"), "python");
+    EXPECT_TRUE(torch::allclose(py.at("hidden"), expected.hidden, 1e-4, 1e-5));
+    // the candidates Python gets are the ones C++ gets from the same archive
+    torch::jit::Module loaded = torch::jit::load((dir / "agent.pt").string());
+    const auto proposed =
+        loaded.run_method("propose", d.rgb, d.depth).toTuple();
+    EXPECT_TRUE(
+        torch::equal(py.at("candidates"), proposed->elements()[0].toTensor()));
+    EXPECT_TRUE(torch::equal(py.at("candidate_mask"),
+                             proposed->elements()[1].toTensor()));
+  }
 }
 
 }  // namespace

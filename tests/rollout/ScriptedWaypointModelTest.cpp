@@ -1,8 +1,9 @@
 // ScriptedWaypointModel runs a models::exportWaypointPolicy() archive inside
 // a WaypointAgent: the agent takes the same actions, candidates and
 // decisions as over the modules that were exported (depth-only baseline
-// candidates walked; the archive's own predictor teleported), and archives
-// it cannot run are refused with the file named.
+// candidates walked; the archive's own predictor teleported; a goal-match
+// policy given each episode's goal labels), and archives it cannot run are
+// refused with the file named.
 
 #include "rollout/ScriptedWaypointModel.h"
 
@@ -16,6 +17,7 @@
 #include "rollout/RolloutTestWorld.h"
 #include "rollout/WaypointAgent.h"
 #include "support/TestPaths.h"
+#include "world/ViewLabels.h"
 
 namespace vln::rollout {
 namespace {
@@ -35,11 +37,16 @@ struct Exported {
   sim::PanoramaConfig panorama;
 };
 
-// a seeded random agent (with a small predictor when asked)
-Exported tinyAgent(uint64_t seed, bool withPredictor) {
+// a seeded random agent (with a small predictor when asked; with
+// model.goal_match over random semantic heads of the view labels' layout)
+Exported tinyAgent(uint64_t seed, bool withPredictor, bool goalMatch = false) {
   torch::manual_seed(seed);
   Exported t;
-  const models::ModelConfig model = test::tinyModel(models::PolicyType::kCma);
+  models::ModelConfig model = test::tinyModel(models::PolicyType::kCma);
+  if (goalMatch) {
+    model.rgb_semantic_outputs = static_cast<int>(world::viewLabelSize());
+    model.goal_match = true;
+  }
   t.policy = std::make_shared<models::WaypointCmaPolicyImpl>(
       model, kViews, flat(models::rgbFeatureShape(model)),
       flat(models::depthFeatureShape(model)));
@@ -120,6 +127,51 @@ TEST(ScriptedWaypointModelTest, ActsAsTheModulesItExports) {
   }
 }
 
+// the archive of a goal-match policy is given each episode's goal labels
+// as the policy is (batchGoalLabels() of its instruction's text), so it
+// takes the same decisions; the episodes name different goals, one in four
+// nothing, and two environments run them side by side
+TEST(ScriptedWaypointModelTest, GoalMatchActsAsTheModulesItExports) {
+  Exported t = tinyAgent(8, /*withPredictor=*/false, /*goalMatch=*/true);
+  {
+    // the STOP key's goal term made large enough to decide
+    torch::NoGradGuard noGrad;
+    t.policy->goal_stop->weight.mul_(10.0);
+  }
+  const char* texts[] = {"Walk past the white sofa, then stop.",
+                         "Turn left. Go left, then stop in the lounge.",
+                         "Wait by the table",
+                         "Go straight. Stop at the red one."};
+  std::vector<data::Episode> named = rolloutTestWorld().episodes;
+  std::vector<data::Episode> unnamed = named;
+  for (size_t i = 0; i < named.size(); ++i) {
+    named[i].instruction.instruction_text = texts[i % 4];
+    unnamed[i].instruction.instruction_text = texts[3];
+  }
+  vln::test::TempDir dir;
+  const auto file = dir / "agent.pt";
+  models::exportWaypointPolicy(*t.policy, t.encoder.get(), file);
+
+  auto nativeRun = [&](const std::vector<data::Episode>& episodes) {
+    WaypointAgent native(t.policy, t.encoder, t.predictor, CandidateNms{},
+                         t.config, t.panorama, rolloutTestWorld().sim.agent, 2,
+                         /*sampleActions=*/true, /*seed=*/9, 200);
+    return run(native, episodes);
+  };
+  WaypointAgent scripted(std::make_unique<ScriptedWaypointModel>(file, 200),
+                         t.config, t.panorama, rolloutTestWorld().sim.agent, 2,
+                         /*sampleActions=*/true, /*seed=*/9);
+  const EvaluationResult expected = nativeRun(named);
+  expectSameEpisodes(expected, run(scripted, named));
+  // the labels decide here: naming nothing, some episode goes otherwise
+  const EvaluationResult plain = nativeRun(unnamed);
+  bool differs = false;
+  for (size_t i = 0; i < plain.episodes.size(); ++i)
+    differs = differs || plain.episodes[i].record.actions !=
+                             expected.episodes[i].record.actions;
+  EXPECT_TRUE(differs) << "the goal labels changed no decision";
+}
+
 TEST(ScriptedWaypointModelTest, ProposesWhatThePredictorsSuppressionKeeps) {
   Exported t = tinyAgent(6, /*withPredictor=*/true);
   vln::test::TempDir dir;
@@ -172,6 +224,20 @@ TEST(ScriptedWaypointModelTest, ArchivesItCannotRunAreNamed) {
               ::testing::Throws<std::invalid_argument>(::testing::Property(
                   &std::exception::what,
                   HasSubstr("exported without its RGB encoder"))));
+  // a goal match over labels other than world::goalLabels()'
+  models::ModelConfig seven = test::tinyModel(models::PolicyType::kCma);
+  seven.rgb_semantic_outputs = 7;
+  seven.goal_match = true;
+  models::WaypointCmaPolicyImpl sevenLabels(
+      seven, kViews, 7, flat(models::depthFeatureShape(seven)));
+  models::ObservationEncoder sevenEncoder(seven);
+  models::exportWaypointPolicy(sevenLabels, sevenEncoder.get(),
+                               dir / "seven.pt");
+  EXPECT_THAT([&] { ScriptedWaypointModel m(dir / "seven.pt", 200); },
+              ::testing::Throws<std::invalid_argument>(::testing::Property(
+                  &std::exception::what,
+                  HasSubstr("seven.pt' matches the goal over "
+                            "model.rgb_semantic_outputs 7 labels"))));
   // without the predictor it cannot be asked for candidates
   models::exportWaypointPolicy(*t.policy, t.encoder.get(), dir / "bare.pt");
   auto agentOverBare = [&] {

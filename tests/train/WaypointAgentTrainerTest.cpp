@@ -903,8 +903,9 @@ TEST_F(WaypointAgentTrainerTest, MirroredReplaysTrain) {
 
 // model.goal_match over the views' true labels trains from the binary (the
 // labels reach the policy only through their match: no RGB projection),
-// evaluates from its checkpoint, and is not exported; without the labels'
-// layout in the RGB features it is refused, naming the key
+// evaluates from its checkpoint, and is not exported (an archive sees
+// images, not true labels); without the labels' layout in the RGB features
+// it is refused, naming the key
 TEST_F(WaypointAgentTrainerTest, TheGoalMatchTrainsAndEvaluates) {
   const fs::path config =
       writeConfig("  max_decisions: 6\n  candidates: depth_baseline\n");
@@ -927,8 +928,8 @@ TEST_F(WaypointAgentTrainerTest, TheGoalMatchTrainsAndEvaluates) {
   c.model.goal_match = true;
   c.model.rgb_semantic_outputs = 7;
   expectRefused(c, {"model.goal_match", "got 7"});
-  // (the views' true labels are the first reason; WaypointExportTest
-  // refuses the goal match on its own)
+  // (the views' true labels are the reason; over the semantic heads the
+  // goal match is exported: WaypointExportTest, ScriptedWaypointModelTest)
   expectExportRefused(config, goal, "cannot be exported");
 }
 
