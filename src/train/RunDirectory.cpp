@@ -1,7 +1,13 @@
 #include "train/RunDirectory.h"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
+#include <cstring>
 #include <map>
 #include <sstream>
 
@@ -153,6 +159,38 @@ void checkFreshRunDirectory(const std::filesystem::path& dir) {
       dir.string(),
       "' is not empty: pass --resume to continue that run, or choose another "
       "output.dir (--set output.dir=...)");
+}
+
+RunDirectoryLock::RunDirectoryLock(const std::filesystem::path& dir) {
+  const std::filesystem::path file = dir / "train.lock";
+  fd_ = ::open(file.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+  VLN_CHECK_IO(fd_ >= 0, "train: cannot open the lock file '", file.string(),
+               "': ", std::strerror(errno));
+  if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+    const int error = errno;
+    char holder[32] = {};
+    const ssize_t n = ::pread(fd_, holder, sizeof(holder) - 1, 0);
+    std::string pid = n > 0 ? std::string(holder, static_cast<size_t>(n)) : "";
+    pid.erase(std::remove(pid.begin(), pid.end(), '\n'), pid.end());
+    ::close(fd_);
+    fd_ = -1;
+    VLN_CHECK_ARG(error != EWOULDBLOCK, "train: the run directory '",
+                  dir.string(), "' is in use by another train process",
+                  pid.empty() ? std::string() : " (pid " + pid + ")",
+                  ": wait for it to end, or stop it before --resume");
+    VLN_CHECK_IO(false, "train: cannot lock '", file.string(),
+                 "': ", std::strerror(error));
+  }
+  const std::string mine = std::to_string(::getpid()) + "\n";
+  // the pid only serves the message above: a failed write costs nothing
+  const bool noted =
+      ::ftruncate(fd_, 0) == 0 && ::pwrite(fd_, mine.data(), mine.size(), 0) ==
+                                      static_cast<ssize_t>(mine.size());
+  static_cast<void>(noted);
+}
+
+RunDirectoryLock::~RunDirectoryLock() {
+  if (fd_ >= 0) ::close(fd_);  // closing releases the flock
 }
 
 std::vector<std::string> checkResumeConfig(

@@ -8,6 +8,7 @@
 //   checkpoints/         ckpt.<i>.pth, best.json
 //   eval/                stats files of the periodic evaluations
 //   finished.json        written when training ends (reason, checkpoint)
+//   train.lock           held by the training process (RunDirectoryLock)
 //
 // A fresh run refuses a non-empty directory. --resume requires the
 // directory's config.yaml to equal the requested config, except for keys in
@@ -45,6 +46,26 @@ std::vector<std::string> overriddenKeys(
 /// Throws std::invalid_argument when a fresh run would start in a non-empty
 /// `dir` (naming it and suggesting --resume).
 void checkFreshRunDirectory(const std::filesystem::path& dir);
+
+/// Holds <dir>/train.lock under an exclusive flock(2) for its lifetime, so
+/// that a second train process on the same run directory (a --resume typed
+/// beside a run still going) stops at once instead of interleaving its
+/// checkpoints, store and metrics.jsonl with the first one's. The kernel
+/// drops the lock with the process, kill -9 included; the file stays and
+/// holds the last holder's pid for the message.
+class RunDirectoryLock {
+ public:
+  /// Throws std::invalid_argument naming `dir` and the holder's pid when
+  /// another process holds the lock, std::runtime_error when the lock file
+  /// cannot be opened. `dir` must exist.
+  explicit RunDirectoryLock(const std::filesystem::path& dir);
+  ~RunDirectoryLock();
+  RunDirectoryLock(const RunDirectoryLock&) = delete;
+  RunDirectoryLock& operator=(const RunDirectoryLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
 
 /// For --resume: reads <dir>/config.yaml and throws std::invalid_argument
 /// listing every differing key (with both values) that is not both in

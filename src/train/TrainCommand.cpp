@@ -4,6 +4,7 @@
 #include <torch/torch.h>
 
 #include <map>
+#include <optional>
 
 #include "common/App.h"
 #include "common/Check.h"
@@ -198,6 +199,9 @@ int runTrain(const TrainOptions& options, std::ostream& out) {
   else
     checkRunDirectory();
   fs::create_directories(runDir);
+  // rank 0 speaks for the run: another train on this directory stops here
+  std::optional<RunDirectoryLock> lock;
+  if (master) lock.emplace(runDir);
   if (master) common::writeFileAtomic(runDir / "config.yaml", yaml);
   if (dist && master && !options.resume)
     writeRunWorldSize(runDir, dist->worldSize());

@@ -1,10 +1,11 @@
 // Tests of src/train/RunDirectory.cpp: flattening and diffing configs, the
-// fresh-run and resume rules.
+// fresh-run and resume rules, the run directory's lock.
 
 #include "train/RunDirectory.h"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include "common/FileIo.h"
 #include "support/TestPaths.h"
@@ -49,6 +50,22 @@ TEST(RunDirectoryTest, FreshRunRefusesANonEmptyDirectory) {
   EXPECT_THAT([&] { checkFreshRunDirectory(dir.path()); },
               ::testing::ThrowsMessage<std::invalid_argument>(::testing::AllOf(
                   HasSubstr(dir.path().string()), HasSubstr("--resume"))));
+}
+
+TEST(RunDirectoryTest,
+     ASecondProcessOnTheRunDirectoryIsRefusedUntilTheFirstEnds) {
+  vln::test::TempDir dir;
+  {
+    RunDirectoryLock first(dir.path());
+    // a second open file description conflicts as another process's would
+    EXPECT_THAT(
+        [&] { RunDirectoryLock second(dir.path()); },
+        ::testing::ThrowsMessage<std::invalid_argument>(
+            ::testing::AllOf(HasSubstr(dir.path().string()),
+                             HasSubstr("in use by another train process"),
+                             HasSubstr("pid " + std::to_string(::getpid())))));
+  }
+  EXPECT_NO_THROW(RunDirectoryLock again(dir.path()));
 }
 
 TEST(RunDirectoryTest, ResumeAllowsOnlyExplicitSafeChanges) {
