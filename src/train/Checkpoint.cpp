@@ -284,6 +284,16 @@ void setAdamLearningRate(torch::optim::Optimizer& optimizer, double lr) {
   }
 }
 
+double adamLearningRate(const torch::optim::Optimizer& optimizer) {
+  VLN_CHECK_ARG(!optimizer.param_groups().empty(),
+                "adamLearningRate(): the optimizer has no parameters");
+  const auto* options = dynamic_cast<const torch::optim::AdamOptions*>(
+      &optimizer.param_groups().front().options());
+  VLN_CHECK_ARG(options != nullptr,
+                "adamLearningRate(): only Adam is supported");
+  return options->lr();
+}
+
 void loadOptimizerState(torch::optim::Optimizer& optimizer,
                         std::string_view bytes, const std::string& source) {
   try {

@@ -67,6 +67,9 @@ std::string serializeOptimizer(const torch::optim::Optimizer& optimizer);
 /// Sets every parameter group's learning rate (Adam's options; the
 /// optimizer's moments are kept).
 void setAdamLearningRate(torch::optim::Optimizer& optimizer, double lr);
+/// The first parameter group's learning rate (Adam's options): the rate
+/// the next update takes, for the metrics.
+double adamLearningRate(const torch::optim::Optimizer& optimizer);
 
 /// Restores serializeOptimizer() bytes into an optimizer over the same
 /// parameters. Throws std::runtime_error naming `source` when they do not

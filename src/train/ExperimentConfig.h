@@ -271,6 +271,8 @@ struct PretrainConfig {
   std::string encoder_out;
   world::HouseConfig house;
   double lr = 1e-3;
+  /// "constant", or "cosine" (trainer.lr_schedule's shape over a round).
+  std::string lr_schedule = "constant";
   int batch_size = 16;
   int hidden_size = 128;
   float min_object_fraction = 0.02f;
@@ -315,6 +317,10 @@ struct PretrainConfig {
     v.section("house", house, "Pretraining house generation");
     v.field("lr", lr, "Adam learning rate of both pretraining tasks",
             common::inRange(0.0, 1.0));
+    v.choice("lr_schedule", lr_schedule, {"constant", "cosine"},
+             "Learning rate over a round's epochs (the semantic task's "
+             "epochs; each point-goal DAgger iteration's): constant, or "
+             "cosine: epoch e of E trains at lr x (1 + cos(pi e / E)) / 2");
     v.field("batch_size", batch_size,
             "Episodes (point-goal) or images (semantic) per update",
             common::inRange(1, 100000));

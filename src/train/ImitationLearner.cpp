@@ -10,6 +10,7 @@
 #include "common/Check.h"
 #include "common/Progress.h"
 #include "models/Loss.h"
+#include "train/Checkpoint.h"
 #include "train/Distributed.h"
 
 namespace vln::train {
@@ -313,9 +314,7 @@ EpochResult ImitationLearner::trainEpoch(
 }
 
 double ImitationLearner::learningRate() const {
-  return static_cast<const torch::optim::AdamOptions&>(
-             optimizer_->param_groups().front().options())
-      .lr();
+  return adamLearningRate(*optimizer_);
 }
 
 void ImitationLearner::addToEpoch(const UpdateResult& u, int epoch,

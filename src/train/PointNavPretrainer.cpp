@@ -14,9 +14,11 @@
 #include "models/Loss.h"
 #include "models/Policy.h"
 #include "models/StateDict.h"
+#include "train/Checkpoint.h"
 #include "train/MetricsLog.h"
 #include "train/PretrainCommon.h"
 #include "train/PretrainTasks.h"
+#include "train/TrainingSchedule.h"
 
 namespace vln::train {
 namespace fs = std::filesystem;
@@ -259,6 +261,9 @@ struct PointNavPretrainer::Impl : PretrainRun {
     for (Learner* l : {&depthLearner, &blindLearner}) {
       l->epochLoss = 0.0;
       l->epochUpdates = 0;
+      setAdamLearningRate(*l->optimizer,
+                          roundLearningRate(p.lr, p.lr_schedule, epoch,
+                                            p.epochs_per_iteration));
     }
     common::ProgressLine line(
         "train iteration " + std::to_string(iteration) + " epoch " + std::to_string(epoch),
@@ -292,11 +297,18 @@ struct PointNavPretrainer::Impl : PretrainRun {
                  iteration, epoch, batches, seconds,
                  seconds > 0 ? static_cast<double>(frames) / seconds : 0.0, loss, blindLoss);
     metrics->write("epoch",
-                   {{"iteration", iteration}, {"epoch", epoch}, {"updates", batches},
-                    {"seconds", seconds}, {"frames", frames}, {"loss", loss},
+                   {{"iteration", iteration},
+                    {"epoch", epoch},
+                    {"lr", adamLearningRate(*depthLearner.optimizer)},
+                    {"updates", batches},
+                    {"seconds", seconds},
+                    {"frames", frames},
+                    {"loss", loss},
                     {"blind_loss", blindLoss},
-                    {"skipped", depthLearner.nonFinite.total + blindLearner.nonFinite.total}},
-                   {{"epoch/loss", loss}, {"epoch/blind_loss", blindLoss}}, updates);
+                    {"skipped", depthLearner.nonFinite.total +
+                                    blindLearner.nonFinite.total}},
+                   {{"epoch/loss", loss}, {"epoch/blind_loss", blindLoss}},
+                   updates);
   }
 
   // --- evaluation -------------------------------------------------------------

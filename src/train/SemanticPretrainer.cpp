@@ -18,9 +18,11 @@
 #include "models/Policy.h"
 #include "models/StateDict.h"
 #include "sim/Simulator.h"
+#include "train/Checkpoint.h"
 #include "train/MetricsLog.h"
 #include "train/PretrainCommon.h"
 #include "train/PretrainTasks.h"
+#include "train/TrainingSchedule.h"
 #include "world/HouseGenerator.h"
 
 namespace vln::train {
@@ -433,23 +435,27 @@ SemanticResult SemanticPretrainer::run() {
         s.houses.train, "render epoch " + std::to_string(epoch));
     s.countLabels(train);
     result.train_images += train.size();
+    setAdamLearningRate(*s.optimizer, roundLearningRate(p.lr, p.lr_schedule,
+                                                        epoch, p.iterations));
     s.lastEpochLoss = s.trainEpoch(train, epoch);
 
     result.model = s.evaluateNet(heldout);
     result.prior = s.evaluatePrior(heldout);
     s.logMetrics("network", result.model, epoch);
     s.logMetrics("prior", result.prior, epoch);
-    s.metrics->write(
-        "epoch",
-        {{"epoch", epoch}, {"loss", s.lastEpochLoss}, {"updates", s.updates},
-         {"train_images", result.train_images},
-         {"heldout", semanticMetricsJson(result.model)},
-         {"prior", semanticMetricsJson(result.prior)}},
-        {{"epoch/loss", s.lastEpochLoss},
-         {"eval/room_accuracy", result.model.room_accuracy},
-         {"eval/category_map", result.model.categories.mean_ap},
-         {"eval/color_map", result.model.colors.mean_ap}},
-        epoch);
+    s.metrics->write("epoch",
+                     {{"epoch", epoch},
+                      {"lr", adamLearningRate(*s.optimizer)},
+                      {"loss", s.lastEpochLoss},
+                      {"updates", s.updates},
+                      {"train_images", result.train_images},
+                      {"heldout", semanticMetricsJson(result.model)},
+                      {"prior", semanticMetricsJson(result.prior)}},
+                     {{"epoch/loss", s.lastEpochLoss},
+                      {"eval/room_accuracy", result.model.room_accuracy},
+                      {"eval/category_map", result.model.categories.mean_ap},
+                      {"eval/color_map", result.model.colors.mean_ap}},
+                     epoch);
   }
   result.initial_loss = s.initialLoss;
   result.final_loss = s.lastEpochLoss;

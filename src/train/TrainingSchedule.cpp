@@ -32,12 +32,16 @@ double TrainingSchedule::beta(int iteration) const {
   return std::pow(p, iteration + (trainer_.fine_tune_dagger ? 1 : 0));
 }
 
+double roundLearningRate(double rate, const std::string& schedule, int epoch,
+                         int epochs) {
+  if (schedule != "cosine") return rate;
+  const double progress = static_cast<double>(epoch) / std::max(1, epochs);
+  return rate * 0.5 * (1.0 + std::cos(M_PI * progress));
+}
+
 double TrainingSchedule::learningRate(int iteration, int epoch) const {
-  const double round = trainer_.lr * std::pow(trainer_.lr_decay, iteration);
-  if (trainer_.lr_schedule != "cosine") return round;
-  const double progress =
-      static_cast<double>(epoch) / std::max(1, epochsPerIteration());
-  return round * 0.5 * (1.0 + std::cos(M_PI * progress));
+  return roundLearningRate(trainer_.lr * std::pow(trainer_.lr_decay, iteration),
+                           trainer_.lr_schedule, epoch, epochsPerIteration());
 }
 
 std::vector<size_t> TrainingSchedule::roundEpisodes(int iteration,

@@ -23,6 +23,7 @@
 // the iteration at 0 and counts its epochs.
 
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "train/ExperimentConfig.h"
@@ -46,6 +47,13 @@ struct ScheduledIteration {
   bool collect = false;
   std::vector<ScheduledEpoch> epochs;
 };
+
+/// `rate` at epoch `epoch` of a round of `epochs` epochs: itself with
+/// `schedule` "constant"; with "cosine", times (1 + cos(pi epoch / epochs))
+/// / 2, so the round's last epochs take small steps. Shared by the VLN
+/// trainers (trainer.lr_schedule) and the pretrainers (pretrain.lr_schedule).
+double roundLearningRate(double rate, const std::string& schedule, int epoch,
+                         int epochs);
 
 class TrainingSchedule {
  public:

@@ -149,6 +149,26 @@ TEST(NonFiniteLossesTest, CountsAndGivesUpInARowNamingTheModel) {
 // ---------------------------------------------------------------------------
 // end to end
 
+TEST(PointNavPretrainerTest, ACosineScheduleAnnealsEachIterationsEpochs) {
+  vln::test::TempDir dir;
+  ExperimentConfig c = tinyConfig(dir.path());
+  c.pretrain.iterations = 2;
+  c.pretrain.epochs_per_iteration = 2;
+  c.pretrain.samples = 16;
+  c.pretrain.eval_samples = 4;
+  c.pretrain.lr_schedule = "cosine";
+  PointNavPretrainer(c, dir.path()).run();
+  std::vector<double> rates;
+  for (const auto& line : test::readJsonLines(dir / "metrics.jsonl"))
+    if (line["type"] == "epoch") rates.push_back(line["lr"].get<double>());
+  // each DAgger iteration's two epochs at lr, then lr x (1 + cos(pi / 2)) / 2
+  const double lr = c.pretrain.lr;
+  EXPECT_THAT(rates, ::testing::ElementsAre(::testing::DoubleEq(lr),
+                                            ::testing::DoubleEq(0.5 * lr),
+                                            ::testing::DoubleEq(lr),
+                                            ::testing::DoubleEq(0.5 * lr)));
+}
+
 TEST(PointNavPretrainerTest, LearnsAndSavesALoadableDepthEncoder) {
   vln::test::TempDir dir;
   const ExperimentConfig c = tinyConfig(dir.path());
@@ -176,7 +196,12 @@ TEST(PointNavPretrainerTest, LearnsAndSavesALoadableDepthEncoder) {
 
   // metrics.jsonl: one collect per iteration, one epoch per epoch, four evals
   std::map<std::string, int> types;
-  for (const auto& line : test::readJsonLines(dir / "metrics.jsonl")) ++types[line["type"]];
+  for (const auto& line : test::readJsonLines(dir / "metrics.jsonl")) {
+    ++types[line["type"]];
+    // the default schedule keeps pretrain.lr
+    if (line["type"] == "epoch")
+      EXPECT_DOUBLE_EQ(line["lr"].get<double>(), c.pretrain.lr);
+  }
   EXPECT_EQ(types["collect"], 3);
   EXPECT_EQ(types["epoch"], 9);
   EXPECT_EQ(types["eval"], 4);

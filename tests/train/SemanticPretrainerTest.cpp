@@ -185,5 +185,45 @@ TEST(SemanticPretrainerTest, BeatsThePriorAndSavesALoadableRgbEncoder) {
     EXPECT_TRUE(torch::equal(runs[0][i].second, runs[1][i].second)) << runs[0][i].first;
 }
 
+TEST(SemanticPretrainerTest, ACosineScheduleAnnealsTheEpochsRates) {
+  // three short epochs; the rate each epoch's updates took is logged from
+  // the optimizer
+  ExperimentConfig c = tinyConfig({});
+  c.pretrain.iterations = 3;
+  c.pretrain.samples = 64;
+  c.pretrain.eval_samples = 16;
+  std::vector<models::NamedTensors> encoders;
+  for (const std::string schedule : {"constant", "cosine"}) {
+    SCOPED_TRACE(schedule);
+    vln::test::TempDir dir;
+    c.output.dir = dir.path().string();
+    c.pretrain.encoder_out = (dir / "rgb.pt").string();
+    c.pretrain.lr_schedule = schedule;
+    SemanticPretrainer(c, dir.path()).run();
+    std::vector<double> rates;
+    for (const auto& line : test::readJsonLines(dir / "metrics.jsonl"))
+      if (line["type"] == "epoch") rates.push_back(line["lr"].get<double>());
+    ASSERT_EQ(rates.size(), 3u);
+    const double lr = c.pretrain.lr;
+    if (schedule == "constant") {
+      EXPECT_THAT(rates, ::testing::Each(::testing::DoubleEq(lr)));
+    } else {
+      // epoch e of 3 at (1 + cos(pi e / 3)) / 2
+      EXPECT_THAT(rates,
+                  ::testing::ElementsAre(::testing::DoubleEq(lr),
+                                         ::testing::DoubleEq(0.75 * lr),
+                                         ::testing::DoubleEq(0.25 * lr)));
+    }
+    encoders.push_back(models::readTensorFile(dir / "rgb.pt"));
+  }
+  // the same seed and first epoch, then smaller steps: other weights
+  ASSERT_EQ(encoders[0].size(), encoders[1].size());
+  bool differ = false;
+  for (size_t i = 0; i < encoders[0].size(); ++i)
+    differ =
+        differ || !torch::equal(encoders[0][i].second, encoders[1][i].second);
+  EXPECT_TRUE(differ);
+}
+
 }  // namespace
 }  // namespace vln::train
