@@ -158,9 +158,8 @@ TEST(PointNavPretrainerTest, ACosineScheduleAnnealsEachIterationsEpochs) {
   c.pretrain.eval_samples = 4;
   c.pretrain.lr_schedule = "cosine";
   PointNavPretrainer(c, dir.path()).run();
-  std::vector<double> rates;
-  for (const auto& line : test::readJsonLines(dir / "metrics.jsonl"))
-    if (line["type"] == "epoch") rates.push_back(line["lr"].get<double>());
+  const std::vector<double> rates =
+      test::epochLearningRates(dir / "metrics.jsonl");
   // each DAgger iteration's two epochs at lr, then lr x (1 + cos(pi / 2)) / 2
   const double lr = c.pretrain.lr;
   EXPECT_THAT(rates, ::testing::ElementsAre(::testing::DoubleEq(lr),
@@ -196,14 +195,12 @@ TEST(PointNavPretrainerTest, LearnsAndSavesALoadableDepthEncoder) {
 
   // metrics.jsonl: one collect per iteration, one epoch per epoch, four evals
   std::map<std::string, int> types;
-  for (const auto& line : test::readJsonLines(dir / "metrics.jsonl")) {
-    ++types[line["type"]];
-    // the default schedule keeps pretrain.lr
-    if (line["type"] == "epoch")
-      EXPECT_DOUBLE_EQ(line["lr"].get<double>(), c.pretrain.lr);
-  }
+  for (const auto& line : test::readJsonLines(dir / "metrics.jsonl")) ++types[line["type"]];
   EXPECT_EQ(types["collect"], 3);
   EXPECT_EQ(types["epoch"], 9);
+  // the default schedule keeps pretrain.lr
+  EXPECT_THAT(test::epochLearningRates(dir / "metrics.jsonl"),
+              ::testing::Each(::testing::DoubleEq(c.pretrain.lr)));
   EXPECT_EQ(types["eval"], 4);
   EXPECT_EQ(types["finished"], 1);
   EXPECT_GT(types["update"], 0);

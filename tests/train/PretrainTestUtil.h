@@ -1,8 +1,8 @@
 #pragma once
 // Shared by the pretraining task tests (PointNavPretrainerTest.cpp,
 // SemanticPretrainerTest.cpp): the settings of a tiny run, the metrics log
-// read back (support/TestUtil.h), and the check that an encoder file loaded
-// into a VLN model's encoder as it was saved.
+// read back (support/TestUtil.h) with its epochs' learning rates, and the check
+// that an encoder file loaded into a VLN model's encoder as it was saved.
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -42,6 +42,16 @@ inline ExperimentConfig tinyPretrainConfig(
 }
 
 using vln::test::readJsonLines;
+
+/// The "lr" of every "epoch" record in a pretraining run's metrics.jsonl,
+/// in order: the rate each epoch's updates took.
+inline std::vector<double> epochLearningRates(
+    const std::filesystem::path& metrics) {
+  std::vector<double> rates;
+  for (const auto& line : readJsonLines(metrics))
+    if (line["type"] == "epoch") rates.push_back(line["lr"].get<double>());
+  return rates;
+}
 
 /// Expects the tensors `loaded` into an encoder (models::namedState() after
 /// loadPretrained()) to be those `saved` in its weight file, name by name,

@@ -200,9 +200,8 @@ TEST(SemanticPretrainerTest, ACosineScheduleAnnealsTheEpochsRates) {
     c.pretrain.encoder_out = (dir / "rgb.pt").string();
     c.pretrain.lr_schedule = schedule;
     SemanticPretrainer(c, dir.path()).run();
-    std::vector<double> rates;
-    for (const auto& line : test::readJsonLines(dir / "metrics.jsonl"))
-      if (line["type"] == "epoch") rates.push_back(line["lr"].get<double>());
+    const std::vector<double> rates =
+        test::epochLearningRates(dir / "metrics.jsonl");
     ASSERT_EQ(rates.size(), 3u);
     const double lr = c.pretrain.lr;
     if (schedule == "constant") {
